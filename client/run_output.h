@@ -1,0 +1,38 @@
+// The files of a run: plate_force.csv (the sampled series) and summary.json. The same writer
+// serves a local run and, later, results fetched from the daemon.
+#pragma once
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "dembuf/engine/impact.h"
+#include "dembuf/engine/scene.h"
+
+namespace dembuf::cli {
+
+/// The scene as nested JSON: {"projectile": {"mass_kg": 0.167, ...}, ...}.
+nlohmann::json SceneToJson(const Scene& scene);
+
+/// The summary.json document of a finished run.
+nlohmann::json SummaryToJson(const ImpactSummary& summary, const Scene& scene);
+
+/// Streams samples to CSV. Writes to NAME.partial and renames to NAME on Commit(), so that a
+/// file with the final name is always complete.
+class SampleCsvWriter {
+ public:
+  explicit SampleCsvWriter(std::filesystem::path path);
+  void Write(const ImpactSample& sample);
+  void Commit();
+  const std::filesystem::path& partial_path() const { return m_partial; }
+
+ private:
+  std::filesystem::path m_final;
+  std::filesystem::path m_partial;
+  std::ofstream m_out;
+};
+
+/// Writes text to path atomically (temporary file, then rename).
+void WriteFileAtomically(const std::filesystem::path& path, const std::string& text);
+
+}  // namespace dembuf::cli

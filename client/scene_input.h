@@ -1,0 +1,14 @@
+// How the CLI turns its arguments (a scene file, --set overrides) into a validated Scene.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "dembuf/engine/scene.h"
+
+namespace dembuf::cli {
+
+/// Default scene, then the file (if any), then each override in order; validated.
+Scene ResolveScene(const std::string& scene_file, const std::vector<std::string>& overrides);
+
+}  // namespace dembuf::cli

@@ -1,0 +1,80 @@
+// A scene: everything that defines one impact simulation, as plain data in SI units.
+//
+// Defaults are the paper's Table 1 (see MODEL.md section 3). Choices the paper leaves open are
+// marked [choice] and documented in README.md. Every field has a dotted name (for scene files,
+// `--set` overrides and the service API) defined once, in scene_fields.cpp.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace dembuf {
+
+/// Rigid cylinder with a flat bottom plate at z = 0; its axis is the z axis.
+struct CylinderSpec {
+  double radius_m = 0.095;  ///< inner radius (paper: inner diameter 19 cm)
+  double height_m = 0.30;   ///< H2; the side wall acts on bodies with 0 <= z <= height
+};
+
+/// Bead material and contact parameters (paper Table 1).
+struct MaterialSpec {
+  double density_kg_m3 = 2650.0;
+  double youngs_modulus_Pa = 5.0e9;
+  double poisson_ratio = 0.22;
+  double restitution = 0.80;               ///< e of two mean beads at restitution_ref_speed
+  double restitution_ref_speed_m_s = 1.0;  ///< [choice] calibration speed v_ref
+  double friction_bead_bead = 0.50;        ///< mu_pp (also projectile-bead)
+  double friction_bead_wall = 0.15;        ///< mu_pw (also projectile-plate and -wall)
+  /// [choice] "paper": G* = G/(2(1-nu)) as the paper; "mindlin": G* = G/(2(2-nu)).
+  std::string shear_stiffness = "paper";
+};
+
+/// Material of the plate and cylinder wall. [choice] By default they have the beads' E and nu.
+struct WallSpec {
+  bool material_from_beads = true;
+  double youngs_modulus_Pa = 5.0e9;  ///< used when material_from_beads is false
+  double poisson_ratio = 0.22;       ///< used when material_from_beads is false
+};
+
+/// Bead size distribution: diameters uniform in [diameter_min_m, diameter_max_m].
+struct BeadSpec {
+  double diameter_min_m = 0.004;
+  double diameter_max_m = 0.005;
+};
+
+/// The granular bed. Thickness 0 means no beads: the projectile hits the bare plate.
+struct BedSpec {
+  double thickness_m = 0.0;     ///< H, settled thickness
+  double prep_friction = 0.50;  ///< bead friction while settling; controls the packing C0
+  std::int64_t seed = 1;        ///< random seed of the bead insertion
+  std::string import;           ///< text file "x y z radius" per line; empty: prepare a bed
+};
+
+/// The spherical projectile, dropped on the bed's axis.
+struct ProjectileSpec {
+  bool enabled = true;
+  double diameter_m = 0.050;  ///< D
+  double mass_kg = 0.167;     ///< M; [choice] density follows from D and M
+  double speed_m_s = 0.0;     ///< V0, downward
+  double height_m = 0.50;     ///< H1, centre height above the bed surface
+};
+
+struct TimeSpec {
+  double alpha = 0.2;                 ///< dt = alpha * critical time step (paper eq. 6)
+  double end_s = 0.0;                 ///< stop at this time; 0: stop when the impact is over
+  double impact_window_s = 0.05;      ///< automatic end: at most this long after first contact
+  double output_interval_s = 1.0e-5;  ///< spacing of the written force samples
+};
+
+struct Scene {
+  CylinderSpec cylinder;
+  MaterialSpec material;
+  WallSpec walls;
+  BeadSpec beads;
+  BedSpec bed;
+  ProjectileSpec projectile;
+  TimeSpec time;
+  double gravity_m_s2 = 9.81;
+};
+
+}  // namespace dembuf

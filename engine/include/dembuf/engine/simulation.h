@@ -1,0 +1,84 @@
+// The DEM integrator: beads, an optional projectile and the container, advanced with velocity
+// Verlet. This is the engine's core; impact.h builds one from a Scene and runs an impact.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "dembuf/engine/contact_law.h"
+#include "dembuf/engine/particles.h"
+
+namespace dembuf {
+
+/// Constants of the world, fixed for a run.
+struct WorldParams {
+  Container container;
+  PairParams sphere_pair;  ///< bead-bead and projectile-bead
+  PairParams sphere_wall;  ///< bead and projectile against plate and side wall
+  double gravity_m_s2 = 9.81;
+  double dt_s = 1e-6;
+  /// Neighbor-list skin as a fraction of the smallest bead diameter.
+  double skin_fraction = 0.2;
+};
+
+/// What the plate, the wall and the projectile felt in the last step.
+struct StepObservables {
+  double plate_force_N = 0.0;        ///< total normal force on the plate (beads + projectile)
+  double wall_force_z_N = 0.0;       ///< vertical force of the side wall on beads + projectile
+  Vec3 projectile_force_N = Vec3::Zero();  ///< contact force on the projectile
+  int projectile_contacts = 0;
+};
+
+/// Energy bookkeeping (for tests and stability checks).
+struct EnergyBreakdown {
+  double kinetic_J = 0.0;    ///< translational + rotational
+  double potential_J = 0.0;  ///< m g z
+  double elastic_J = 0.0;    ///< stored in the normal and tangential springs
+  double Total() const { return kinetic_J + potential_J + elastic_J; }
+};
+
+class Simulation {
+ public:
+  Simulation(const WorldParams& params, ParticleState beads,
+             std::optional<RigidSphere> projectile);
+  ~Simulation();
+  Simulation(Simulation&&) noexcept;
+  Simulation& operator=(Simulation&&) noexcept;
+
+  /// Advances one time step. Throws SimulationError when the state becomes unphysical
+  /// (non-finite values, overlaps beyond a third of a radius, a bead outside the container).
+  void Step();
+
+  double time_s() const { return m_time_s; }
+  std::int64_t steps() const { return m_steps; }
+  const WorldParams& params() const { return m_params; }
+  const ParticleState& beads() const { return m_beads; }
+  const std::optional<RigidSphere>& projectile() const { return m_projectile; }
+  const StepObservables& observables() const { return m_observables; }
+
+  /// Computes the forces and observables of the current state without advancing (e.g. the
+  /// resting load of a bed on the plate).
+  void RefreshForces();
+
+  /// Moves the projectile (e.g. after an analytic free flight) and sets the clock.
+  void SetProjectile(const RigidSphere& projectile, double time_s);
+
+  EnergyBreakdown Energy() const;
+
+  struct Impl;  ///< neighbor lists and contact histories (private to the engine)
+
+ private:
+  void ComputeForces();
+  void CheckConditions();
+
+  WorldParams m_params;
+  ParticleState m_beads;
+  std::optional<RigidSphere> m_projectile;
+  StepObservables m_observables;
+  double m_time_s = 0.0;
+  std::int64_t m_steps = 0;
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace dembuf

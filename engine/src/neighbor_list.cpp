@@ -1,0 +1,98 @@
+#include "neighbor_list.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dembuf::detail {
+
+void CellGrid::Build(const std::vector<Vec3>& positions, double cell_size, const Vec3& lo,
+                     const Vec3& hi) {
+  m_lo = lo;
+  m_inv_cell = 1.0 / cell_size;
+  std::size_t cells = 1;
+  for (int d = 0; d < 3; ++d) {
+    m_dims[d] = std::max(1, static_cast<int>(std::ceil((hi[d] - lo[d]) * m_inv_cell)));
+    cells *= m_dims[d];
+  }
+  const std::size_t n = positions.size();
+  m_bead_cell.resize(n);
+  m_cell_start.assign(cells + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    int c[3];
+    CellCoords(positions[i], c);
+    m_bead_cell[i] = static_cast<std::uint32_t>(Index(c[0], c[1], c[2]));
+    ++m_cell_start[m_bead_cell[i] + 1];
+  }
+  for (std::size_t c = 0; c < cells; ++c) m_cell_start[c + 1] += m_cell_start[c];
+  m_cell_beads.resize(n);
+  std::vector<std::uint32_t> fill(m_cell_start.begin(), m_cell_start.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) m_cell_beads[fill[m_bead_cell[i]]++] = i;
+}
+
+namespace {
+
+// Copies the history of entries present in both sorted id ranges: a two-pointer merge, so a
+// rebuild costs O(entries) and never loses the shear of a contact that is still in the list.
+void CarryHistory(const std::uint32_t* old_ids, const Vec3* old_shear, std::size_t old_count,
+                  const std::uint32_t* new_ids, Vec3* new_shear, std::size_t new_count) {
+  std::size_t a = 0;
+  for (std::size_t b = 0; b < new_count; ++b) {
+    while (a < old_count && old_ids[a] < new_ids[b]) ++a;
+    new_shear[b] = (a < old_count && old_ids[a] == new_ids[b]) ? old_shear[a] : Vec3::Zero();
+  }
+}
+
+}  // namespace
+
+void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin,
+                     PairList& list) {
+  const std::size_t n = beads.size();
+  PairList fresh;
+  fresh.offsets.resize(n + 1);
+  fresh.partners.reserve(list.partners.empty() ? 8 * n : list.partners.size() + n);
+  for (std::size_t i = 0; i < n; ++i) {
+    fresh.offsets[i] = static_cast<std::uint32_t>(fresh.partners.size());
+    const Vec3 xi = beads.position[i];
+    const double ri = beads.radius[i];
+    grid.ForEachAround(xi, [&](std::uint32_t j) {
+      if (j <= i) return;
+      const double reach = ri + beads.radius[j] + skin;
+      if ((xi - beads.position[j]).squaredNorm() < reach * reach) fresh.partners.push_back(j);
+    });
+    std::sort(fresh.partners.begin() + fresh.offsets[i], fresh.partners.end());
+  }
+  fresh.offsets[n] = static_cast<std::uint32_t>(fresh.partners.size());
+  fresh.shear.resize(fresh.partners.size());
+
+  const bool had_list = list.offsets.size() == n + 1;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t b0 = fresh.offsets[i], b1 = fresh.offsets[i + 1];
+    if (!had_list) {
+      std::fill(fresh.shear.begin() + b0, fresh.shear.begin() + b1, Vec3::Zero());
+      continue;
+    }
+    const std::uint32_t a0 = list.offsets[i], a1 = list.offsets[i + 1];
+    CarryHistory(list.partners.data() + a0, list.shear.data() + a0, a1 - a0,
+                 fresh.partners.data() + b0, fresh.shear.data() + b0, b1 - b0);
+  }
+  list = std::move(fresh);
+}
+
+void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, const Vec3& center,
+                          double radius, double max_bead_radius, double skin,
+                          CandidateList& list) {
+  const Vec3 half = Vec3::Constant(radius + max_bead_radius + skin);
+  std::vector<std::uint32_t> ids;
+  grid.ForEachInBox(center - half, center + half, [&](std::uint32_t j) {
+    const double reach = radius + beads.radius[j] + skin;
+    if ((center - beads.position[j]).squaredNorm() < reach * reach) ids.push_back(j);
+  });
+  std::sort(ids.begin(), ids.end());
+  std::vector<Vec3> shear(ids.size());
+  CarryHistory(list.beads.data(), list.shear.data(), list.beads.size(), ids.data(), shear.data(),
+               ids.size());
+  list.beads = std::move(ids);
+  list.shear = std::move(shear);
+}
+
+}  // namespace dembuf::detail

@@ -1,0 +1,94 @@
+// Neighbor search: a cell grid sized by the beads, a Verlet half list with skin that carries
+// the contact history beside each entry, and a separate candidate list for the projectile so
+// that one large body does not force large cells on everyone.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "dembuf/engine/particles.h"
+
+namespace dembuf::detail {
+
+/// Beads binned into cubic cells (counting sort). Points outside the grid are clamped into
+/// its border cells, which stays correct (only the candidate count grows).
+class CellGrid {
+ public:
+  void Build(const std::vector<Vec3>& positions, double cell_size, const Vec3& lo, const Vec3& hi);
+
+  /// Calls visit(j) for every bead in the cells overlapping the box [lo, hi].
+  template <class Visit>
+  void ForEachInBox(const Vec3& lo, const Vec3& hi, Visit&& visit) const {
+    int a[3], b[3];
+    CellCoords(lo, a);
+    CellCoords(hi, b);
+    for (int z = a[2]; z <= b[2]; ++z)
+      for (int y = a[1]; y <= b[1]; ++y)
+        for (int x = a[0]; x <= b[0]; ++x) {
+          const std::size_t c = Index(x, y, z);
+          for (std::uint32_t k = m_cell_start[c]; k < m_cell_start[c + 1]; ++k)
+            visit(m_cell_beads[k]);
+        }
+  }
+
+  /// Calls visit(j) for every bead in the 27 cells around the cell of point p.
+  template <class Visit>
+  void ForEachAround(const Vec3& p, Visit&& visit) const {
+    int c[3];
+    CellCoords(p, c);
+    const int x0 = c[0] > 0 ? c[0] - 1 : 0, x1 = c[0] + 1 < m_dims[0] ? c[0] + 1 : c[0];
+    const int y0 = c[1] > 0 ? c[1] - 1 : 0, y1 = c[1] + 1 < m_dims[1] ? c[1] + 1 : c[1];
+    const int z0 = c[2] > 0 ? c[2] - 1 : 0, z1 = c[2] + 1 < m_dims[2] ? c[2] + 1 : c[2];
+    for (int z = z0; z <= z1; ++z)
+      for (int y = y0; y <= y1; ++y) {
+        const std::size_t row = Index(0, y, z);
+        for (std::uint32_t k = m_cell_start[row + x0]; k < m_cell_start[row + x1 + 1]; ++k)
+          visit(m_cell_beads[k]);
+      }
+  }
+
+ private:
+  void CellCoords(const Vec3& p, int out[3]) const {
+    for (int d = 0; d < 3; ++d) {
+      double s = (p[d] - m_lo[d]) * m_inv_cell;
+      int c = s > 0.0 ? static_cast<int>(s) : 0;  // also maps NaN to 0
+      out[d] = c < m_dims[d] ? c : m_dims[d] - 1;
+    }
+  }
+  std::size_t Index(int x, int y, int z) const {
+    return (static_cast<std::size_t>(z) * m_dims[1] + y) * m_dims[0] + x;
+  }
+
+  Vec3 m_lo = Vec3::Zero();
+  double m_inv_cell = 1.0;
+  int m_dims[3] = {1, 1, 1};
+  std::vector<std::uint32_t> m_cell_start;  // size cells + 1
+  std::vector<std::uint32_t> m_cell_beads;  // bead ids ordered by cell
+  std::vector<std::uint32_t> m_bead_cell;   // scratch
+};
+
+/// Half neighbor list in CSR form: the partners j > i of bead i are
+/// partners[offsets[i] .. offsets[i+1]), sorted; shear[k] is the tangential history of entry k.
+struct PairList {
+  std::vector<std::uint32_t> offsets;
+  std::vector<std::uint32_t> partners;
+  std::vector<Vec3> shear;
+};
+
+/// Beads that may touch the projectile (sorted ids) and the history of each contact.
+struct CandidateList {
+  std::vector<std::uint32_t> beads;
+  std::vector<Vec3> shear;
+};
+
+/// Rebuilds `list` for all pairs closer than r_i + r_j + skin, keeping the history of the
+/// pairs already present.
+void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin,
+                     PairList& list);
+
+/// Rebuilds the projectile's candidates: beads closer than R + r_i + skin.
+void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, const Vec3& center,
+                          double radius, double max_bead_radius, double skin,
+                          CandidateList& list);
+
+}  // namespace dembuf::detail

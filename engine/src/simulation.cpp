@@ -1,0 +1,440 @@
+#include "dembuf/engine/simulation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "contact_kernels.h"
+#include "dembuf/engine/errors.h"
+#include "neighbor_list.h"
+
+namespace dembuf {
+
+namespace {
+
+// An overlap beyond this fraction of the smaller radius is far outside Hertz theory and only
+// happens when the time step is too large for the speeds in the scene.
+constexpr double kMaxOverlapRatio = 0.25;
+
+// What went wrong in a pass, recorded inside the loops and acted on after them (no throwing
+// inside the hot loops).
+struct StepConditions {
+  double max_overlap_ratio = 0.0;
+  long overlap_i = -1, overlap_j = -1;  // -1: plate, -2: side wall, -3: projectile
+  long nonfinite_bead = -1;
+  long escaped_bead = -1;
+  bool projectile_bad = false;
+  void NoteOverlap(double ratio, long i, long j) {
+    if (ratio > max_overlap_ratio) {
+      max_overlap_ratio = ratio;
+      overlap_i = i;
+      overlap_j = j;
+    }
+  }
+};
+
+const char* BodyName(long id) {
+  switch (id) {
+    case -1: return "the plate";
+    case -2: return "the side wall";
+    case -3: return "the projectile";
+    default: return nullptr;
+  }
+}
+
+std::string Describe(long id) {
+  if (const char* name = BodyName(id)) return name;
+  return "bead " + std::to_string(id);
+}
+
+}  // namespace
+
+struct Simulation::Impl {
+  detail::CellGrid grid;
+  detail::PairList pairs;
+  detail::CandidateList near_projectile;
+  std::vector<Vec3> plate_shear;  // history of each bead's plate contact
+  std::vector<Vec3> wall_shear;   // history of each bead's side-wall contact
+  Vec3 projectile_plate_shear = Vec3::Zero();
+  Vec3 projectile_wall_shear = Vec3::Zero();
+
+  std::vector<Vec3> reference_position;  // bead positions at the last list build
+  Vec3 projectile_reference = Vec3::Zero();
+  double max_bead_displacement = 0.0;  // since the last list build
+  bool lists_valid = false;
+  bool forces_valid = false;
+
+  double skin = 0.0;
+  double max_radius = 0.0;
+  double min_radius = 0.0;
+  bool friction = false;
+  StepConditions conditions;
+};
+
+Simulation::Simulation(const WorldParams& params, ParticleState beads,
+                       std::optional<RigidSphere> projectile)
+    : m_params(params),
+      m_beads(std::move(beads)),
+      m_projectile(std::move(projectile)),
+      m_impl(std::make_unique<Impl>()) {
+  Impl& s = *m_impl;
+  s.plate_shear.assign(m_beads.size(), Vec3::Zero());
+  s.wall_shear.assign(m_beads.size(), Vec3::Zero());
+  if (m_beads.size() > 0) {
+    auto [lo, hi] = std::minmax_element(m_beads.radius.begin(), m_beads.radius.end());
+    s.min_radius = *lo;
+    s.max_radius = *hi;
+  }
+  s.skin = params.skin_fraction * 2.0 * s.min_radius;
+  // Friction needs the tangential history and rotation; a frictionless scene skips both.
+  s.friction = params.sphere_pair.friction > 0.0 || params.sphere_wall.friction > 0.0;
+}
+
+Simulation::~Simulation() = default;
+Simulation::Simulation(Simulation&&) noexcept = default;
+Simulation& Simulation::operator=(Simulation&&) noexcept = default;
+
+void Simulation::SetProjectile(const RigidSphere& projectile, double time_s) {
+  m_projectile = projectile;
+  m_time_s = time_s;
+  m_impl->lists_valid = false;
+  m_impl->forces_valid = false;
+}
+
+namespace {
+
+// Plate and side-wall contacts of one sphere; adds to force/torque and the observables and
+// returns how many of the two it touches.
+template <bool kFriction>
+int ContainerContacts(const Container& box, const PairParams& p, double dt, const Vec3& x,
+                       const Vec3& v, const Vec3& w, double r, Vec3& plate_shear,
+                       Vec3& wall_shear, Vec3& force, Vec3& torque, StepObservables& obs,
+                       StepConditions& cond, long id) {
+  const double sqrt_r = std::sqrt(r);  // R* = R against a wall
+  int touching = 0;
+  const double plate_overlap = r - x.z();
+  if (plate_overlap > 0.0) {
+    const ContactGeometry c =
+        detail::MakeGeometry(Vec3::UnitZ(), plate_overlap, v, r * w, sqrt_r);
+    const auto out = detail::Resolve<kFriction>(c, r, 0.0, p, dt, plate_shear);
+    force += out.force;
+    torque += out.torque_i;
+    obs.plate_force_N += out.normal;
+    cond.NoteOverlap(plate_overlap / r, id, -1);
+    ++touching;
+  } else if constexpr (kFriction) {
+    plate_shear.setZero();
+  }
+
+  const double rho2 = x.x() * x.x() + x.y() * x.y();
+  const double inner = box.radius_m - r;
+  if (rho2 > inner * inner && x.z() >= 0.0 && x.z() <= box.height_m) {
+    const double rho = std::sqrt(rho2);
+    const double overlap = rho - inner;
+    const Vec3 n(-x.x() / rho, -x.y() / rho, 0.0);
+    const ContactGeometry c = detail::MakeGeometry(n, overlap, v, r * w, sqrt_r);
+    const auto out = detail::Resolve<kFriction>(c, r, 0.0, p, dt, wall_shear);
+    force += out.force;
+    torque += out.torque_i;
+    obs.wall_force_z_N += out.force.z();
+    cond.NoteOverlap(overlap / r, id, -2);
+    ++touching;
+  } else if constexpr (kFriction) {
+    wall_shear.setZero();
+  }
+  return touching;
+}
+
+
+// The force pass. Cost per bead pair in contact: one sqrt for the distance, two in the law;
+// pairs in the list but apart cost 10 flops.
+template <bool kFriction>
+void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
+                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
+                       StepObservables& obs) {
+  const std::size_t n = b.size();
+  const double dt = params.dt_s;
+  const PairParams pp = params.sphere_pair;
+  const PairParams pw = params.sphere_wall;
+  StepConditions& cond = s.conditions;
+  obs = StepObservables{};
+
+  std::fill(b.force.begin(), b.force.end(), Vec3::Zero());
+  if constexpr (kFriction) std::fill(b.torque.begin(), b.torque.end(), Vec3::Zero());
+
+  const std::uint32_t* offsets = s.pairs.offsets.data();
+  const std::uint32_t* partners = s.pairs.partners.data();
+  Vec3* shear = s.pairs.shear.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 xi = b.position[i];
+    const double ri = b.radius[i];
+    for (std::uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) {
+      const std::uint32_t j = partners[k];
+      const Vec3 d = xi - b.position[j];
+      const double rj = b.radius[j];
+      const double rsum = ri + rj;
+      const double dist2 = d.squaredNorm();
+      if (dist2 >= rsum * rsum) {
+        if constexpr (kFriction) shear[k].setZero();
+        continue;
+      }
+      const double dist = std::sqrt(dist2);
+      const double overlap = rsum - dist;
+      const Vec3 normal = d / dist;
+      const Vec3 w_arm = kFriction ? Vec3(ri * b.angular_velocity[i] + rj * b.angular_velocity[j])
+                                   : Vec3::Zero();
+      const ContactGeometry c = detail::MakeGeometry(normal, overlap, b.velocity[i] - b.velocity[j],
+                                                     w_arm, std::sqrt(ri * rj / rsum));
+      const auto out = detail::Resolve<kFriction>(c, ri, rj, pp, dt, shear[k]);
+      b.force[i] += out.force;
+      b.force[j] -= out.force;
+      if constexpr (kFriction) {
+        b.torque[i] += out.torque_i;
+        b.torque[j] += out.torque_j;
+      }
+      cond.NoteOverlap(overlap / std::min(ri, rj), static_cast<long>(i), static_cast<long>(j));
+    }
+  }
+
+  for (std::size_t i = 0; i < n; ++i) {
+    ContainerContacts<kFriction>(params.container, pw, dt, b.position[i], b.velocity[i],
+                                 b.angular_velocity[i], b.radius[i], s.plate_shear[i],
+                                 s.wall_shear[i], b.force[i], b.torque[i], obs, cond,
+                                 static_cast<long>(i));
+  }
+
+  if (projectile) {
+    RigidSphere& p = *projectile;
+    p.force.setZero();
+    p.torque.setZero();
+    obs.projectile_contacts = ContainerContacts<kFriction>(
+        params.container, pw, dt, p.position, p.velocity, p.angular_velocity, p.radius,
+        s.projectile_plate_shear, s.projectile_wall_shear, p.force, p.torque, obs, cond, -3);
+    const auto& near = s.near_projectile;
+    for (std::size_t k = 0; k < near.beads.size(); ++k) {
+      const std::uint32_t j = near.beads[k];
+      const Vec3 d = p.position - b.position[j];
+      const double rj = b.radius[j];
+      const double rsum = p.radius + rj;
+      const double dist2 = d.squaredNorm();
+      Vec3& h = s.near_projectile.shear[k];
+      if (dist2 >= rsum * rsum) {
+        if constexpr (kFriction) h.setZero();
+        continue;
+      }
+      const double dist = std::sqrt(dist2);
+      const Vec3 normal = d / dist;
+      const Vec3 w_arm = kFriction ? Vec3(p.radius * p.angular_velocity + rj * b.angular_velocity[j])
+                                   : Vec3::Zero();
+      const ContactGeometry c =
+          detail::MakeGeometry(normal, rsum - dist, p.velocity - b.velocity[j], w_arm,
+                               std::sqrt(p.radius * rj / rsum));
+      const auto out = detail::Resolve<kFriction>(c, p.radius, rj, pp, dt, h);
+      p.force += out.force;
+      p.torque += out.torque_i;
+      b.force[j] -= out.force;
+      if constexpr (kFriction) b.torque[j] += out.torque_j;
+      ++obs.projectile_contacts;
+      cond.NoteOverlap((rsum - dist) / rj, -3, static_cast<long>(j));
+    }
+    obs.projectile_force_N = p.force;
+  }
+}
+
+
+void RebuildLists(const WorldParams& params, const ParticleState& b,
+                  const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
+  if (b.size() > 0) {
+    // The grid spans the container; beads above the wall top or outside it are clamped into
+    // the border cells. Its height follows the beads, so a shallow bed has few cells.
+    double z_top = 0.0;
+    for (const Vec3& x : b.position) z_top = std::max(z_top, x.z());
+    z_top = std::min(z_top, params.container.height_m + 0.5);
+    const double cell = 2.0 * s.max_radius + s.skin;
+    const double margin = 2.0 * s.max_radius;
+    const Vec3 lo(-params.container.radius_m - margin, -params.container.radius_m - margin,
+                  -margin);
+    const Vec3 hi(params.container.radius_m + margin, params.container.radius_m + margin,
+                  z_top + margin);
+    s.grid.Build(b.position, cell, lo, hi);
+    detail::RebuildPairList(b, s.grid, s.skin, s.pairs);
+    s.reference_position = b.position;
+    if (projectile)
+      detail::RebuildCandidateList(b, s.grid, projectile->position, projectile->radius,
+                                   s.max_radius, s.skin, s.near_projectile);
+  }
+  if (projectile) s.projectile_reference = projectile->position;
+  s.max_bead_displacement = 0.0;
+  s.lists_valid = true;
+}
+
+// The lists stay valid while no pair can have closed the skin: two beads moving towards each
+// other by at most d each, the projectile by its own displacement plus a bead's (conservatively
+// twice the largest, since the two lists may have been built at different steps).
+bool ListsStillValid(const std::optional<RigidSphere>& projectile, const Simulation::Impl& s) {
+  if (!s.lists_valid) return false;
+  if (2.0 * s.max_bead_displacement >= s.skin) return false;
+  if (projectile) {
+    const double moved = (projectile->position - s.projectile_reference).norm();
+    if (moved + 2.0 * s.max_bead_displacement >= s.skin) return false;
+  }
+  return true;
+}
+
+[[noreturn]] void Fail(const std::string& what, std::int64_t step, double t) {
+  std::ostringstream msg;
+  msg << "simulation unstable at step " << step << " (t = " << t << " s): " << what;
+  throw SimulationError(msg.str(), step, t);
+}
+
+}  // namespace
+
+void Simulation::ComputeForces() {
+  Impl& s = *m_impl;
+  if (!ListsStillValid(m_projectile, s)) RebuildLists(m_params, m_beads, m_projectile, s);
+  // The only dispatch on configuration: each kernel is compiled for its set of effects.
+  if (s.friction) {
+    ComputeForcesImpl<true>(m_params, m_beads, m_projectile, s, m_observables);
+  } else {
+    ComputeForcesImpl<false>(m_params, m_beads, m_projectile, s, m_observables);
+  }
+  s.forces_valid = true;
+}
+
+void Simulation::RefreshForces() {
+  ComputeForces();
+  CheckConditions();
+}
+
+void Simulation::Step() {
+  Impl& s = *m_impl;
+  const double dt = m_params.dt_s;
+  const double half = 0.5 * dt;
+  const Vec3 g(0.0, 0.0, -m_params.gravity_m_s2);
+  if (!s.forces_valid) RefreshForces();
+
+  // Velocity Verlet, first half: kick to t + dt/2, drift to t + dt.
+  const std::size_t n = m_beads.size();
+  const double wall_r2 = m_params.container.radius_m * m_params.container.radius_m;
+  double max_disp2 = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    Vec3& v = m_beads.velocity[i];
+    Vec3& x = m_beads.position[i];
+    v += half * (m_beads.inv_mass[i] * m_beads.force[i] + g);
+    x += dt * v;
+    if (s.friction) m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
+    max_disp2 = std::max(max_disp2, (x - s.reference_position[i]).squaredNorm());
+    if (!x.allFinite() || !v.allFinite()) s.conditions.nonfinite_bead = static_cast<long>(i);
+    // Outside the side wall (below its top) or through the plate: the container leaked.
+    if ((x.z() < m_params.container.height_m && x.x() * x.x() + x.y() * x.y() > wall_r2) ||
+        x.z() < -m_beads.radius[i])
+      s.conditions.escaped_bead = static_cast<long>(i);
+  }
+  s.max_bead_displacement = std::sqrt(max_disp2);
+  if (m_projectile) {
+    RigidSphere& p = *m_projectile;
+    p.velocity += half * (p.force / p.mass + g);
+    p.position += dt * p.velocity;
+    if (s.friction) p.angular_velocity += half * p.torque / p.Inertia();
+    s.conditions.projectile_bad = !p.position.allFinite() || !p.velocity.allFinite();
+  }
+  CheckConditions();
+
+  ComputeForces();
+  CheckConditions();
+
+  // Second half kick with the new forces.
+  for (std::size_t i = 0; i < n; ++i) {
+    m_beads.velocity[i] += half * (m_beads.inv_mass[i] * m_beads.force[i] + g);
+    if (s.friction) m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
+  }
+  if (m_projectile) {
+    RigidSphere& p = *m_projectile;
+    p.velocity += half * (p.force / p.mass + g);
+    if (s.friction) p.angular_velocity += half * p.torque / p.Inertia();
+  }
+  m_time_s += dt;
+  ++m_steps;
+}
+
+void Simulation::CheckConditions() {
+  StepConditions& c = m_impl->conditions;
+  if (c.nonfinite_bead >= 0)
+    Fail("bead " + std::to_string(c.nonfinite_bead) + " has a non-finite position or velocity",
+         m_steps, m_time_s);
+  if (c.projectile_bad)
+    Fail("the projectile has a non-finite position or velocity", m_steps, m_time_s);
+  if (c.escaped_bead >= 0) {
+    const Vec3& x = m_beads.position[c.escaped_bead];
+    std::ostringstream what;
+    what << "bead " << c.escaped_bead << " left the container (x, y, z = " << x.x() << ", "
+         << x.y() << ", " << x.z() << " m; wall radius " << m_params.container.radius_m << " m)";
+    Fail(what.str(), m_steps, m_time_s);
+  }
+  if (c.max_overlap_ratio > kMaxOverlapRatio) {
+    std::ostringstream what;
+    what << "overlap of " << Describe(c.overlap_i) << " and " << Describe(c.overlap_j)
+         << " reached " << c.max_overlap_ratio * 100.0 << "% of the smaller radius (limit "
+         << kMaxOverlapRatio * 100.0
+         << "%): the time step is too large for the speeds in this scene (lower time.alpha)";
+    Fail(what.str(), m_steps, m_time_s);
+  }
+  c = StepConditions{};
+}
+
+EnergyBreakdown Simulation::Energy() const {
+  const Impl& s = *m_impl;
+  EnergyBreakdown e;
+  const double g = m_params.gravity_m_s2;
+  const ParticleState& b = m_beads;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    e.kinetic_J += 0.5 * b.mass[i] * b.velocity[i].squaredNorm() +
+                   0.5 / b.inv_inertia[i] * b.angular_velocity[i].squaredNorm();
+    e.potential_J += b.mass[i] * g * b.position[i].z();
+  }
+  auto wall_energy = [&](const Vec3& x, double r, const Vec3& plate_shear, const Vec3& wall_shear) {
+    double sum = 0.0;
+    if (r - x.z() > 0.0)
+      sum += detail::ContactElasticEnergy(r - x.z(), std::sqrt(r), m_params.sphere_wall,
+                                          plate_shear);
+    const double rho = std::hypot(x.x(), x.y());
+    const double overlap = rho - (m_params.container.radius_m - r);
+    if (overlap > 0.0 && x.z() >= 0.0 && x.z() <= m_params.container.height_m)
+      sum += detail::ContactElasticEnergy(overlap, std::sqrt(r), m_params.sphere_wall, wall_shear);
+    return sum;
+  };
+  const bool have_lists = s.pairs.offsets.size() == b.size() + 1;
+  for (std::size_t i = 0; i < b.size() && have_lists; ++i) {
+    for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k) {
+      const std::uint32_t j = s.pairs.partners[k];
+      const double rsum = b.radius[i] + b.radius[j];
+      const double overlap = rsum - (b.position[i] - b.position[j]).norm();
+      if (overlap > 0.0)
+        e.elastic_J += detail::ContactElasticEnergy(
+            overlap, std::sqrt(b.radius[i] * b.radius[j] / rsum), m_params.sphere_pair,
+            s.pairs.shear[k]);
+    }
+  }
+  for (std::size_t i = 0; i < b.size(); ++i)
+    e.elastic_J += wall_energy(b.position[i], b.radius[i], s.plate_shear[i], s.wall_shear[i]);
+  if (m_projectile) {
+    const RigidSphere& p = *m_projectile;
+    e.kinetic_J += 0.5 * p.mass * p.velocity.squaredNorm() +
+                   0.5 * p.Inertia() * p.angular_velocity.squaredNorm();
+    e.potential_J += p.mass * g * p.position.z();
+    e.elastic_J += wall_energy(p.position, p.radius, s.projectile_plate_shear,
+                               s.projectile_wall_shear);
+    for (std::size_t k = 0; k < s.near_projectile.beads.size(); ++k) {
+      const std::uint32_t j = s.near_projectile.beads[k];
+      const double rsum = p.radius + b.radius[j];
+      const double overlap = rsum - (p.position - b.position[j]).norm();
+      if (overlap > 0.0)
+        e.elastic_J += detail::ContactElasticEnergy(
+            overlap, std::sqrt(p.radius * b.radius[j] / rsum), m_params.sphere_pair,
+            s.near_projectile.shear[k]);
+    }
+  }
+  return e;
+}
+
+}  // namespace dembuf

@@ -30,14 +30,17 @@ constexpr int kExitInterrupted = 130;
 
 std::atomic<bool> g_interrupted{false};
 
-extern "C" void OnInterrupt(int) { g_interrupted.store(true); }
+extern "C" void OnInterrupt(int) {
+  g_interrupted.store(true);
+}
 
 fs::path DefaultOutputDir() {
   std::time_t now = std::time(nullptr);
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", std::gmtime(&now));
   fs::path dir = std::string("dembuf-run-") + stamp;
-  for (int k = 2; fs::exists(dir); ++k) dir = std::string("dembuf-run-") + stamp + "-" + std::to_string(k);
+  for (int k = 2; fs::exists(dir); ++k)
+    dir = std::string("dembuf-run-") + stamp + "-" + std::to_string(k);
   return dir;
 }
 
@@ -92,12 +95,15 @@ int RunLocal(const RunOptions& opt) {
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
     progress.Finish();
     csv.Commit();
-    cli::WriteFileAtomically(dir / "summary.json", cli::SummaryToJson(summary, scene).dump(2) + "\n");
+    cli::WriteFileAtomically(dir / "summary.json",
+                             cli::SummaryToJson(summary, scene).dump(2) + "\n");
     PrintSummary(summary, dir);
     return 0;
   } catch (const SimulationError& e) {
     progress.Finish();
-    nlohmann::json failure = {{"error", e.what()}, {"step", e.step()}, {"time_s", e.time_s()},
+    nlohmann::json failure = {{"error", e.what()},
+                              {"step", e.step()},
+                              {"time_s", e.time_s()},
                               {"scene", cli::SceneToJson(scene)}};
     cli::WriteFileAtomically(dir / "failure.json", failure.dump(2) + "\n");
     std::fprintf(stderr, "dembuf: run failed: %s\n  samples up to the failure: %s\n", e.what(),
@@ -125,8 +131,10 @@ int main(int argc, char** argv) {
 
   RunOptions opt;
   auto add_scene_args = [&](CLI::App* cmd) {
-    cmd->add_option("scene", opt.scene_file, "scene file (TOML); default: the paper's Table 1 scene");
-    cmd->add_option("--set", opt.overrides, "override a scene field: dotted.name=value (repeatable)")
+    cmd->add_option("scene", opt.scene_file,
+                    "scene file (TOML); default: the paper's Table 1 scene");
+    cmd->add_option("--set", opt.overrides,
+                    "override a scene field: dotted.name=value (repeatable)")
         ->allow_extra_args(false);
   };
 

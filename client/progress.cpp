@@ -1,9 +1,9 @@
 #include "progress.h"
 
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <string>
-#include <unistd.h>
 
 namespace dembuf::cli {
 
@@ -37,8 +37,7 @@ void ProgressLine::Update(const ImpactProgress& p) {
     eta = buf;
   }
   std::fprintf(m_out, "\r[%s] %6.2f / %.2f ms  %lld steps  ETA %s (at most) ", bar.c_str(),
-               p.t_s * 1e3, p.t_end_estimate_s * 1e3, static_cast<long long>(p.steps),
-               eta.c_str());
+               p.t_s * 1e3, p.t_end_estimate_s * 1e3, static_cast<long long>(p.steps), eta.c_str());
   std::fflush(m_out);
 }
 

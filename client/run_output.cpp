@@ -66,8 +66,8 @@ SampleCsvWriter::SampleCsvWriter(std::filesystem::path path)
 
 void SampleCsvWriter::Write(const ImpactSample& s) {
   char line[256];
-  int n = std::snprintf(line, sizeof line, "%.9g,%.9g,%.9g", s.t_s, s.plate_force_N,
-                        s.wall_force_z_N);
+  int n =
+      std::snprintf(line, sizeof line, "%.9g,%.9g,%.9g", s.t_s, s.plate_force_N, s.wall_force_z_N);
   // Scenes without a projectile leave its columns empty.
   if (std::isfinite(s.projectile_z_m)) {
     n += std::snprintf(line + n, sizeof line - n, ",%.9g,%.9g,%.9g\n", s.projectile_z_m,

@@ -17,27 +17,33 @@ struct ContactOutcome {
 };
 
 /// Geometry of a contact with unit normal n (from j to i), given the relative velocity
-/// v_rel = v_i - v_j and w_arm = r_i w_i + r_j w_j (surface speed from spin: the contact point
-/// of i moves with v_i - r_i w_i x n, that of j with v_j + r_j w_j x n).
+/// v_rel = v_i - v_j and w_arm = a_i w_i + a_j w_j, where a = r - overlap/2 are the lever arms
+/// to the contact point in the middle of the overlap (it moves with v_i - a_i w_i x n on i and
+/// v_j + a_j w_j x n on j). With these arms a pair conserves angular momentum exactly.
 inline ContactGeometry MakeGeometry(const Vec3& n, double overlap, const Vec3& v_rel,
                                     const Vec3& w_arm, double sqrt_r_star) {
   const double approach = -v_rel.dot(n);
   return {n, overlap, approach, v_rel + approach * n - w_arm.cross(n), sqrt_r_star};
 }
 
-/// Applies the law to a contact of geometry c between sphere i (radius ri) and body j
-/// (radius rj; a wall uses rj = 0, which gives it no torque).
+/// Lever arm from a sphere's centre to the contact point in the middle of the overlap.
+inline double LeverArm(double radius, double overlap) {
+  return radius - 0.5 * overlap;
+}
+
+/// Applies the law to a contact of geometry c between sphere i (lever arm ai) and body j
+/// (lever arm aj; a wall uses aj = 0, which gives it no torque).
 template <bool kFriction>
-inline ContactOutcome Resolve(const ContactGeometry& c, double ri, double rj, const PairParams& p,
+inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, const PairParams& p,
                               double dt, Vec3& shear) {
   const ContactForce f = HertzMindlinForce<kFriction>(c, p, dt, shear);
   ContactOutcome out;
   out.normal = f.normal;
   if constexpr (kFriction) {
     out.force = f.normal * c.normal + f.tangential;
-    const Vec3 arm = c.normal.cross(f.tangential);  // both torques are -r (n x Ft)
-    out.torque_i = -ri * arm;
-    out.torque_j = -rj * arm;
+    const Vec3 arm = c.normal.cross(f.tangential);  // both torques are -a (n x Ft)
+    out.torque_i = -ai * arm;
+    out.torque_j = -aj * arm;
   } else {
     out.force = f.normal * c.normal;
     out.torque_i = out.torque_j = Vec3::Zero();

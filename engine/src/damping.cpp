@@ -61,8 +61,7 @@ double DampingNumber(double damping_A_s, double kn, double reduced_mass_kg, doub
 }
 }  // namespace
 
-double RestitutionAtSpeed(double damping_A_s, double kn, double reduced_mass_kg,
-                          double speed_m_s) {
+double RestitutionAtSpeed(double damping_A_s, double kn, double reduced_mass_kg, double speed_m_s) {
   return RestitutionOfDampingNumber(DampingNumber(damping_A_s, kn, reduced_mass_kg, speed_m_s));
 }
 
@@ -76,7 +75,8 @@ DampingCalibration CalibrateDamping(double restitution, double ref_speed_m_s, do
   cal.restitution_at_ref = RestitutionAtSpeed(cal.damping_A_s, kn, reduced_mass_kg, ref_speed_m_s);
   for (double factor : {0.1, 0.3, 1.0, 3.0, 10.0}) {
     double v = factor * ref_speed_m_s;
-    cal.restitution_curve.push_back({v, RestitutionAtSpeed(cal.damping_A_s, kn, reduced_mass_kg, v)});
+    cal.restitution_curve.push_back(
+        {v, RestitutionAtSpeed(cal.damping_A_s, kn, reduced_mass_kg, v)});
   }
   return cal;
 }

@@ -23,17 +23,18 @@ double FallTime(double z0, double vz0, double z1, double gravity_m_s2) {
 World BuildWorld(const Scene& scene) {
   ValidateScene(scene);
   if (!scene.projectile.enabled && scene.time.end_s == 0.0)
-    throw SceneError("time.end_s", "must be > 0 when projectile.enabled = false (the automatic "
-                                   "end waits for the projectile's impact)");
+    throw SceneError("time.end_s",
+                     "must be > 0 when projectile.enabled = false (the automatic "
+                     "end waits for the projectile's impact)");
   World world;
   const MaterialSpec& mat = scene.material;
-  const ShearStiffness shear = mat.shear_stiffness == "mindlin" ? ShearStiffness::kMindlin
-                                                                 : ShearStiffness::kPaper;
+  const ShearStiffness shear =
+      mat.shear_stiffness == "mindlin" ? ShearStiffness::kMindlin : ShearStiffness::kPaper;
   const Elastic bead_elastic{mat.youngs_modulus_Pa, mat.poisson_ratio};
-  const Elastic wall_elastic = scene.walls.material_from_beads
-                                   ? bead_elastic
-                                   : Elastic{scene.walls.youngs_modulus_Pa,
-                                             scene.walls.poisson_ratio};
+  const Elastic wall_elastic =
+      scene.walls.material_from_beads
+          ? bead_elastic
+          : Elastic{scene.walls.youngs_modulus_Pa, scene.walls.poisson_ratio};
   const PairModuli pair_moduli = EffectiveModuli(bead_elastic, bead_elastic, shear);
   const PairModuli wall_moduli = EffectiveModuli(bead_elastic, wall_elastic, shear);
 
@@ -41,8 +42,8 @@ World BuildWorld(const Scene& scene) {
   const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
   const double bead_mass = mat.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);
-  world.damping = CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref,
-                                   0.5 * bead_mass);
+  world.damping =
+      CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref, 0.5 * bead_mass);
   const double A = world.damping.damping_A_s;
 
   WorldParams& wp = world.params;
@@ -96,8 +97,12 @@ class SampleClock {
 
 ImpactSample MakeSample(const Simulation& sim) {
   const StepObservables& o = sim.observables();
-  ImpactSample s{sim.time_s(), o.plate_force_N, o.wall_force_z_N,
-                 std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
+  ImpactSample s{sim.time_s(),
+                 o.plate_force_N,
+                 o.wall_force_z_N,
+                 std::numeric_limits<double>::quiet_NaN(),
+                 0.0,
+                 0.0};
   if (sim.projectile()) {
     s.projectile_z_m = sim.projectile()->position.z();
     s.projectile_vz_m_s = sim.projectile()->velocity.z();
@@ -129,8 +134,8 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
   };
 
   const double g = scene.gravity_m_s2;
-  const double t_limit = scene.time.end_s > 0.0 ? scene.time.end_s
-                                                : std::numeric_limits<double>::infinity();
+  const double t_limit =
+      scene.time.end_s > 0.0 ? scene.time.end_s : std::numeric_limits<double>::infinity();
   double t_end_estimate = t_limit;
 
   // Free flight: nothing but gravity acts on the projectile until its lowest point reaches

@@ -83,12 +83,10 @@ struct CandidateList {
 
 /// Rebuilds `list` for all pairs closer than r_i + r_j + skin, keeping the history of the
 /// pairs already present.
-void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin,
-                     PairList& list);
+void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, PairList& list);
 
 /// Rebuilds the projectile's candidates: beads closer than R + r_i + skin.
 void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, const Vec3& center,
-                          double radius, double max_bead_radius, double skin,
-                          CandidateList& list);
+                          double radius, double max_bead_radius, double skin, CandidateList& list);
 
 }  // namespace dembuf::detail

@@ -28,11 +28,11 @@ const std::vector<SceneField>& FieldTable() {
 
       {"cylinder.radius_m", "m", "inner radius of the cylinder (paper: 0.095)",
        DEMBUF_FIELD(cylinder.radius_m), 0.0, 5.0, true},
-      {"cylinder.height_m", "m", "height H2 of the side wall", DEMBUF_FIELD(cylinder.height_m),
-       0.0, 10.0, true},
+      {"cylinder.height_m", "m", "height H2 of the side wall", DEMBUF_FIELD(cylinder.height_m), 0.0,
+       10.0, true},
 
-      {"material.density_kg_m3", "kg/m^3", "bead density rho",
-       DEMBUF_FIELD(material.density_kg_m3), 0.0, 1e5, true},
+      {"material.density_kg_m3", "kg/m^3", "bead density rho", DEMBUF_FIELD(material.density_kg_m3),
+       0.0, 1e5, true},
       {"material.youngs_modulus_Pa", "Pa", "Young's modulus E of beads and projectile",
        DEMBUF_FIELD(material.youngs_modulus_Pa), 0.0, 1e13, true},
       {"material.poisson_ratio", "", "Poisson ratio nu of beads and projectile",
@@ -45,9 +45,15 @@ const std::vector<SceneField>& FieldTable() {
        DEMBUF_FIELD(material.friction_bead_bead), 0.0, 10.0},
       {"material.friction_bead_wall", "", "mu_pw, friction with plate and wall (beads, projectile)",
        DEMBUF_FIELD(material.friction_bead_wall), 0.0, 10.0},
-      {"material.shear_stiffness", "",
+      {"material.shear_stiffness",
+       "",
        "G* formula: paper = G/(2(1-nu)) (kt/kn = 2), mindlin = G/(2(2-nu))",
-       DEMBUF_FIELD(material.shear_stiffness), 0.0, 0.0, false, false, {"paper", "mindlin"}},
+       DEMBUF_FIELD(material.shear_stiffness),
+       0.0,
+       0.0,
+       false,
+       false,
+       {"paper", "mindlin"}},
 
       {"walls.material_from_beads", "", "plate and wall take the beads' E and nu",
        DEMBUF_FIELD(walls.material_from_beads)},
@@ -72,8 +78,8 @@ const std::vector<SceneField>& FieldTable() {
       {"projectile.enabled", "", "drop a projectile", DEMBUF_FIELD(projectile.enabled)},
       {"projectile.diameter_m", "m", "projectile diameter D", DEMBUF_FIELD(projectile.diameter_m),
        0.0, 10.0, true},
-      {"projectile.mass_kg", "kg", "projectile mass M", DEMBUF_FIELD(projectile.mass_kg), 0.0,
-       1e6, true},
+      {"projectile.mass_kg", "kg", "projectile mass M", DEMBUF_FIELD(projectile.mass_kg), 0.0, 1e6,
+       true},
       {"projectile.speed_m_s", "m/s", "initial downward speed V0",
        DEMBUF_FIELD(projectile.speed_m_s), 0.0, 1000.0},
       {"projectile.height_m", "m", "H1, initial centre height above the bed surface",
@@ -81,8 +87,8 @@ const std::vector<SceneField>& FieldTable() {
 
       {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
        DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
-      {"time.end_s", "s", "end time; 0 = stop when the impact is over",
-       DEMBUF_FIELD(time.end_s), 0.0, 1e3},
+      {"time.end_s", "s", "end time; 0 = stop when the impact is over", DEMBUF_FIELD(time.end_s),
+       0.0, 1e3},
       {"time.impact_window_s", "s", "automatic end: at most this long after the first contact",
        DEMBUF_FIELD(time.impact_window_s), 0.0, 1e3, true},
       {"time.output_interval_s", "s", "spacing of the written force samples",
@@ -166,10 +172,14 @@ void SetString(Scene& scene, const SceneField& f, std::string_view v) {
 
 const char* TypeName(const SceneField::Ref& ref) {
   switch (ref.index()) {
-    case 0: return "a number";
-    case 1: return "a whole number";
-    case 2: return "true or false";
-    default: return "a string";
+    case 0:
+      return "a number";
+    case 1:
+      return "a whole number";
+    case 2:
+      return "true or false";
+    default:
+      return "a string";
   }
 }
 
@@ -185,8 +195,8 @@ const char* TomlTypeName(const toml::value& v) {
 
 void SetFromToml(Scene& scene, const SceneField& f, const toml::value& v) {
   auto wrong_type = [&] {
-    return SceneError(std::string(f.name), std::string("expected ") + TypeName(f.ref) +
-                                               ", got " + TomlTypeName(v));
+    return SceneError(std::string(f.name),
+                      std::string("expected ") + TypeName(f.ref) + ", got " + TomlTypeName(v));
   };
   switch (f.ref.index()) {
     case 0:  // double: integers are accepted too ("mass_kg = 1")
@@ -213,7 +223,9 @@ void SetFromToml(Scene& scene, const SceneField& f, const toml::value& v) {
 
 }  // namespace
 
-std::span<const SceneField> SceneFields() { return FieldTable(); }
+std::span<const SceneField> SceneFields() {
+  return FieldTable();
+}
 
 const SceneField* FindSceneField(std::string_view name) {
   for (const auto& f : FieldTable())
@@ -252,8 +264,8 @@ void SetSceneField(Scene& scene, std::string_view name, std::string_view value) 
 void ApplyOverride(Scene& scene, std::string_view assignment) {
   auto eq = assignment.find('=');
   if (eq == std::string_view::npos || eq == 0)
-    throw SceneError("", "override \"" + std::string(assignment) +
-                             "\" must have the form dotted.field=value");
+    throw SceneError(
+        "", "override \"" + std::string(assignment) + "\" must have the form dotted.field=value");
   SetSceneField(scene, assignment.substr(0, eq), assignment.substr(eq + 1));
 }
 
@@ -271,8 +283,7 @@ Scene LoadSceneFile(const std::string& path, const Scene& base) {
   std::map<std::string, const toml::value*> entries;
   for (const auto& [key, value] : root.as_table()) {
     if (value.is_table()) {
-      for (const auto& [sub, subvalue] : value.as_table())
-        entries[key + "." + sub] = &subvalue;
+      for (const auto& [sub, subvalue] : value.as_table()) entries[key + "." + sub] = &subvalue;
     } else {
       entries[key] = &value;
     }
@@ -309,17 +320,17 @@ void ValidateScene(const Scene& scene) {
   auto fail = [](const char* field, const std::string& why) { throw SceneError(field, why); };
   const auto& b = scene.beads;
   if (b.diameter_min_m > b.diameter_max_m)
-    fail("beads.diameter_min_m", FormatNumber(b.diameter_min_m) +
-                                     " exceeds beads.diameter_max_m = " +
-                                     FormatNumber(b.diameter_max_m));
+    fail("beads.diameter_min_m",
+         FormatNumber(b.diameter_min_m) +
+             " exceeds beads.diameter_max_m = " + FormatNumber(b.diameter_max_m));
   if (b.diameter_max_m >= scene.cylinder.radius_m)
-    fail("beads.diameter_max_m", FormatNumber(b.diameter_max_m) +
-                                     " must be smaller than cylinder.radius_m = " +
-                                     FormatNumber(scene.cylinder.radius_m));
+    fail("beads.diameter_max_m",
+         FormatNumber(b.diameter_max_m) +
+             " must be smaller than cylinder.radius_m = " + FormatNumber(scene.cylinder.radius_m));
   if (scene.bed.thickness_m >= scene.cylinder.height_m)
-    fail("bed.thickness_m", FormatNumber(scene.bed.thickness_m) +
-                                " must be below cylinder.height_m = " +
-                                FormatNumber(scene.cylinder.height_m));
+    fail("bed.thickness_m",
+         FormatNumber(scene.bed.thickness_m) +
+             " must be below cylinder.height_m = " + FormatNumber(scene.cylinder.height_m));
   const auto& p = scene.projectile;
   if (p.enabled) {
     if (p.diameter_m >= 2.0 * scene.cylinder.radius_m)

@@ -35,10 +35,14 @@ struct StepConditions {
 
 const char* BodyName(long id) {
   switch (id) {
-    case -1: return "the plate";
-    case -2: return "the side wall";
-    case -3: return "the projectile";
-    default: return nullptr;
+    case -1:
+      return "the plate";
+    case -2:
+      return "the side wall";
+    case -3:
+      return "the projectile";
+    default:
+      return nullptr;
   }
 }
 
@@ -107,16 +111,17 @@ namespace {
 // returns how many of the two it touches.
 template <bool kFriction>
 int ContainerContacts(const Container& box, const PairParams& p, double dt, const Vec3& x,
-                       const Vec3& v, const Vec3& w, double r, Vec3& plate_shear,
-                       Vec3& wall_shear, Vec3& force, Vec3& torque, StepObservables& obs,
-                       StepConditions& cond, long id) {
+                      const Vec3& v, const Vec3& w, double r, Vec3& plate_shear, Vec3& wall_shear,
+                      Vec3& force, Vec3& torque, StepObservables& obs, StepConditions& cond,
+                      long id) {
   const double sqrt_r = std::sqrt(r);  // R* = R against a wall
   int touching = 0;
   const double plate_overlap = r - x.z();
   if (plate_overlap > 0.0) {
+    const double arm = detail::LeverArm(r, plate_overlap);
     const ContactGeometry c =
-        detail::MakeGeometry(Vec3::UnitZ(), plate_overlap, v, r * w, sqrt_r);
-    const auto out = detail::Resolve<kFriction>(c, r, 0.0, p, dt, plate_shear);
+        detail::MakeGeometry(Vec3::UnitZ(), plate_overlap, v, arm * w, sqrt_r);
+    const auto out = detail::Resolve<kFriction>(c, arm, 0.0, p, dt, plate_shear);
     force += out.force;
     torque += out.torque_i;
     obs.plate_force_N += out.normal;
@@ -132,8 +137,9 @@ int ContainerContacts(const Container& box, const PairParams& p, double dt, cons
     const double rho = std::sqrt(rho2);
     const double overlap = rho - inner;
     const Vec3 n(-x.x() / rho, -x.y() / rho, 0.0);
-    const ContactGeometry c = detail::MakeGeometry(n, overlap, v, r * w, sqrt_r);
-    const auto out = detail::Resolve<kFriction>(c, r, 0.0, p, dt, wall_shear);
+    const double arm = detail::LeverArm(r, overlap);
+    const ContactGeometry c = detail::MakeGeometry(n, overlap, v, arm * w, sqrt_r);
+    const auto out = detail::Resolve<kFriction>(c, arm, 0.0, p, dt, wall_shear);
     force += out.force;
     torque += out.torque_i;
     obs.wall_force_z_N += out.force.z();
@@ -144,7 +150,6 @@ int ContainerContacts(const Container& box, const PairParams& p, double dt, cons
   }
   return touching;
 }
-
 
 // The force pass. Cost per bead pair in contact: one sqrt for the distance, two in the law;
 // pairs in the list but apart cost 10 flops.
@@ -181,11 +186,12 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       const double dist = std::sqrt(dist2);
       const double overlap = rsum - dist;
       const Vec3 normal = d / dist;
-      const Vec3 w_arm = kFriction ? Vec3(ri * b.angular_velocity[i] + rj * b.angular_velocity[j])
-                                   : Vec3::Zero();
+      const double ai = detail::LeverArm(ri, overlap), aj = detail::LeverArm(rj, overlap);
+      const Vec3 w_arm =
+          kFriction ? Vec3(ai * b.angular_velocity[i] + aj * b.angular_velocity[j]) : Vec3::Zero();
       const ContactGeometry c = detail::MakeGeometry(normal, overlap, b.velocity[i] - b.velocity[j],
                                                      w_arm, std::sqrt(ri * rj / rsum));
-      const auto out = detail::Resolve<kFriction>(c, ri, rj, pp, dt, shear[k]);
+      const auto out = detail::Resolve<kFriction>(c, ai, aj, pp, dt, shear[k]);
       b.force[i] += out.force;
       b.force[j] -= out.force;
       if constexpr (kFriction) {
@@ -193,6 +199,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
         b.torque[j] += out.torque_j;
       }
       cond.NoteOverlap(overlap / std::min(ri, rj), static_cast<long>(i), static_cast<long>(j));
+      ++obs.bead_contacts;
     }
   }
 
@@ -223,24 +230,24 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
         continue;
       }
       const double dist = std::sqrt(dist2);
+      const double overlap = rsum - dist;
       const Vec3 normal = d / dist;
-      const Vec3 w_arm = kFriction ? Vec3(p.radius * p.angular_velocity + rj * b.angular_velocity[j])
-                                   : Vec3::Zero();
-      const ContactGeometry c =
-          detail::MakeGeometry(normal, rsum - dist, p.velocity - b.velocity[j], w_arm,
-                               std::sqrt(p.radius * rj / rsum));
-      const auto out = detail::Resolve<kFriction>(c, p.radius, rj, pp, dt, h);
+      const double ap = detail::LeverArm(p.radius, overlap), aj = detail::LeverArm(rj, overlap);
+      const Vec3 w_arm =
+          kFriction ? Vec3(ap * p.angular_velocity + aj * b.angular_velocity[j]) : Vec3::Zero();
+      const ContactGeometry c = detail::MakeGeometry(normal, overlap, p.velocity - b.velocity[j],
+                                                     w_arm, std::sqrt(p.radius * rj / rsum));
+      const auto out = detail::Resolve<kFriction>(c, ap, aj, pp, dt, h);
       p.force += out.force;
       p.torque += out.torque_i;
       b.force[j] -= out.force;
       if constexpr (kFriction) b.torque[j] += out.torque_j;
       ++obs.projectile_contacts;
-      cond.NoteOverlap((rsum - dist) / rj, -3, static_cast<long>(j));
+      cond.NoteOverlap(overlap / rj, -3, static_cast<long>(j));
     }
     obs.projectile_force_N = p.force;
   }
 }
-
 
 void RebuildLists(const WorldParams& params, const ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
@@ -322,7 +329,8 @@ void Simulation::Step() {
     Vec3& x = m_beads.position[i];
     v += half * (m_beads.inv_mass[i] * m_beads.force[i] + g);
     x += dt * v;
-    if (s.friction) m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
+    if (s.friction)
+      m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
     max_disp2 = std::max(max_disp2, (x - s.reference_position[i]).squaredNorm());
     if (!x.allFinite() || !v.allFinite()) s.conditions.nonfinite_bead = static_cast<long>(i);
     // Outside the side wall (below its top) or through the plate: the container leaked.
@@ -346,7 +354,8 @@ void Simulation::Step() {
   // Second half kick with the new forces.
   for (std::size_t i = 0; i < n; ++i) {
     m_beads.velocity[i] += half * (m_beads.inv_mass[i] * m_beads.force[i] + g);
-    if (s.friction) m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
+    if (s.friction)
+      m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
   }
   if (m_projectile) {
     RigidSphere& p = *m_projectile;
@@ -367,8 +376,8 @@ void Simulation::CheckConditions() {
   if (c.escaped_bead >= 0) {
     const Vec3& x = m_beads.position[c.escaped_bead];
     std::ostringstream what;
-    what << "bead " << c.escaped_bead << " left the container (x, y, z = " << x.x() << ", "
-         << x.y() << ", " << x.z() << " m; wall radius " << m_params.container.radius_m << " m)";
+    what << "bead " << c.escaped_bead << " left the container (x, y, z = " << x.x() << ", " << x.y()
+         << ", " << x.z() << " m; wall radius " << m_params.container.radius_m << " m)";
     Fail(what.str(), m_steps, m_time_s);
   }
   if (c.max_overlap_ratio > kMaxOverlapRatio) {
@@ -395,8 +404,8 @@ EnergyBreakdown Simulation::Energy() const {
   auto wall_energy = [&](const Vec3& x, double r, const Vec3& plate_shear, const Vec3& wall_shear) {
     double sum = 0.0;
     if (r - x.z() > 0.0)
-      sum += detail::ContactElasticEnergy(r - x.z(), std::sqrt(r), m_params.sphere_wall,
-                                          plate_shear);
+      sum +=
+          detail::ContactElasticEnergy(r - x.z(), std::sqrt(r), m_params.sphere_wall, plate_shear);
     const double rho = std::hypot(x.x(), x.y());
     const double overlap = rho - (m_params.container.radius_m - r);
     if (overlap > 0.0 && x.z() >= 0.0 && x.z() <= m_params.container.height_m)
@@ -410,9 +419,9 @@ EnergyBreakdown Simulation::Energy() const {
       const double rsum = b.radius[i] + b.radius[j];
       const double overlap = rsum - (b.position[i] - b.position[j]).norm();
       if (overlap > 0.0)
-        e.elastic_J += detail::ContactElasticEnergy(
-            overlap, std::sqrt(b.radius[i] * b.radius[j] / rsum), m_params.sphere_pair,
-            s.pairs.shear[k]);
+        e.elastic_J +=
+            detail::ContactElasticEnergy(overlap, std::sqrt(b.radius[i] * b.radius[j] / rsum),
+                                         m_params.sphere_pair, s.pairs.shear[k]);
     }
   }
   for (std::size_t i = 0; i < b.size(); ++i)
@@ -422,16 +431,16 @@ EnergyBreakdown Simulation::Energy() const {
     e.kinetic_J += 0.5 * p.mass * p.velocity.squaredNorm() +
                    0.5 * p.Inertia() * p.angular_velocity.squaredNorm();
     e.potential_J += p.mass * g * p.position.z();
-    e.elastic_J += wall_energy(p.position, p.radius, s.projectile_plate_shear,
-                               s.projectile_wall_shear);
+    e.elastic_J +=
+        wall_energy(p.position, p.radius, s.projectile_plate_shear, s.projectile_wall_shear);
     for (std::size_t k = 0; k < s.near_projectile.beads.size(); ++k) {
       const std::uint32_t j = s.near_projectile.beads[k];
       const double rsum = p.radius + b.radius[j];
       const double overlap = rsum - (p.position - b.position[j]).norm();
       if (overlap > 0.0)
-        e.elastic_J += detail::ContactElasticEnergy(
-            overlap, std::sqrt(p.radius * b.radius[j] / rsum), m_params.sphere_pair,
-            s.near_projectile.shear[k]);
+        e.elastic_J +=
+            detail::ContactElasticEnergy(overlap, std::sqrt(p.radius * b.radius[j] / rsum),
+                                         m_params.sphere_pair, s.near_projectile.shear[k]);
     }
   }
   return e;

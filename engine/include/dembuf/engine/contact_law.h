@@ -39,8 +39,8 @@ inline PairModuli EffectiveModuli(const Elastic& a, const Elastic& b, ShearStiff
   double inv_e = (1.0 - a.poisson_ratio * a.poisson_ratio) / a.youngs_modulus_Pa +
                  (1.0 - b.poisson_ratio * b.poisson_ratio) / b.youngs_modulus_Pa;
   double shift = shear == ShearStiffness::kPaper ? 1.0 : 2.0;
-  double inv_g = (shift - a.poisson_ratio) / a.ShearModulus() +
-                 (shift - b.poisson_ratio) / b.ShearModulus();
+  double inv_g =
+      (shift - a.poisson_ratio) / a.ShearModulus() + (shift - b.poisson_ratio) / b.ShearModulus();
   return {1.0 / inv_e, 1.0 / inv_g};
 }
 
@@ -87,8 +87,8 @@ inline double HertzNormalForce(double overlap, double approach_rate, double kn, 
 template <bool kFriction>
 inline ContactForce HertzMindlinForce(const ContactGeometry& c, const PairParams& p, double dt,
                                       Vec3& shear) {
-  const double fn = HertzNormalForce(c.overlap, c.approach_rate, p.kn_per_sqrt_r * c.sqrt_r_star,
-                                     p.damping_A_s);
+  const double fn =
+      HertzNormalForce(c.overlap, c.approach_rate, p.kn_per_sqrt_r * c.sqrt_r_star, p.damping_A_s);
   if constexpr (!kFriction) {
     return {fn, Vec3::Zero()};
   } else {

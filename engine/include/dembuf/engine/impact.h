@@ -33,7 +33,7 @@ struct ImpactSample {
   double t_s;
   double plate_force_N;
   double wall_force_z_N;
-  double projectile_z_m;   ///< centre height (NaN without a projectile)
+  double projectile_z_m;  ///< centre height (NaN without a projectile)
   double projectile_vz_m_s;
   double projectile_force_z_N;  ///< vertical contact force on the projectile
 };
@@ -62,9 +62,9 @@ struct ImpactSummary {
   double wall_time_s = 0.0;
   DampingCalibration damping;
   double bed_surface_m = 0.0;
-  double free_flight_s = 0.0;         ///< time covered analytically
+  double free_flight_s = 0.0;          ///< time covered analytically
   double first_contact_time_s = -1.0;  ///< -1: the projectile never touched anything
-  double impact_speed_m_s = 0.0;      ///< projectile speed at the end of the free flight
+  double impact_speed_m_s = 0.0;       ///< projectile speed at the end of the free flight
   double end_time_s = 0.0;
   std::string end_reason;
 };

@@ -24,10 +24,11 @@ struct WorldParams {
 
 /// What the plate, the wall and the projectile felt in the last step.
 struct StepObservables {
-  double plate_force_N = 0.0;        ///< total normal force on the plate (beads + projectile)
-  double wall_force_z_N = 0.0;       ///< vertical force of the side wall on beads + projectile
+  double plate_force_N = 0.0;   ///< total normal force on the plate (beads + projectile)
+  double wall_force_z_N = 0.0;  ///< vertical force of the side wall on beads + projectile
   Vec3 projectile_force_N = Vec3::Zero();  ///< contact force on the projectile
   int projectile_contacts = 0;
+  int bead_contacts = 0;  ///< bead-bead contacts
 };
 
 /// Energy bookkeeping (for tests and stability checks).
@@ -40,8 +41,7 @@ struct EnergyBreakdown {
 
 class Simulation {
  public:
-  Simulation(const WorldParams& params, ParticleState beads,
-             std::optional<RigidSphere> projectile);
+  Simulation(const WorldParams& params, ParticleState beads, std::optional<RigidSphere> projectile);
   ~Simulation();
   Simulation(Simulation&&) noexcept;
   Simulation& operator=(Simulation&&) noexcept;

@@ -1,0 +1,86 @@
+// The Verlet list finds every pair within reach, and history survives rebuilds.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+
+#include "neighbor_list.h"
+
+namespace dembuf::detail {
+namespace {
+
+ParticleState RandomBeads(int n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> xy(-0.05, 0.05), z(0.0, 0.05), r(0.002, 0.0025);
+  ParticleState b;
+  for (int i = 0; i < n; ++i) b.Add(Vec3(xy(rng), xy(rng), z(rng)), r(rng), 2650.0);
+  return b;
+}
+
+TEST(PairList, MatchesBruteForce) {
+  const ParticleState b = RandomBeads(2000, 7);
+  const double skin = 0.0008;
+  CellGrid grid;
+  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.03));
+  PairList list;
+  RebuildPairList(b, grid, skin, list);
+  std::set<std::pair<std::uint32_t, std::uint32_t>> found, expected;
+  for (std::uint32_t i = 0; i < b.size(); ++i) {
+    for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
+      EXPECT_GT(list.partners[k], i);
+      if (k > list.offsets[i]) {
+        EXPECT_LT(list.partners[k - 1], list.partners[k]);
+      }
+      found.insert({i, list.partners[k]});
+    }
+    for (std::uint32_t j = i + 1; j < b.size(); ++j) {
+      const double reach = b.radius[i] + b.radius[j] + skin;
+      if ((b.position[i] - b.position[j]).squaredNorm() < reach * reach) expected.insert({i, j});
+    }
+  }
+  EXPECT_EQ(found, expected);  // the grid is shorter than the beads' z range: clamping works
+  EXPECT_GT(expected.size(), 1000u);
+}
+
+TEST(PairList, RebuildKeepsHistoryOfSurvivingPairs) {
+  ParticleState b = RandomBeads(500, 3);
+  const double skin = 0.001;
+  CellGrid grid;
+  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.06));
+  PairList list;
+  RebuildPairList(b, grid, skin, list);
+  for (std::uint32_t i = 0; i < b.size(); ++i)
+    for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k)
+      list.shear[k] = Vec3(i, list.partners[k], 1.0);
+  // Move one bead far away: its pairs vanish, every other pair keeps its stamp.
+  b.position[10] = Vec3(0.0, 0.0, 0.055);
+  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.06));
+  RebuildPairList(b, grid, skin, list);
+  for (std::uint32_t i = 0; i < b.size(); ++i)
+    for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
+      const std::uint32_t j = list.partners[k];
+      if (i == 10 || j == 10) {
+        EXPECT_EQ(list.shear[k], Vec3::Zero());
+      } else {
+        EXPECT_EQ(list.shear[k], Vec3(i, j, 1.0));
+      }
+    }
+}
+
+TEST(CandidateList, FindsBeadsNearALargeSphere) {
+  const ParticleState b = RandomBeads(2000, 11);
+  const double skin = 0.0008;
+  CellGrid grid;
+  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.06));
+  CandidateList near;
+  const Vec3 c(0.01, -0.005, 0.03);
+  RebuildCandidateList(b, grid, c, 0.025, 0.0025, skin, near);
+  std::vector<std::uint32_t> expected;
+  for (std::uint32_t j = 0; j < b.size(); ++j)
+    if ((b.position[j] - c).norm() < 0.025 + b.radius[j] + skin) expected.push_back(j);
+  EXPECT_EQ(near.beads, expected);
+  EXPECT_EQ(near.shear.size(), expected.size());
+}
+
+}  // namespace
+}  // namespace dembuf::detail

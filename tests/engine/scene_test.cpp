@@ -1,0 +1,156 @@
+// Scene files, overrides and validation: every refusal names the field and the allowed range.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/scene_fields.h"
+
+namespace dembuf {
+namespace {
+
+std::string WriteTemp(const std::string& name, const std::string& text) {
+  const std::string path = testing::TempDir() + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+struct BadScene {
+  const char* label;
+  const char* toml;
+  const char* field;    // the field the error must name ("" for file-level errors)
+  const char* message;  // a fragment the message must contain
+};
+
+void PrintTo(const BadScene& c, std::ostream* os) {
+  *os << c.label;
+}
+
+class BadSceneFile : public testing::TestWithParam<BadScene> {};
+
+TEST_P(BadSceneFile, IsRefusedNamingTheFieldAndRange) {
+  const BadScene& c = GetParam();
+  const std::string path = WriteTemp(std::string(c.label) + ".toml", c.toml);
+  try {
+    LoadSceneFile(path);
+    FAIL() << "accepted: " << c.toml;
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), c.field) << e.what();
+    EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << e.what();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Scene, BadSceneFile,
+    testing::Values(BadScene{"negative_size", "[beads]\ndiameter_min_m = -0.004\n",
+                             "beads.diameter_min_m", "must be > 0"},
+                    BadScene{"negative_friction", "[material]\nfriction_bead_bead = -0.1\n",
+                             "material.friction_bead_bead", "must be >= 0.0 and <= 10.0"},
+                    BadScene{"restitution_above_one", "[material]\nrestitution = 1.2\n",
+                             "material.restitution", "must be > 0.0 and <= 1.0"},
+                    BadScene{"restitution_zero", "[material]\nrestitution = 0\n",
+                             "material.restitution", "out of range"},
+                    BadScene{"alpha_beyond_limit", "[time]\nalpha = 1.5\n", "time.alpha",
+                             "must be > 0.0 and <= 1.0"},
+                    BadScene{"projectile_too_big", "[projectile]\ndiameter_m = 0.2\n",
+                             "projectile.diameter_m", "does not fit in the cylinder"},
+                    BadScene{"nan_mass", "[projectile]\nmass_kg = nan\n", "projectile.mass_kg",
+                             "not a finite number"},
+                    BadScene{"infinite_speed", "[projectile]\nspeed_m_s = inf\n",
+                             "projectile.speed_m_s", "not a finite number"},
+                    BadScene{"unknown_field", "[projectile]\ncolour = \"red\"\n",
+                             "projectile.colour", "known fields here: projectile.enabled"},
+                    BadScene{"unknown_section", "[lid]\nheight_m = 0.1\n", "lid.height_m",
+                             "known sections and fields"},
+                    BadScene{"wrong_type", "[projectile]\nmass_kg = \"heavy\"\n",
+                             "projectile.mass_kg", "expected a number, got a string"},
+                    BadScene{"bad_syntax", "[projectile\nmass_kg = 1\n", "", "not valid TOML"},
+                    BadScene{"min_above_max", "[beads]\ndiameter_min_m = 0.006\n",
+                             "beads.diameter_min_m", "exceeds beads.diameter_max_m"},
+                    BadScene{"unknown_choice", "[material]\nshear_stiffness = \"linear\"\n",
+                             "material.shear_stiffness", "choose one of: paper, mindlin"},
+                    BadScene{"projectile_in_bed", "[projectile]\nheight_m = 0.01\n",
+                             "projectile.height_m", "more than one radius"},
+                    BadScene{"missing_bed_file", "[bed]\nimport = \"no-such-bed.txt\"\n",
+                             "bed.import", "does not exist"},
+                    BadScene{"fractional_seed", "[bed]\nseed = 1.5\n", "bed.seed",
+                             "expected a whole number, got a float"},
+                    BadScene{"number_for_bool", "[projectile]\nenabled = 1\n", "projectile.enabled",
+                             "expected true or false"},
+                    BadScene{"poisson_half", "[material]\npoisson_ratio = 0.5\n",
+                             "material.poisson_ratio", "< 0.5"},
+                    BadScene{"millimetres_as_metres", "[cylinder]\nradius_m = 95\n",
+                             "cylinder.radius_m", "<= 5.0 (m)"}),
+    [](const testing::TestParamInfo<BadScene>& info) { return info.param.label; });
+
+TEST(SceneFile, ReadsFieldsAndKeepsDefaultsForTheRest) {
+  const std::string path =
+      WriteTemp("good.toml",
+                "gravity_m_s2 = 9.8\n[projectile]\nmass_kg = 0.3\nspeed_m_s = 5\n"
+                "[material]\nshear_stiffness = \"mindlin\"\n");
+  const Scene s = LoadSceneFile(path);
+  EXPECT_EQ(s.projectile.mass_kg, 0.3);
+  EXPECT_EQ(s.projectile.speed_m_s, 5.0);  // an integer is accepted for a number
+  EXPECT_EQ(s.gravity_m_s2, 9.8);
+  EXPECT_EQ(s.material.shear_stiffness, "mindlin");
+  EXPECT_EQ(s.projectile.diameter_m, Scene{}.projectile.diameter_m);
+}
+
+TEST(SceneFile, PrintedSceneReadsBackIdentically) {
+  Scene s;
+  s.projectile.mass_kg = 0.1234567890123;
+  s.bed.seed = 99;
+  s.walls.material_from_beads = false;
+  s.material.shear_stiffness = "mindlin";
+  std::ostringstream text;
+  PrintScene(s, text);
+  const Scene back = LoadSceneFile(WriteTemp("printed.toml", text.str()));
+  for (const SceneField& f : SceneFields())
+    EXPECT_EQ(FormatSceneField(back, f), FormatSceneField(s, f)) << f.name;
+  EXPECT_NE(text.str().find("mass_kg = 0.1234567890123  # [kg]"), std::string::npos);
+}
+
+TEST(Overrides, SetFieldsByDottedName) {
+  Scene s;
+  ApplyOverride(s, "projectile.speed_m_s=5");
+  ApplyOverride(s, "projectile.enabled=false");
+  ApplyOverride(s, "material.shear_stiffness=mindlin");
+  ApplyOverride(s, "bed.seed=17");
+  EXPECT_EQ(s.projectile.speed_m_s, 5.0);
+  EXPECT_FALSE(s.projectile.enabled);
+  EXPECT_EQ(s.material.shear_stiffness, "mindlin");
+  EXPECT_EQ(s.bed.seed, 17);
+}
+
+TEST(Overrides, BadOverridesNameTheField) {
+  Scene s;
+  auto field_of = [&](const char* text) {
+    try {
+      ApplyOverride(s, text);
+    } catch (const SceneError& e) {
+      return e.field();
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(field_of("projectile.mass_kg=abc"), "projectile.mass_kg");
+  EXPECT_EQ(field_of("projectile.mass_kg=-1"), "projectile.mass_kg");
+  EXPECT_EQ(field_of("projectile.mass_kg=1kg"), "projectile.mass_kg");
+  EXPECT_EQ(field_of("projectile.mass=1"), "projectile.mass");
+  EXPECT_EQ(field_of("time.alpha=nan"), "time.alpha");
+  EXPECT_EQ(field_of("projectile.enabled=yes"), "projectile.enabled");
+  EXPECT_EQ(field_of("projectile.speed_m_s"), "");  // no '='
+}
+
+TEST(Overrides, EveryRequiredFieldNameExists) {
+  // Field names the lab's scripts rely on (the engine's interface contract).
+  for (const char* name :
+       {"bed.thickness_m", "bed.prep_friction", "bed.seed", "bed.import", "cylinder.radius_m",
+        "material.friction_bead_bead", "material.friction_bead_wall", "material.restitution",
+        "projectile.mass_kg", "projectile.diameter_m", "projectile.speed_m_s",
+        "projectile.height_m", "time.alpha", "time.end_s"})
+    EXPECT_NE(FindSceneField(name), nullptr) << name;
+}
+
+}  // namespace
+}  // namespace dembuf

@@ -2,6 +2,7 @@
 //
 // Exit codes: 0 success, 1 usage or I/O error, 2 invalid scene, 3 simulation failed
 // (unstable), 130 interrupted.
+#include <unistd.h>
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <csignal>
@@ -10,6 +11,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "dembuf/engine/bed.h"
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
@@ -17,6 +19,7 @@
 #include "progress.h"
 #include "run_output.h"
 #include "scene_input.h"
+#include "snapshot_output.h"
 
 namespace fs = std::filesystem;
 using namespace dembuf;
@@ -49,7 +52,29 @@ struct RunOptions {
   std::vector<std::string> overrides;
   std::string out_dir;
   bool force = false;
+  std::string bed_cache;
+  bool no_bed_cache = false;
 };
+
+// Prepared beds are kept between runs: $DEMBUF_BED_CACHE, else $XDG_CACHE_HOME/dembuf/beds,
+// else ~/.cache/dembuf/beds.
+fs::path BedCacheDir(const RunOptions& opt) {
+  if (opt.no_bed_cache) return {};
+  if (!opt.bed_cache.empty()) return opt.bed_cache;
+  if (const char* env = std::getenv("DEMBUF_BED_CACHE"); env && *env) return env;
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
+    return fs::path(xdg) / "dembuf" / "beds";
+  if (const char* home = std::getenv("HOME"); home && *home)
+    return fs::path(home) / ".cache" / "dembuf" / "beds";
+  return {};
+}
+
+void PrintBedProgress(const BedProgress& p) {
+  if (!isatty(fileno(stderr))) return;
+  std::fprintf(stderr, "\r%s: %zu beads, t = %.1f ms, kinetic %.2g m g d, balance %.2g%%   ",
+               p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, p.balance_error * 100);
+  std::fflush(stderr);
+}
 
 void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
   std::printf("beads %zu, dt %.4g us (alpha %.3g of %.4g us), %lld steps, wall time %.2f s\n",
@@ -62,6 +87,20 @@ void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
                 s.impact_speed_m_s);
   std::printf("peak plate force %.6g N at t = %.4f ms\n", s.peak_plate_force_N,
               s.peak_plate_force_time_s * 1e3);
+  if (s.beads > 0) {
+    std::printf("bed H = %.2f cm, C0 = %.3f, %zu beads\n", s.bed.thickness_m * 100,
+                s.bed.solid_fraction, s.beads);
+    auto peak = [](bool has, const ForcePeak& p) {
+      char buf[64];
+      if (!has) return std::string("none");
+      std::snprintf(buf, sizeof buf, "%.4g N at %.4f ms", p.force_N, p.time_s * 1e3);
+      return std::string(buf);
+    };
+    std::printf("Pa %s, Pb %s\n", peak(s.peaks.has_pa, s.peaks.pa).c_str(),
+                peak(s.peaks.has_pb, s.peaks.pb).c_str());
+    std::printf("P = %.4g N, bare-plate Pa0 = %.4g N, lambda = %.1f%%, crater depth %.2f cm\n",
+                s.peaks.p_N, s.reference_peak_N, 100 * s.lambda, 100 * s.crater_depth_m);
+  }
   std::printf("ended at %.4f ms: %s\n", s.end_time_s * 1e3, s.end_reason.c_str());
   std::printf("wrote %s and %s\n", (dir / "plate_force.csv").c_str(),
               (dir / "summary.json").c_str());
@@ -70,7 +109,16 @@ void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
 int RunLocal(const RunOptions& opt) {
   // Everything about the scene is checked before anything is written.
   Scene scene = cli::ResolveScene(opt.scene_file, opt.overrides);
-  World world = BuildWorld(scene);
+  BedCache beds(BedCacheDir(opt));
+  BedRequest bed_request;
+  bed_request.cancel = &g_interrupted;
+  bed_request.on_progress = PrintBedProgress;
+  std::signal(SIGINT, OnInterrupt);
+  std::signal(SIGTERM, OnInterrupt);
+  World world = BuildWorld(scene, &beds, &bed_request);
+  for (const auto& [stage, count] : beds.prepared_counts())
+    std::fprintf(stderr, "%sprepared %d %s bed(s)\n", isatty(fileno(stderr)) ? "\n" : "", count,
+                 stage.c_str());
 
   const fs::path dir = opt.out_dir.empty() ? DefaultOutputDir() : fs::path(opt.out_dir);
   if (fs::exists(dir / "summary.json") && !opt.force) {
@@ -88,8 +136,9 @@ int RunLocal(const RunOptions& opt) {
   control.on_sample = [&](const ImpactSample& s) { csv.Write(s); };
   control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
   control.cancel = &g_interrupted;
-  std::signal(SIGINT, OnInterrupt);
-  std::signal(SIGTERM, OnInterrupt);
+  control.on_snapshot = [&](const ImpactSnapshot& snap) {
+    cli::WriteSnapshot(snap, dir, scene.cylinder.radius_m, scene.beads.diameter_max_m);
+  };
 
   try {
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
@@ -142,6 +191,9 @@ int main(int argc, char** argv) {
   add_scene_args(run);
   run->add_option("--out", opt.out_dir, "output folder (default: dembuf-run-<UTC time>)");
   run->add_flag("--force", opt.force, "replace a run already in the output folder");
+  run->add_option("--bed-cache", opt.bed_cache,
+                  "folder of prepared beds (default ~/.cache/dembuf/beds)");
+  run->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");
 
   CLI::App* scene_cmd = app.add_subcommand("scene", "show a scene with every default and unit");
   add_scene_args(scene_cmd);

@@ -52,6 +52,34 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
       {"end_reason", s.end_reason},
       {"scene", SceneToJson(scene)},
   };
+  // The paper's measurements (MODEL.md section 7).
+  const PeakAnalysis& pk = s.peaks;
+  auto optional = [](bool has, double v) { return has ? nlohmann::json(v) : nlohmann::json(); };
+  j["P_N"] = pk.p_N;
+  j["P_time_s"] = pk.p_time_s;
+  j["Pa_N"] = optional(pk.has_pa, pk.pa.force_N);
+  j["Pa_time_s"] = optional(pk.has_pa, pk.pa.time_s);
+  j["Pb_N"] = optional(pk.has_pb, pk.pb.force_N);
+  j["Pb_time_s"] = optional(pk.has_pb, pk.pb.time_s);
+  j["dS_m"] = optional(pk.has_pa && pk.has_pb, pk.ds_m);
+  j["dt_peaks_s"] = optional(pk.has_pa && pk.has_pb, pk.dt_peaks_s);
+  j["load_duration_s"] = pk.load_duration_s;
+  j["lambda"] = s.lambda;
+  j["reference_peak_N"] = s.reference_peak_N;
+  j["crater_depth_m"] = s.crater_depth_m;
+  j["bed_thickness_m"] = s.bed.thickness_m;
+  j["C0"] = s.bed.solid_fraction;
+  j["bed"] = {{"hash", s.bed.hash},
+              {"rest_plate_force_N", s.bed.rest_plate_force_N},
+              {"rest_wall_force_z_N", s.bed.rest_wall_force_z_N},
+              {"weight_N", s.bed.weight_N}};
+  nlohmann::json peaks = nlohmann::json::array();
+  for (const ForcePeak& p : pk.peaks)
+    peaks.push_back({{"force_N", p.force_N},
+                     {"time_s", p.time_s},
+                     {"kind", p.is_push ? "Pa" : "Pb"},
+                     {"projectile_z_m", p.projectile_z_m}});
+  j["peaks"] = peaks;
   j["first_contact_time_s"] =
       s.first_contact_time_s >= 0.0 ? nlohmann::json(s.first_contact_time_s) : nlohmann::json();
   return j;

@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 
+#include "dembuf/engine/bed.h"
 #include "dembuf/engine/bed_io.h"
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/scene_fields.h"
@@ -20,13 +21,8 @@ double FallTime(double z0, double vz0, double z1, double gravity_m_s2) {
   return (vz0 + std::sqrt(vz0 * vz0 + 2.0 * gravity_m_s2 * drop)) / gravity_m_s2;
 }
 
-World BuildWorld(const Scene& scene) {
-  ValidateScene(scene);
-  if (!scene.projectile.enabled && scene.time.end_s == 0.0)
-    throw SceneError("time.end_s",
-                     "must be > 0 when projectile.enabled = false (the automatic "
-                     "end waits for the projectile's impact)");
-  World world;
+ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
+  ContactSetup setup;
   const MaterialSpec& mat = scene.material;
   const ShearStiffness shear =
       mat.shear_stiffness == "mindlin" ? ShearStiffness::kMindlin : ShearStiffness::kPaper;
@@ -42,30 +38,44 @@ World BuildWorld(const Scene& scene) {
   const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
   const double bead_mass = mat.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);
-  world.damping =
+  setup.damping =
       CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref, 0.5 * bead_mass);
-  const double A = world.damping.damping_A_s;
+  const double A = setup.damping.damping_A_s;
 
-  WorldParams& wp = world.params;
+  WorldParams& wp = setup.params;
   wp.container = {scene.cylinder.radius_m, scene.cylinder.height_m};
   wp.sphere_pair = MakePairParams(pair_moduli, A, mat.friction_bead_bead);
   wp.sphere_wall = MakePairParams(wall_moduli, A, mat.friction_bead_wall);
   wp.gravity_m_s2 = scene.gravity_m_s2;
+  setup.critical_dt_s =
+      CriticalTimeStep(min_radius_m, mat.density_kg_m3, mat.youngs_modulus_Pa, mat.poisson_ratio);
+  wp.dt_s = scene.time.alpha * setup.critical_dt_s;
+  return setup;
+}
 
-  if (!scene.bed.import.empty()) {
-    world.beads = ImportTextBed(scene.bed.import, scene);
-  } else if (scene.bed.thickness_m > 0.0) {
-    throw SceneError("bed.thickness_m",
-                     "preparing a bed is not available in this version; set bed.thickness_m = 0 "
-                     "or give a bed file with bed.import");
+World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request) {
+  ValidateScene(scene);
+  if (!scene.projectile.enabled && scene.time.end_s == 0.0)
+    throw SceneError("time.end_s",
+                     "must be > 0 when projectile.enabled = false (the automatic "
+                     "end waits for the projectile's impact)");
+  World world;
+  if (!scene.bed.import.empty() || scene.bed.thickness_m > 0.0) {
+    BedCache private_cache;
+    PreparedBed bed =
+        GetBed(scene, cache ? *cache : private_cache, request ? *request : BedRequest{});
+    world.beads = std::move(bed.beads);
+    world.history = std::move(bed.history);
+    world.bed_surface_m = bed.surface_m;
+    world.bed = BedSummary{bed.hash,          bed.surface_m,      bed.solid_fraction,
+                           bed.plate_force_N, bed.wall_force_z_N, bed.weight_N};
   }
-  world.bed_surface_m = BedSurfaceHeight(world.beads);
-
   double min_radius = 0.5 * scene.beads.diameter_min_m;
   for (double r : world.beads.radius) min_radius = std::min(min_radius, r);
-  world.critical_dt_s =
-      CriticalTimeStep(min_radius, mat.density_kg_m3, mat.youngs_modulus_Pa, mat.poisson_ratio);
-  wp.dt_s = scene.time.alpha * world.critical_dt_s;
+  ContactSetup setup = MakeContactSetup(scene, min_radius);
+  world.params = setup.params;
+  world.damping = setup.damping;
+  world.critical_dt_s = setup.critical_dt_s;
 
   if (scene.projectile.enabled) {
     RigidSphere p;
@@ -114,10 +124,32 @@ ImpactSample MakeSample(const Simulation& sim) {
 }  // namespace
 
 ImpactSummary RunImpact(const Scene& scene, const RunControl& control) {
-  return RunImpact(BuildWorld(scene), scene, control);
+  return RunImpact(BuildWorld(scene, control.beds, control.bed_request), scene, control);
 }
 
-ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& control) {
+namespace {
+
+ImpactSnapshot TakeSnapshot(const Simulation& sim, const std::string& label) {
+  ImpactSnapshot snap;
+  snap.label = label;
+  snap.t_s = sim.time_s();
+  snap.positions = sim.beads().position;
+  snap.radii = sim.beads().radius;
+  snap.projectile = sim.projectile();
+  snap.contacts = sim.Contacts();
+  return snap;
+}
+
+std::string TimeLabel(double t) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "t=%.6g", t);
+  return buf;
+}
+
+// One pass of the impact. `peak_step` >= 0 asks for a "peak" snapshot at that step (known from
+// an earlier pass of the same deterministic run).
+ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control,
+                      std::int64_t peak_step, std::int64_t* found_peak_step) {
   const auto wall_start = std::chrono::steady_clock::now();
   ImpactSummary summary;
   summary.beads = world.beads.size();
@@ -125,12 +157,20 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
   summary.critical_dt_s = world.critical_dt_s;
   summary.damping = world.damping;
   summary.bed_surface_m = world.bed_surface_m;
+  summary.bed = world.bed;
 
-  Simulation sim(world.params, std::move(world.beads), world.projectile);
+  Simulation sim(world.params, std::move(world.beads), world.projectile, world.history);
   sim.RefreshForces();  // the resting load of the bed, felt during the free flight
+  const double rest_force = sim.observables().plate_force_N;
   SampleClock clock(scene.time.output_interval_s);
   auto emit = [&](const ImpactSample& s) {
     if (control.on_sample) control.on_sample(s);
+  };
+  std::vector<double> snapshot_times = scene.output.snapshot_times_s;
+  std::sort(snapshot_times.begin(), snapshot_times.end());
+  std::size_t next_snapshot = 0;
+  auto snapshot = [&](const ImpactSnapshot& snap) {
+    if (control.on_snapshot) control.on_snapshot(snap);
   };
 
   const double g = scene.gravity_m_s2;
@@ -138,20 +178,42 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
       scene.time.end_s > 0.0 ? scene.time.end_s : std::numeric_limits<double>::infinity();
   double t_end_estimate = t_limit;
 
-  // Free flight: nothing but gravity acts on the projectile until its lowest point reaches
-  // the top of the bed, and the resting bed does not change meanwhile. Jump there analytically,
-  // stopping a few steps short so that the first contact is integrated from its start.
+  // Free flight: nothing but gravity acts on the projectile until it reaches the first bead
+  // below it (or the plate), and the resting bed does not change meanwhile. Jump there
+  // analytically, stopping a few steps short so that the first contact is integrated whole.
   if (sim.projectile()) {
     RigidSphere p = *sim.projectile();
+    // The centre height at first contact: touching bead i at horizontal distance rho needs
+    // z_c = z_i + sqrt((R + r_i)^2 - rho^2); the plate needs z_c = R.
+    double contact_z = p.radius;
+    const ParticleState& beads = sim.beads();
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      const double reach = p.radius + beads.radius[i];
+      const double dx = beads.position[i].x() - p.position.x();
+      const double dy = beads.position[i].y() - p.position.y();
+      const double rho2 = dx * dx + dy * dy;
+      if (rho2 < reach * reach)
+        contact_z = std::max(contact_z, beads.position[i].z() + std::sqrt(reach * reach - rho2));
+    }
     const double speed_bound = std::abs(p.velocity.z()) + std::sqrt(2.0 * g * p.position.z());
     const double margin = 4.0 * speed_bound * world.params.dt_s;
-    const double target = world.bed_surface_m + p.radius + margin;
-    double t_fly = FallTime(p.position.z(), p.velocity.z(), target, g);
+    double t_fly = FallTime(p.position.z(), p.velocity.z(), contact_z + margin, g);
     if (t_fly < 0.0) t_fly = std::isfinite(t_limit) ? t_limit : 0.0;
     t_fly = std::min(t_fly, t_limit);
     if (t_fly > 0.0) {
       ImpactSample s = MakeSample(sim);
       const double z0 = p.position.z(), vz0 = p.velocity.z();
+      const ImpactSnapshot at_rest =
+          snapshot_times.empty() ? ImpactSnapshot{} : TakeSnapshot(sim, "");
+      while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot] <= t_fly) {
+        const double t = snapshot_times[next_snapshot++];
+        ImpactSnapshot snap = at_rest;
+        snap.label = TimeLabel(t);
+        snap.t_s = t;
+        snap.projectile->position.z() = z0 + vz0 * t - 0.5 * g * t * t;
+        snap.projectile->velocity.z() = vz0 - g * t;
+        snapshot(snap);
+      }
       for (double t = clock.NextTime(); t <= t_fly; clock.Advance(t), t = clock.NextTime()) {
         s.t_s = t;
         s.projectile_z_m = z0 + vz0 * t - 0.5 * g * t * t;
@@ -163,14 +225,17 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
       sim.SetProjectile(p, t_fly);
       sim.RefreshForces();
       summary.free_flight_s = t_fly;
-      summary.impact_speed_m_s = std::abs(p.velocity.z());
     }
+    summary.impact_speed_m_s = sim.projectile()->velocity.norm();
     if (scene.time.end_s == 0.0) t_end_estimate = t_fly + scene.time.impact_window_s;
   }
 
-  // The impact, step by step.
+  // The impact, step by step. Every step goes into the series the peaks are found in.
+  ImpactSeries series;
   double peak = sim.observables().plate_force_N;
   double peak_time = sim.time_s();
+  std::int64_t peak_at_step = 0;
+  double crater = -std::numeric_limits<double>::infinity();
   double rest_since = -1.0;  // when the projectile last became slow
   const double slow_speed = 0.01 * std::max(summary.impact_speed_m_s, 1e-3);
   std::int64_t next_progress = control.progress_every_steps;
@@ -185,11 +250,23 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
     if (o.plate_force_N > peak) {
       peak = o.plate_force_N;
       peak_time = t;
+      peak_at_step = sim.steps();
+    }
+    series.t_s.push_back(t);
+    series.plate_force_N.push_back(o.plate_force_N);
+    if (sim.projectile()) {
+      const RigidSphere& p = *sim.projectile();
+      series.projectile_z_m.push_back(p.position.z());
+      series.projectile_speed_m_s.push_back(p.velocity.norm());
+      crater = std::max(crater, world.bed_surface_m - (p.position.z() - p.radius));
     }
     if (clock.Due(t)) {
       emit(MakeSample(sim));
       clock.Advance(t);
     }
+    while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot] <= t)
+      snapshot(TakeSnapshot(sim, TimeLabel(snapshot_times[next_snapshot++])));
+    if (sim.steps() == peak_step) snapshot(TakeSnapshot(sim, "peak"));
     if (sim.steps() >= next_progress) {
       next_progress += control.progress_every_steps;
       if (control.cancel && control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
@@ -224,13 +301,49 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
     }
   }
   if (control.on_progress) control.on_progress({sim.time_s(), sim.time_s(), sim.steps()});
+  if (found_peak_step) *found_peak_step = peak_at_step;
 
   summary.peak_plate_force_N = peak;
   summary.peak_plate_force_time_s = peak_time;
+  summary.peaks = AnalyzePeaks(series, rest_force, summary.impact_speed_m_s);
+  summary.crater_depth_m = std::isfinite(crater) ? crater : 0.0;
   summary.steps = sim.steps();
   summary.end_time_s = sim.time_s();
   summary.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return summary;
+}
+
+}  // namespace
+
+ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& control) {
+  ImpactSummary summary;
+  if (scene.output.snapshot_at_peak) {
+    // The run is deterministic: a first pass finds the step of the peak, the second takes the
+    // snapshot there.
+    RunControl quiet;
+    quiet.cancel = control.cancel;
+    std::int64_t peak_step = -1;
+    RunPass(world, scene, quiet, -1, &peak_step);
+    summary = RunPass(std::move(world), scene, control, peak_step, nullptr);
+  } else {
+    summary = RunPass(std::move(world), scene, control, -1, nullptr);
+  }
+  // The buffer ratio needs the same impact on the bare plate (a few hundred steps).
+  if (summary.beads == 0 || !scene.projectile.enabled) {
+    summary.reference_peak_N = summary.peaks.p_N;
+  } else if (control.compute_reference) {
+    Scene bare = scene;
+    bare.bed.thickness_m = 0.0;
+    bare.bed.import.clear();
+    bare.output = OutputSpec{};
+    RunControl quiet;
+    quiet.cancel = control.cancel;
+    quiet.compute_reference = false;
+    summary.reference_peak_N = RunImpact(bare, quiet).peaks.p_N;
+  }
+  if (summary.reference_peak_N > 0.0)
+    summary.lambda = (summary.reference_peak_N - summary.peaks.p_N) / summary.reference_peak_N;
   return summary;
 }
 

@@ -74,6 +74,14 @@ const std::vector<SceneField>& FieldTable() {
       {"bed.seed", "", "random seed of the bead insertion", DEMBUF_FIELD(bed.seed), 0.0, 1e15},
       {"bed.import", "", "bed file, one bead per line: x y z radius (m); empty = prepare",
        DEMBUF_FIELD(bed.import)},
+      {"bed.source_thickness_m", "m", "thickness of the settled bed every H is cut from",
+       DEMBUF_FIELD(bed.source_thickness_m), 0.0, 10.0, true},
+      {"bed.settle_tolerance", "", "rest: kinetic energy per bead below this times m g d",
+       DEMBUF_FIELD(bed.settle_tolerance), 0.0, 1.0, true},
+      {"bed.max_settle_s", "s", "simulated time allowed for settling before giving up",
+       DEMBUF_FIELD(bed.max_settle_s), 0.0, 1e3, true},
+      {"bed.friction_ramp_s", "s", "duration of the slow change from prep_friction to mu_pp",
+       DEMBUF_FIELD(bed.friction_ramp_s), 0.0, 10.0},
 
       {"projectile.enabled", "", "drop a projectile", DEMBUF_FIELD(projectile.enabled)},
       {"projectile.diameter_m", "m", "projectile diameter D", DEMBUF_FIELD(projectile.diameter_m),
@@ -93,6 +101,12 @@ const std::vector<SceneField>& FieldTable() {
        DEMBUF_FIELD(time.impact_window_s), 0.0, 1e3, true},
       {"time.output_interval_s", "s", "spacing of the written force samples",
        DEMBUF_FIELD(time.output_interval_s), 0.0, 1.0, true},
+
+      {"output.snapshot_times_s", "s",
+       "times of contact-network snapshots (force chains, plate map, force PDF)",
+       DEMBUF_FIELD(output.snapshot_times_s), 0.0, 1e3},
+      {"output.snapshot_at_peak", "", "also snapshot at the peak plate force (runs twice)",
+       DEMBUF_FIELD(output.snapshot_at_peak)},
   };
   return table;
 }
@@ -214,10 +228,26 @@ void SetFromToml(Scene& scene, const SceneField& f, const toml::value& v) {
       if (!v.is_boolean()) throw wrong_type();
       std::get<bool& (*)(Scene&)>(f.ref)(scene) = v.as_boolean();
       break;
-    default:
+    case 3:
       if (!v.is_string()) throw wrong_type();
       SetString(scene, f, v.as_string().str);
       break;
+    default: {
+      if (!v.is_array()) throw wrong_type();
+      std::vector<double> list;
+      for (const toml::value& item : v.as_array()) {
+        if (item.is_floating()) {
+          list.push_back(item.as_floating());
+        } else if (item.is_integer()) {
+          list.push_back(static_cast<double>(item.as_integer()));
+        } else {
+          throw wrong_type();
+        }
+        CheckRange(f, list.back(), FormatNumber(list.back()));
+      }
+      std::get<std::vector<double>& (*)(Scene&)>(f.ref)(scene) = list;
+      break;
+    }
   }
 }
 
@@ -255,9 +285,30 @@ void SetSceneField(Scene& scene, std::string_view name, std::string_view value) 
                          "\"" + std::string(value) + "\" is not a boolean; use true or false");
       }
       break;
-    default:
+    case 3:
       SetString(scene, f, value);
       break;
+    default: {  // comma-separated numbers; empty for none
+      std::vector<double> list;
+      std::string_view rest = value;
+      while (!rest.empty()) {
+        const auto comma = rest.find(',');
+        std::string_view item = rest.substr(0, comma);
+        while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
+        while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
+        double v = 0.0;
+        auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
+        if (ec != std::errc() || end != item.data() + item.size() || item.empty())
+          throw SceneError(std::string(name), "\"" + std::string(item) +
+                                                  "\" is not a number (give a comma-separated "
+                                                  "list)");
+        CheckRange(f, v, item);
+        list.push_back(v);
+        rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+      }
+      std::get<std::vector<double>& (*)(Scene&)>(f.ref)(scene) = list;
+      break;
+    }
   }
 }
 
@@ -314,6 +365,8 @@ void ValidateScene(const Scene& scene) {
       CheckRange(f, static_cast<double>(v), std::to_string(v));
     } else if (auto* gets = std::get_if<std::string& (*)(Scene&)>(&f.ref)) {
       SetString(copy, f, (*gets)(copy));  // checks the choices
+    } else if (auto* getl = std::get_if<std::vector<double>& (*)(Scene&)>(&f.ref)) {
+      for (double v : (*getl)(copy)) CheckRange(f, v, FormatNumber(v));
     }
   }
 
@@ -359,6 +412,10 @@ std::string FormatSceneField(const Scene& scene, const SceneField& field) {
           return std::to_string(v);
         } else if constexpr (std::is_same_v<T, bool>) {
           return v ? "true" : "false";
+        } else if constexpr (std::is_same_v<T, std::vector<double>>) {
+          std::string list = "[";
+          for (std::size_t k = 0; k < v.size(); ++k) list += (k ? ", " : "") + FormatNumber(v[k]);
+          return list + "]";
         } else {
           std::string quoted = "\"";
           for (char c : v) {

@@ -24,9 +24,10 @@ struct StepConditions {
   long nonfinite_bead = -1;
   long escaped_bead = -1;
   bool projectile_bad = false;
-  void NoteOverlap(double ratio, long i, long j) {
-    if (ratio > max_overlap_ratio) {
-      max_overlap_ratio = ratio;
+  // Records an overlap beyond the limit; the common case costs one compare, no division.
+  void NoteOverlap(double overlap, double radius, long i, long j) {
+    if (overlap > kMaxOverlapRatio * radius && overlap / radius > max_overlap_ratio) {
+      max_overlap_ratio = overlap / radius;
       overlap_i = i;
       overlap_j = j;
     }
@@ -68,6 +69,8 @@ struct Simulation::Impl {
   bool lists_valid = false;
   bool forces_valid = false;
 
+  std::vector<ContactHistoryEntry> pending_history;  // applied at the next list build
+
   double skin = 0.0;
   double max_radius = 0.0;
   double min_radius = 0.0;
@@ -76,7 +79,8 @@ struct Simulation::Impl {
 };
 
 Simulation::Simulation(const WorldParams& params, ParticleState beads,
-                       std::optional<RigidSphere> projectile)
+                       std::optional<RigidSphere> projectile,
+                       const std::vector<ContactHistoryEntry>& history)
     : m_params(params),
       m_beads(std::move(beads)),
       m_projectile(std::move(projectile)),
@@ -92,6 +96,7 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   s.skin = params.skin_fraction * 2.0 * s.min_radius;
   // Friction needs the tangential history and rotation; a frictionless scene skips both.
   s.friction = params.sphere_pair.friction > 0.0 || params.sphere_wall.friction > 0.0;
+  s.pending_history = history;
 }
 
 Simulation::~Simulation() = default;
@@ -114,18 +119,17 @@ int ContainerContacts(const Container& box, const PairParams& p, double dt, cons
                       const Vec3& v, const Vec3& w, double r, Vec3& plate_shear, Vec3& wall_shear,
                       Vec3& force, Vec3& torque, StepObservables& obs, StepConditions& cond,
                       long id) {
-  const double sqrt_r = std::sqrt(r);  // R* = R against a wall
   int touching = 0;
   const double plate_overlap = r - x.z();
   if (plate_overlap > 0.0) {
     const double arm = detail::LeverArm(r, plate_overlap);
     const ContactGeometry c =
-        detail::MakeGeometry(Vec3::UnitZ(), plate_overlap, v, arm * w, sqrt_r);
+        detail::MakeGeometry(Vec3::UnitZ(), plate_overlap, v, arm * w, std::sqrt(r));
     const auto out = detail::Resolve<kFriction>(c, arm, 0.0, p, dt, plate_shear);
     force += out.force;
     torque += out.torque_i;
     obs.plate_force_N += out.normal;
-    cond.NoteOverlap(plate_overlap / r, id, -1);
+    cond.NoteOverlap(plate_overlap, r, id, -1);
     ++touching;
   } else if constexpr (kFriction) {
     plate_shear.setZero();
@@ -138,12 +142,12 @@ int ContainerContacts(const Container& box, const PairParams& p, double dt, cons
     const double overlap = rho - inner;
     const Vec3 n(-x.x() / rho, -x.y() / rho, 0.0);
     const double arm = detail::LeverArm(r, overlap);
-    const ContactGeometry c = detail::MakeGeometry(n, overlap, v, arm * w, sqrt_r);
+    const ContactGeometry c = detail::MakeGeometry(n, overlap, v, arm * w, std::sqrt(r));
     const auto out = detail::Resolve<kFriction>(c, arm, 0.0, p, dt, wall_shear);
     force += out.force;
     torque += out.torque_i;
     obs.wall_force_z_N += out.force.z();
-    cond.NoteOverlap(overlap / r, id, -2);
+    cond.NoteOverlap(overlap, r, id, -2);
     ++touching;
   } else if constexpr (kFriction) {
     wall_shear.setZero();
@@ -185,7 +189,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       }
       const double dist = std::sqrt(dist2);
       const double overlap = rsum - dist;
-      const Vec3 normal = d / dist;
+      const Vec3 normal = d * (1.0 / dist);
       const double ai = detail::LeverArm(ri, overlap), aj = detail::LeverArm(rj, overlap);
       const Vec3 w_arm =
           kFriction ? Vec3(ai * b.angular_velocity[i] + aj * b.angular_velocity[j]) : Vec3::Zero();
@@ -198,7 +202,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
         b.torque[i] += out.torque_i;
         b.torque[j] += out.torque_j;
       }
-      cond.NoteOverlap(overlap / std::min(ri, rj), static_cast<long>(i), static_cast<long>(j));
+      cond.NoteOverlap(overlap, std::min(ri, rj), static_cast<long>(i), static_cast<long>(j));
       ++obs.bead_contacts;
     }
   }
@@ -231,7 +235,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       }
       const double dist = std::sqrt(dist2);
       const double overlap = rsum - dist;
-      const Vec3 normal = d / dist;
+      const Vec3 normal = d * (1.0 / dist);
       const double ap = detail::LeverArm(p.radius, overlap), aj = detail::LeverArm(rj, overlap);
       const Vec3 w_arm =
           kFriction ? Vec3(ap * p.angular_velocity + aj * b.angular_velocity[j]) : Vec3::Zero();
@@ -243,10 +247,27 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       b.force[j] -= out.force;
       if constexpr (kFriction) b.torque[j] += out.torque_j;
       ++obs.projectile_contacts;
-      cond.NoteOverlap(overlap / rj, -3, static_cast<long>(j));
+      cond.NoteOverlap(overlap, rj, -3, static_cast<long>(j));
     }
     obs.projectile_force_N = p.force;
   }
+}
+
+// Restores saved tangential histories into the freshly built lists (a loaded bed).
+void ApplyHistory(Simulation::Impl& s) {
+  for (const ContactHistoryEntry& h : s.pending_history) {
+    if (h.other == ContactHistoryEntry::kPlate) {
+      s.plate_shear[h.bead] = h.shear;
+    } else if (h.other == ContactHistoryEntry::kSideWall) {
+      s.wall_shear[h.bead] = h.shear;
+    } else {
+      const auto first = s.pairs.partners.begin() + s.pairs.offsets[h.bead];
+      const auto last = s.pairs.partners.begin() + s.pairs.offsets[h.bead + 1];
+      const auto it = std::lower_bound(first, last, h.other);
+      if (it != last && *it == h.other) s.pairs.shear[it - s.pairs.partners.begin()] = h.shear;
+    }
+  }
+  s.pending_history.clear();
 }
 
 void RebuildLists(const WorldParams& params, const ParticleState& b,
@@ -265,6 +286,7 @@ void RebuildLists(const WorldParams& params, const ParticleState& b,
                   z_top + margin);
     s.grid.Build(b.position, cell, lo, hi);
     detail::RebuildPairList(b, s.grid, s.skin, s.pairs);
+    ApplyHistory(s);
     s.reference_position = b.position;
     if (projectile)
       detail::RebuildCandidateList(b, s.grid, projectile->position, projectile->radius,
@@ -389,6 +411,137 @@ void Simulation::CheckConditions() {
     Fail(what.str(), m_steps, m_time_s);
   }
   c = StepConditions{};
+}
+
+double Simulation::BeadKineticEnergy() const {
+  double e = 0.0;
+  const ParticleState& b = m_beads;
+  for (std::size_t i = 0; i < b.size(); ++i)
+    e += 0.5 * b.mass[i] * b.velocity[i].squaredNorm() +
+         0.5 / b.inv_inertia[i] * b.angular_velocity[i].squaredNorm();
+  return e;
+}
+
+void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
+  m_params.sphere_pair.friction = sphere_pair;
+  m_params.sphere_wall.friction = sphere_wall;
+  m_impl->friction = sphere_pair > 0.0 || sphere_wall > 0.0;
+  m_impl->forces_valid = false;
+}
+
+std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
+  const Impl& s = *m_impl;
+  std::vector<ContactHistoryEntry> out;
+  out.insert(out.end(), s.pending_history.begin(), s.pending_history.end());
+  for (std::uint32_t i = 0; i < m_beads.size(); ++i) {
+    if (s.plate_shear[i] != Vec3::Zero())
+      out.push_back({i, ContactHistoryEntry::kPlate, s.plate_shear[i]});
+    if (s.wall_shear[i] != Vec3::Zero())
+      out.push_back({i, ContactHistoryEntry::kSideWall, s.wall_shear[i]});
+  }
+  if (s.pairs.offsets.size() == m_beads.size() + 1) {
+    for (std::uint32_t i = 0; i < m_beads.size(); ++i)
+      for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k)
+        if (s.pairs.shear[k] != Vec3::Zero())
+          out.push_back({i, s.pairs.partners[k], s.pairs.shear[k]});
+  }
+  return out;
+}
+
+void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
+  Impl& s = *m_impl;
+  std::vector<ContactHistoryEntry> history = ExportHistory();
+  std::vector<std::uint32_t> new_id(m_beads.size(), ContactHistoryEntry::kPlate);
+  ParticleState kept;
+  std::vector<Vec3> plate_shear, wall_shear;
+  for (std::size_t i = 0; i < m_beads.size(); ++i) {
+    if (!keep[i]) continue;
+    new_id[i] = static_cast<std::uint32_t>(kept.size());
+    kept.position.push_back(m_beads.position[i]);
+    kept.velocity.push_back(m_beads.velocity[i]);
+    kept.angular_velocity.push_back(m_beads.angular_velocity[i]);
+    kept.force.push_back(m_beads.force[i]);
+    kept.torque.push_back(m_beads.torque[i]);
+    kept.radius.push_back(m_beads.radius[i]);
+    kept.mass.push_back(m_beads.mass[i]);
+    kept.inv_mass.push_back(m_beads.inv_mass[i]);
+    kept.inv_inertia.push_back(m_beads.inv_inertia[i]);
+    plate_shear.push_back(Vec3::Zero());
+    wall_shear.push_back(Vec3::Zero());
+  }
+  s.pending_history.clear();
+  for (ContactHistoryEntry h : history) {
+    if (!keep[h.bead]) continue;
+    const bool wall =
+        h.other == ContactHistoryEntry::kPlate || h.other == ContactHistoryEntry::kSideWall;
+    if (!wall && !keep[h.other]) continue;
+    h.bead = new_id[h.bead];
+    if (!wall) h.other = new_id[h.other];
+    s.pending_history.push_back(h);
+  }
+  m_beads = std::move(kept);
+  s.plate_shear = std::move(plate_shear);
+  s.wall_shear = std::move(wall_shear);
+  s.pairs = detail::PairList{};
+  s.near_projectile = detail::CandidateList{};
+  s.lists_valid = false;
+  s.forces_valid = false;
+}
+
+std::vector<ContactSnapshot> Simulation::Contacts() const {
+  const Impl& s = *m_impl;
+  std::vector<ContactSnapshot> out;
+  const ParticleState& b = m_beads;
+  // Normal force from the law with the current velocities, tangential from the stored spring
+  // (already capped by Coulomb in the last step).
+  auto add = [&](std::int64_t a, std::int64_t other, const Vec3& n, double overlap,
+                 const Vec3& v_rel, double ra, double sqrt_r, const PairParams& p,
+                 const Vec3& shear, const Vec3& x_a) {
+    const double kn = p.kn_per_sqrt_r * sqrt_r;
+    const double fn = HertzNormalForce(overlap, -v_rel.dot(n), kn, p.damping_A_s);
+    const Vec3 ft = -p.ks_per_sqrt_r * sqrt_r * std::sqrt(overlap) * shear;
+    out.push_back({a, other, x_a - detail::LeverArm(ra, overlap) * n, fn * n + ft, fn});
+  };
+  if (s.pairs.offsets.size() == b.size() + 1) {
+    for (std::uint32_t i = 0; i < b.size(); ++i)
+      for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k) {
+        const std::uint32_t j = s.pairs.partners[k];
+        const Vec3 d = b.position[i] - b.position[j];
+        const double rsum = b.radius[i] + b.radius[j], dist = d.norm();
+        if (dist >= rsum) continue;
+        add(i, j, d / dist, rsum - dist, b.velocity[i] - b.velocity[j], b.radius[i],
+            std::sqrt(b.radius[i] * b.radius[j] / rsum), m_params.sphere_pair, s.pairs.shear[k],
+            b.position[i]);
+      }
+  }
+  auto walls = [&](std::int64_t id, const Vec3& x, const Vec3& v, double r, const Vec3& plate,
+                   const Vec3& wall) {
+    if (r - x.z() > 0.0)
+      add(id, ContactSnapshot::kPlate, Vec3::UnitZ(), r - x.z(), v, r, std::sqrt(r),
+          m_params.sphere_wall, plate, x);
+    const double rho = std::hypot(x.x(), x.y());
+    const double overlap = rho - (m_params.container.radius_m - r);
+    if (overlap > 0.0 && x.z() >= 0.0 && x.z() <= m_params.container.height_m)
+      add(id, ContactSnapshot::kSideWall, Vec3(-x.x() / rho, -x.y() / rho, 0.0), overlap, v, r,
+          std::sqrt(r), m_params.sphere_wall, wall, x);
+  };
+  for (std::uint32_t i = 0; i < b.size(); ++i)
+    walls(i, b.position[i], b.velocity[i], b.radius[i], s.plate_shear[i], s.wall_shear[i]);
+  if (m_projectile) {
+    const RigidSphere& p = *m_projectile;
+    walls(ContactSnapshot::kProjectile, p.position, p.velocity, p.radius, s.projectile_plate_shear,
+          s.projectile_wall_shear);
+    for (std::size_t k = 0; k < s.near_projectile.beads.size(); ++k) {
+      const std::uint32_t j = s.near_projectile.beads[k];
+      const Vec3 d = p.position - b.position[j];
+      const double rsum = p.radius + b.radius[j], dist = d.norm();
+      if (dist >= rsum) continue;
+      add(ContactSnapshot::kProjectile, j, d / dist, rsum - dist, p.velocity - b.velocity[j],
+          p.radius, std::sqrt(p.radius * b.radius[j] / rsum), m_params.sphere_pair,
+          s.near_projectile.shear[k], p.position);
+    }
+  }
+  return out;
 }
 
 EnergyBreakdown Simulation::Energy() const {

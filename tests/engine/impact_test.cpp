@@ -128,23 +128,34 @@ TEST(Stability, OversizedStepStopsWithAClearReason) {
   }
 }
 
-TEST(BedImport, TextBedIsReadAndCheckedLineByLine) {
+TEST(BedImport, TextBedIsReadRelaxedAndMeasured) {
+  // A square monolayer of 2 mm beads resting on the plate of a 2 cm cylinder: every surface
+  // cell holds a bead top at 4 mm, so the measured surface is 4 mm.
   const std::string path = testing::TempDir() + "bed.txt";
+  int count = 0;
   {
     std::ofstream out(path);
-    out << "# x y z radius\n0 0 0.002 0.002\n0.01 0 0.00225 0.00225  # a comment\n\n";
+    out << "# x y z radius\n";
+    for (int i = -4; i <= 4; ++i)
+      for (int j = -4; j <= 4; ++j) {
+        const double x = 0.0041 * i, y = 0.0041 * j;
+        if (std::hypot(x, y) > 0.0175) continue;
+        out << x << " " << y << " 0.002 0.002  # bead\n";
+        ++count;
+      }
   }
   Scene scene;
+  scene.cylinder.radius_m = 0.02;
+  scene.projectile.diameter_m = 0.01;
   scene.bed.import = path;
   const World world = BuildWorld(scene);
-  ASSERT_EQ(world.beads.size(), 2u);
-  EXPECT_DOUBLE_EQ(world.beads.radius[1], 0.00225);
-  EXPECT_DOUBLE_EQ(world.bed_surface_m, 0.0045);
-  EXPECT_DOUBLE_EQ(world.projectile->position.z(), 0.0045 + scene.projectile.height_m);
-  {
-    std::ofstream out(path);
-    out << "0 0 0.002 0.002\n0.2 0 0.01 0.002\n";
-  }
+  ASSERT_EQ(world.beads.size(), static_cast<std::size_t>(count));
+  EXPECT_NEAR(world.bed_surface_m, 0.004, 1e-5);  // relaxed: sunk by its Hertz overlap only
+  EXPECT_DOUBLE_EQ(world.projectile->position.z(), world.bed_surface_m + scene.projectile.height_m);
+  EXPECT_NEAR(world.bed.weight_N, count * world.beads.mass[0] * 9.81, 1e-9);
+  EXPECT_NEAR(world.bed.rest_plate_force_N / world.bed.weight_N, 1.0, 0.01);
+
+  std::ofstream(path) << "0 0 0.002 0.002\n0.2 0 0.01 0.002\n";
   try {
     BuildWorld(scene);
     FAIL();

@@ -10,23 +10,51 @@
 #include <string>
 
 #include "dembuf/engine/damping.h"
+#include "dembuf/engine/peaks.h"
 #include "dembuf/engine/scene.h"
 #include "dembuf/engine/simulation.h"
 
 namespace dembuf {
 
+/// The contact constants, container, gravity and time step of a scene (no bodies yet).
+struct ContactSetup {
+  WorldParams params;
+  DampingCalibration damping;
+  double critical_dt_s = 0.0;  ///< eq. 6 for the smallest bead
+};
+
+/// Derives the contact setup for beads whose smallest radius is min_radius_m.
+ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m);
+
+/// What the run reports of its bed.
+struct BedSummary {
+  std::string hash;
+  double thickness_m = 0.0;     ///< measured H
+  double solid_fraction = 0.0;  ///< measured C0
+  double rest_plate_force_N = 0.0;
+  double rest_wall_force_z_N = 0.0;
+  double weight_N = 0.0;
+};
+
 /// Everything a Simulation needs, derived from a Scene.
 struct World {
   WorldParams params;
   ParticleState beads;
-  std::optional<RigidSphere> projectile;  ///< at its start position (centre H1 above the bed)
+  std::vector<ContactHistoryEntry> history;  ///< the bed's tangential springs
+  std::optional<RigidSphere> projectile;     ///< at its start position (centre H1 above the bed)
   DampingCalibration damping;
   double critical_dt_s = 0.0;  ///< eq. 6
   double bed_surface_m = 0.0;  ///< height of the bed surface (0 without beads)
+  BedSummary bed;
 };
 
-/// Validates the scene and derives the world. Throws SceneError.
-World BuildWorld(const Scene& scene);
+class BedCache;
+struct BedRequest;
+
+/// Validates the scene and derives the world; a bed comes from `cache` or is prepared and
+/// stored there (a private in-memory cache when null). Throws SceneError.
+World BuildWorld(const Scene& scene, BedCache* cache = nullptr,
+                 const BedRequest* request = nullptr);
 
 /// One written sample of the run.
 struct ImpactSample {
@@ -36,6 +64,17 @@ struct ImpactSample {
   double projectile_z_m;  ///< centre height (NaN without a projectile)
   double projectile_vz_m_s;
   double projectile_force_z_N;  ///< vertical contact force on the projectile
+};
+
+/// The state of the bed at one instant: bead positions and radii, the projectile, and every
+/// contact with its force (for force chains, the plate load map and force statistics).
+struct ImpactSnapshot {
+  std::string label;  ///< "t=0.0572" or "peak"
+  double t_s = 0.0;
+  std::vector<Vec3> positions;
+  std::vector<double> radii;
+  std::optional<RigidSphere> projectile;
+  std::vector<ContactSnapshot> contacts;
 };
 
 struct ImpactProgress {
@@ -50,6 +89,11 @@ struct RunControl {
   std::function<void(const ImpactProgress&)> on_progress;
   std::int64_t progress_every_steps = 4096;
   const std::atomic<bool>* cancel = nullptr;  ///< checked every progress interval; throws Cancelled
+  std::function<void(const ImpactSnapshot&)> on_snapshot;  ///< scene.output snapshots
+  /// Run the same projectile on the bare plate to get Pa0 for the buffer ratio lambda.
+  bool compute_reference = true;
+  BedCache* beds = nullptr;  ///< where beds are found or stored (a private cache when null)
+  const BedRequest* bed_request = nullptr;
 };
 
 struct ImpactSummary {
@@ -67,10 +111,16 @@ struct ImpactSummary {
   double impact_speed_m_s = 0.0;       ///< projectile speed at the end of the free flight
   double end_time_s = 0.0;
   std::string end_reason;
+
+  BedSummary bed;
+  PeakAnalysis peaks;             ///< Pa, Pb, P, dS, dt, load duration
+  double crater_depth_m = 0.0;    ///< deepest point of the projectile below the bed surface
+  double reference_peak_N = 0.0;  ///< Pa0: the same impact on the bare plate
+  double lambda = 0.0;            ///< buffer ratio (Pa0 - P) / Pa0
 };
 
 /// Runs the scene. Throws SceneError for a bad scene, SimulationError when the run becomes
-/// unstable and Cancelled when the cancel flag is raised.
+/// unstable and Cancelled when the cancel flag is raised. A bed is taken from control.beds.
 ImpactSummary RunImpact(const Scene& scene, const RunControl& control = {});
 
 /// The same, for a world already built from `scene` (so that a caller can check the scene

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace dembuf {
 
@@ -48,6 +49,14 @@ struct BedSpec {
   double prep_friction = 0.50;  ///< bead friction while settling; controls the packing C0
   std::int64_t seed = 1;        ///< random seed of the bead insertion
   std::string import;           ///< text file "x y z radius" per line; empty: prepare a bed
+  /// Beds are cut from one settled bed of this thickness (or H + 2 d_max if thicker), so that
+  /// every H of a study shares one settling.
+  double source_thickness_m = 0.09;
+  /// Rest: mean kinetic energy per bead below this fraction of m g d (mean bead), and plate +
+  /// wall support within 1% of the bed's weight.
+  double settle_tolerance = 1e-5;
+  double max_settle_s = 3.0;      ///< give up settling after this much simulated time
+  double friction_ramp_s = 0.01;  ///< duration of the change from prep_friction to mu_pp
 };
 
 /// The spherical projectile, dropped on the bed's axis.
@@ -66,6 +75,14 @@ struct TimeSpec {
   double output_interval_s = 1.0e-5;  ///< spacing of the written force samples
 };
 
+/// Optional outputs beyond the force series.
+struct OutputSpec {
+  /// Times at which to record the contact network, plate load map and force statistics.
+  std::vector<double> snapshot_times_s;
+  /// Also record them at the instant of the peak plate force (runs the impact twice).
+  bool snapshot_at_peak = false;
+};
+
 struct Scene {
   CylinderSpec cylinder;
   MaterialSpec material;
@@ -74,6 +91,7 @@ struct Scene {
   BedSpec bed;
   ProjectileSpec projectile;
   TimeSpec time;
+  OutputSpec output;
   double gravity_m_s2 = 9.81;
 };
 

@@ -19,12 +19,12 @@ namespace dembuf {
 /// One scene field. `ref` gives access to the member inside a Scene.
 struct SceneField {
   using Ref = std::variant<double& (*)(Scene&), std::int64_t& (*)(Scene&), bool& (*)(Scene&),
-                           std::string& (*)(Scene&)>;
+                           std::string& (*)(Scene&), std::vector<double>& (*)(Scene&)>;
   std::string_view name;  ///< dotted name, e.g. "projectile.mass_kg"
   std::string_view unit;  ///< SI unit, "" when dimensionless
   std::string_view help;
   Ref ref;
-  double min = 0.0;  ///< numeric range; bounds are inclusive unless *_open
+  double min = 0.0;  ///< numeric range (of each element of a list); inclusive unless *_open
   double max = 0.0;
   bool min_open = false;
   bool max_open = false;

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "dembuf/engine/contact_law.h"
 #include "dembuf/engine/particles.h"
@@ -31,6 +32,28 @@ struct StepObservables {
   int bead_contacts = 0;  ///< bead-bead contacts
 };
 
+/// The tangential history of one contact, for saving a bed exactly. `other` is a bead id, or
+/// kPlate / kSideWall.
+struct ContactHistoryEntry {
+  static constexpr std::uint32_t kPlate = 0xFFFFFFFF;
+  static constexpr std::uint32_t kSideWall = 0xFFFFFFFE;
+  std::uint32_t bead;
+  std::uint32_t other;
+  Vec3 shear;
+};
+
+/// One contact at an instant (for force networks, plate maps and force statistics).
+struct ContactSnapshot {
+  static constexpr std::int64_t kPlate = -1;
+  static constexpr std::int64_t kSideWall = -2;
+  static constexpr std::int64_t kProjectile = -3;
+  std::int64_t a;  ///< bead id, or kProjectile
+  std::int64_t b;  ///< bead id, kPlate, kSideWall
+  Vec3 point;      ///< contact point (middle of the overlap)
+  Vec3 force;      ///< force on body a (normal + tangential)
+  double normal_N;
+};
+
 /// Energy bookkeeping (for tests and stability checks).
 struct EnergyBreakdown {
   double kinetic_J = 0.0;    ///< translational + rotational
@@ -41,7 +64,9 @@ struct EnergyBreakdown {
 
 class Simulation {
  public:
-  Simulation(const WorldParams& params, ParticleState beads, std::optional<RigidSphere> projectile);
+  /// `history` restores the tangential springs of a saved bed.
+  Simulation(const WorldParams& params, ParticleState beads, std::optional<RigidSphere> projectile,
+             const std::vector<ContactHistoryEntry>& history = {});
   ~Simulation();
   Simulation(Simulation&&) noexcept;
   Simulation& operator=(Simulation&&) noexcept;
@@ -66,9 +91,26 @@ class Simulation {
 
   EnergyBreakdown Energy() const;
 
+  /// Kinetic energy of the beads only (translation + rotation), cheap.
+  double BeadKineticEnergy() const;
+
+  /// Changes the friction coefficients (e.g. a slow ramp after settling).
+  void SetFriction(double sphere_pair, double sphere_wall);
+
+  /// The tangential histories of all bead contacts in touch (pairs, plate, side wall).
+  std::vector<ContactHistoryEntry> ExportHistory() const;
+
+  /// All contacts of the current state with their forces (recomputed from the state).
+  std::vector<ContactSnapshot> Contacts() const;
+
+  /// Removes every bead for which keep(i) is false; their contacts go with them.
+  template <class Keep>
+  void RemoveBeads(Keep keep);
+
   struct Impl;  ///< neighbor lists and contact histories (private to the engine)
 
  private:
+  void RemoveBeadsMasked(const std::vector<bool>& keep);
   void ComputeForces();
   void CheckConditions();
 
@@ -80,5 +122,12 @@ class Simulation {
   std::int64_t m_steps = 0;
   std::unique_ptr<Impl> m_impl;
 };
+
+template <class Keep>
+void Simulation::RemoveBeads(Keep keep) {
+  std::vector<bool> mask(m_beads.size());
+  for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = keep(i);
+  RemoveBeadsMasked(mask);
+}
 
 }  // namespace dembuf

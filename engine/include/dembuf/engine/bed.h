@@ -1,0 +1,99 @@
+// Bed preparation (MODEL.md section 4) and reuse.
+//
+// A bed is made in up to three stages, each a cached artifact named by a content hash of
+// everything that determines it:
+//   1. source: beads inserted at random (no overlaps) in a loose column, settled under gravity
+//      with bead friction bed.prep_friction until at rest; thickness bed.source_thickness_m.
+//   2. cut:    the source with every bead whose centre lies above a cut height removed (the cut
+//      chosen so that the measured surface is at H), then relaxed to rest again.
+//   3. friction: when mu_pp differs from prep_friction, mu_pp is ramped slowly from the one to
+//      the other over bed.friction_ramp_s and the bed relaxed again (the paper's friction study).
+// Rest means both: the mean kinetic energy per bead below bed.settle_tolerance * m g d (mean
+// bead), and the plate plus the wall's vertical support equal to the bed's weight within 1%.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dembuf/engine/particles.h"
+#include "dembuf/engine/scene.h"
+#include "dembuf/engine/simulation.h"
+
+namespace dembuf {
+
+/// Version of the preparation procedure; part of every bed hash.
+inline constexpr int kBedPreparationVersion = 1;
+
+/// A bed at rest, with what was measured on it.
+struct PreparedBed {
+  ParticleState beads;
+  std::vector<ContactHistoryEntry> history;  ///< tangential springs, for an exact restart
+  std::string hash;
+  std::string stage;            ///< "source", "cut", "friction" or "import"
+  double surface_m = 0.0;       ///< measured surface height (the bed thickness H)
+  double solid_fraction = 0.0;  ///< C0 = bead volume / (pi R^2 H)
+  double weight_N = 0.0;
+  double plate_force_N = 0.0;   ///< at rest
+  double wall_force_z_N = 0.0;  ///< vertical support by wall friction, at rest
+  double kinetic_ratio = 0.0;   ///< rest criterion value reached
+  double settle_time_s = 0.0;   ///< simulated time of this stage
+  std::int64_t settle_steps = 0;
+  double wall_time_s = 0.0;  ///< computing time of this stage
+};
+
+struct BedProgress {
+  std::string stage;
+  double t_s = 0.0;
+  double t_max_s = 0.0;
+  std::size_t beads = 0;
+  double kinetic_ratio = 0.0;  ///< current value of the rest criterion's kinetic part
+  double balance_error = 0.0;  ///< |plate + wall - weight| / weight
+};
+
+/// Where prepared beds are kept: in memory for this process and, given a folder, on disk.
+/// Saving and loading is exact (the doubles' bits).
+class BedCache {
+ public:
+  explicit BedCache(std::filesystem::path dir = {});
+  std::optional<PreparedBed> Find(const std::string& hash);
+  void Store(const PreparedBed& bed);
+  /// How many beds this cache prepared (not found) since it was made, per stage.
+  const std::map<std::string, int>& prepared_counts() const { return m_prepared; }
+  void NotePrepared(const std::string& stage) { ++m_prepared[stage]; }
+
+ private:
+  std::filesystem::path m_dir;
+  std::map<std::string, PreparedBed> m_memory;
+  std::map<std::string, int> m_prepared;
+};
+
+/// Writes / reads one bed file (binary, exact). Load throws std::runtime_error on a damaged
+/// or foreign file.
+void SaveBed(const PreparedBed& bed, const std::filesystem::path& path);
+PreparedBed LoadBed(const std::filesystem::path& path);
+
+struct BedRequest {
+  const std::atomic<bool>* cancel = nullptr;
+  std::function<void(const BedProgress&)> on_progress;
+};
+
+/// The bed of a scene with bed.thickness_m > 0 or bed.import set: from the cache, or prepared
+/// (and stored). Throws SceneError, SimulationError (a bed that will not settle) or Cancelled.
+PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request = {});
+
+/// The content hash of the bed a scene asks for (16 hex digits, FNV-1a 64 of a canonical text).
+std::string BedHash(const Scene& scene);
+
+/// Surface height: the mean, over square cells of side 2 d_max covering the plate (cells whose
+/// centre lies within R - d_max of the axis), of the highest bead top in the cell.
+double MeasureSurface(const ParticleState& beads, double cylinder_radius_m);
+
+/// Bead volume / (pi R^2 H).
+double SolidFraction(const ParticleState& beads, double cylinder_radius_m, double thickness_m);
+
+}  // namespace dembuf

@@ -1,0 +1,433 @@
+#include "dembuf/engine/bed.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <unordered_map>
+
+#include "dembuf/engine/bed_io.h"
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/impact.h"
+#include "dembuf/engine/scene_fields.h"
+
+namespace dembuf {
+
+namespace {
+
+// ---- hashing ---------------------------------------------------------------------------------
+
+std::uint64_t Fnv1a(const std::string& text, std::uint64_t h = 0xcbf29ce484222325ULL) {
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 0x100000001b3ULL;
+  }
+  return h;
+}
+
+std::string Hex(std::uint64_t h) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+// The canonical text of the fields that determine the source bed: exact number texts, fixed
+// order. Anything that changes the settled packing belongs here, including the time step.
+std::string SourceKeyText(const Scene& scene, double source_thickness) {
+  static const char* kFields[] = {"gravity_m_s2",
+                                  "cylinder.radius_m",
+                                  "cylinder.height_m",
+                                  "material.density_kg_m3",
+                                  "material.youngs_modulus_Pa",
+                                  "material.poisson_ratio",
+                                  "material.restitution",
+                                  "material.restitution_ref_speed_m_s",
+                                  "material.friction_bead_wall",
+                                  "material.shear_stiffness",
+                                  "walls.material_from_beads",
+                                  "walls.youngs_modulus_Pa",
+                                  "walls.poisson_ratio",
+                                  "beads.diameter_min_m",
+                                  "beads.diameter_max_m",
+                                  "bed.prep_friction",
+                                  "bed.seed",
+                                  "bed.settle_tolerance",
+                                  "time.alpha"};
+  std::ostringstream key;
+  key << "dembuf bed v" << kBedPreparationVersion << "\n";
+  for (const char* name : kFields)
+    key << name << "=" << FormatSceneField(scene, *FindSceneField(name)) << "\n";
+  key << "source_thickness_m="
+      << FormatSceneField(
+             [&] {
+               Scene s;
+               s.bed.source_thickness_m = source_thickness;
+               return s;
+             }(),
+             *FindSceneField("bed.source_thickness_m"))
+      << "\n";
+  return key.str();
+}
+
+std::string FieldText(const Scene& scene, const char* name) {
+  return std::string(name) + "=" + FormatSceneField(scene, *FindSceneField(name)) + "\n";
+}
+
+double SourceThickness(const Scene& scene) {
+  return std::max(scene.bed.source_thickness_m,
+                  scene.bed.thickness_m + 2.0 * scene.beads.diameter_max_m);
+}
+
+struct StageKeys {
+  std::string source, cut, friction;
+};
+
+StageKeys Keys(const Scene& scene) {
+  StageKeys k;
+  const std::string source_text = SourceKeyText(scene, SourceThickness(scene));
+  k.source = Hex(Fnv1a(source_text));
+  const std::string cut_text = source_text + FieldText(scene, "bed.thickness_m");
+  k.cut = Hex(Fnv1a(cut_text));
+  k.friction = Hex(Fnv1a(cut_text + FieldText(scene, "material.friction_bead_bead") +
+                         FieldText(scene, "bed.friction_ramp_s")));
+  return k;
+}
+
+bool NeedsFrictionStage(const Scene& scene) {
+  return scene.material.friction_bead_bead != scene.bed.prep_friction;
+}
+
+// ---- deterministic random numbers --------------------------------------------------------------
+
+// Uniform doubles from the raw 64-bit engine (std::uniform_real_distribution is not specified
+// bit-for-bit across standard libraries; beds must not depend on the library).
+class Uniform {
+ public:
+  explicit Uniform(std::uint64_t seed) : m_engine(seed) {}
+  double operator()(double lo, double hi) {
+    return lo + (hi - lo) * static_cast<double>(m_engine() >> 11) * 0x1.0p-53;
+  }
+
+ private:
+  std::mt19937_64 m_engine;
+};
+
+// ---- insertion ---------------------------------------------------------------------------------
+
+// Beads at random positions in a loose column (solid fraction about 0.3) above the plate,
+// without overlaps, enough to settle into a bed of at least `thickness` (the count assumes a
+// packing no denser than 0.66).
+ParticleState InsertBeads(const Scene& scene, double thickness) {
+  const double R = scene.cylinder.radius_m;
+  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
+  const double d_mean = 0.5 * (d_min + d_max);
+  // Mean volume of a sphere with d uniform in [d_min, d_max]: pi/6 <d^3>.
+  const double mean_d3 =
+      (std::pow(d_max, 4) - std::pow(d_min, 4)) / (4.0 * std::max(d_max - d_min, 1e-300));
+  const double v_mean =
+      std::numbers::pi / 6.0 * (d_max > d_min ? mean_d3 : d_mean * d_mean * d_mean);
+  const double area = std::numbers::pi * R * R;
+  const auto count =
+      static_cast<std::size_t>(std::ceil(0.66 * area * (thickness + d_max) / v_mean));
+  double column_top = count * v_mean / (0.30 * area) + d_max;
+  if (column_top > scene.cylinder.height_m)
+    throw SceneError("bed.source_thickness_m",
+                     "a bed this thick needs a loose column of " + std::to_string(column_top) +
+                         " m to settle from, higher than cylinder.height_m");
+
+  Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
+  ParticleState beads;
+  const double cell = d_max;
+  auto key = [&](int x, int y, int z) {
+    return (static_cast<std::int64_t>(z) << 32) ^ (static_cast<std::int64_t>(y + 32768) << 16) ^
+           (x + 32768);
+  };
+  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v / cell)); };
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
+  for (std::size_t n = 0; n < count; ++n) {
+    const double r = 0.5 * uniform(d_min, d_max);
+    for (int attempt = 0;; ++attempt) {
+      if (attempt == 2000) {  // crowded: give the column more room
+        column_top *= 1.1;
+        if (column_top > scene.cylinder.height_m)
+          throw SceneError("bed.source_thickness_m",
+                           "cannot fit the beads for this thickness into the cylinder");
+        attempt = 0;
+      }
+      const double reach = R - r;
+      const double x = uniform(-reach, reach), y = uniform(-reach, reach);
+      if (x * x + y * y > reach * reach) continue;
+      const double z = uniform(r, column_top - r);
+      const Vec3 p(x, y, z);
+      const int cx = cell_of(x), cy = cell_of(y), cz = cell_of(z);
+      bool free = true;
+      for (int dz = -1; dz <= 1 && free; ++dz)
+        for (int dy = -1; dy <= 1 && free; ++dy)
+          for (int dx = -1; dx <= 1 && free; ++dx) {
+            auto it = grid.find(key(cx + dx, cy + dy, cz + dz));
+            if (it == grid.end()) continue;
+            for (std::uint32_t j : it->second) {
+              const double reach_j = r + beads.radius[j];
+              if ((beads.position[j] - p).squaredNorm() < reach_j * reach_j) {
+                free = false;
+                break;
+              }
+            }
+          }
+      if (!free) continue;
+      grid[key(cx, cy, cz)].push_back(static_cast<std::uint32_t>(beads.size()));
+      beads.Add(p, r, scene.material.density_kg_m3);
+      break;
+    }
+  }
+  return beads;
+}
+
+// ---- settling ----------------------------------------------------------------------------------
+
+struct RestState {
+  double kinetic_ratio;
+  double balance_error;
+  double weight;
+};
+
+RestState MeasureRest(const Simulation& sim, double energy_scale) {
+  const auto& b = sim.beads();
+  double weight = 0.0;
+  for (double m : b.mass) weight += m * sim.params().gravity_m_s2;
+  const double kinetic = sim.BeadKineticEnergy() / std::max<std::size_t>(b.size(), 1);
+  const auto& o = sim.observables();
+  return {kinetic / energy_scale,
+          weight > 0.0 ? std::abs(o.plate_force_N + o.wall_force_z_N - weight) / weight : 0.0,
+          weight};
+}
+
+// Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
+double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stage,
+                    const BedRequest& request, double max_time,
+                    const std::function<void(Simulation&, double)>& before_step = {}) {
+  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double m_mean =
+      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
+  const double t0 = sim.time_s();
+  constexpr int kCheckEvery = 200;
+  while (true) {
+    for (int k = 0; k < kCheckEvery; ++k) {
+      if (before_step) before_step(sim, sim.time_s() - t0);
+      sim.Step();
+    }
+    const double t = sim.time_s() - t0;
+    const RestState rest = MeasureRest(sim, energy_scale);
+    if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+    if (request.on_progress)
+      request.on_progress(
+          {stage, t, max_time, sim.beads().size(), rest.kinetic_ratio, rest.balance_error});
+    const bool ramp_done = !before_step || t >= scene.bed.friction_ramp_s;
+    if (ramp_done && rest.kinetic_ratio < scene.bed.settle_tolerance && rest.balance_error < 0.01)
+      return t;
+    if (t > max_time) {
+      std::ostringstream what;
+      what << "the bed did not come to rest within bed.max_settle_s = " << max_time << " s ("
+           << stage << " stage): kinetic energy per bead " << rest.kinetic_ratio
+           << " m g d (tolerance " << scene.bed.settle_tolerance << "), force balance error "
+           << rest.balance_error * 100 << "% (tolerance 1%)";
+      throw SimulationError(what.str(), sim.steps(), sim.time_s());
+    }
+  }
+}
+
+PreparedBed Finish(Simulation& sim, const Scene& scene, const std::string& hash,
+                   const std::string& stage, double settle_time,
+                   std::chrono::steady_clock::time_point wall_start) {
+  PreparedBed bed;
+  bed.beads = sim.beads();
+  // A bed at rest: keep positions and springs, drop the residual jitter of the velocities so
+  // that the resting state is exactly reproducible and the free flight sees a still bed.
+  std::fill(bed.beads.velocity.begin(), bed.beads.velocity.end(), Vec3::Zero());
+  std::fill(bed.beads.angular_velocity.begin(), bed.beads.angular_velocity.end(), Vec3::Zero());
+  std::fill(bed.beads.force.begin(), bed.beads.force.end(), Vec3::Zero());
+  std::fill(bed.beads.torque.begin(), bed.beads.torque.end(), Vec3::Zero());
+  bed.history = sim.ExportHistory();
+  bed.hash = hash;
+  bed.stage = stage;
+  bed.surface_m = MeasureSurface(bed.beads, scene.cylinder.radius_m);
+  bed.solid_fraction = SolidFraction(bed.beads, scene.cylinder.radius_m, bed.surface_m);
+  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double m_mean =
+      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const RestState rest = MeasureRest(sim, m_mean * scene.gravity_m_s2 * d_mean);
+  bed.weight_N = rest.weight;
+  bed.kinetic_ratio = rest.kinetic_ratio;
+  bed.plate_force_N = sim.observables().plate_force_N;
+  bed.wall_force_z_N = sim.observables().wall_force_z_N;
+  bed.settle_time_s = settle_time;
+  bed.settle_steps = sim.steps();
+  bed.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return bed;
+}
+
+// A simulation of a bed with the scene's contact law and bead friction `friction`.
+Simulation BedSimulation(const Scene& scene, const PreparedBed* from, ParticleState beads,
+                         double friction) {
+  double min_radius = 0.5 * scene.beads.diameter_min_m;
+  for (double r : beads.radius) min_radius = std::min(min_radius, r);
+  ContactSetup setup = MakeContactSetup(scene, min_radius);
+  setup.params.sphere_pair.friction = friction;
+  return Simulation(setup.params, std::move(beads), std::nullopt,
+                    from ? from->history : std::vector<ContactHistoryEntry>{});
+}
+
+PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation sim = BedSimulation(scene, nullptr, InsertBeads(scene, SourceThickness(scene)),
+                                 scene.bed.prep_friction);
+  const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s);
+  PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
+  if (bed.surface_m < scene.bed.thickness_m)
+    throw SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
+                              " m thick, less than bed.thickness_m",
+                          sim.steps(), sim.time_s());
+  return bed;
+}
+
+// Keeps the beads whose centre lies below the height that puts the measured surface at H.
+std::vector<bool> CutMask(const ParticleState& beads, double cylinder_radius, double thickness) {
+  double mean_r = 0.0;
+  for (double r : beads.radius) mean_r += r / beads.size();
+  double cut = thickness - mean_r;
+  std::vector<bool> keep(beads.size());
+  for (int iteration = 0; iteration < 12; ++iteration) {
+    ParticleState kept;
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      keep[i] = beads.position[i].z() < cut;
+      if (keep[i]) kept.Add(beads.position[i], beads.radius[i], 1.0);
+    }
+    const double surface = MeasureSurface(kept, cylinder_radius);
+    if (std::abs(surface - thickness) < 1e-3 * mean_r) break;
+    cut += thickness - surface;
+  }
+  return keep;
+}
+
+PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std::string& hash,
+                       const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation sim = BedSimulation(scene, &source, source.beads, scene.bed.prep_friction);
+  const std::vector<bool> keep =
+      CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m);
+  sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
+  const double t =
+      SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s);
+  return Finish(sim, scene, hash, "cut", t, wall_start);
+}
+
+PreparedBed PrepareFriction(const Scene& scene, const PreparedBed& cut, const std::string& hash,
+                            const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation sim = BedSimulation(scene, &cut, cut.beads, scene.bed.prep_friction);
+  const double mu0 = scene.bed.prep_friction, mu1 = scene.material.friction_bead_bead;
+  const double ramp = scene.bed.friction_ramp_s;
+  const double wall_mu = scene.material.friction_bead_wall;
+  // Linear in time from the preparation friction to the study's, then relax.
+  auto before_step = [&](Simulation& s, double t) {
+    const double f = ramp > 0.0 ? std::min(t / ramp, 1.0) : 1.0;
+    s.SetFriction(mu0 + f * (mu1 - mu0), wall_mu);
+  };
+  const double t = SettleToRest(sim, scene, "changing friction", request,
+                                ramp + scene.bed.max_settle_s, before_step);
+  return Finish(sim, scene, hash, "friction", t, wall_start);
+}
+
+PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation sim = BedSimulation(scene, nullptr, ImportTextBed(scene.bed.import, scene),
+                                 scene.material.friction_bead_bead);
+  const double t =
+      SettleToRest(sim, scene, "relaxing the imported bed", request, scene.bed.max_settle_s);
+  return Finish(sim, scene, hash, "import", t, wall_start);
+}
+
+std::string ImportHash(const Scene& scene) {
+  std::ifstream in(scene.bed.import, std::ios::binary);
+  std::ostringstream content;
+  content << in.rdbuf();
+  return Hex(Fnv1a(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
+                   "import\n" + content.str()));
+}
+
+template <class Make>
+PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,
+                       Make make) {
+  if (auto found = cache.Find(hash)) return *found;
+  PreparedBed bed = make();
+  cache.NotePrepared(stage);
+  cache.Store(bed);
+  return bed;
+}
+
+}  // namespace
+
+std::string BedHash(const Scene& scene) {
+  if (!scene.bed.import.empty()) return ImportHash(scene);
+  const StageKeys k = Keys(scene);
+  return NeedsFrictionStage(scene) ? k.friction : k.cut;
+}
+
+PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request) {
+  ValidateScene(scene);
+  if (!scene.bed.import.empty())
+    return FindOrMake(cache, ImportHash(scene), "import",
+                      [&] { return PrepareImport(scene, ImportHash(scene), request); });
+  const StageKeys k = Keys(scene);
+  auto cut = [&] {
+    return FindOrMake(cache, k.cut, "cut", [&] {
+      const PreparedBed source = FindOrMake(
+          cache, k.source, "source", [&] { return PrepareSource(scene, k.source, request); });
+      return PrepareCut(scene, source, k.cut, request);
+    });
+  };
+  if (!NeedsFrictionStage(scene)) return cut();
+  return FindOrMake(cache, k.friction, "friction",
+                    [&] { return PrepareFriction(scene, cut(), k.friction, request); });
+}
+
+double MeasureSurface(const ParticleState& beads, double cylinder_radius_m) {
+  if (beads.size() == 0) return 0.0;
+  const double d_max = 2.0 * *std::max_element(beads.radius.begin(), beads.radius.end());
+  const double cell = 2.0 * d_max;
+  const double inner = std::max(cylinder_radius_m - d_max, 0.5 * cell);
+  const int n = static_cast<int>(std::ceil(cylinder_radius_m / cell));
+  std::vector<double> top((2 * n) * (2 * n), -1.0);
+  for (std::size_t i = 0; i < beads.size(); ++i) {
+    const Vec3& x = beads.position[i];
+    const int cx = std::clamp(static_cast<int>(std::floor(x.x() / cell)) + n, 0, 2 * n - 1);
+    const int cy = std::clamp(static_cast<int>(std::floor(x.y() / cell)) + n, 0, 2 * n - 1);
+    double& t = top[cy * 2 * n + cx];
+    t = std::max(t, x.z() + beads.radius[i]);
+  }
+  double sum = 0.0;
+  int cells = 0;
+  for (int cy = 0; cy < 2 * n; ++cy)
+    for (int cx = 0; cx < 2 * n; ++cx) {
+      const double x = (cx - n + 0.5) * cell, y = (cy - n + 0.5) * cell;
+      if (x * x + y * y > inner * inner) continue;
+      sum += std::max(top[cy * 2 * n + cx], 0.0);  // an empty cell is bare plate
+      ++cells;
+    }
+  return cells ? sum / cells : 0.0;
+}
+
+double SolidFraction(const ParticleState& beads, double cylinder_radius_m, double thickness_m) {
+  if (thickness_m <= 0.0) return 0.0;
+  double volume = 0.0;
+  for (double r : beads.radius) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  return volume / (std::numbers::pi * cylinder_radius_m * cylinder_radius_m * thickness_m);
+}
+
+}  // namespace dembuf

@@ -16,10 +16,12 @@
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
 #include "dembuf/engine/version.h"
+#include "plots.h"
 #include "progress.h"
 #include "run_output.h"
 #include "scene_input.h"
 #include "snapshot_output.h"
+#include "sweep.h"
 
 namespace fs = std::filesystem;
 using namespace dembuf;
@@ -37,23 +39,27 @@ extern "C" void OnInterrupt(int) {
   g_interrupted.store(true);
 }
 
-fs::path DefaultOutputDir() {
+fs::path DefaultOutputDir(const std::string& kind) {
   std::time_t now = std::time(nullptr);
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", std::gmtime(&now));
-  fs::path dir = std::string("dembuf-run-") + stamp;
-  for (int k = 2; fs::exists(dir); ++k)
-    dir = std::string("dembuf-run-") + stamp + "-" + std::to_string(k);
+  const std::string base = "dembuf-" + kind + "-" + stamp;
+  fs::path dir = base;
+  for (int k = 2; fs::exists(dir); ++k) dir = base + "-" + std::to_string(k);
   return dir;
 }
 
 struct RunOptions {
   std::string scene_file;
+  std::string preset;
   std::vector<std::string> overrides;
   std::string out_dir;
   bool force = false;
   std::string bed_cache;
   bool no_bed_cache = false;
+  std::vector<std::string> vary;
+  int seeds = 1;
+  int jobs = 1;
 };
 
 // Prepared beds are kept between runs: $DEMBUF_BED_CACHE, else $XDG_CACHE_HOME/dembuf/beds,
@@ -74,6 +80,20 @@ void PrintBedProgress(const BedProgress& p) {
   std::fprintf(stderr, "\r%s: %zu beads, t = %.1f ms, kinetic %.2g m g d, balance %.2g%%   ",
                p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, p.balance_error * 100);
   std::fflush(stderr);
+}
+
+// Plots a finished run or sweep when gnuplot is there; a missing gnuplot is not an error.
+void PlotIfPossible(const fs::path& dir) {
+  if (!cli::GnuplotAvailable()) {
+    std::printf("plots: skipped (install gnuplot-nox, then: dembuf plot %s)\n", dir.c_str());
+    return;
+  }
+  try {
+    const auto files = cli::PlotFolder(dir);
+    std::printf("plots: %zu PNG files in %s\n", files.size(), dir.c_str());
+  } catch (const std::exception& e) {
+    std::printf("plots: failed: %s\n", e.what());
+  }
 }
 
 void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
@@ -108,7 +128,7 @@ void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
 
 int RunLocal(const RunOptions& opt) {
   // Everything about the scene is checked before anything is written.
-  Scene scene = cli::ResolveScene(opt.scene_file, opt.overrides);
+  Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides);
   BedCache beds(BedCacheDir(opt));
   BedRequest bed_request;
   bed_request.cancel = &g_interrupted;
@@ -120,7 +140,7 @@ int RunLocal(const RunOptions& opt) {
     std::fprintf(stderr, "%sprepared %d %s bed(s)\n", isatty(fileno(stderr)) ? "\n" : "", count,
                  stage.c_str());
 
-  const fs::path dir = opt.out_dir.empty() ? DefaultOutputDir() : fs::path(opt.out_dir);
+  const fs::path dir = opt.out_dir.empty() ? DefaultOutputDir("run") : fs::path(opt.out_dir);
   if (fs::exists(dir / "summary.json") && !opt.force) {
     std::fprintf(stderr,
                  "dembuf: error: %s already holds a run (summary.json); choose another --out "
@@ -147,6 +167,7 @@ int RunLocal(const RunOptions& opt) {
     cli::WriteFileAtomically(dir / "summary.json",
                              cli::SummaryToJson(summary, scene).dump(2) + "\n");
     PrintSummary(summary, dir);
+    PlotIfPossible(dir);
     return 0;
   } catch (const SimulationError& e) {
     progress.Finish();
@@ -165,8 +186,26 @@ int RunLocal(const RunOptions& opt) {
   }
 }
 
+int SweepCommand(const RunOptions& opt) {
+  const Scene base = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides);
+  cli::SweepOptions sweep;
+  for (const auto& spec : opt.vary) sweep.axes.push_back(cli::ParseVary(spec));
+  if (opt.seeds < 1 || opt.seeds > 1000)
+    throw SceneError("--seeds", std::to_string(opt.seeds) + " is out of range: 1 to 1000");
+  if (opt.jobs < 1 || opt.jobs > 256)
+    throw SceneError("--jobs", std::to_string(opt.jobs) + " is out of range: 1 to 256");
+  sweep.seeds = opt.seeds;
+  sweep.jobs = opt.jobs;
+  sweep.out_dir = opt.out_dir.empty() ? DefaultOutputDir("sweep") : fs::path(opt.out_dir);
+  // An existing folder is resumed: runs whose summary.json matches their scene are kept.
+  BedCache beds(BedCacheDir(opt));
+  const int failed = cli::RunSweep(base, sweep, beds);
+  PlotIfPossible(sweep.out_dir);
+  return failed == 0 ? 0 : kExitUnstable;
+}
+
 int PrintSceneCommand(const RunOptions& opt) {
-  Scene scene = cli::ResolveScene(opt.scene_file, opt.overrides);
+  Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides);
   PrintScene(scene, std::cout);
   return 0;
 }
@@ -182,6 +221,7 @@ int main(int argc, char** argv) {
   auto add_scene_args = [&](CLI::App* cmd) {
     cmd->add_option("scene", opt.scene_file,
                     "scene file (TOML); default: the paper's Table 1 scene");
+    cmd->add_option("--preset", opt.preset, "start from a paper experiment: e1, e2, e3, e4, e5");
     cmd->add_option("--set", opt.overrides,
                     "override a scene field: dotted.name=value (repeatable)")
         ->allow_extra_args(false);
@@ -195,6 +235,22 @@ int main(int argc, char** argv) {
                   "folder of prepared beds (default ~/.cache/dembuf/beds)");
   run->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");
 
+  CLI::App* sweep = app.add_subcommand("sweep", "run a scene over ranges of fields and seeds");
+  add_scene_args(sweep);
+  sweep
+      ->add_option("--vary", opt.vary,
+                   "dotted.field=START:STOP:STEP or dotted.field=v1,v2,... (repeatable)")
+      ->allow_extra_args(false);
+  sweep->add_option("--seeds", opt.seeds, "bed seeds 1..N for every point (default 1)");
+  sweep->add_option("--jobs", opt.jobs, "runs at once (default 1; each then uses one core)");
+  sweep->add_option("--out", opt.out_dir, "output folder (default: dembuf-sweep-<UTC time>)");
+  sweep->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds");
+  sweep->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");
+
+  CLI::App* plot = app.add_subcommand("plot", "draw PNG plots of a run or sweep folder (gnuplot)");
+  std::string plot_dir;
+  plot->add_option("folder", plot_dir, "a run or sweep output folder")->required();
+
   CLI::App* scene_cmd = app.add_subcommand("scene", "show a scene with every default and unit");
   add_scene_args(scene_cmd);
   bool print_flag = false;
@@ -204,6 +260,11 @@ int main(int argc, char** argv) {
 
   try {
     if (run->parsed()) return RunLocal(opt);
+    if (sweep->parsed()) return SweepCommand(opt);
+    if (plot->parsed()) {
+      for (const auto& file : cli::PlotFolder(plot_dir)) std::printf("%s\n", file.c_str());
+      return 0;
+    }
     if (scene_cmd->parsed()) return PrintSceneCommand(opt);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "dembuf: invalid scene: %s\n", e.what());

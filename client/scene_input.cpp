@@ -1,11 +1,14 @@
 #include "scene_input.h"
 
+#include "dembuf/engine/presets.h"
 #include "dembuf/engine/scene_fields.h"
 
 namespace dembuf::cli {
 
-Scene ResolveScene(const std::string& scene_file, const std::vector<std::string>& overrides) {
-  Scene scene = scene_file.empty() ? Scene{} : LoadSceneFile(scene_file);
+Scene ResolveScene(const std::string& scene_file, const std::string& preset,
+                   const std::vector<std::string>& overrides) {
+  Scene scene = preset.empty() ? Scene{} : PresetScene(preset);
+  if (!scene_file.empty()) scene = LoadSceneFile(scene_file, scene);
   for (const auto& assignment : overrides) ApplyOverride(scene, assignment);
   ValidateScene(scene);
   return scene;

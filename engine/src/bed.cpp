@@ -77,9 +77,13 @@ std::string FieldText(const Scene& scene, const char* name) {
   return std::string(name) + "=" + FormatSceneField(scene, *FindSceneField(name)) + "\n";
 }
 
+// Every H up to source_thickness_m - d_max is cut from the same source; a thicker bed gets a
+// source of its own, two bead diameters thicker than itself.
 double SourceThickness(const Scene& scene) {
-  return std::max(scene.bed.source_thickness_m,
-                  scene.bed.thickness_m + 2.0 * scene.beads.diameter_max_m);
+  const double d_max = scene.beads.diameter_max_m;
+  if (scene.bed.thickness_m + d_max <= scene.bed.source_thickness_m)
+    return scene.bed.source_thickness_m;
+  return scene.bed.thickness_m + 2.0 * d_max;
 }
 
 struct StageKeys {
@@ -361,17 +365,17 @@ std::string ImportHash(const Scene& scene) {
                    "import\n" + content.str()));
 }
 
-template <class Make>
 PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,
-                       Make make) {
-  if (auto found = cache.Find(hash)) return *found;
-  PreparedBed bed = make();
-  cache.NotePrepared(stage);
-  cache.Store(bed);
-  return bed;
+                       const std::function<PreparedBed()>& make) {
+  return cache.FindOrMake(hash, stage, make);
 }
 
 }  // namespace
+
+std::string BedSourceHash(const Scene& scene) {
+  if (!scene.bed.import.empty() || scene.bed.thickness_m <= 0.0) return "";
+  return Keys(scene).source;
+}
 
 std::string BedHash(const Scene& scene) {
   if (!scene.bed.import.empty()) return ImportHash(scene);

@@ -168,7 +168,7 @@ BedCache::BedCache(std::filesystem::path dir) : m_dir(std::move(dir)) {
   if (!m_dir.empty()) std::filesystem::create_directories(m_dir);
 }
 
-std::optional<PreparedBed> BedCache::Find(const std::string& hash) {
+std::optional<PreparedBed> BedCache::FindLocked(const std::string& hash) {
   if (auto it = m_memory.find(hash); it != m_memory.end()) return it->second;
   if (m_dir.empty()) return std::nullopt;
   const auto path = m_dir / (hash + ".bed");
@@ -183,9 +183,35 @@ std::optional<PreparedBed> BedCache::Find(const std::string& hash) {
   }
 }
 
-void BedCache::Store(const PreparedBed& bed) {
-  m_memory[bed.hash] = bed;
-  if (!m_dir.empty()) SaveBed(bed, m_dir / (bed.hash + ".bed"));
+PreparedBed BedCache::FindOrMake(const std::string& hash, const std::string& stage,
+                                 const std::function<PreparedBed()>& make) {
+  {
+    std::unique_lock lock(m_mutex);
+    m_done.wait(lock, [&] { return !m_in_progress.count(hash); });
+    if (auto found = FindLocked(hash)) return *found;
+    m_in_progress.insert(hash);
+  }
+  // Prepare without holding the lock; whatever happens, release the waiters.
+  try {
+    PreparedBed bed = make();
+    std::lock_guard lock(m_mutex);
+    if (!m_dir.empty()) SaveBed(bed, m_dir / (hash + ".bed"));
+    m_memory[hash] = bed;
+    ++m_prepared[stage];
+    m_in_progress.erase(hash);
+    m_done.notify_all();
+    return bed;
+  } catch (...) {
+    std::lock_guard lock(m_mutex);
+    m_in_progress.erase(hash);
+    m_done.notify_all();
+    throw;
+  }
+}
+
+std::map<std::string, int> BedCache::prepared_counts() const {
+  std::lock_guard lock(m_mutex);
+  return m_prepared;
 }
 
 }  // namespace dembuf

@@ -276,7 +276,13 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
 
     const RigidSphere& p = *sim.projectile();
     if (summary.first_contact_time_s < 0.0) {
-      if (o.projectile_contacts > 0) summary.first_contact_time_s = t;
+      if (o.projectile_contacts > 0) {
+        summary.first_contact_time_s = t;
+        // Snapshots counted from first contact join the schedule now that it is known.
+        for (double after : scene.output.snapshot_after_contact_s)
+          snapshot_times.push_back(t + after);
+        std::sort(snapshot_times.begin() + next_snapshot, snapshot_times.end());
+      }
       continue;
     }
     if (scene.time.end_s > 0.0) continue;

@@ -63,6 +63,12 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
   }
   fresh.offsets[n] = static_cast<std::uint32_t>(fresh.partners.size());
   fresh.shear.resize(fresh.partners.size());
+  fresh.sqrt_r_star.resize(fresh.partners.size());
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t k = fresh.offsets[i]; k < fresh.offsets[i + 1]; ++k) {
+      const double ri = beads.radius[i], rj = beads.radius[fresh.partners[k]];
+      fresh.sqrt_r_star[k] = std::sqrt(ri * rj / (ri + rj));
+    }
 
   const bool had_list = list.offsets.size() == n + 1;
   for (std::size_t i = 0; i < n; ++i) {

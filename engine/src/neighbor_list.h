@@ -31,6 +31,18 @@ class CellGrid {
         }
   }
 
+  /// Bead ids in cell order (z-major, then y, then x): sorting beads this way keeps
+  /// neighbors close in memory and groups them in layers.
+  const std::vector<std::uint32_t>& CellOrder() const { return m_cell_beads; }
+
+  /// Index of the first bead (in cell order) of each z layer of cells, and one past the last.
+  std::vector<std::uint32_t> LayerStarts() const {
+    std::vector<std::uint32_t> starts;
+    const std::size_t layer = static_cast<std::size_t>(m_dims[0]) * m_dims[1];
+    for (int z = 0; z <= m_dims[2]; ++z) starts.push_back(m_cell_start[z * layer]);
+    return starts;
+  }
+
   /// Calls visit(j) for every bead in the 27 cells around the cell of point p.
   template <class Visit>
   void ForEachAround(const Vec3& p, Visit&& visit) const {
@@ -73,6 +85,7 @@ struct PairList {
   std::vector<std::uint32_t> offsets;
   std::vector<std::uint32_t> partners;
   std::vector<Vec3> shear;
+  std::vector<double> sqrt_r_star;  ///< sqrt(r_i r_j / (r_i + r_j)), fixed per pair
 };
 
 /// Beads that may touch the projectile (sorted ids) and the history of each contact.

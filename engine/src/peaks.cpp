@@ -45,9 +45,6 @@ PeakAnalysis AnalyzePeaks(const ImpactSeries& s, double rest_force_N, double imp
       if (smooth[k] > smooth[m]) break;
       right_min = std::min(right_min, smooth[k]);
     }
-    // Outside the signal counts as the resting level (a peak at the edge is still a peak).
-    left_min = std::min(left_min, 0.0);
-    right_min = std::min(right_min, 0.0);
     const double prominence = smooth[m] - std::max(left_min, right_min);
     if (prominence < options.min_prominence * top) continue;
 

@@ -105,6 +105,9 @@ const std::vector<SceneField>& FieldTable() {
       {"output.snapshot_times_s", "s",
        "times of contact-network snapshots (force chains, plate map, force PDF)",
        DEMBUF_FIELD(output.snapshot_times_s), 0.0, 1e3},
+      {"output.snapshot_after_contact_s", "s",
+       "snapshot times counted from the projectile's first contact",
+       DEMBUF_FIELD(output.snapshot_after_contact_s), 0.0, 1e3},
       {"output.snapshot_at_peak", "", "also snapshot at the peak plate force (runs twice)",
        DEMBUF_FIELD(output.snapshot_at_peak)},
   };
@@ -320,15 +323,9 @@ void ApplyOverride(Scene& scene, std::string_view assignment) {
   SetSceneField(scene, assignment.substr(0, eq), assignment.substr(eq + 1));
 }
 
-Scene LoadSceneFile(const std::string& path, const Scene& base) {
-  if (!std::filesystem::is_regular_file(path))
-    throw SceneError("", "scene file \"" + path + "\" does not exist or is not a file");
-  toml::value root;
-  try {
-    root = toml::parse(path);
-  } catch (const std::exception& e) {
-    throw SceneError("", "scene file \"" + path + "\" is not valid TOML: " + e.what());
-  }
+namespace {
+
+Scene SceneFromToml(const toml::value& root, const std::string& path, const Scene& base) {
   Scene scene = base;
   // Sorted, so that the first error reported does not depend on hash order.
   std::map<std::string, const toml::value*> entries;
@@ -345,13 +342,38 @@ Scene LoadSceneFile(const std::string& path, const Scene& base) {
     SetFromToml(scene, RequireField(name), *value);
   }
   // A relative bed file is relative to the scene file, not to wherever the run starts.
-  if (!scene.bed.import.empty() && entries.count("bed.import") &&
+  if (!path.empty() && !scene.bed.import.empty() && entries.count("bed.import") &&
       std::filesystem::path(scene.bed.import).is_relative()) {
     scene.bed.import =
         (std::filesystem::path(path).parent_path() / scene.bed.import).lexically_normal().string();
   }
   ValidateScene(scene);
   return scene;
+}
+
+}  // namespace
+
+Scene LoadSceneFile(const std::string& path, const Scene& base) {
+  if (!std::filesystem::is_regular_file(path))
+    throw SceneError("", "scene file \"" + path + "\" does not exist or is not a file");
+  toml::value root;
+  try {
+    root = toml::parse(path);
+  } catch (const std::exception& e) {
+    throw SceneError("", "scene file \"" + path + "\" is not valid TOML: " + e.what());
+  }
+  return SceneFromToml(root, path, base);
+}
+
+Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base) {
+  toml::value root;
+  try {
+    std::istringstream in(text);
+    root = toml::parse(in, name);
+  } catch (const std::exception& e) {
+    throw SceneError("", name + " is not valid TOML: " + e.what());
+  }
+  return SceneFromToml(root, "", base);
 }
 
 void ValidateScene(const Scene& scene) {

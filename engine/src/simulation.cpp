@@ -1,5 +1,7 @@
 #include "dembuf/engine/simulation.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -16,6 +18,10 @@ namespace {
 // happens when the time step is too large for the speeds in the scene.
 constexpr double kMaxOverlapRatio = 0.25;
 
+// Beds of at least this many beads are kept in cell order and processed in parallel blocks;
+// smaller systems (two-body tests, a few hundred beads) keep their order and run serially.
+constexpr std::size_t kParallelMinBeads = 1024;
+
 // What went wrong in a pass, recorded inside the loops and acted on after them (no throwing
 // inside the hot loops).
 struct StepConditions {
@@ -31,6 +37,17 @@ struct StepConditions {
       overlap_i = i;
       overlap_j = j;
     }
+  }
+  // Combines the record of another block (blocks are merged in a fixed order).
+  void Merge(const StepConditions& o) {
+    if (o.max_overlap_ratio > max_overlap_ratio) {
+      max_overlap_ratio = o.max_overlap_ratio;
+      overlap_i = o.overlap_i;
+      overlap_j = o.overlap_j;
+    }
+    nonfinite_bead = std::max(nonfinite_bead, o.nonfinite_bead);
+    escaped_bead = std::max(escaped_bead, o.escaped_bead);
+    projectile_bad = projectile_bad || o.projectile_bad;
   }
 };
 
@@ -76,6 +93,18 @@ struct Simulation::Impl {
   double min_radius = 0.0;
   bool friction = false;
   StepConditions conditions;
+
+  // Parallel force computation. Beads are kept in cell order (z layers of cells, bottom up)
+  // and split into blocks of whole layers. A pair (i, j > i) then joins a bead of block b to
+  // one of block b or b + 1, so all even blocks can run at once, then all odd ones, without
+  // two threads ever adding to the same bead. The blocks depend on the beads, not on the
+  // thread count, so every sum is taken in the same order: results are bit-identical for any
+  // number of threads.
+  std::vector<std::uint32_t> block_start{0, 0};
+  std::vector<StepObservables> block_observables;
+  std::vector<StepConditions> block_conditions;
+  int threads = 1;
+  bool parallel = false;
 };
 
 Simulation::Simulation(const WorldParams& params, ParticleState beads,
@@ -97,6 +126,9 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   // Friction needs the tangential history and rotation; a frictionless scene skips both.
   s.friction = params.sphere_pair.friction > 0.0 || params.sphere_wall.friction > 0.0;
   s.pending_history = history;
+  s.parallel = m_beads.size() >= kParallelMinBeads;
+  s.threads = params.threads > 0 ? params.threads : omp_get_max_threads();
+  s.block_start = {0, static_cast<std::uint32_t>(m_beads.size())};
 }
 
 Simulation::~Simulation() = default;
@@ -155,26 +187,20 @@ int ContainerContacts(const Container& box, const PairParams& p, double dt, cons
   return touching;
 }
 
-// The force pass. Cost per bead pair in contact: one sqrt for the distance, two in the law;
-// pairs in the list but apart cost 10 flops.
+// Pair forces of the beads of block [begin, end). Cost per pair in contact: one sqrt for the
+// distance and two in the law (about 80 flops with friction); pairs in the list but apart
+// cost 10 flops.
 template <bool kFriction>
-void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
-                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
-                       StepObservables& obs) {
-  const std::size_t n = b.size();
+void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& pairs,
+                std::uint32_t begin, std::uint32_t end, StepObservables& obs,
+                StepConditions& cond) {
   const double dt = params.dt_s;
   const PairParams pp = params.sphere_pair;
-  const PairParams pw = params.sphere_wall;
-  StepConditions& cond = s.conditions;
-  obs = StepObservables{};
-
-  std::fill(b.force.begin(), b.force.end(), Vec3::Zero());
-  if constexpr (kFriction) std::fill(b.torque.begin(), b.torque.end(), Vec3::Zero());
-
-  const std::uint32_t* offsets = s.pairs.offsets.data();
-  const std::uint32_t* partners = s.pairs.partners.data();
-  Vec3* shear = s.pairs.shear.data();
-  for (std::size_t i = 0; i < n; ++i) {
+  const std::uint32_t* offsets = pairs.offsets.data();
+  const std::uint32_t* partners = pairs.partners.data();
+  const double* sqrt_r_star = pairs.sqrt_r_star.data();
+  Vec3* shear = pairs.shear.data();
+  for (std::uint32_t i = begin; i < end; ++i) {
     const Vec3 xi = b.position[i];
     const double ri = b.radius[i];
     for (std::uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) {
@@ -194,7 +220,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       const Vec3 w_arm =
           kFriction ? Vec3(ai * b.angular_velocity[i] + aj * b.angular_velocity[j]) : Vec3::Zero();
       const ContactGeometry c = detail::MakeGeometry(normal, overlap, b.velocity[i] - b.velocity[j],
-                                                     w_arm, std::sqrt(ri * rj / rsum));
+                                                     w_arm, sqrt_r_star[k]);
       const auto out = detail::Resolve<kFriction>(c, ai, aj, pp, dt, shear[k]);
       b.force[i] += out.force;
       b.force[j] -= out.force;
@@ -206,12 +232,55 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       ++obs.bead_contacts;
     }
   }
+}
 
-  for (std::size_t i = 0; i < n; ++i) {
-    ContainerContacts<kFriction>(params.container, pw, dt, b.position[i], b.velocity[i],
-                                 b.angular_velocity[i], b.radius[i], s.plate_shear[i],
-                                 s.wall_shear[i], b.force[i], b.torque[i], obs, cond,
-                                 static_cast<long>(i));
+// The force pass: bead pairs (blocks in two phases), container contacts (blocks in one phase),
+// then the projectile (one body, serial). Observables and conditions are summed per block and
+// merged in block order, so the result does not depend on the thread count.
+template <bool kFriction>
+void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
+                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
+                       StepObservables& obs) {
+  const double dt = params.dt_s;
+  const PairParams pp = params.sphere_pair;
+  const PairParams pw = params.sphere_wall;
+  const int blocks = static_cast<int>(s.block_start.size()) - 1;
+  s.block_observables.assign(blocks, StepObservables{});
+  s.block_conditions.assign(blocks, StepConditions{});
+  const std::uint32_t* start = s.block_start.data();
+
+#pragma omp parallel num_threads(s.threads) if (s.parallel)
+  {
+#pragma omp for schedule(static)
+    for (int k = 0; k < blocks; ++k) {
+      for (std::uint32_t i = start[k]; i < start[k + 1]; ++i) {
+        b.force[i].setZero();
+        if constexpr (kFriction) b.torque[i].setZero();
+      }
+    }
+    for (int phase = 0; phase < 2; ++phase) {
+#pragma omp for schedule(static)
+      for (int k = phase; k < blocks; k += 2)
+        PairForces<kFriction>(params, b, s.pairs, start[k], start[k + 1], s.block_observables[k],
+                              s.block_conditions[k]);
+    }
+#pragma omp for schedule(static)
+    for (int k = 0; k < blocks; ++k) {
+      for (std::uint32_t i = start[k]; i < start[k + 1]; ++i)
+        ContainerContacts<kFriction>(
+            params.container, pw, dt, b.position[i], b.velocity[i], b.angular_velocity[i],
+            b.radius[i], s.plate_shear[i], s.wall_shear[i], b.force[i], b.torque[i],
+            s.block_observables[k], s.block_conditions[k], static_cast<long>(i));
+    }
+  }
+  obs = StepObservables{};
+  StepConditions& cond = s.conditions;
+  for (int k = 0; k < blocks; ++k) {
+    const StepObservables& o = s.block_observables[k];
+    obs.plate_force_N += o.plate_force_N;
+    obs.wall_force_z_N += o.wall_force_z_N;
+    obs.bead_contacts += o.bead_contacts;
+    cond.Merge(s.block_conditions[k]);
   }
 
   if (projectile) {
@@ -253,14 +322,19 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   }
 }
 
-// Restores saved tangential histories into the freshly built lists (a loaded bed).
+// Restores saved tangential histories into the freshly built lists (a loaded bed, or beads
+// that were just reordered). A pair's shear belongs to its lower id; swapping flips its sign.
 void ApplyHistory(Simulation::Impl& s) {
-  for (const ContactHistoryEntry& h : s.pending_history) {
+  for (ContactHistoryEntry h : s.pending_history) {
     if (h.other == ContactHistoryEntry::kPlate) {
       s.plate_shear[h.bead] = h.shear;
     } else if (h.other == ContactHistoryEntry::kSideWall) {
       s.wall_shear[h.bead] = h.shear;
     } else {
+      if (h.other < h.bead) {
+        std::swap(h.bead, h.other);
+        h.shear = -h.shear;
+      }
       const auto first = s.pairs.partners.begin() + s.pairs.offsets[h.bead];
       const auto last = s.pairs.partners.begin() + s.pairs.offsets[h.bead + 1];
       const auto it = std::lower_bound(first, last, h.other);
@@ -270,7 +344,51 @@ void ApplyHistory(Simulation::Impl& s) {
   s.pending_history.clear();
 }
 
-void RebuildLists(const WorldParams& params, const ParticleState& b,
+template <class T>
+void Permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
+  std::vector<T> out(v.size());
+  for (std::size_t k = 0; k < order.size(); ++k) out[k] = v[order[k]];
+  v = std::move(out);
+}
+
+// Puts the beads in cell order (new bead k is old bead order[k]), carrying every per-bead
+// array and contact history along.
+void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::uint32_t>& order) {
+  std::vector<std::uint32_t> new_id(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) new_id[order[k]] = static_cast<std::uint32_t>(k);
+  if (s.pairs.offsets.size() == b.size() + 1) {
+    for (std::uint32_t i = 0; i < b.size(); ++i)
+      for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k)
+        if (s.pairs.shear[k] != Vec3::Zero())
+          s.pending_history.push_back({new_id[i], new_id[s.pairs.partners[k]], s.pairs.shear[k]});
+  }
+  s.pairs = detail::PairList{};
+  for (std::uint32_t& j : s.near_projectile.beads) j = new_id[j];
+  std::vector<std::size_t> by_id(s.near_projectile.beads.size());
+  for (std::size_t k = 0; k < by_id.size(); ++k) by_id[k] = k;
+  std::sort(by_id.begin(), by_id.end(), [&](std::size_t a, std::size_t c) {
+    return s.near_projectile.beads[a] < s.near_projectile.beads[c];
+  });
+  detail::CandidateList sorted;
+  for (std::size_t k : by_id) {
+    sorted.beads.push_back(s.near_projectile.beads[k]);
+    sorted.shear.push_back(s.near_projectile.shear[k]);
+  }
+  s.near_projectile = std::move(sorted);
+  Permute(b.position, order);
+  Permute(b.velocity, order);
+  Permute(b.angular_velocity, order);
+  Permute(b.force, order);
+  Permute(b.torque, order);
+  Permute(b.radius, order);
+  Permute(b.mass, order);
+  Permute(b.inv_mass, order);
+  Permute(b.inv_inertia, order);
+  Permute(s.plate_shear, order);
+  Permute(s.wall_shear, order);
+}
+
+void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
   if (b.size() > 0) {
     // The grid spans the container; beads above the wall top or outside it are clamped into
@@ -285,6 +403,23 @@ void RebuildLists(const WorldParams& params, const ParticleState& b,
     const Vec3 hi(params.container.radius_m + margin, params.container.radius_m + margin,
                   z_top + margin);
     s.grid.Build(b.position, cell, lo, hi);
+    s.parallel = b.size() >= kParallelMinBeads;
+    s.block_start = {0, static_cast<std::uint32_t>(b.size())};
+    if (s.parallel) {
+      const std::vector<std::uint32_t>& order = s.grid.CellOrder();
+      bool sorted = true;
+      for (std::size_t k = 0; k < order.size() && sorted; ++k) sorted = order[k] == k;
+      if (!sorted) {
+        ReorderBeads(b, s, std::vector<std::uint32_t>(order));
+        s.grid.Build(b.position, cell, lo, hi);
+      }
+      // One block per non-empty layer of cells.
+      s.block_start.clear();
+      for (std::uint32_t first : s.grid.LayerStarts())
+        if (s.block_start.empty() || first > s.block_start.back()) s.block_start.push_back(first);
+      if (s.block_start.size() < 2) s.block_start.push_back(static_cast<std::uint32_t>(b.size()));
+      s.block_start.front() = 0;
+    }
     detail::RebuildPairList(b, s.grid, s.skin, s.pairs);
     ApplyHistory(s);
     s.reference_position = b.position;
@@ -343,29 +478,36 @@ void Simulation::Step() {
   if (!s.forces_valid) RefreshForces();
 
   // Velocity Verlet, first half: kick to t + dt/2, drift to t + dt.
-  const std::size_t n = m_beads.size();
+  const long n = static_cast<long>(m_beads.size());
   const double wall_r2 = m_params.container.radius_m * m_params.container.radius_m;
+  const double wall_top = m_params.container.height_m;
+  const bool rotate = s.friction;
+  ParticleState& b = m_beads;
   double max_disp2 = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    Vec3& v = m_beads.velocity[i];
-    Vec3& x = m_beads.position[i];
-    v += half * (m_beads.inv_mass[i] * m_beads.force[i] + g);
+  long nonfinite = -1, escaped = -1;
+#pragma omp parallel for schedule(static) num_threads(s.threads) if (s.parallel) \
+    reduction(max                                                                \
+              : max_disp2, nonfinite, escaped)
+  for (long i = 0; i < n; ++i) {
+    Vec3& v = b.velocity[i];
+    Vec3& x = b.position[i];
+    v += half * (b.inv_mass[i] * b.force[i] + g);
     x += dt * v;
-    if (s.friction)
-      m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
+    if (rotate) b.angular_velocity[i] += half * b.inv_inertia[i] * b.torque[i];
     max_disp2 = std::max(max_disp2, (x - s.reference_position[i]).squaredNorm());
-    if (!x.allFinite() || !v.allFinite()) s.conditions.nonfinite_bead = static_cast<long>(i);
+    if (!x.allFinite() || !v.allFinite()) nonfinite = i;
     // Outside the side wall (below its top) or through the plate: the container leaked.
-    if ((x.z() < m_params.container.height_m && x.x() * x.x() + x.y() * x.y() > wall_r2) ||
-        x.z() < -m_beads.radius[i])
-      s.conditions.escaped_bead = static_cast<long>(i);
+    if ((x.z() < wall_top && x.x() * x.x() + x.y() * x.y() > wall_r2) || x.z() < -b.radius[i])
+      escaped = i;
   }
+  s.conditions.nonfinite_bead = nonfinite;
+  s.conditions.escaped_bead = escaped;
   s.max_bead_displacement = std::sqrt(max_disp2);
   if (m_projectile) {
     RigidSphere& p = *m_projectile;
     p.velocity += half * (p.force / p.mass + g);
     p.position += dt * p.velocity;
-    if (s.friction) p.angular_velocity += half * p.torque / p.Inertia();
+    if (rotate) p.angular_velocity += half * p.torque / p.Inertia();
     s.conditions.projectile_bad = !p.position.allFinite() || !p.velocity.allFinite();
   }
   CheckConditions();
@@ -373,16 +515,16 @@ void Simulation::Step() {
   ComputeForces();
   CheckConditions();
 
-  // Second half kick with the new forces.
-  for (std::size_t i = 0; i < n; ++i) {
-    m_beads.velocity[i] += half * (m_beads.inv_mass[i] * m_beads.force[i] + g);
-    if (s.friction)
-      m_beads.angular_velocity[i] += half * m_beads.inv_inertia[i] * m_beads.torque[i];
+  // Second half kick with the new forces (the beads may have been reordered meanwhile).
+#pragma omp parallel for schedule(static) num_threads(s.threads) if (s.parallel)
+  for (long i = 0; i < n; ++i) {
+    b.velocity[i] += half * (b.inv_mass[i] * b.force[i] + g);
+    if (rotate) b.angular_velocity[i] += half * b.inv_inertia[i] * b.torque[i];
   }
   if (m_projectile) {
     RigidSphere& p = *m_projectile;
     p.velocity += half * (p.force / p.mass + g);
-    if (s.friction) p.angular_velocity += half * p.torque / p.Inertia();
+    if (rotate) p.angular_velocity += half * p.torque / p.Inertia();
   }
   m_time_s += dt;
   ++m_steps;

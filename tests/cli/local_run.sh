@@ -33,4 +33,28 @@ if "$dembuf" run "${e2[@]}" --out "$work/run" 2>/dev/null; then fail "overwrote 
 grep -q '^mass_kg = 0.3 ' "$work/scene.toml" || fail "printed scene lacks the override"
 "$dembuf" scene --print "$work/scene.toml" > "$work/again.toml"
 cmp -s "$work/scene.toml" "$work/again.toml" || fail "printed scene does not read back"
+# A preset gives the paper's scene; an unknown one is refused naming --preset.
+"$dembuf" scene --print --preset e2 | grep -q '^speed_m_s = 5.0 ' || fail "preset e2 speed"
+if "$dembuf" scene --preset e9 2>"$work/err"; then fail "unknown preset accepted"; fi
+grep -q -- '--preset' "$work/err" || fail "unknown preset message: $(cat "$work/err")"
+
+# A sweep over two projectile speeds on the bare plate (no bed to prepare): one CSV row per
+# run, a point per speed, and a second invocation keeps the finished runs.
+"$dembuf" sweep --preset e2 --set bed.thickness_m=0 --vary projectile.speed_m_s=2,5 \
+  --out "$work/sweep" --no-bed-cache > "$work/sweep.log" || fail "sweep: $(cat "$work/sweep.log")"
+[ "$(wc -l < "$work/sweep/sweep.csv")" -eq 3 ] || fail "sweep.csv rows"
+[ "$(wc -l < "$work/sweep/points.csv")" -eq 3 ] || fail "points.csv rows"
+grep -q '"points"' "$work/sweep/summary.json" || fail "sweep summary"
+# The faster impact hits harder: P at 5 m/s above P at 2 m/s.
+awk -F, 'NR == 2 { p2 = $5 } NR == 3 { p5 = $5 } END { exit !(p5 > p2) }' "$work/sweep/sweep.csv" \
+  || fail "P does not grow with speed: $(cat "$work/sweep/sweep.csv")"
+"$dembuf" sweep --preset e2 --set bed.thickness_m=0 --vary projectile.speed_m_s=2,5 \
+  --out "$work/sweep" --no-bed-cache > "$work/again.log"
+[ "$(grep -c 'done earlier, kept' "$work/again.log")" -eq 2 ] || fail "resume: $(cat "$work/again.log")"
+# A bad --vary is refused before anything runs.
+if "$dembuf" sweep --vary projectile.mass_kg=1:0:1 --out "$work/bad" 2>"$work/err"; then
+  fail "bad range accepted"
+fi
+grep -q 'projectile.mass_kg' "$work/err" || fail "bad range message: $(cat "$work/err")"
+[ ! -e "$work/bad" ] || fail "bad sweep created its folder"
 echo "1 passed, 0 failed"

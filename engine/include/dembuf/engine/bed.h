@@ -13,10 +13,13 @@
 #pragma once
 
 #include <atomic>
+#include <condition_variable>
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -26,7 +29,9 @@
 
 namespace dembuf {
 
-/// Version of the preparation procedure; part of every bed hash.
+/// Version of the preparation procedure; part of every bed hash. Raise it with any change
+/// that alters the beds the procedure makes (insertion, settling, the integrator's sums), so
+/// that stale cached beds are not reused.
 inline constexpr int kBedPreparationVersion = 1;
 
 /// A bed at rest, with what was measured on it.
@@ -56,19 +61,28 @@ struct BedProgress {
 };
 
 /// Where prepared beds are kept: in memory for this process and, given a folder, on disk.
-/// Saving and loading is exact (the doubles' bits).
+/// Saving and loading is exact (the doubles' bits). Safe to share between threads: while one
+/// thread prepares a bed, others asking for the same bed wait for it instead of preparing it
+/// again.
 class BedCache {
  public:
   explicit BedCache(std::filesystem::path dir = {});
-  std::optional<PreparedBed> Find(const std::string& hash);
-  void Store(const PreparedBed& bed);
+
+  /// The bed of that hash: from memory, from disk, or made by `make` (once, whoever asks).
+  PreparedBed FindOrMake(const std::string& hash, const std::string& stage,
+                         const std::function<PreparedBed()>& make);
+
   /// How many beds this cache prepared (not found) since it was made, per stage.
-  const std::map<std::string, int>& prepared_counts() const { return m_prepared; }
-  void NotePrepared(const std::string& stage) { ++m_prepared[stage]; }
+  std::map<std::string, int> prepared_counts() const;
 
  private:
+  std::optional<PreparedBed> FindLocked(const std::string& hash);
+
   std::filesystem::path m_dir;
+  mutable std::mutex m_mutex;
+  std::condition_variable m_done;
   std::map<std::string, PreparedBed> m_memory;
+  std::set<std::string> m_in_progress;
   std::map<std::string, int> m_prepared;
 };
 
@@ -85,6 +99,10 @@ struct BedRequest {
 /// The bed of a scene with bed.thickness_m > 0 or bed.import set: from the cache, or prepared
 /// (and stored). Throws SceneError, SimulationError (a bed that will not settle) or Cancelled.
 PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request = {});
+
+/// The hash of the settled source bed a scene's bed is cut from ("" for none or an import):
+/// scenes that share it share the expensive settling.
+std::string BedSourceHash(const Scene& scene);
 
 /// The content hash of the bed a scene asks for (16 hex digits, FNV-1a 64 of a canonical text).
 std::string BedHash(const Scene& scene);

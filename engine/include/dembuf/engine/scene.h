@@ -49,8 +49,8 @@ struct BedSpec {
   double prep_friction = 0.50;  ///< bead friction while settling; controls the packing C0
   std::int64_t seed = 1;        ///< random seed of the bead insertion
   std::string import;           ///< text file "x y z radius" per line; empty: prepare a bed
-  /// Beds are cut from one settled bed of this thickness (or H + 2 d_max if thicker), so that
-  /// every H of a study shares one settling.
+  /// Beds are cut from one settled bed of this thickness, so that every H of a study shares
+  /// one settling (a bed thicker than this minus d_max gets a source of H + 2 d_max).
   double source_thickness_m = 0.09;
   /// Rest: mean kinetic energy per bead below this fraction of m g d (mean bead), and plate +
   /// wall support within 1% of the bed's weight.
@@ -79,6 +79,8 @@ struct TimeSpec {
 struct OutputSpec {
   /// Times at which to record the contact network, plate load map and force statistics.
   std::vector<double> snapshot_times_s;
+  /// Times after the projectile's first contact at which to record them.
+  std::vector<double> snapshot_after_contact_s;
   /// Also record them at the instant of the peak plate force (runs the impact twice).
   bool snapshot_at_peak = false;
 };

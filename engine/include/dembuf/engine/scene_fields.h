@@ -48,6 +48,9 @@ void ApplyOverride(Scene& scene, std::string_view assignment);
 /// Unknown tables or keys, wrong types and out-of-range values throw SceneError.
 Scene LoadSceneFile(const std::string& path, const Scene& base = Scene{});
 
+/// The same for TOML text; `name` is used in messages (e.g. "preset e2").
+Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base = Scene{});
+
 /// Checks every field's range and the relations between fields. Throws SceneError.
 void ValidateScene(const Scene& scene);
 

@@ -21,6 +21,9 @@ struct WorldParams {
   double dt_s = 1e-6;
   /// Neighbor-list skin as a fraction of the smallest bead diameter.
   double skin_fraction = 0.2;
+  /// Threads for the force and integration loops; 0: all the machine's cores. Results do not
+  /// depend on this number.
+  int threads = 0;
 };
 
 /// What the plate, the wall and the projectile felt in the last step.

@@ -1,0 +1,228 @@
+#include "plots.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace dembuf::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kTerminal =
+    "set terminal pngcairo size 1000,640 font 'DejaVu Sans,12'\n"
+    "set datafile separator ','\nset key top right\nset grid\n";
+
+// Quotes a path for a gnuplot string.
+std::string Q(const fs::path& p) {
+  std::string s = p.string(), out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string ShellQuote(const fs::path& p) {
+  std::string out = "'";
+  for (char c : p.string()) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+void RunGnuplot(const std::string& script, const fs::path& script_path) {
+  std::ofstream(script_path) << script;
+  const std::string cmd = "gnuplot " + ShellQuote(script_path) + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) throw std::runtime_error("cannot run gnuplot");
+  std::string output;
+  char buf[256];
+  while (std::fgets(buf, sizeof buf, pipe)) output += buf;
+  if (pclose(pipe) != 0)
+    throw std::runtime_error("gnuplot failed on " + script_path.string() + ": " + output);
+}
+
+nlohmann::json ReadJson(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+double Number(const nlohmann::json& j, const char* key, double fallback) {
+  return j.contains(key) && j[key].is_number() ? j[key].get<double>() : fallback;
+}
+
+// F(t) around the impact, in ms and kN, with the peaks marked.
+std::vector<fs::path> PlotRun(const fs::path& dir) {
+  std::vector<fs::path> out;
+  const nlohmann::json s = ReadJson(dir / "summary.json");
+  const double contact = Number(s, "first_contact_time_s", 0.0);
+  const double end = Number(s, "end_time_s", contact + 0.02);
+  std::ostringstream gp;
+  gp << kTerminal << "set output " << Q(dir / "plate_force.png") << "\n"
+     << "set xlabel 'time [ms]'\nset ylabel 'plate force [kN]'\n"
+     << "set title 'bottom-plate force (H = " << 100 * Number(s, "bed_thickness_m", 0.0)
+     << " cm, P = " << Number(s, "P_N", 0.0) / 1e3 << " kN)'\n"
+     << "set xrange [" << (contact - 0.001) * 1e3 << ":" << end * 1e3 << "]\n";
+  std::string labels;
+  for (const auto& p : s.value("peaks", nlohmann::json::array()))
+    gp << "set label '" << p["kind"].get<std::string>() << "' at "
+       << p["time_s"].get<double>() * 1e3 << "," << p["force_N"].get<double>() / 1e3
+       << " offset 0.5,0.5 point pt 7 ps 1.2\n";
+  gp << "plot " << Q(dir / "plate_force.csv")
+     << " every ::1 using ($1*1e3):($2/1e3) with lines lw 1.5 title 'plate'\n";
+  RunGnuplot(gp.str(), dir / "plate_force.gp");
+  out.push_back(dir / "plate_force.png");
+
+  // Snapshots: force chains (x-z view, contacts above the mean force, width by force), the
+  // contact-force PDF and the radial plate load.
+  if (fs::is_directory(dir / "snapshots")) {
+    for (const auto& entry : fs::directory_iterator(dir / "snapshots")) {
+      const fs::path snap = entry.path();
+      if (!fs::exists(snap / "contacts.csv")) continue;
+      // The mean bead-bead normal force, for the threshold and the line widths.
+      std::ifstream contacts(snap / "contacts.csv");
+      std::string line;
+      std::getline(contacts, line);
+      double sum = 0.0;
+      long n = 0;
+      while (std::getline(contacts, line)) {
+        if (line.rfind("plate", 0) == 0 || line.find(",plate,") != std::string::npos ||
+            line.find(",wall,") != std::string::npos)
+          continue;
+        std::istringstream cells(line);
+        std::string cell;
+        for (int k = 0; k < 9 && std::getline(cells, cell, ','); ++k) {
+        }
+        sum += std::atof(cell.c_str());
+        ++n;
+      }
+      const double mean = n ? sum / n : 1.0;
+      std::ostringstream chains;
+      chains << kTerminal << "set terminal pngcairo size 900,900\nset output "
+             << Q(snap / "force_chains.png") << "\nset size ratio -1\nunset key\n"
+             << "set xlabel 'x [cm]'\nset ylabel 'z [cm]'\n"
+             << "set title 'force chains " << snap.filename().string()
+             << " (contacts above the mean " << mean << " N)'\n"
+             << "set cblabel 'normal force [N]'\nset palette rgb 21,22,23\n"
+             << "plot " << Q(snap / "contacts.csv") << " every ::1 using ($10*100):($12*100):"
+             << "(($13-$10)*100):(($15-$12)*100):($9 > " << mean
+             << " ? $9 : 1/0) with vectors nohead lw 1.5 lc palette\n";
+      RunGnuplot(chains.str(), snap / "force_chains.gp");
+      out.push_back(snap / "force_chains.png");
+
+      std::ostringstream pdf;
+      pdf << kTerminal << "set output " << Q(snap / "force_pdf.png") << "\n"
+          << "set xlabel 'f / <f>'\nset ylabel 'probability density'\nset logscale y\n"
+          << "set title 'contact-force PDF " << snap.filename().string() << "'\n"
+          << "plot " << Q(snap / "force_pdf.csv")
+          << " every ::1 using 1:($2 > 0 ? $2 : 1/0) with linespoints pt 7 title 'bead-bead'\n";
+      RunGnuplot(pdf.str(), snap / "force_pdf.gp");
+      out.push_back(snap / "force_pdf.png");
+
+      std::ostringstream radial;
+      radial << kTerminal << "set output " << Q(snap / "plate_radial.png") << "\n"
+             << "set xlabel 'radius [cm]'\nset ylabel 'plate pressure [kPa]'\n"
+             << "set title 'plate load by ring " << snap.filename().string() << "'\n"
+             << "plot " << Q(snap / "plate_radial.csv")
+             << " every ::1 using (($1+$2)*50):($4/1e3) with histeps lw 2 title 'pressure'\n";
+      RunGnuplot(radial.str(), snap / "plate_radial.gp");
+      out.push_back(snap / "plate_radial.png");
+    }
+  }
+  return out;
+}
+
+// A sweep over one field: P, Pa, Pb, lambda, crater depth, dS and dt against it, and the
+// F(t) curves of the first seed at each point, aligned at first contact.
+std::vector<fs::path> PlotSweep(const fs::path& dir) {
+  std::vector<fs::path> out;
+  std::ifstream points(dir / "points.csv");
+  std::string header;
+  std::getline(points, header);
+  std::vector<std::string> columns;
+  std::istringstream cells(header);
+  for (std::string c; std::getline(cells, c, ',');) columns.push_back(c);
+  auto col = [&](const std::string& name) {
+    for (std::size_t k = 0; k < columns.size(); ++k)
+      if (columns[k] == name) return std::to_string(k + 1);
+    throw std::runtime_error("points.csv has no column " + name);
+  };
+  const std::string field = columns.at(0);
+  const bool thickness = field == "bed.thickness_m";
+  const std::string x = thickness ? "($1*100)" : "1";
+  const std::string xlabel = thickness ? "bed thickness H [cm]" : field;
+  const fs::path data = dir / "points.csv";
+  auto series = [&](const std::string& metric, double scale, const std::string& title) {
+    std::ostringstream s;
+    s << Q(data) << " every ::1 using " << x << ":($" << col(metric) << "*" << scale << "):($"
+      << col(metric + "_sd") << "*" << scale << ") with yerrorlines pt 7 title '" << title << "'";
+    return s.str();
+  };
+  std::ostringstream gp;
+  gp << kTerminal << "set xlabel '" << xlabel << "'\n"
+     << "set output " << Q(dir / "sweep_peaks.png") << "\nset ylabel 'force [kN]'\n"
+     << "set title 'peak plate force (mean +- sd over seeds)'\n"
+     << "plot " << series("P_N", 1e-3, "P") << ", " << series("Pa_N", 1e-3, "Pa") << ", "
+     << series("Pb_N", 1e-3, "Pb") << "\n"
+     << "set output " << Q(dir / "sweep_lambda.png") << "\nset ylabel 'buffer ratio lambda [%]'\n"
+     << "set title 'buffer ratio'\nplot " << series("lambda", 100, "lambda") << "\n"
+     << "set output " << Q(dir / "sweep_crater.png") << "\nset ylabel 'crater depth [cm]'\n"
+     << "set title 'crater depth'\nplot " << series("crater_depth_m", 100, "crater depth") << "\n";
+  if (thickness)
+    gp << "set output " << Q(dir / "sweep_ds_dt.png") << "\nset ylabel 'dS [cm]'\n"
+       << "set y2label 'dt [ms]'\nset y2tics\nset title 'travel and time between Pb and Pa'\n"
+       << "plot " << series("dS_m", 100, "dS") << ", " << Q(data) << " every ::1 using " << x
+       << ":($" << col("dt_peaks_s") << "*1e3):($" << col("dt_peaks_s_sd")
+       << "*1e3) axes x1y2 with yerrorlines pt 5 title 'dt'\nunset y2tics\nunset y2label\n";
+  RunGnuplot(gp.str(), dir / "sweep.gp");
+  for (const char* name : {"sweep_peaks.png", "sweep_lambda.png", "sweep_crater.png"})
+    out.push_back(dir / name);
+  if (thickness) out.push_back(dir / "sweep_ds_dt.png");
+
+  // F(t) of each point's first run, aligned at first contact.
+  std::ostringstream curves;
+  curves << kTerminal << "set output " << Q(dir / "sweep_curves.png") << "\n"
+         << "set xlabel 'time after first contact [ms]'\nset ylabel 'plate force [kN]'\n"
+         << "set title 'bottom-plate force'\nset xrange [-0.5:20]\nplot ";
+  bool first = true;
+  std::vector<fs::path> runs;
+  for (const auto& e : fs::directory_iterator(dir / "runs")) runs.push_back(e.path());
+  std::sort(runs.begin(), runs.end());
+  std::set<std::string> seen;
+  for (const fs::path& run : runs) {
+    if (!fs::exists(run / "summary.json")) continue;
+    const nlohmann::json s = ReadJson(run / "summary.json");
+    std::string point = run.filename().string();
+    point = point.substr(point.find('_') + 1);
+    point = point.substr(0, point.rfind("_seed="));
+    if (!seen.insert(point).second) continue;
+    const double t0 = Number(s, "first_contact_time_s", 0.0);
+    curves << (first ? "" : ", ") << Q(run / "plate_force.csv") << " every ::1 using (($1-" << t0
+           << ")*1e3):($2/1e3) with lines lw 1.5 title '" << point << "'";
+    first = false;
+  }
+  curves << "\n";
+  if (!first) {
+    RunGnuplot(curves.str(), dir / "sweep_curves.gp");
+    out.push_back(dir / "sweep_curves.png");
+  }
+  return out;
+}
+
+}  // namespace
+
+bool GnuplotAvailable() {
+  return std::system("gnuplot --version > /dev/null 2>&1") == 0;
+}
+
+std::vector<fs::path> PlotFolder(const fs::path& dir) {
+  if (fs::exists(dir / "points.csv")) return PlotSweep(dir);
+  if (fs::exists(dir / "plate_force.csv") && fs::exists(dir / "summary.json")) return PlotRun(dir);
+  throw std::runtime_error(dir.string() +
+                           " holds neither a run (plate_force.csv, summary.json) "
+                           "nor a sweep (points.csv)");
+}
+
+}  // namespace dembuf::cli

@@ -1,0 +1,202 @@
+// Bed preparation, the rest criterion, exact saving and loading, hashes, and the engine's
+// determinism whatever the number of threads.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+#include <random>
+
+#include "dembuf/engine/bed.h"
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/impact.h"
+
+namespace dembuf {
+namespace {
+
+// A small bed that settles in seconds: a 2 cm cylinder, a 1.5 cm source cut to 1 cm.
+Scene SmallBedScene() {
+  Scene s;
+  s.cylinder.radius_m = 0.02;
+  s.bed.thickness_m = 0.01;
+  s.bed.source_thickness_m = 0.015;
+  s.projectile.diameter_m = 0.012;
+  s.projectile.mass_kg = 0.01;
+  s.projectile.speed_m_s = 2.0;
+  s.projectile.height_m = 0.02;
+  return s;
+}
+
+// One preparation shared by the tests of this file.
+const PreparedBed& SmallBed() {
+  static BedCache cache;
+  static const PreparedBed bed = GetBed(SmallBedScene(), cache);
+  return bed;
+}
+
+TEST(BedPreparation, EndsAtRestByTheStatedCriterion) {
+  const PreparedBed& bed = SmallBed();
+  const Scene scene = SmallBedScene();
+  EXPECT_EQ(bed.stage, "cut");
+  EXPECT_GT(bed.beads.size(), 100u);
+  // Rest: mean kinetic energy per bead below the tolerance (in m g d of the mean bead)...
+  EXPECT_LT(bed.kinetic_ratio, scene.bed.settle_tolerance);
+  // ...and the plate plus the wall's friction support carry the weight within 1%.
+  EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
+  // The weight is the beads' own.
+  double mass = 0.0;
+  for (double m : bed.beads.mass) mass += m;
+  EXPECT_NEAR(bed.weight_N, mass * 9.81, 1e-12 * bed.weight_N);
+  // Thickness reached by the cut within half a bead; a random packing's C0.
+  EXPECT_NEAR(bed.surface_m, scene.bed.thickness_m, 0.5 * scene.beads.diameter_max_m);
+  EXPECT_GT(bed.solid_fraction, 0.40);
+  EXPECT_LT(bed.solid_fraction, 0.66);
+  // Nothing outside the container, nothing through the plate.
+  for (std::size_t i = 0; i < bed.beads.size(); ++i) {
+    const Vec3& x = bed.beads.position[i];
+    EXPECT_LE(std::hypot(x.x(), x.y()) + bed.beads.radius[i], 0.02 * 1.001);
+    EXPECT_GE(x.z() - bed.beads.radius[i], -1e-4 * bed.beads.radius[i]);
+  }
+}
+
+TEST(BedPreparation, SavingAndLoadingIsBitExact) {
+  const PreparedBed& bed = SmallBed();
+  const auto path = std::filesystem::path(testing::TempDir()) / "small.bed";
+  SaveBed(bed, path);
+  const PreparedBed back = LoadBed(path);
+  ASSERT_EQ(back.beads.size(), bed.beads.size());
+  EXPECT_EQ(std::memcmp(back.beads.position.data(), bed.beads.position.data(),
+                        bed.beads.size() * sizeof(Vec3)),
+            0);
+  EXPECT_EQ(std::memcmp(back.beads.radius.data(), bed.beads.radius.data(),
+                        bed.beads.size() * sizeof(double)),
+            0);
+  ASSERT_EQ(back.history.size(), bed.history.size());
+  for (std::size_t k = 0; k < bed.history.size(); ++k) {
+    EXPECT_EQ(back.history[k].bead, bed.history[k].bead);
+    EXPECT_EQ(back.history[k].other, bed.history[k].other);
+    EXPECT_EQ(back.history[k].shear, bed.history[k].shear);
+  }
+  EXPECT_EQ(back.hash, bed.hash);
+  EXPECT_EQ(back.surface_m, bed.surface_m);
+  EXPECT_EQ(back.solid_fraction, bed.solid_fraction);
+}
+
+TEST(BedPreparation, DamagedFileIsRefused) {
+  const auto path = std::filesystem::path(testing::TempDir()) / "damaged.bed";
+  SaveBed(SmallBed(), path);
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-100, std::ios::end);
+    f.put('\x55');
+  }
+  EXPECT_THROW(LoadBed(path), std::runtime_error);
+}
+
+TEST(BedPreparation, CachedBedIsReusedNotSettledAgain) {
+  const auto dir = std::filesystem::path(testing::TempDir()) / "bed-cache";
+  std::filesystem::remove_all(dir);
+  BedCache first(dir);
+  const PreparedBed a = GetBed(SmallBedScene(), first);
+  EXPECT_EQ(first.prepared_counts().at("source"), 1);
+  EXPECT_EQ(first.prepared_counts().at("cut"), 1);
+  // Another thickness from the same source: only a cut.
+  Scene thinner = SmallBedScene();
+  thinner.bed.thickness_m = 0.008;
+  GetBed(thinner, first);
+  EXPECT_EQ(first.prepared_counts().at("source"), 1);
+  EXPECT_EQ(first.prepared_counts().at("cut"), 2);
+  // A new process (a new cache object on the same folder) prepares nothing.
+  BedCache second(dir);
+  const PreparedBed b = GetBed(SmallBedScene(), second);
+  EXPECT_TRUE(second.prepared_counts().empty());
+  EXPECT_EQ(
+      std::memcmp(a.beads.position.data(), b.beads.position.data(), a.beads.size() * sizeof(Vec3)),
+      0);
+}
+
+TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
+  const Scene s = SmallBedScene();
+  // A fixed value: a change here means every cached bed is invalidated (raise
+  // kBedPreparationVersion instead when that is intended).
+  EXPECT_EQ(BedHash(s), "0ede1ca59753d9d3");
+  Scene projectile = s;
+  projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
+  projectile.time.end_s = 0.1;
+  EXPECT_EQ(BedHash(projectile), BedHash(s));
+  for (const char* field : {"seed", "prep", "thickness", "mu", "alpha"}) {
+    Scene other = s;
+    if (std::string(field) == "seed") other.bed.seed = 2;
+    if (std::string(field) == "prep") other.bed.prep_friction = 0.3;
+    if (std::string(field) == "thickness") other.bed.thickness_m = 0.011;
+    if (std::string(field) == "mu") other.material.friction_bead_bead = 0.2;
+    if (std::string(field) == "alpha") other.time.alpha = 0.1;
+    EXPECT_NE(BedHash(other), BedHash(s)) << field;
+  }
+  // Changing friction after settling keeps the source (shared settling).
+  Scene mu = s;
+  mu.material.friction_bead_bead = 0.2;
+  EXPECT_EQ(BedSourceHash(mu), BedSourceHash(s));
+}
+
+TEST(Determinism, SameResultWhateverTheThreadCount) {
+  // Enough beads for the parallel blocks (>= 1024), falling and colliding with friction.
+  Scene scene;
+  scene.cylinder.radius_m = 0.03;
+  World world = BuildWorld(scene);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  ParticleState beads;
+  for (int iz = 0; beads.size() < 1500; ++iz)
+    for (int iy = -5; iy <= 5; ++iy)
+      for (int ix = -5; ix <= 5; ++ix) {
+        const double x = ix * 0.0048, y = iy * 0.0048;
+        if (std::hypot(x, y) > 0.026) continue;
+        beads.Add(Vec3(x, y, 0.0025 + iz * 0.0048), 0.00225 + 0.0001 * u(rng), 2650.0);
+        beads.velocity.back() = Vec3(u(rng), u(rng), u(rng));
+      }
+  auto run = [&](int threads) {
+    WorldParams p = world.params;
+    p.threads = threads;
+    Simulation sim(p, beads, std::nullopt);
+    long contacts = 0;
+    for (int k = 0; k < 2000; ++k) {
+      sim.Step();
+      contacts += sim.observables().bead_contacts;
+    }
+    return std::make_pair(std::move(sim), contacts);
+  };
+  const auto [one, contacts] = run(1);
+  const auto [two, unused] = run(2);
+  ASSERT_EQ(one.beads().size(), two.beads().size());
+  EXPECT_EQ(std::memcmp(one.beads().position.data(), two.beads().position.data(),
+                        one.beads().size() * sizeof(Vec3)),
+            0);
+  EXPECT_EQ(one.observables().plate_force_N, two.observables().plate_force_N);
+  EXPECT_GT(contacts, 20'000);  // a colliding system: thousands of bead-bead collisions
+}
+
+TEST(SmallBedImpact, BuffersTheImpactEndToEnd) {
+  // The whole pipeline on the small bed: the bed takes load off the plate.
+  BedCache cache;
+  RunControl control;
+  control.beds = &cache;
+  const ImpactSummary s = RunImpact(SmallBedScene(), control);
+  EXPECT_GT(s.beads, 100u);
+  EXPECT_GT(s.reference_peak_N, 0.0);
+  EXPECT_LT(s.peaks.p_N, s.reference_peak_N);
+  EXPECT_GT(s.lambda, 0.2);
+  EXPECT_LT(s.lambda, 1.0);
+  EXPECT_NEAR(s.lambda, (s.reference_peak_N - s.peaks.p_N) / s.reference_peak_N, 1e-12);
+  EXPECT_GT(s.crater_depth_m, 0.0);  // the projectile entered the bed
+  EXPECT_LT(s.crater_depth_m, s.bed.thickness_m + 0.006);
+  EXPECT_GT(s.first_contact_time_s, 0.0);
+  EXPECT_NEAR(s.bed.rest_plate_force_N + s.bed.rest_wall_force_z_N, s.bed.weight_N,
+              0.01 * s.bed.weight_N);
+  // The same scene again gives the same numbers (the run is deterministic).
+  const ImpactSummary again = RunImpact(SmallBedScene(), control);
+  EXPECT_EQ(again.peaks.p_N, s.peaks.p_N);
+  EXPECT_EQ(again.crater_depth_m, s.crater_depth_m);
+}
+
+}  // namespace
+}  // namespace dembuf

@@ -67,6 +67,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
   j["lambda"] = s.lambda;
   j["reference_peak_N"] = s.reference_peak_N;
   j["crater_depth_m"] = s.crater_depth_m;
+  j["max_overlap_ratio"] = s.max_overlap_ratio;
   j["bed_thickness_m"] = s.bed.thickness_m;
   j["C0"] = s.bed.solid_fraction;
   j["bed"] = {{"hash", s.bed.hash},

@@ -247,6 +247,7 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     sim.Step();
     const StepObservables& o = sim.observables();
     const double t = sim.time_s();
+    summary.max_overlap_ratio = std::max(summary.max_overlap_ratio, o.max_overlap_ratio);
     if (o.plate_force_N > peak) {
       peak = o.plate_force_N;
       peak_time = t;
@@ -257,7 +258,6 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     if (sim.projectile()) {
       const RigidSphere& p = *sim.projectile();
       series.projectile_z_m.push_back(p.position.z());
-      series.projectile_speed_m_s.push_back(p.velocity.norm());
       crater = std::max(crater, world.bed_surface_m - (p.position.z() - p.radius));
     }
     if (clock.Due(t)) {
@@ -311,7 +311,10 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
 
   summary.peak_plate_force_N = peak;
   summary.peak_plate_force_time_s = peak_time;
-  summary.peaks = AnalyzePeaks(series, rest_force, summary.impact_speed_m_s);
+  summary.peaks = AnalyzePeaks(
+      series,
+      {rest_force, world.bed_surface_m, sim.projectile() ? sim.projectile()->radius : 0.0,
+       summary.beads > 0 ? 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m) : 0.0});
   summary.crater_depth_m = std::isfinite(crater) ? crater : 0.0;
   summary.steps = sim.steps();
   summary.end_time_s = sim.time_s();

@@ -5,8 +5,9 @@
 
 namespace dembuf {
 
-PeakAnalysis AnalyzePeaks(const ImpactSeries& s, double rest_force_N, double impact_speed_m_s,
+PeakAnalysis AnalyzePeaks(const ImpactSeries& s, const PeakContext& context,
                           const PeakOptions& options) {
+  const double rest_force_N = context.rest_force_N;
   PeakAnalysis out;
   const std::size_t n = s.t_s.size();
   if (n < 3) return out;
@@ -57,9 +58,11 @@ PeakAnalysis AnalyzePeaks(const ImpactSeries& s, double rest_force_N, double imp
     peak.force_N = s.plate_force_N[best];
     peak.time_s = s.t_s[best];
     peak.projectile_z_m = s.projectile_z_m.empty() ? 0.0 : s.projectile_z_m[best];
-    // 4. Wave or push, by the projectile's remaining speed.
-    peak.is_push = s.projectile_speed_m_s.empty() ||
-                   s.projectile_speed_m_s[best] < options.wave_speed_fraction * impact_speed_m_s;
+    // 4. Wave or push, by the layer left beneath the projectile.
+    const double thin_layer = std::max(options.push_depth_fraction * context.bed_thickness_m,
+                                       options.push_layer_diameters * context.bead_diameter_m);
+    peak.is_push = s.projectile_z_m.empty() ||
+                   s.projectile_z_m[best] - context.projectile_radius_m < thin_layer;
     out.peaks.push_back(peak);
   }
 

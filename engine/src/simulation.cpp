@@ -14,9 +14,12 @@ namespace dembuf {
 
 namespace {
 
-// An overlap beyond this fraction of the smaller radius is far outside Hertz theory and only
-// happens when the time step is too large for the speeds in the scene.
-constexpr double kMaxOverlapRatio = 0.25;
+// An overlap of this fraction of the smaller radius leaves no sensible contact geometry (the
+// centres nearly meet): the run is unstable. Large but smaller overlaps can be genuine in this
+// model: a bead pinched between the projectile and the plate carries kilonewtons and Hertz
+// then gives overlaps of 30-80% of its radius (glass would break; the model has no breakage).
+// Those are reported (StepObservables::max_overlap_ratio), not refused.
+constexpr double kMaxOverlapRatio = 0.9;
 
 // Beds of at least this many beads are kept in cell order and processed in parallel blocks;
 // smaller systems (two-body tests, a few hundred beads) keep their order and run serially.
@@ -30,9 +33,9 @@ struct StepConditions {
   long nonfinite_bead = -1;
   long escaped_bead = -1;
   bool projectile_bad = false;
-  // Records an overlap beyond the limit; the common case costs one compare, no division.
+  // Keeps the largest overlap of the pass; the common case costs one multiply and compare.
   void NoteOverlap(double overlap, double radius, long i, long j) {
-    if (overlap > kMaxOverlapRatio * radius && overlap / radius > max_overlap_ratio) {
+    if (overlap > max_overlap_ratio * radius) {
       max_overlap_ratio = overlap / radius;
       overlap_i = i;
       overlap_j = j;
@@ -544,6 +547,7 @@ void Simulation::CheckConditions() {
          << ", " << x.z() << " m; wall radius " << m_params.container.radius_m << " m)";
     Fail(what.str(), m_steps, m_time_s);
   }
+  m_observables.max_overlap_ratio = std::max(m_observables.max_overlap_ratio, c.max_overlap_ratio);
   if (c.max_overlap_ratio > kMaxOverlapRatio) {
     std::ostringstream what;
     what << "overlap of " << Describe(c.overlap_i) << " and " << Describe(c.overlap_j)

@@ -14,24 +14,30 @@ double Bump(double t, double centre, double width, double height) {
   return height * std::exp(-x * x);
 }
 
-// A projectile arriving at 5 m/s at t = 0 and slowing linearly to rest at t_stop.
+// A 5 cm bed (H = 5 cm) struck at t = 0 by a projectile of radius 2.5 cm arriving at 5 m/s
+// and slowing uniformly to rest at t_stop: its lowest point descends from the surface by
+// 2.5 t_stop m (5 mm per ms of t_stop).
+constexpr double kBed = 0.05, kRadius = 0.025;
+double Bottom(double t, double t_stop) {
+  const double tt = std::min(t, t_stop);
+  return kBed - 5.0 * tt + 2.5 * tt * tt / t_stop;
+}
 ImpactSeries Series(double t_end, const std::function<double(double)>& force, double t_stop) {
   ImpactSeries s;
   for (double t = 0.0; t <= t_end; t += 2e-6) {
     s.t_s.push_back(t);
     s.plate_force_N.push_back(force(t));
-    const double speed = t < t_stop ? 5.0 * (1.0 - t / t_stop) : 0.0;
-    s.projectile_speed_m_s.push_back(speed);
-    s.projectile_z_m.push_back(0.1 - 5.0 * t + 2.5 * t * t / t_stop);
+    s.projectile_z_m.push_back(Bottom(t, t_stop) + kRadius);
   }
   return s;
 }
+const PeakContext kContext{0.0, kBed, kRadius};
 
 TEST(Peaks, SingleWavePeakIsPb) {
-  // A thick bed: one early peak while the projectile is still fast, no push peak.
+  // A thick bed: one early peak; the projectile stops 1 cm deep (t_stop = 4 ms).
   const auto s = Series(
-      0.01, [](double t) { return 30.0 + Bump(t, 0.0012, 0.0003, 2000.0); }, 0.008);
-  const PeakAnalysis a = AnalyzePeaks(s, 30.0, 5.0);
+      0.01, [](double t) { return 30.0 + Bump(t, 0.0012, 0.0003, 2000.0); }, 0.004);
+  const PeakAnalysis a = AnalyzePeaks(s, {30.0, kBed, kRadius});
   ASSERT_EQ(a.peaks.size(), 1u);
   EXPECT_TRUE(a.has_pb);
   EXPECT_FALSE(a.has_pa);
@@ -44,20 +50,20 @@ TEST(Peaks, SingleWavePeakIsPb) {
 }
 
 TEST(Peaks, WaveThenPushGivesPbAndPaWithTravelAndDelay) {
-  // A thin bed: a small wave peak, then a large push peak when the projectile has slowed.
-  const double t_stop = 0.004;
+  // A small wave peak at the surface, then a large push peak at 12 ms, when the projectile's
+  // lowest point is 1.25 cm above the plate (t_stop = 16 ms: it would stop 4 cm deep).
+  const double t_stop = 0.016;
   const auto s = Series(
-      0.008,
-      [](double t) { return Bump(t, 0.0003, 0.0001, 800.0) + Bump(t, 0.0032, 0.0004, 6000.0); },
+      0.014,
+      [](double t) { return Bump(t, 0.0003, 0.0001, 800.0) + Bump(t, 0.012, 0.0004, 6000.0); },
       t_stop);
-  const PeakAnalysis a = AnalyzePeaks(s, 0.0, 5.0);
+  const PeakAnalysis a = AnalyzePeaks(s, kContext);
   ASSERT_TRUE(a.has_pa);
   ASSERT_TRUE(a.has_pb);
   EXPECT_NEAR(a.pb.force_N, 800.0, 5.0);
   EXPECT_NEAR(a.pa.force_N, 6000.0, 5.0);
-  EXPECT_NEAR(a.dt_peaks_s, 0.0029, 1e-5);
-  const auto z = [&](double t) { return 0.1 - 5.0 * t + 2.5 * t * t / t_stop; };
-  EXPECT_NEAR(a.ds_m, z(0.0003) - z(0.0032), 1e-4);
+  EXPECT_NEAR(a.dt_peaks_s, 0.0117, 1e-5);
+  EXPECT_NEAR(a.ds_m, Bottom(0.0003, t_stop) - Bottom(0.012, t_stop), 1e-4);
   EXPECT_DOUBLE_EQ(a.p_N, a.pa.force_N);
 }
 
@@ -67,40 +73,56 @@ TEST(Peaks, NoiseDoesNotMakePeaks) {
   std::normal_distribution<double> noise(0.0, 50.0);
   const auto s = Series(
       0.01, [&](double t) { return Bump(t, 0.002, 0.0004, 1000.0) + noise(rng); }, 0.003);
-  const PeakAnalysis a = AnalyzePeaks(s, 0.0, 5.0);
+  const PeakAnalysis a = AnalyzePeaks(s, kContext);
   ASSERT_EQ(a.peaks.size(), 1u);
   EXPECT_NEAR(a.peaks[0].time_s, 0.002, 1e-4);
   EXPECT_NEAR(a.p_N, 1000.0, 200.0);  // the raw maximum includes the noise on top
 }
 
 TEST(Peaks, RepeatedPlateHitsGiveSeveralPushPeaksAndPaIsTheLargest) {
-  // Three hits of the plate after the projectile has slowed, decreasing.
+  // Three hits of the plate, decreasing, all with the projectile below half the bed (with
+  // t_stop = 15 ms it is 2.3 cm above the plate at 7 ms and deeper after).
   const auto s = Series(
-      0.01,
+      0.012,
       [](double t) {
-        return Bump(t, 0.003, 0.0002, 5000.0) + Bump(t, 0.005, 0.0002, 3000.0) +
-               Bump(t, 0.007, 0.0002, 1500.0);
+        return Bump(t, 0.007, 0.0002, 5000.0) + Bump(t, 0.009, 0.0002, 3000.0) +
+               Bump(t, 0.011, 0.0002, 1500.0);
       },
-      0.0025);
-  const PeakAnalysis a = AnalyzePeaks(s, 0.0, 5.0);
+      0.015);
+  const PeakAnalysis a = AnalyzePeaks(s, kContext);
   ASSERT_EQ(a.peaks.size(), 3u);
   for (const auto& p : a.peaks) EXPECT_TRUE(p.is_push);
   EXPECT_FALSE(a.has_pb);
   EXPECT_NEAR(a.pa.force_N, 5000.0, 5.0);
-  EXPECT_NEAR(a.pa.time_s, 0.003, 4e-6);
+  EXPECT_NEAR(a.pa.time_s, 0.007, 4e-6);
+}
+
+TEST(Peaks, InABedTwoBeadsDeepEveryPeakIsPa) {
+  // H = 1 cm of 4.5 mm beads: a peak with the projectile's lowest point 6 mm above the plate
+  // (above H/2, but within two bead diameters) is the projectile pressing on the plate.
+  ImpactSeries s;
+  for (double t = 0.0; t <= 0.002; t += 2e-6) {
+    s.t_s.push_back(t);
+    s.plate_force_N.push_back(Bump(t, 0.0006, 0.0002, 3000.0));
+    s.projectile_z_m.push_back(0.025 + 0.010 - 4.0 * std::min(t, 0.001));
+  }
+  const PeakAnalysis thin = AnalyzePeaks(s, {0.0, 0.010, 0.025, 0.0045});
+  ASSERT_EQ(thin.peaks.size(), 1u);
+  EXPECT_TRUE(thin.has_pa);
+  // Without the bead size, the same peak in the upper half of the bed is a wave peak.
+  EXPECT_TRUE(AnalyzePeaks(s, {0.0, 0.010, 0.025, 0.0}).has_pb);
 }
 
 TEST(Peaks, BarePlateImpactIsOnePushPeak) {
-  // The projectile stops at maximum compression: its speed is zero at the peak.
+  // No bed: the projectile's lowest point is at the plate.
   ImpactSeries s;
   const double tc = 4.5e-4;
   for (double t = 0.0; t <= tc; t += 1.5e-6) {
     s.t_s.push_back(t);
     s.plate_force_N.push_back(13000.0 * std::pow(std::sin(M_PI * t / tc), 1.5));
-    s.projectile_speed_m_s.push_back(5.5 * std::abs(std::cos(M_PI * t / tc)));
-    s.projectile_z_m.push_back(0.025);
+    s.projectile_z_m.push_back(0.025 - 0.0008 * std::sin(M_PI * t / tc));
   }
-  const PeakAnalysis a = AnalyzePeaks(s, 0.0, 5.5);
+  const PeakAnalysis a = AnalyzePeaks(s, {0.0, 0.0, 0.025});
   ASSERT_EQ(a.peaks.size(), 1u);
   EXPECT_TRUE(a.has_pa);
   EXPECT_NEAR(a.pa.time_s, tc / 2, 2e-6);

@@ -33,6 +33,9 @@ struct StepObservables {
   Vec3 projectile_force_N = Vec3::Zero();  ///< contact force on the projectile
   int projectile_contacts = 0;
   int bead_contacts = 0;  ///< bead-bead contacts
+  /// Largest overlap / smaller radius of any contact in the step. Hertz theory assumes small
+  /// strains; values above 0.1 mean the scene is beyond what the model describes well.
+  double max_overlap_ratio = 0.0;
 };
 
 /// The tangential history of one contact, for saving a bed exactly. `other` is a bead id, or

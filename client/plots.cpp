@@ -105,7 +105,8 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
              << "set xlabel 'x [cm]'\nset ylabel 'z [cm]'\n"
              << "set title 'force chains " << snap.filename().string()
              << " (contacts above the mean " << mean << " N)'\n"
-             << "set cblabel 'normal force [N]'\nset palette rgb 21,22,23\n"
+             << "set cblabel 'normal force [N]'\nset palette defined (0 '#b0b0b0', 1 '#f0a000', 2 "
+                "'#d02000', 3 '#400000')\n"
              << "plot " << Q(snap / "contacts.csv") << " every ::1 using ($10*100):($12*100):"
              << "(($13-$10)*100):(($15-$12)*100):($9 > " << mean
              << " ? $9 : 1/0) with vectors nohead lw 1.5 lc palette\n";

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "dembuf/engine/contact_law.h"
+#include "dembuf/engine/particles.h"
 
 namespace dembuf::detail {
 
@@ -49,6 +50,20 @@ inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, co
     out.torque_i = out.torque_j = Vec3::Zero();
   }
   return out;
+}
+
+/// Side-wall contact of a sphere (centre x, radius r) inside the container: true when it
+/// touches, with the overlap and the normal pointing from the wall into the sphere. The wall
+/// acts on centres with 0 <= z <= height.
+inline bool SideWallContact(const Container& box, const Vec3& x, double r, double& overlap,
+                            Vec3& normal) {
+  const double rho2 = x.x() * x.x() + x.y() * x.y();
+  const double inner = box.radius_m - r;
+  if (!(rho2 > inner * inner && x.z() >= 0.0 && x.z() <= box.height_m)) return false;
+  const double rho = std::sqrt(rho2);
+  overlap = rho - inner;
+  normal = Vec3(-x.x() / rho, -x.y() / rho, 0.0);
+  return true;
 }
 
 /// Elastic energy stored in a contact: 2/5 Kn x^(5/2) + 1/2 Ks x^(1/2) |shear|^2.

@@ -170,12 +170,9 @@ int ContainerContacts(const Container& box, const PairParams& p, double dt, cons
     plate_shear.setZero();
   }
 
-  const double rho2 = x.x() * x.x() + x.y() * x.y();
-  const double inner = box.radius_m - r;
-  if (rho2 > inner * inner && x.z() >= 0.0 && x.z() <= box.height_m) {
-    const double rho = std::sqrt(rho2);
-    const double overlap = rho - inner;
-    const Vec3 n(-x.x() / rho, -x.y() / rho, 0.0);
+  double overlap;
+  Vec3 n;
+  if (detail::SideWallContact(box, x, r, overlap, n)) {
     const double arm = detail::LeverArm(r, overlap);
     const ContactGeometry c = detail::MakeGeometry(n, overlap, v, arm * w, std::sqrt(r));
     const auto out = detail::Resolve<kFriction>(c, arm, 0.0, p, dt, wall_shear);
@@ -634,20 +631,15 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   s.forces_valid = false;
 }
 
-std::vector<ContactSnapshot> Simulation::Contacts() const {
-  const Impl& s = *m_impl;
-  std::vector<ContactSnapshot> out;
-  const ParticleState& b = m_beads;
-  // Normal force from the law with the current velocities, tangential from the stored spring
-  // (already capped by Coulomb in the last step).
-  auto add = [&](std::int64_t a, std::int64_t other, const Vec3& n, double overlap,
-                 const Vec3& v_rel, double ra, double sqrt_r, const PairParams& p,
-                 const Vec3& shear, const Vec3& x_a) {
-    const double kn = p.kn_per_sqrt_r * sqrt_r;
-    const double fn = HertzNormalForce(overlap, -v_rel.dot(n), kn, p.damping_A_s);
-    const Vec3 ft = -p.ks_per_sqrt_r * sqrt_r * std::sqrt(overlap) * shear;
-    out.push_back({a, other, x_a - detail::LeverArm(ra, overlap) * n, fn * n + ft, fn});
-  };
+namespace {
+
+// Every contact of the current state, with its geometry, for the few places that look at
+// contacts outside the force kernel (snapshots, energy). visit(a, b, n, overlap, v_rel,
+// radius_a, sqrt_r_star, params, shear, x_a) with a and b as in ContactSnapshot.
+template <class Visit>
+void VisitContacts(const WorldParams& params, const ParticleState& b,
+                   const std::optional<RigidSphere>& projectile, const Simulation::Impl& s,
+                   Visit&& visit) {
   if (s.pairs.offsets.size() == b.size() + 1) {
     for (std::uint32_t i = 0; i < b.size(); ++i)
       for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k) {
@@ -655,26 +647,26 @@ std::vector<ContactSnapshot> Simulation::Contacts() const {
         const Vec3 d = b.position[i] - b.position[j];
         const double rsum = b.radius[i] + b.radius[j], dist = d.norm();
         if (dist >= rsum) continue;
-        add(i, j, d / dist, rsum - dist, b.velocity[i] - b.velocity[j], b.radius[i],
-            std::sqrt(b.radius[i] * b.radius[j] / rsum), m_params.sphere_pair, s.pairs.shear[k],
-            b.position[i]);
+        visit(i, j, Vec3(d / dist), rsum - dist, Vec3(b.velocity[i] - b.velocity[j]), b.radius[i],
+              std::sqrt(b.radius[i] * b.radius[j] / rsum), params.sphere_pair, s.pairs.shear[k],
+              b.position[i]);
       }
   }
   auto walls = [&](std::int64_t id, const Vec3& x, const Vec3& v, double r, const Vec3& plate,
                    const Vec3& wall) {
     if (r - x.z() > 0.0)
-      add(id, ContactSnapshot::kPlate, Vec3::UnitZ(), r - x.z(), v, r, std::sqrt(r),
-          m_params.sphere_wall, plate, x);
-    const double rho = std::hypot(x.x(), x.y());
-    const double overlap = rho - (m_params.container.radius_m - r);
-    if (overlap > 0.0 && x.z() >= 0.0 && x.z() <= m_params.container.height_m)
-      add(id, ContactSnapshot::kSideWall, Vec3(-x.x() / rho, -x.y() / rho, 0.0), overlap, v, r,
-          std::sqrt(r), m_params.sphere_wall, wall, x);
+      visit(id, ContactSnapshot::kPlate, Vec3(Vec3::UnitZ()), r - x.z(), v, r, std::sqrt(r),
+            params.sphere_wall, plate, x);
+    double overlap;
+    Vec3 n;
+    if (detail::SideWallContact(params.container, x, r, overlap, n))
+      visit(id, ContactSnapshot::kSideWall, n, overlap, v, r, std::sqrt(r), params.sphere_wall,
+            wall, x);
   };
   for (std::uint32_t i = 0; i < b.size(); ++i)
     walls(i, b.position[i], b.velocity[i], b.radius[i], s.plate_shear[i], s.wall_shear[i]);
-  if (m_projectile) {
-    const RigidSphere& p = *m_projectile;
+  if (projectile) {
+    const RigidSphere& p = *projectile;
     walls(ContactSnapshot::kProjectile, p.position, p.velocity, p.radius, s.projectile_plate_shear,
           s.projectile_wall_shear);
     for (std::size_t k = 0; k < s.near_projectile.beads.size(); ++k) {
@@ -682,16 +674,32 @@ std::vector<ContactSnapshot> Simulation::Contacts() const {
       const Vec3 d = p.position - b.position[j];
       const double rsum = p.radius + b.radius[j], dist = d.norm();
       if (dist >= rsum) continue;
-      add(ContactSnapshot::kProjectile, j, d / dist, rsum - dist, p.velocity - b.velocity[j],
-          p.radius, std::sqrt(p.radius * b.radius[j] / rsum), m_params.sphere_pair,
-          s.near_projectile.shear[k], p.position);
+      visit(ContactSnapshot::kProjectile, j, Vec3(d / dist), rsum - dist,
+            Vec3(p.velocity - b.velocity[j]), p.radius, std::sqrt(p.radius * b.radius[j] / rsum),
+            params.sphere_pair, s.near_projectile.shear[k], p.position);
     }
   }
+}
+
+}  // namespace
+
+std::vector<ContactSnapshot> Simulation::Contacts() const {
+  std::vector<ContactSnapshot> out;
+  // Normal force from the law with the current velocities, tangential from the stored spring
+  // (already capped by Coulomb in the last step).
+  VisitContacts(
+      m_params, m_beads, m_projectile, *m_impl,
+      [&](std::int64_t a, std::int64_t other, const Vec3& n, double overlap, const Vec3& v_rel,
+          double ra, double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3& x_a) {
+        const double fn =
+            HertzNormalForce(overlap, -v_rel.dot(n), p.kn_per_sqrt_r * sqrt_r, p.damping_A_s);
+        const Vec3 ft = -p.ks_per_sqrt_r * sqrt_r * std::sqrt(overlap) * shear;
+        out.push_back({a, other, x_a - detail::LeverArm(ra, overlap) * n, fn * n + ft, fn});
+      });
   return out;
 }
 
 EnergyBreakdown Simulation::Energy() const {
-  const Impl& s = *m_impl;
   EnergyBreakdown e;
   const double g = m_params.gravity_m_s2;
   const ParticleState& b = m_beads;
@@ -700,48 +708,17 @@ EnergyBreakdown Simulation::Energy() const {
                    0.5 / b.inv_inertia[i] * b.angular_velocity[i].squaredNorm();
     e.potential_J += b.mass[i] * g * b.position[i].z();
   }
-  auto wall_energy = [&](const Vec3& x, double r, const Vec3& plate_shear, const Vec3& wall_shear) {
-    double sum = 0.0;
-    if (r - x.z() > 0.0)
-      sum +=
-          detail::ContactElasticEnergy(r - x.z(), std::sqrt(r), m_params.sphere_wall, plate_shear);
-    const double rho = std::hypot(x.x(), x.y());
-    const double overlap = rho - (m_params.container.radius_m - r);
-    if (overlap > 0.0 && x.z() >= 0.0 && x.z() <= m_params.container.height_m)
-      sum += detail::ContactElasticEnergy(overlap, std::sqrt(r), m_params.sphere_wall, wall_shear);
-    return sum;
-  };
-  const bool have_lists = s.pairs.offsets.size() == b.size() + 1;
-  for (std::size_t i = 0; i < b.size() && have_lists; ++i) {
-    for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k) {
-      const std::uint32_t j = s.pairs.partners[k];
-      const double rsum = b.radius[i] + b.radius[j];
-      const double overlap = rsum - (b.position[i] - b.position[j]).norm();
-      if (overlap > 0.0)
-        e.elastic_J +=
-            detail::ContactElasticEnergy(overlap, std::sqrt(b.radius[i] * b.radius[j] / rsum),
-                                         m_params.sphere_pair, s.pairs.shear[k]);
-    }
-  }
-  for (std::size_t i = 0; i < b.size(); ++i)
-    e.elastic_J += wall_energy(b.position[i], b.radius[i], s.plate_shear[i], s.wall_shear[i]);
   if (m_projectile) {
     const RigidSphere& p = *m_projectile;
     e.kinetic_J += 0.5 * p.mass * p.velocity.squaredNorm() +
                    0.5 * p.Inertia() * p.angular_velocity.squaredNorm();
     e.potential_J += p.mass * g * p.position.z();
-    e.elastic_J +=
-        wall_energy(p.position, p.radius, s.projectile_plate_shear, s.projectile_wall_shear);
-    for (std::size_t k = 0; k < s.near_projectile.beads.size(); ++k) {
-      const std::uint32_t j = s.near_projectile.beads[k];
-      const double rsum = p.radius + b.radius[j];
-      const double overlap = rsum - (p.position - b.position[j]).norm();
-      if (overlap > 0.0)
-        e.elastic_J +=
-            detail::ContactElasticEnergy(overlap, std::sqrt(p.radius * b.radius[j] / rsum),
-                                         m_params.sphere_pair, s.near_projectile.shear[k]);
-    }
   }
+  VisitContacts(m_params, m_beads, m_projectile, *m_impl,
+                [&](std::int64_t, std::int64_t, const Vec3&, double overlap, const Vec3&, double,
+                    double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3&) {
+                  e.elastic_J += detail::ContactElasticEnergy(overlap, sqrt_r, p, shear);
+                });
   return e;
 }
 

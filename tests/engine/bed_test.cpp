@@ -198,5 +198,41 @@ TEST(SmallBedImpact, BuffersTheImpactEndToEnd) {
   EXPECT_EQ(again.crater_depth_m, s.crater_depth_m);
 }
 
+TEST(SmallBedImpact, SnapshotsAreTakenWhenAskedAndBalance) {
+  BedCache cache;
+  Scene scene = SmallBedScene();
+  scene.output.snapshot_after_contact_s = {0.0002, 0.0005};
+  scene.output.snapshot_times_s = {0.001};  // during the free flight: the bed at rest
+  scene.output.snapshot_at_peak = true;
+  std::vector<ImpactSnapshot> snaps;
+  RunControl control;
+  control.beds = &cache;
+  control.on_snapshot = [&](const ImpactSnapshot& s) { snaps.push_back(s); };
+  const ImpactSummary summary = RunImpact(scene, control);
+  ASSERT_EQ(snaps.size(), 4u);
+  const ImpactSnapshot* peak = nullptr;
+  for (const auto& s : snaps) {
+    if (s.label == "peak") peak = &s;
+    EXPECT_EQ(s.positions.size(), summary.beads);
+  }
+  ASSERT_NE(peak, nullptr);
+  EXPECT_NEAR(peak->t_s, summary.peak_plate_force_time_s, 1e-12);
+  // The plate contacts of the peak snapshot carry the peak plate force. The snapshot takes the
+  // damping term with full-step velocities, the step with half-step ones: 2% covers that.
+  double plate = 0.0;
+  for (const auto& c : peak->contacts)
+    if (c.b == ContactSnapshot::kPlate) plate += c.normal_N;
+  EXPECT_NEAR(plate / summary.peak_plate_force_N, 1.0, 0.02);
+  // The flight-time snapshot shows the bed at rest: its plate load is the resting load (as
+  // recorded before the residual jitter, below the rest tolerance, was zeroed: within 0.1%).
+  const ImpactSnapshot& rest = snaps.front();
+  EXPECT_EQ(rest.label, "t=0.001");
+  double rest_plate = 0.0;
+  for (const auto& c : rest.contacts)
+    if (c.b == ContactSnapshot::kPlate) rest_plate += c.normal_N;
+  EXPECT_NEAR(rest_plate / summary.bed.rest_plate_force_N, 1.0, 1e-3);
+  EXPECT_NEAR(snaps[1].t_s, summary.first_contact_time_s + 0.0002, 2 * summary.dt_s);
+}
+
 }  // namespace
 }  // namespace dembuf

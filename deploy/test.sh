@@ -4,4 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/build.sh
 cd build
+# ctest runs two test programs at once; OpenMP threads that spin while waiting would then
+# steal each other's cores.
+export OMP_WAIT_POLICY=passive
 ctest --output-on-failure --parallel "$(nproc)" --timeout 900

@@ -17,7 +17,7 @@ namespace {
 
 constexpr const char* kTerminal =
     "set terminal pngcairo size 1000,640 font 'DejaVu Sans,12'\n"
-    "set datafile separator ','\nset key top right\nset grid\n";
+    "set datafile separator ','\nset key top right noenhanced\nset grid\nset termoption noenhanced\n";
 
 // Quotes a path for a gnuplot string.
 std::string Q(const fs::path& p) {
@@ -186,7 +186,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   std::ostringstream curves;
   curves << kTerminal << "set output " << Q(dir / "sweep_curves.png") << "\n"
          << "set xlabel 'time after first contact [ms]'\nset ylabel 'plate force [kN]'\n"
-         << "set title 'bottom-plate force'\nset xrange [-0.5:20]\nplot ";
+         << "set title 'bottom-plate force'\nset xrange [-0.5:*]\nplot ";
   bool first = true;
   std::vector<fs::path> runs;
   for (const auto& e : fs::directory_iterator(dir / "runs")) runs.push_back(e.path());

@@ -53,6 +53,7 @@ const std::vector<std::string>& MetricNames() {
                                                  "peak_plate_force_time_s",
                                                  "reference_peak_N",
                                                  "first_contact_time_s",
+                                                 "max_overlap_ratio",
                                                  "beads",
                                                  "steps",
                                                  "wall_time_s"};

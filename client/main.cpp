@@ -18,7 +18,7 @@
 #include "dembuf/engine/version.h"
 #include "plots.h"
 #include "progress.h"
-#include "run_output.h"
+#include "dembuf/report/run_output.h"
 #include "scene_input.h"
 #include "snapshot_output.h"
 #include "sweep.h"
@@ -155,7 +155,7 @@ int RunLocal(const RunOptions& opt) {
   }
   fs::create_directories(dir);
 
-  cli::SampleCsvWriter csv(dir / "plate_force.csv");
+  report::SampleCsvWriter csv(dir / "plate_force.csv");
   cli::ProgressLine progress(stderr);
   RunControl control;
   control.on_sample = [&](const ImpactSample& s) { csv.Write(s); };
@@ -169,8 +169,8 @@ int RunLocal(const RunOptions& opt) {
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
     progress.Finish();
     csv.Commit();
-    cli::WriteFileAtomically(dir / "summary.json",
-                             cli::SummaryToJson(summary, scene).dump(2) + "\n");
+    report::WriteFileAtomically(dir / "summary.json",
+                             report::SummaryToJson(summary, scene).dump(2) + "\n");
     PrintSummary(summary, dir);
     PlotIfPossible(dir);
     return 0;
@@ -179,8 +179,8 @@ int RunLocal(const RunOptions& opt) {
     nlohmann::json failure = {{"error", e.what()},
                               {"step", e.step()},
                               {"time_s", e.time_s()},
-                              {"scene", cli::SceneToJson(scene)}};
-    cli::WriteFileAtomically(dir / "failure.json", failure.dump(2) + "\n");
+                              {"scene", report::SceneToJson(scene)}};
+    report::WriteFileAtomically(dir / "failure.json", failure.dump(2) + "\n");
     std::fprintf(stderr, "dembuf: run failed: %s\n  samples up to the failure: %s\n", e.what(),
                  csv.partial_path().c_str());
     return kExitUnstable;
@@ -194,7 +194,7 @@ int RunLocal(const RunOptions& opt) {
 int SweepCommand(const RunOptions& opt) {
   const Scene base = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides);
   cli::SweepOptions sweep;
-  for (const auto& spec : opt.vary) sweep.axes.push_back(cli::ParseVary(spec));
+  for (const auto& spec : opt.vary) sweep.axes.push_back(ParseSweepAxis(spec));
   if (opt.seeds < 1 || opt.seeds > 1000)
     throw SceneError("--seeds", std::to_string(opt.seeds) + " is out of range: 1 to 1000");
   if (opt.jobs < 1 || opt.jobs > 256)

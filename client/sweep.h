@@ -8,18 +8,9 @@
 
 #include "dembuf/engine/bed.h"
 #include "dembuf/engine/scene.h"
+#include "dembuf/engine/sweep_plan.h"
 
 namespace dembuf::cli {
-
-/// One varied field and its values (as text, applied with SetSceneField).
-struct SweepAxis {
-  std::string field;
-  std::vector<std::string> values;
-};
-
-/// Parses "dotted.field=START:STOP:STEP" (inclusive) or "dotted.field=v1,v2,...". Throws
-/// SceneError naming the field.
-SweepAxis ParseVary(const std::string& spec);
 
 struct SweepOptions {
   std::vector<SweepAxis> axes;

@@ -160,11 +160,15 @@ std::string KnownFieldsNear(std::string_view name) {
   return "known fields here: " + list;
 }
 
-const SceneField& RequireField(std::string_view name) {
+}  // namespace
+
+const SceneField& RequireSceneField(std::string_view name) {
   const SceneField* f = FindSceneField(name);
   if (!f) throw SceneError(std::string(name), "unknown field; " + KnownFieldsNear(name));
   return *f;
 }
+
+namespace {
 
 void SetNumber(Scene& scene, const SceneField& f, double v, std::string_view text) {
   CheckRange(f, v, text);
@@ -267,7 +271,7 @@ const SceneField* FindSceneField(std::string_view name) {
 }
 
 void SetSceneField(Scene& scene, std::string_view name, std::string_view value) {
-  const SceneField& f = RequireField(name);
+  const SceneField& f = RequireSceneField(name);
   switch (f.ref.index()) {
     case 0:
     case 1: {
@@ -339,7 +343,7 @@ Scene SceneFromToml(const toml::value& root, const std::string& path, const Scen
   for (const auto& [name, value] : entries) {
     if (value->is_table())
       throw SceneError(name, "unexpected nested table; " + KnownFieldsNear(name));
-    SetFromToml(scene, RequireField(name), *value);
+    SetFromToml(scene, RequireSceneField(name), *value);
   }
   // A relative bed file is relative to the scene file, not to wherever the run starts.
   if (!path.empty() && !scene.bed.import.empty() && entries.count("bed.import") &&

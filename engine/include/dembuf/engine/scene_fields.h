@@ -37,6 +37,9 @@ std::span<const SceneField> SceneFields();
 /// The field of that dotted name, or nullptr.
 const SceneField* FindSceneField(std::string_view name);
 
+/// The field of that dotted name; throws SceneError naming the closest known fields.
+const SceneField& RequireSceneField(std::string_view name);
+
 /// Sets one field from text (as given to `--set name=value`). Throws SceneError naming the
 /// field when the name is unknown or the value does not parse or is out of range.
 void SetSceneField(Scene& scene, std::string_view name, std::string_view value);

@@ -1,5 +1,5 @@
 // The files of a run: plate_force.csv (the sampled series) and summary.json. The same writer
-// serves a local run and, later, results fetched from the daemon.
+// serves a local run and results fetched from the daemon.
 #pragma once
 
 #include <filesystem>
@@ -9,7 +9,7 @@
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene.h"
 
-namespace dembuf::cli {
+namespace dembuf::report {
 
 /// The scene as nested JSON: {"projectile": {"mass_kg": 0.167, ...}, ...}.
 nlohmann::json SceneToJson(const Scene& scene);
@@ -35,4 +35,4 @@ class SampleCsvWriter {
 /// Writes text to path atomically (temporary file, then rename).
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text);
 
-}  // namespace dembuf::cli
+}  // namespace dembuf::report

@@ -1,4 +1,4 @@
-#include "run_output.h"
+#include "dembuf/report/run_output.h"
 
 #include <cmath>
 #include <cstdio>
@@ -7,7 +7,7 @@
 #include "dembuf/engine/scene_fields.h"
 #include "dembuf/engine/version.h"
 
-namespace dembuf::cli {
+namespace dembuf::report {
 
 nlohmann::json SceneToJson(const Scene& scene) {
   nlohmann::json out = nlohmann::json::object();
@@ -124,4 +124,4 @@ void WriteFileAtomically(const std::filesystem::path& path, const std::string& t
   std::filesystem::rename(tmp, path);
 }
 
-}  // namespace dembuf::cli
+}  // namespace dembuf::report

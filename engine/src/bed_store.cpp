@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -52,54 +53,47 @@ std::string Exact(double v) {
 
 }  // namespace
 
-void SaveBed(const PreparedBed& bed, const std::filesystem::path& path) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out << kMagic << "\n"
-        << "hash=" << bed.hash << "\n"
-        << "stage=" << bed.stage << "\n"
-        << "surface_m=" << Exact(bed.surface_m) << "\n"
-        << "solid_fraction=" << Exact(bed.solid_fraction) << "\n"
-        << "weight_N=" << Exact(bed.weight_N) << "\n"
-        << "plate_force_N=" << Exact(bed.plate_force_N) << "\n"
-        << "wall_force_z_N=" << Exact(bed.wall_force_z_N) << "\n"
-        << "kinetic_ratio=" << Exact(bed.kinetic_ratio) << "\n"
-        << "settle_time_s=" << Exact(bed.settle_time_s) << "\n"
-        << "settle_steps=" << bed.settle_steps << "\n"
-        << "wall_time_s=" << Exact(bed.wall_time_s) << "\n"
-        << "data\n";
-    Checksum sum;
-    const ParticleState& b = bed.beads;
-    Put<std::uint64_t>(out, sum, b.size());
-    for (std::size_t i = 0; i < b.size(); ++i) {
-      for (int d = 0; d < 3; ++d) Put(out, sum, b.position[i][d]);
-      Put(out, sum, b.radius[i]);
-      Put(out, sum, b.mass[i]);
-      for (int d = 0; d < 3; ++d) Put(out, sum, b.velocity[i][d]);
-      for (int d = 0; d < 3; ++d) Put(out, sum, b.angular_velocity[i][d]);
-    }
-    Put<std::uint64_t>(out, sum, bed.history.size());
-    for (const ContactHistoryEntry& h : bed.history) {
-      Put(out, sum, h.bead);
-      Put(out, sum, h.other);
-      for (int d = 0; d < 3; ++d) Put(out, sum, h.shear[d]);
-    }
-    const std::uint64_t check = sum.value();
-    out.write(reinterpret_cast<const char*>(&check), sizeof check);
-    out.close();
-    if (!out) throw std::runtime_error("cannot write bed file " + tmp.string());
+std::string SerializeBed(const PreparedBed& bed) {
+  std::ostringstream out(std::ios::binary);
+  out << kMagic << "\n"
+      << "hash=" << bed.hash << "\n"
+      << "stage=" << bed.stage << "\n"
+      << "surface_m=" << Exact(bed.surface_m) << "\n"
+      << "solid_fraction=" << Exact(bed.solid_fraction) << "\n"
+      << "weight_N=" << Exact(bed.weight_N) << "\n"
+      << "plate_force_N=" << Exact(bed.plate_force_N) << "\n"
+      << "wall_force_z_N=" << Exact(bed.wall_force_z_N) << "\n"
+      << "kinetic_ratio=" << Exact(bed.kinetic_ratio) << "\n"
+      << "settle_time_s=" << Exact(bed.settle_time_s) << "\n"
+      << "settle_steps=" << bed.settle_steps << "\n"
+      << "wall_time_s=" << Exact(bed.wall_time_s) << "\n"
+      << "data\n";
+  Checksum sum;
+  const ParticleState& b = bed.beads;
+  Put<std::uint64_t>(out, sum, b.size());
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    for (int d = 0; d < 3; ++d) Put(out, sum, b.position[i][d]);
+    Put(out, sum, b.radius[i]);
+    Put(out, sum, b.mass[i]);
+    for (int d = 0; d < 3; ++d) Put(out, sum, b.velocity[i][d]);
+    for (int d = 0; d < 3; ++d) Put(out, sum, b.angular_velocity[i][d]);
   }
-  std::filesystem::rename(tmp, path);
+  Put<std::uint64_t>(out, sum, bed.history.size());
+  for (const ContactHistoryEntry& h : bed.history) {
+    Put(out, sum, h.bead);
+    Put(out, sum, h.other);
+    for (int d = 0; d < 3; ++d) Put(out, sum, h.shear[d]);
+  }
+  const std::uint64_t check = sum.value();
+  out.write(reinterpret_cast<const char*>(&check), sizeof check);
+  return std::move(out).str();
 }
 
-PreparedBed LoadBed(const std::filesystem::path& path) {
-  const std::string name = path.string();
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot open bed file " + name);
+PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
+  std::istringstream in(bytes, std::ios::binary);
   std::string line;
   if (!std::getline(in, line) || line != kMagic)
-    throw std::runtime_error(name + " is not a dembuf bed file");
+    throw std::runtime_error(name + " is not a dembuf bed");
   PreparedBed bed;
   while (std::getline(in, line) && line != "data") {
     const auto eq = line.find('=');
@@ -164,22 +158,69 @@ PreparedBed LoadBed(const std::filesystem::path& path) {
   return bed;
 }
 
-BedCache::BedCache(std::filesystem::path dir) : m_dir(std::move(dir)) {
-  if (!m_dir.empty()) std::filesystem::create_directories(m_dir);
+void SaveBed(const PreparedBed& bed, const std::filesystem::path& path) {
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    const std::string bytes = SerializeBed(bed);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) throw std::runtime_error("cannot write bed file " + tmp.string());
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+PreparedBed LoadBed(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open bed file " + path.string());
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return ParseBed(std::move(bytes).str(), path.string());
+}
+
+FolderBedStore::FolderBedStore(std::filesystem::path dir) : m_dir(std::move(dir)) {
+  std::filesystem::create_directories(m_dir);
+}
+
+std::optional<PreparedBed> FolderBedStore::Load(const std::string& hash) {
+  const auto path = m_dir / (hash + ".bed");
+  if (!std::filesystem::exists(path)) return std::nullopt;
+  return LoadBed(path);
+}
+
+void FolderBedStore::Save(const PreparedBed& bed) {
+  SaveBed(bed, m_dir / (bed.hash + ".bed"));
+}
+
+BedCache::BedCache(std::filesystem::path dir)
+    // Without a store, memory is the only copy: keep every bed, so none is settled twice.
+    : BedCache(dir.empty() ? nullptr : std::make_shared<FolderBedStore>(dir),
+               dir.empty() ? std::numeric_limits<std::size_t>::max() : 16) {}
+
+BedCache::BedCache(std::shared_ptr<BedStore> store, std::size_t beds_in_memory)
+    : m_store(std::move(store)), m_memory_limit(beds_in_memory) {}
+
+void BedCache::RememberLocked(const PreparedBed& bed) {
+  if (m_memory_limit == 0) return;
+  m_memory[bed.hash] = bed;
+  m_memory_order.remove(bed.hash);
+  m_memory_order.push_back(bed.hash);
+  while (m_memory.size() > m_memory_limit) {
+    m_memory.erase(m_memory_order.front());
+    m_memory_order.pop_front();
+  }
 }
 
 std::optional<PreparedBed> BedCache::FindLocked(const std::string& hash) {
   if (auto it = m_memory.find(hash); it != m_memory.end()) return it->second;
-  if (m_dir.empty()) return std::nullopt;
-  const auto path = m_dir / (hash + ".bed");
-  if (!std::filesystem::exists(path)) return std::nullopt;
+  if (!m_store) return std::nullopt;
   try {
-    PreparedBed bed = LoadBed(path);
-    if (bed.hash != hash) return std::nullopt;
-    m_memory.emplace(hash, bed);
+    std::optional<PreparedBed> bed = m_store->Load(hash);
+    if (!bed || bed->hash != hash) return std::nullopt;
+    RememberLocked(*bed);
     return bed;
   } catch (const std::exception&) {
-    return std::nullopt;  // a damaged file is prepared again (and replaced)
+    return std::nullopt;  // a damaged bed is prepared again (and replaced)
   }
 }
 
@@ -194,19 +235,36 @@ PreparedBed BedCache::FindOrMake(const std::string& hash, const std::string& sta
   // Prepare without holding the lock; whatever happens, release the waiters.
   try {
     PreparedBed bed = make();
-    std::lock_guard lock(m_mutex);
-    if (!m_dir.empty()) SaveBed(bed, m_dir / (hash + ".bed"));
-    m_memory[hash] = bed;
-    ++m_prepared[stage];
-    m_in_progress.erase(hash);
+    std::function<void(const PreparedBed&)> on_prepared;
+    {
+      std::lock_guard lock(m_mutex);
+      if (m_store) m_store->Save(bed);
+      RememberLocked(bed);
+      ++m_prepared[stage];
+      m_in_progress.erase(hash);
+      on_prepared = m_on_prepared;
+    }
     m_done.notify_all();
+    if (on_prepared) on_prepared(bed);
     return bed;
   } catch (...) {
-    std::lock_guard lock(m_mutex);
-    m_in_progress.erase(hash);
+    {
+      std::lock_guard lock(m_mutex);
+      m_in_progress.erase(hash);
+    }
     m_done.notify_all();
     throw;
   }
+}
+
+bool BedCache::Contains(const std::string& hash) {
+  std::lock_guard lock(m_mutex);
+  return m_memory.count(hash) || (m_store && m_store->Contains(hash));
+}
+
+void BedCache::OnPrepared(std::function<void(const PreparedBed&)> callback) {
+  std::lock_guard lock(m_mutex);
+  m_on_prepared = std::move(callback);
 }
 
 std::map<std::string, int> BedCache::prepared_counts() const {

@@ -16,6 +16,8 @@
 #include <condition_variable>
 #include <filesystem>
 #include <functional>
+#include <list>
+#include <memory>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -60,31 +62,74 @@ struct BedProgress {
   double balance_error = 0.0;  ///< |plate + wall - weight| / weight
 };
 
-/// Where prepared beds are kept: in memory for this process and, given a folder, on disk.
-/// Saving and loading is exact (the doubles' bits). Safe to share between threads: while one
-/// thread prepares a bed, others asking for the same bed wait for it instead of preparing it
-/// again.
+/// Durable storage of prepared beds, by hash: a folder of bed files for the CLI, the database
+/// for the daemon. Implementations need not be thread-safe: BedCache serialises the calls.
+class BedStore {
+ public:
+  virtual ~BedStore() = default;
+  /// The bed, or nothing when absent. Throws on a damaged bed.
+  virtual std::optional<PreparedBed> Load(const std::string& hash) = 0;
+  virtual void Save(const PreparedBed& bed) = 0;
+  virtual bool Contains(const std::string& hash) = 0;
+};
+
+/// One file per bed, DIR/<hash>.bed, written atomically.
+class FolderBedStore final : public BedStore {
+ public:
+  explicit FolderBedStore(std::filesystem::path dir);
+  std::optional<PreparedBed> Load(const std::string& hash) override;
+  void Save(const PreparedBed& bed) override;
+  bool Contains(const std::string& hash) override {
+    return std::filesystem::exists(m_dir / (hash + ".bed"));
+  }
+
+ private:
+  std::filesystem::path m_dir;
+};
+
+/// Where prepared beds are found: the most recently used in memory, all of them in the store
+/// (if any). Saving and loading is exact (the doubles' bits). Safe to share between threads:
+/// while one thread prepares a bed, others asking for the same bed wait for it instead of
+/// preparing it again.
 class BedCache {
  public:
+  /// A folder store in `dir`, or memory only (unbounded) when empty.
   explicit BedCache(std::filesystem::path dir = {});
+  /// `beds_in_memory` bounds the memory a long-running process spends on beds.
+  explicit BedCache(std::shared_ptr<BedStore> store, std::size_t beds_in_memory = 16);
 
-  /// The bed of that hash: from memory, from disk, or made by `make` (once, whoever asks).
+  /// The bed of that hash: from memory, from the store, or made by `make` (once, whoever asks).
   PreparedBed FindOrMake(const std::string& hash, const std::string& stage,
                          const std::function<PreparedBed()>& make);
+
+  /// Whether the bed is ready (in memory or in the store).
+  bool Contains(const std::string& hash);
+
+  /// Called (outside the cache's lock) after each bed this cache prepared is stored.
+  void OnPrepared(std::function<void(const PreparedBed&)> callback);
 
   /// How many beds this cache prepared (not found) since it was made, per stage.
   std::map<std::string, int> prepared_counts() const;
 
  private:
   std::optional<PreparedBed> FindLocked(const std::string& hash);
+  void RememberLocked(const PreparedBed& bed);
 
-  std::filesystem::path m_dir;
+  std::shared_ptr<BedStore> m_store;
+  std::size_t m_memory_limit;
   mutable std::mutex m_mutex;
   std::condition_variable m_done;
   std::map<std::string, PreparedBed> m_memory;
+  std::list<std::string> m_memory_order;  ///< least recently stored first
   std::set<std::string> m_in_progress;
   std::map<std::string, int> m_prepared;
+  std::function<void(const PreparedBed&)> m_on_prepared;
 };
+
+/// A bed as bytes (a text header, then the doubles' bits and a checksum) and back. ParseBed
+/// throws std::runtime_error naming `name` on damaged or foreign bytes.
+std::string SerializeBed(const PreparedBed& bed);
+PreparedBed ParseBed(const std::string& bytes, const std::string& name);
 
 /// Writes / reads one bed file (binary, exact). Load throws std::runtime_error on a damaged
 /// or foreign file.

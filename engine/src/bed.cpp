@@ -12,6 +12,7 @@
 
 #include "dembuf/engine/bed_io.h"
 #include "dembuf/engine/errors.h"
+#include "dembuf/engine/content_hash.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
 
@@ -20,20 +21,6 @@ namespace dembuf {
 namespace {
 
 // ---- hashing ---------------------------------------------------------------------------------
-
-std::uint64_t Fnv1a(const std::string& text, std::uint64_t h = 0xcbf29ce484222325ULL) {
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
-
-std::string Hex(std::uint64_t h) {
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
 
 // The canonical text of the fields that determine the source bed: exact number texts, fixed
 // order. Anything that changes the settled packing belongs here, including the time step.
@@ -93,11 +80,11 @@ struct StageKeys {
 StageKeys Keys(const Scene& scene) {
   StageKeys k;
   const std::string source_text = SourceKeyText(scene, SourceThickness(scene));
-  k.source = Hex(Fnv1a(source_text));
+  k.source = ContentHash(source_text);
   const std::string cut_text = source_text + FieldText(scene, "bed.thickness_m");
-  k.cut = Hex(Fnv1a(cut_text));
-  k.friction = Hex(Fnv1a(cut_text + FieldText(scene, "material.friction_bead_bead") +
-                         FieldText(scene, "bed.friction_ramp_s")));
+  k.cut = ContentHash(cut_text);
+  k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
+                           FieldText(scene, "bed.friction_ramp_s"));
   return k;
 }
 
@@ -361,8 +348,8 @@ std::string ImportHash(const Scene& scene) {
   std::ifstream in(scene.bed.import, std::ios::binary);
   std::ostringstream content;
   content << in.rdbuf();
-  return Hex(Fnv1a(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
-                   "import\n" + content.str()));
+  return ContentHash(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
+                     "import\n" + content.str());
 }
 
 PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,

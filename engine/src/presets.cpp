@@ -11,7 +11,7 @@ Scene PresetScene(const std::string& name) {
     if (p.name == name) return LoadSceneText(std::string(p.toml), "preset " + name);
     known += (known.empty() ? "" : ", ") + std::string(p.name);
   }
-  throw SceneError("--preset", "unknown preset \"" + name + "\"; known presets: " + known);
+  throw SceneError("preset", "unknown preset \"" + name + "\"; known presets: " + known);
 }
 
 }  // namespace dembuf

@@ -33,10 +33,10 @@ if "$dembuf" run "${e2[@]}" --out "$work/run" 2>/dev/null; then fail "overwrote 
 grep -q '^mass_kg = 0.3 ' "$work/scene.toml" || fail "printed scene lacks the override"
 "$dembuf" scene --print "$work/scene.toml" > "$work/again.toml"
 cmp -s "$work/scene.toml" "$work/again.toml" || fail "printed scene does not read back"
-# A preset gives the paper's scene; an unknown one is refused naming --preset.
+# A preset gives the paper's scene; an unknown one is refused naming the preset field.
 "$dembuf" scene --print --preset e2 | grep -q '^speed_m_s = 5.0 ' || fail "preset e2 speed"
 if "$dembuf" scene --preset e9 2>"$work/err"; then fail "unknown preset accepted"; fi
-grep -q -- '--preset' "$work/err" || fail "unknown preset message: $(cat "$work/err")"
+grep -q 'preset: unknown preset' "$work/err" || fail "unknown preset message: $(cat "$work/err")"
 
 # A sweep over two projectile speeds on the bare plate (no bed to prepare): one CSV row per
 # run, a point per speed, and a second invocation keeps the finished runs.

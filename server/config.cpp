@@ -1,0 +1,68 @@
+#include "config.h"
+
+#include <spdlog/common.h>
+
+#include <set>
+#include <stdexcept>
+#include <thread>
+#include <toml.hpp>
+
+namespace dembuf::server {
+
+void LoadConfigFile(const std::string& path, ServerConfig& config) {
+  toml::value root;
+  try {
+    root = toml::parse(path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("configuration " + path + ": " + e.what());
+  }
+  const std::set<std::string> known = {"listen",         "db",       "workers",
+                                       "threads_per_job", "queue_limit", "max_sweep_jobs",
+                                       "log_file",        "log_level", "shutdown_grace_s"};
+  for (const auto& [key, value] : root.as_table())
+    if (!known.count(key))
+      throw std::runtime_error("configuration " + path + ": unknown setting \"" + key + "\"");
+  auto get = [&](const char* key, auto& target) {
+    if (!root.contains(key)) return;
+    try {
+      target = toml::find<std::decay_t<decltype(target)>>(root, key);
+    } catch (const std::exception&) {
+      throw std::runtime_error("configuration " + path + ": " + key + " has the wrong type");
+    }
+  };
+  get("listen", config.listen);
+  get("db", config.db);
+  get("workers", config.workers);
+  get("threads_per_job", config.threads_per_job);
+  get("queue_limit", config.queue_limit);
+  get("max_sweep_jobs", config.max_sweep_jobs);
+  get("log_file", config.log_file);
+  get("log_level", config.log_level);
+  get("shutdown_grace_s", config.shutdown_grace_s);
+}
+
+void ValidateConfig(ServerConfig& config) {
+  auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw std::runtime_error(what);
+  };
+  require(!config.listen.empty(), "listen: give an address such as 127.0.0.1:50051");
+  require(!config.db.empty(), "db: give a database file");
+  require(config.workers >= 1 && config.workers <= 256, "workers: must be 1 to 256");
+  require(config.threads_per_job >= 0 && config.threads_per_job <= 256,
+          "threads_per_job: must be 0 (automatic) to 256");
+  require(config.queue_limit >= 1 && config.queue_limit <= 1000000,
+          "queue_limit: must be 1 to 1000000");
+  require(config.max_sweep_jobs >= 1 && config.max_sweep_jobs <= 1000000,
+          "max_sweep_jobs: must be 1 to 1000000");
+  require(config.shutdown_grace_s >= 0 && config.shutdown_grace_s <= 86400,
+          "shutdown_grace_s: must be 0 to 86400");
+  require(spdlog::level::from_str(config.log_level) != spdlog::level::off ||
+              config.log_level == "off",
+          "log_level: must be trace, debug, info, warn, error, critical or off");
+  if (config.threads_per_job == 0) {
+    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    config.threads_per_job = std::max(1, cores / config.workers);
+  }
+}
+
+}  // namespace dembuf::server

@@ -1,0 +1,27 @@
+// dembufd's settings: defaults, then the configuration file, then the command line.
+#pragma once
+
+#include <string>
+
+namespace dembuf::server {
+
+struct ServerConfig {
+  std::string listen = "127.0.0.1:50051";  ///< loopback unless told otherwise
+  std::string db = "dembuf.db";
+  int workers = 1;
+  int threads_per_job = 0;  ///< 0: the cores divided among the workers
+  int queue_limit = 1000;
+  int max_sweep_jobs = 10000;
+  std::string log_file;  ///< "" for the console only
+  std::string log_level = "info";
+  int shutdown_grace_s = 10;  ///< how long SIGTERM waits for running jobs
+};
+
+/// Reads a TOML configuration file over `config` (keys as the struct's members). Throws
+/// std::runtime_error naming the file and key for unknown keys, wrong types or bad values.
+void LoadConfigFile(const std::string& path, ServerConfig& config);
+
+/// Checks ranges; throws std::runtime_error naming the setting.
+void ValidateConfig(ServerConfig& config);
+
+}  // namespace dembuf::server

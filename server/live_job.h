@@ -1,0 +1,116 @@
+// A job while a worker runs it: its samples so far, its state and progress, and its cancel
+// flag. Any number of watchers read it while the worker appends; a watcher that joins late
+// starts from index 0 and so receives what was computed before it came.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "dembuf/engine/impact.h"
+#include "store.h"
+
+namespace dembuf::server {
+
+struct JobProgress {
+  std::string stage = "queued";
+  double fraction = 0.0;
+  double sim_time_s = 0.0;
+  std::int64_t steps = 0;
+  double peak_plate_force_N = 0.0;
+};
+
+/// What a watcher gets from one read.
+struct LiveRead {
+  std::vector<ImpactSample> samples;  ///< from the requested index on
+  JobState state = JobState::kQueued;
+  JobProgress progress;
+  bool ended = false;  ///< no more samples will come
+};
+
+class LiveJob {
+ public:
+  explicit LiveJob(std::int64_t id) : m_id(id) {}
+
+  std::int64_t id() const { return m_id; }
+
+  void Append(const ImpactSample& sample) {
+    {
+      std::lock_guard lock(m_mutex);
+      m_samples.push_back(sample);
+      m_progress.peak_plate_force_N = std::max(m_progress.peak_plate_force_N, sample.plate_force_N);
+    }
+    m_changed.notify_all();
+  }
+
+  void SetState(JobState state) {
+    {
+      std::lock_guard lock(m_mutex);
+      m_state = state;
+    }
+    m_changed.notify_all();
+  }
+
+  void SetProgress(const std::string& stage, double fraction, double sim_time_s,
+                   std::int64_t steps) {
+    std::lock_guard lock(m_mutex);
+    m_progress.stage = stage;
+    m_progress.fraction = fraction;
+    m_progress.sim_time_s = sim_time_s;
+    m_progress.steps = steps;
+  }
+
+  /// No more samples: the job ended in `state` (or went back to the queue).
+  void End(JobState state) {
+    {
+      std::lock_guard lock(m_mutex);
+      m_state = state;
+      m_ended = true;
+    }
+    m_changed.notify_all();
+  }
+
+  /// Samples from index `from` (at most `max`), waiting up to `wait` for some to arrive
+  /// unless there are some already or the job has ended.
+  LiveRead Read(std::size_t from, std::size_t max, std::chrono::milliseconds wait) {
+    std::unique_lock lock(m_mutex);
+    m_changed.wait_for(lock, wait, [&] { return m_ended || m_samples.size() > from; });
+    LiveRead read;
+    const std::size_t end = std::min(m_samples.size(), from + max);
+    if (from < end) read.samples.assign(m_samples.begin() + from, m_samples.begin() + end);
+    read.state = m_state;
+    read.progress = m_progress;
+    read.ended = m_ended && end == m_samples.size();
+    return read;
+  }
+
+  std::vector<ImpactSample> Samples() const {
+    std::lock_guard lock(m_mutex);
+    return m_samples;
+  }
+
+  JobProgress Progress() const {
+    std::lock_guard lock(m_mutex);
+    return m_progress;
+  }
+
+  /// Raised to stop the run; the engine checks it every few steps.
+  std::atomic<bool> cancel{false};
+  /// Why it was raised: false by the user, true by the daemon shutting down.
+  std::atomic<bool> cancel_for_shutdown{false};
+
+ private:
+  const std::int64_t m_id;
+  mutable std::mutex m_mutex;
+  std::condition_variable m_changed;
+  std::vector<ImpactSample> m_samples;
+  JobState m_state = JobState::kQueued;
+  JobProgress m_progress;
+  bool m_ended = false;
+};
+
+}  // namespace dembuf::server

@@ -1,0 +1,142 @@
+// dembufd: the dembuf daemon. Serves the gRPC API of proto/dembuf/v1, keeps everything in one
+// SQLite database and runs the queued jobs on a pool of workers.
+//
+// Exit codes: 0 after a clean shutdown (SIGTERM or SIGINT), 1 for bad settings or a database
+// or address that cannot be used.
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <iostream>
+#include <thread>
+
+#include "config.h"
+#include "dembuf/engine/version.h"
+#include "scheduler.h"
+#include "service.h"
+#include "store.h"
+
+using namespace dembuf::server;
+
+namespace {
+
+std::shared_ptr<spdlog::logger> MakeLogger(const ServerConfig& config) {
+  std::vector<spdlog::sink_ptr> sinks;
+  sinks.push_back(std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
+  if (!config.log_file.empty())
+    sinks.push_back(std::make_shared<spdlog::sinks::basic_file_sink_mt>(config.log_file));
+  auto log = std::make_shared<spdlog::logger>("dembufd", sinks.begin(), sinks.end());
+  log->set_level(spdlog::level::from_str(config.log_level));
+  log->flush_on(spdlog::level::info);
+  return log;
+}
+
+std::string HostName() {
+  char name[256] = {};
+  gethostname(name, sizeof name - 1);
+  return name;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ServerConfig config;
+  std::string config_file;
+  CLI::App app{"dembufd: the dembuf daemon (gRPC API, job queue, SQLite store)"};
+  app.add_option("--config", config_file, "TOML configuration file (flags override it)")
+      ->check(CLI::ExistingFile);
+  // Flags are read into a second copy so that only the given ones override the file.
+  ServerConfig flags;
+  auto* listen = app.add_option("--listen", flags.listen, "address to serve, host:port");
+  auto* db = app.add_option("--db", flags.db, "SQLite database file (created if absent)");
+  auto* workers = app.add_option("--workers", flags.workers, "jobs run at once");
+  auto* threads = app.add_option("--threads-per-job", flags.threads_per_job,
+                                 "engine threads per job (0: cores / workers)");
+  auto* queue = app.add_option("--queue-limit", flags.queue_limit, "queued jobs at most");
+  auto* log_file = app.add_option("--log-file", flags.log_file, "also log to this file");
+  auto* log_level = app.add_option("--log-level", flags.log_level,
+                                   "trace, debug, info, warn, error, critical or off");
+  auto* grace = app.add_option("--shutdown-grace", flags.shutdown_grace_s,
+                               "seconds SIGTERM waits for running jobs before requeueing them");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (!config_file.empty()) LoadConfigFile(config_file, config);
+    if (*listen) config.listen = flags.listen;
+    if (*db) config.db = flags.db;
+    if (*workers) config.workers = flags.workers;
+    if (*threads) config.threads_per_job = flags.threads_per_job;
+    if (*queue) config.queue_limit = flags.queue_limit;
+    if (*log_file) config.log_file = flags.log_file;
+    if (*log_level) config.log_level = flags.log_level;
+    if (*grace) config.shutdown_grace_s = flags.shutdown_grace_s;
+    ValidateConfig(config);
+  } catch (const std::exception& e) {
+    std::cerr << "dembufd: " << e.what() << "\n";
+    return 1;
+  }
+
+  // SIGTERM and SIGINT are taken by one thread with sigwait; every other thread (gRPC's,
+  // the workers', OpenMP's) inherits the blocked mask and never sees them.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGTERM);
+  sigaddset(&stop_signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  std::shared_ptr<spdlog::logger> log;
+  try {
+    log = MakeLogger(config);
+  } catch (const std::exception& e) {
+    std::cerr << "dembufd: log_file: " << e.what() << "\n";
+    return 1;
+  }
+  std::unique_ptr<Store> store;
+  try {
+    store = std::make_unique<Store>(config.db);
+  } catch (const std::exception& e) {
+    log->critical("{}", e.what());
+    return 1;
+  }
+
+  SchedulerOptions options;
+  options.workers = config.workers;
+  options.threads_per_job = config.threads_per_job;
+  options.queue_limit = config.queue_limit;
+  options.host = HostName();
+  Scheduler scheduler(*store, options, log);
+  ServiceInfo info{config.db, options.host, UtcNow(), config.max_sweep_jobs};
+  DembufService service(*store, scheduler, info, log);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (!server || port == 0) {
+    log->critical("cannot listen on {} (in use, or not a host:port address)", config.listen);
+    return 1;
+  }
+  scheduler.Start();
+  log->info("dembufd {} listening on {} (port {}), database {}", dembuf::kVersion, config.listen,
+            port, config.db);
+
+  int signal = 0;
+  sigwait(&stop_signals, &signal);
+  log->info("{}: shutting down: no new requests; running jobs get {} s", strsignal(signal),
+            config.shutdown_grace_s);
+  // Watch streams end when their job ends or the deadline passes.
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  scheduler.Shutdown(std::chrono::seconds(config.shutdown_grace_s));
+  store.reset();
+  log->info("stopped cleanly");
+  return 0;
+}

@@ -1,0 +1,102 @@
+#include "scene_request.h"
+
+#include <charconv>
+#include <string>
+
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/presets.h"
+#include "dembuf/engine/scene_fields.h"
+
+namespace dembuf::server {
+
+namespace {
+
+using google::protobuf::FieldDescriptor;
+using google::protobuf::Message;
+
+// The shortest text that reads back as the same double (NaN and infinities included, so that
+// the field's own range check rejects them with its usual message).
+std::string ExactText(double v) {
+  char buf[64];
+  const auto result = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, result.ptr);
+}
+
+void ApplyMessage(const Message& message, const std::string& prefix, Scene& scene) {
+  const auto* descriptor = message.GetDescriptor();
+  const auto* reflection = message.GetReflection();
+  for (int i = 0; i < descriptor->field_count(); ++i) {
+    const FieldDescriptor* field = descriptor->field(i);
+    const std::string name = prefix.empty() ? field->name() : prefix + "." + field->name();
+    if (field->is_repeated()) {
+      const int count = reflection->FieldSize(message, field);
+      if (count == 0) continue;
+      std::string list;
+      for (int k = 0; k < count; ++k) {
+        if (k > 0) list.push_back(',');
+        list.append(ExactText(reflection->GetRepeatedDouble(message, field, k)));
+      }
+      SetSceneField(scene, name, list);
+      continue;
+    }
+    if (!reflection->HasField(message, field)) continue;
+    switch (field->cpp_type()) {
+      case FieldDescriptor::CPPTYPE_MESSAGE:
+        ApplyMessage(reflection->GetMessage(message, field), name, scene);
+        break;
+      case FieldDescriptor::CPPTYPE_DOUBLE:
+        SetSceneField(scene, name, ExactText(reflection->GetDouble(message, field)));
+        break;
+      case FieldDescriptor::CPPTYPE_INT64:
+        SetSceneField(scene, name, std::to_string(reflection->GetInt64(message, field)));
+        break;
+      case FieldDescriptor::CPPTYPE_BOOL:
+        SetSceneField(scene, name, reflection->GetBool(message, field) ? "true" : "false");
+        break;
+      case FieldDescriptor::CPPTYPE_STRING:
+        SetSceneField(scene, name, reflection->GetString(message, field));
+        break;
+      default:
+        throw SceneError(name, "unsupported field type in the API");
+    }
+  }
+}
+
+}  // namespace
+
+void ApplyProtoScene(const v1::Scene& fields, Scene& scene) {
+  ApplyMessage(fields, "", scene);
+}
+
+Scene ResolveSceneSpec(const v1::SceneSpec& spec) {
+  Scene scene;
+  if (!spec.preset().empty()) scene = PresetScene(spec.preset());
+  if (!spec.scene_toml().empty()) scene = LoadSceneText(spec.scene_toml(), "scene_toml", scene);
+  ApplyProtoScene(spec.scene(), scene);
+  for (const std::string& assignment : spec.set()) ApplyOverride(scene, assignment);
+  ValidateScene(scene);
+  return scene;
+}
+
+void CheckServerScene(const Scene& scene) {
+  if (!scene.bed.import.empty())
+    throw SceneError("bed.import",
+                     "the server prepares its beds and does not read files on its disk; import "
+                     "the bed in a local run (dembuf run) instead");
+  if (!scene.output.snapshot_times_s.empty())
+    throw SceneError("output.snapshot_times_s",
+                     "snapshots are written by local runs (dembuf run) only; leave it empty");
+  if (!scene.output.snapshot_after_contact_s.empty())
+    throw SceneError("output.snapshot_after_contact_s",
+                     "snapshots are written by local runs (dembuf run) only; leave it empty");
+  if (scene.output.snapshot_at_peak)
+    throw SceneError("output.snapshot_at_peak",
+                     "snapshots are written by local runs (dembuf run) only; set it to false");
+  const double duration = scene.time.end_s > 0 ? scene.time.end_s : scene.time.impact_window_s;
+  if (duration / scene.time.output_interval_s > kMaxSamplesPerJob)
+    throw SceneError("time.output_interval_s",
+                     "the run would write " + ExactText(duration / scene.time.output_interval_s) +
+                         " samples; a server job keeps at most 1e6 (raise the interval)");
+}
+
+}  // namespace dembuf::server

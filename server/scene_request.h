@@ -1,0 +1,23 @@
+// From a request's SceneSpec to a validated Scene, and what the daemon refuses to run.
+#pragma once
+
+#include "dembuf/engine/scene.h"
+#include "dembuf/v1/dembuf.pb.h"
+
+namespace dembuf::server {
+
+/// The default scene, then the preset, the scene file text, the typed fields, and each `set`
+/// assignment, in that order; validated. Throws SceneError naming the field at fault.
+Scene ResolveSceneSpec(const v1::SceneSpec& spec);
+
+/// Applies the fields present in a proto Scene to `scene` (no validation).
+void ApplyProtoScene(const v1::Scene& fields, Scene& scene);
+
+/// The most samples one job may write (about 48 MB of series).
+inline constexpr double kMaxSamplesPerJob = 1e6;
+
+/// Refuses what a shared daemon does not run: beds read from files on the server, snapshots
+/// (written by local runs only) and series too long to keep. Throws SceneError.
+void CheckServerScene(const Scene& scene);
+
+}  // namespace dembuf::server

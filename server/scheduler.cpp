@@ -1,0 +1,246 @@
+#include "scheduler.h"
+
+#include <omp.h>
+
+#include <algorithm>
+
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/impact.h"
+#include "dembuf/engine/scene_fields.h"
+#include "dembuf/engine/version.h"
+#include "dembuf/report/run_output.h"
+
+namespace dembuf::server {
+
+namespace {
+
+// The job the calling worker thread runs: beds are prepared inside the engine, in the
+// worker's thread, and the cache's callback uses this to record who prepared them.
+thread_local std::int64_t t_current_job = 0;
+
+// How often the engine reports progress and checks the cancel flag, in steps: a few
+// milliseconds even for the largest beds, so that a cancel takes effect within a second.
+constexpr std::int64_t kProgressEverySteps = 64;
+
+}  // namespace
+
+Scheduler::Scheduler(Store& store, SchedulerOptions options, std::shared_ptr<spdlog::logger> log)
+    : m_store(store),
+      m_options(std::move(options)),
+      m_log(std::move(log)),
+      m_beds(std::shared_ptr<BedStore>(&store.beds(), [](BedStore*) {}), 4) {
+  m_beds.OnPrepared([this](const PreparedBed& bed) {
+    if (t_current_job != 0) m_store.RecordBedPreparation(bed.hash, bed.stage, t_current_job);
+    m_log->info("job {}: prepared the {} bed {} ({} beads, H = {:.4f} m, C0 = {:.3f})",
+                t_current_job, bed.stage, bed.hash, bed.beads.size(), bed.surface_m,
+                bed.solid_fraction);
+    m_wake.notify_all();  // jobs waiting for this bed may go
+  });
+}
+
+Scheduler::~Scheduler() {
+  Shutdown(std::chrono::seconds(0));
+}
+
+void Scheduler::Start() {
+  const auto requeued = m_store.RequeueInterrupted(
+      "interrupted: the daemon stopped while this job ran; it runs again from the start");
+  for (const JobRecord& job : requeued)
+    m_log->warn("job {} was {} when the daemon stopped; queued to run again (attempt {})", job.id,
+                StateName(job.state), job.attempts + 1);
+  {
+    std::lock_guard lock(m_mutex);
+    for (const JobRecord& job : m_store.QueuedJobs())
+      m_queue.push_back({job.id, job.bed_hash, job.source_hash});
+  }
+  m_log->info("{} jobs queued; starting {} workers with {} threads each", m_queue.size(),
+              m_options.workers, m_options.threads_per_job);
+  for (int w = 0; w < m_options.workers; ++w) m_workers.emplace_back([this, w] { WorkerLoop(w); });
+}
+
+void Scheduler::Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) {
+  std::lock_guard admit(m_admit_mutex);  // one admission at a time: the check stays true
+  {
+    std::lock_guard lock(m_mutex);
+    if (m_stopping) throw QueueFull("the daemon is shutting down");
+    if (m_queue.size() + count > static_cast<std::size_t>(m_options.queue_limit))
+      throw QueueFull("the queue holds " + std::to_string(m_queue.size()) + " jobs; " +
+                      std::to_string(count) + " more would pass its limit of " +
+                      std::to_string(m_options.queue_limit));
+  }
+  const std::vector<JobRecord> jobs = add();
+  {
+    std::lock_guard lock(m_mutex);
+    for (const JobRecord& job : jobs) m_queue.push_back({job.id, job.bed_hash, job.source_hash});
+  }
+  m_wake.notify_all();
+}
+
+bool Scheduler::Cancel(std::int64_t id) {
+  std::unique_lock lock(m_mutex);
+  auto queued = std::find_if(m_queue.begin(), m_queue.end(),
+                             [&](const Queued& q) { return q.id == id; });
+  if (queued != m_queue.end()) {
+    m_queue.erase(queued);
+    lock.unlock();
+    m_store.FinishJob(id, JobState::kCancelled, "cancelled while queued", {});
+    m_log->info("job {}: cancelled while queued", id);
+    return true;
+  }
+  if (auto running = m_running.find(id); running != m_running.end()) {
+    running->second->cancel = true;
+    m_log->info("job {}: cancel requested", id);
+    return true;
+  }
+  return false;
+}
+
+std::shared_ptr<LiveJob> Scheduler::Live(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  auto it = m_running.find(id);
+  return it == m_running.end() ? nullptr : it->second;
+}
+
+int Scheduler::queued() const {
+  std::lock_guard lock(m_mutex);
+  return static_cast<int>(m_queue.size());
+}
+
+int Scheduler::running() const {
+  std::lock_guard lock(m_mutex);
+  return static_cast<int>(m_running.size());
+}
+
+void Scheduler::Shutdown(std::chrono::seconds grace) {
+  {
+    std::lock_guard lock(m_mutex);
+    if (m_stopping && m_workers.empty()) return;
+    m_stopping = true;
+  }
+  m_wake.notify_all();
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  {
+    std::unique_lock lock(m_mutex);
+    if (!m_running.empty())
+      m_log->info("waiting up to {} s for {} running jobs", grace.count(), m_running.size());
+    m_wake.wait_until(lock, deadline, [&] { return m_running.empty(); });
+    for (auto& [id, live] : m_running) {
+      live->cancel_for_shutdown = true;
+      live->cancel = true;
+    }
+  }
+  m_workers.clear();  // joins
+}
+
+bool Scheduler::BlockedLocked(const Queued& job) {
+  // Blocked when a running job is preparing a bed this job needs: it will be ready soon, and
+  // preparing it twice would waste a worker.
+  for (const auto& [id, running] : m_running_beds) {
+    if (!job.source_hash.empty() && running.source_hash == job.source_hash &&
+        !m_beds.Contains(job.source_hash))
+      return true;
+    if (!job.bed_hash.empty() && running.bed_hash == job.bed_hash && !m_beds.Contains(job.bed_hash))
+      return true;
+  }
+  return false;
+}
+
+std::optional<std::int64_t> Scheduler::Next() {
+  std::unique_lock lock(m_mutex);
+  while (true) {
+    if (m_stopping) return std::nullopt;
+    for (auto it = m_queue.begin(); it != m_queue.end(); ++it) {
+      if (BlockedLocked(*it)) continue;
+      const Queued job = *it;
+      m_queue.erase(it);
+      m_running[job.id] = std::make_shared<LiveJob>(job.id);
+      m_running_beds[job.id] = job;
+      return job.id;
+    }
+    // Nothing runnable: wait for a new job, a finished job or a prepared bed. The timeout
+    // covers a bed stored by another process sharing the database.
+    m_wake.wait_for(lock, std::chrono::seconds(5));
+  }
+}
+
+void Scheduler::WorkerLoop(int worker) {
+  // Each job's engine uses this many OpenMP threads (a per-thread setting).
+  omp_set_num_threads(m_options.threads_per_job);
+  while (auto id = Next()) {
+    std::shared_ptr<LiveJob> live = Live(*id);
+    m_log->info("worker {}: job {} starts", worker, *id);
+    t_current_job = *id;
+    Run(*id, live);
+    t_current_job = 0;
+    {
+      std::lock_guard lock(m_mutex);
+      m_running.erase(*id);
+      m_running_beds.erase(*id);
+    }
+    m_wake.notify_all();
+  }
+}
+
+void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
+  const std::optional<JobRecord> job = m_store.GetJob(id);
+  if (!job) {
+    live->End(JobState::kFailed);
+    return;
+  }
+  const auto started = std::chrono::steady_clock::now();
+  const bool needs_bed = !job->bed_hash.empty() && !m_beds.Contains(job->bed_hash);
+  const JobState first_state = needs_bed ? JobState::kPreparingBed : JobState::kRunning;
+  m_store.MarkStarted(id, first_state, m_options.host, kVersion);
+  live->SetState(first_state);
+  try {
+    const Scene scene = LoadSceneText(job->scene_toml, "job " + std::to_string(id));
+    BedRequest bed_request;
+    bed_request.cancel = &live->cancel;
+    bed_request.on_progress = [&](const BedProgress& p) {
+      live->SetProgress("bed: " + p.stage, p.t_max_s > 0 ? p.t_s / p.t_max_s : 0.0, p.t_s, 0);
+    };
+    World world = BuildWorld(scene, &m_beds, &bed_request);
+    if (first_state != JobState::kRunning) {
+      m_store.SetState(id, JobState::kRunning);
+      live->SetState(JobState::kRunning);
+    }
+    RunControl control;
+    control.on_sample = [&](const ImpactSample& s) { live->Append(s); };
+    control.on_progress = [&](const ImpactProgress& p) {
+      live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0,
+                        p.t_s, p.steps);
+    };
+    control.progress_every_steps = kProgressEverySteps;
+    control.cancel = &live->cancel;
+    control.beds = &m_beds;
+    control.bed_request = &bed_request;
+    const ImpactSummary summary = RunImpact(std::move(world), scene, control);
+    const std::string summary_json = report::SummaryToJson(summary, scene).dump(2) + "\n";
+    m_store.FinishJob(id, JobState::kDone, "", {summary_json, live->Samples()});
+    live->End(JobState::kDone);
+    m_log->info("job {}: done in {:.1f} s: P = {:.5g} N, lambda = {:.3f}", id,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
+                summary.peaks.p_N, summary.lambda);
+  } catch (const Cancelled&) {
+    if (live->cancel_for_shutdown) {
+      const std::string note = "interrupted by a daemon shutdown; it runs again from the start";
+      m_store.SetState(id, JobState::kQueued, note);
+      m_store.LogEvent(id, note);
+      live->End(JobState::kQueued);
+      m_log->warn("job {}: {}", id, note);
+    } else {
+      m_store.FinishJob(id, JobState::kCancelled, "cancelled while running",
+                        {"", live->Samples()});
+      live->End(JobState::kCancelled);
+      m_log->info("job {}: cancelled while running", id);
+    }
+  } catch (const std::exception& e) {
+    // A bad scene (it was checked at submission, so only a changed engine gets here), a run
+    // that became unstable, or a bed that would not settle: the job fails with the reason.
+    m_store.FinishJob(id, JobState::kFailed, e.what(), {"", live->Samples()});
+    live->End(JobState::kFailed);
+    m_log->error("job {}: failed: {}", id, e.what());
+  }
+}
+
+}  // namespace dembuf::server

@@ -1,0 +1,93 @@
+// The job queue and the workers that run it. Jobs run oldest first, except that a job whose
+// bed is being prepared by a running job waits for that bed (its completion wakes the queue)
+// while the workers take other jobs: a bed is prepared once, by one worker.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <spdlog/logger.h>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dembuf/engine/bed.h"
+#include "live_job.h"
+#include "store.h"
+
+namespace dembuf::server {
+
+struct SchedulerOptions {
+  int workers = 1;
+  int threads_per_job = 1;
+  int queue_limit = 1000;  ///< queued jobs at most
+  std::string host;
+};
+
+/// The queue cannot take the jobs.
+class QueueFull : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Scheduler {
+ public:
+  Scheduler(Store& store, SchedulerOptions options, std::shared_ptr<spdlog::logger> log);
+  ~Scheduler();
+
+  /// Re-queues the jobs a previous daemon left running, loads the queue, starts the workers.
+  void Start();
+
+  /// Stores new jobs (with `add`, which inserts them into the database) and queues them, if
+  /// the queue has room for `count` more; else throws QueueFull and stores nothing.
+  void Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add);
+
+  /// Cancels a queued or running job. False if it had already ended.
+  bool Cancel(std::int64_t id);
+
+  /// The job while it runs (null when queued or ended).
+  std::shared_ptr<LiveJob> Live(std::int64_t id);
+
+  int queued() const;
+  int running() const;
+  const SchedulerOptions& options() const { return m_options; }
+
+  /// Stops taking jobs; waits up to `grace` for the running ones, then interrupts them and
+  /// puts them back in the queue for the next start. Returns when every worker has stopped.
+  void Shutdown(std::chrono::seconds grace);
+
+ private:
+  struct Queued {
+    std::int64_t id;
+    std::string bed_hash;
+    std::string source_hash;
+  };
+
+  void WorkerLoop(int worker);
+  /// Blocks until a runnable job is there (or shutdown: nullopt).
+  std::optional<std::int64_t> Next();
+  bool BlockedLocked(const Queued& job);
+  void Run(std::int64_t id, const std::shared_ptr<LiveJob>& live);
+
+  Store& m_store;
+  SchedulerOptions m_options;
+  std::shared_ptr<spdlog::logger> m_log;
+  BedCache m_beds;
+
+  mutable std::mutex m_mutex;
+  std::condition_variable m_wake;
+  std::deque<Queued> m_queue;
+  std::map<std::int64_t, std::shared_ptr<LiveJob>> m_running;
+  std::map<std::int64_t, Queued> m_running_beds;
+  bool m_stopping = false;
+  std::mutex m_admit_mutex;
+  std::vector<std::jthread> m_workers;
+};
+
+}  // namespace dembuf::server

@@ -1,0 +1,405 @@
+#include "service.h"
+
+#include <chrono>
+#include <sstream>
+#include <thread>
+
+#include "dembuf/engine/bed.h"
+#include "dembuf/engine/content_hash.h"
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/scene_fields.h"
+#include "dembuf/engine/sweep_plan.h"
+#include "dembuf/engine/version.h"
+#include "scene_request.h"
+
+namespace dembuf::server {
+
+namespace {
+
+using grpc::Status;
+using grpc::StatusCode;
+
+constexpr std::size_t kSamplesPerMessage = 512;
+
+Status Invalid(const std::string& field, const std::string& message) {
+  return Status(StatusCode::INVALID_ARGUMENT, field.empty() ? message : field + ": " + message);
+}
+
+Status FromSceneError(const SceneError& e) {
+  return Status(StatusCode::INVALID_ARGUMENT, e.what());
+}
+
+v1::JobState ToProto(JobState s) {
+  switch (s) {
+    case JobState::kQueued: return v1::JOB_STATE_QUEUED;
+    case JobState::kPreparingBed: return v1::JOB_STATE_PREPARING_BED;
+    case JobState::kRunning: return v1::JOB_STATE_RUNNING;
+    case JobState::kDone: return v1::JOB_STATE_DONE;
+    case JobState::kFailed: return v1::JOB_STATE_FAILED;
+    case JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+  }
+  return v1::JOB_STATE_UNSPECIFIED;
+}
+
+std::optional<JobState> FromProto(v1::JobState s) {
+  switch (s) {
+    case v1::JOB_STATE_QUEUED: return JobState::kQueued;
+    case v1::JOB_STATE_PREPARING_BED: return JobState::kPreparingBed;
+    case v1::JOB_STATE_RUNNING: return JobState::kRunning;
+    case v1::JOB_STATE_DONE: return JobState::kDone;
+    case v1::JOB_STATE_FAILED: return JobState::kFailed;
+    case v1::JOB_STATE_CANCELLED: return JobState::kCancelled;
+    default: return std::nullopt;
+  }
+}
+
+void FillSample(const ImpactSample& s, v1::ForceSample* out) {
+  out->set_t_s(s.t_s);
+  out->set_plate_force_n(s.plate_force_N);
+  out->set_wall_force_z_n(s.wall_force_z_N);
+  out->set_proj_z_m(s.projectile_z_m);
+  out->set_proj_vz_m_s(s.projectile_vz_m_s);
+  out->set_proj_force_z_n(s.projectile_force_z_N);
+}
+
+void FillProgress(const JobProgress& p, v1::Progress* out) {
+  out->set_stage(p.stage);
+  out->set_fraction(p.fraction);
+  out->set_sim_time_s(p.sim_time_s);
+  out->set_steps(p.steps);
+  out->set_peak_plate_force_n(p.peak_plate_force_N);
+}
+
+// Owners and names end up in logs and tables: printable, bounded.
+Status CheckLabel(const std::string& field, const std::string& value, std::size_t max_length) {
+  if (value.size() > max_length)
+    return Invalid(field, "longer than " + std::to_string(max_length) + " characters");
+  for (unsigned char c : value)
+    if (c < 0x20 || c == 0x7f) return Invalid(field, "contains a control character");
+  return Status::OK;
+}
+
+Status CheckOwner(const std::string& owner) {
+  if (owner.empty()) return Status::OK;
+  for (char c : owner)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-'))
+      return Invalid("owner", "\"" + owner + "\" may hold only letters, digits, '.', '_' and '-'");
+  return CheckLabel("owner", owner, 64);
+}
+
+std::string SceneText(const Scene& scene) {
+  std::ostringstream text;
+  PrintScene(scene, text);
+  return text.str();
+}
+
+JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std::string& name) {
+  JobRecord job;
+  job.owner = owner.empty() ? "anonymous" : owner;
+  job.name = name;
+  job.scene_toml = SceneText(scene);
+  job.scene_hash = ContentHash(job.scene_toml);
+  job.bed_hash = scene.bed.thickness_m > 0 || !scene.bed.import.empty() ? BedHash(scene) : "";
+  job.source_hash = BedSourceHash(scene);
+  return job;
+}
+
+}  // namespace
+
+DembufService::DembufService(Store& store, Scheduler& scheduler, ServiceInfo info,
+                             std::shared_ptr<spdlog::logger> log)
+    : m_store(store), m_scheduler(scheduler), m_info(std::move(info)), m_log(std::move(log)) {}
+
+void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out) {
+  out->set_id(r.id);
+  out->set_sweep_id(r.sweep_id);
+  out->set_sweep_index(r.sweep_index);
+  for (const auto& v : r.sweep_values) out->add_sweep_values(v);
+  out->set_owner(r.owner);
+  out->set_name(r.name);
+  out->set_error(r.error);
+  out->set_scene_hash(r.scene_hash);
+  out->set_bed_hash(r.bed_hash);
+  out->set_attempts(r.attempts);
+  out->set_created_at(r.created_at);
+  out->set_started_at(r.started_at);
+  out->set_finished_at(r.finished_at);
+  out->set_host(r.host);
+  out->set_code_version(r.code_version);
+  JobState state = r.state;
+  JobProgress progress;
+  if (auto live = m_scheduler.Live(r.id)) {
+    progress = live->Progress();
+  } else if (r.state == JobState::kDone) {
+    progress.stage = "done";
+    progress.fraction = 1.0;
+  } else {
+    progress.stage = StateName(r.state);
+  }
+  out->set_state(ToProto(state));
+  FillProgress(progress, out->mutable_progress());
+  if (with_details) {
+    out->set_scene_toml(r.scene_toml);
+    for (const auto& bed : m_store.BedsPreparedBy(r.id)) out->add_beds_prepared(bed);
+    if (r.state == JobState::kDone)
+      if (auto results = m_store.GetResults(r.id)) out->set_summary_json(results->summary_json);
+  }
+}
+
+void DembufService::FillSweep(const SweepRecord& r, v1::Sweep* out) {
+  out->set_id(r.id);
+  out->set_owner(r.owner);
+  out->set_name(r.name);
+  for (const SweepAxis& axis : r.axes) {
+    auto* a = out->add_axes();
+    a->set_field(axis.field);
+    for (const auto& v : axis.values) a->add_values(v);
+  }
+  int total = 0;
+  for (const auto& [state, count] : m_store.SweepStateCounts(r.id)) {
+    (*out->mutable_jobs_by_state())[state] = count;
+    total += count;
+  }
+  out->set_jobs_total(total);
+  out->set_created_at(r.created_at);
+  out->set_beds_prepared(m_store.SweepBedsPrepared(r.id));
+}
+
+Status DembufService::SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest* request,
+                                v1::SubmitJobResponse* response) {
+  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+  if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
+  JobRecord job;
+  try {
+    const Scene scene = ResolveSceneSpec(request->scene());
+    CheckServerScene(scene);
+    std::string name = request->name();
+    if (name.empty()) name = request->scene().preset().empty() ? "job" : request->scene().preset();
+    job = MakeJobRecord(scene, request->owner(), name);
+  } catch (const SceneError& e) {
+    return FromSceneError(e);
+  }
+  try {
+    m_scheduler.Admit(1, [&] {
+      m_store.AddJob(job);
+      return std::vector<JobRecord>{job};
+    });
+  } catch (const QueueFull& e) {
+    return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
+  }
+  m_log->info("job {} submitted by {}: {}", job.id, job.owner, job.name);
+  FillJob(job, false, response->mutable_job());
+  return Status::OK;
+}
+
+Status DembufService::SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepRequest* request,
+                                  v1::SubmitSweepResponse* response) {
+  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+  if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
+  if (request->axes().empty() && request->seeds() <= 1)
+    return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
+  if (request->seeds() < 0 || request->seeds() > 1000)
+    return Invalid("seeds", std::to_string(request->seeds()) + " is out of range: 1 to 1000");
+  SweepRecord sweep;
+  std::vector<JobRecord> jobs;
+  try {
+    const Scene base = ResolveSceneSpec(request->base());
+    std::vector<SweepAxis> axes;
+    for (const auto& axis : request->axes()) {
+      std::vector<std::string> values(axis.values().begin(), axis.values().end());
+      for (const auto& other : axes)
+        if (other.field == axis.field()) throw SceneError(axis.field(), "varied twice");
+      axes.push_back(MakeSweepAxis(axis.field(), values, axis.range()));
+    }
+    axes = WithSeedAxis(axes, std::max(1, request->seeds()));
+    const std::vector<SweepRun> runs =
+        ExpandSweep(base, axes, static_cast<std::size_t>(m_info.max_sweep_jobs));
+    sweep.owner = request->owner().empty() ? "anonymous" : request->owner();
+    sweep.name = request->name().empty() ? "sweep" : request->name();
+    sweep.axes = axes;
+    for (std::size_t k : InterleaveBySourceBed(runs)) {
+      CheckServerScene(runs[k].scene);
+      JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
+      job.sweep_index = static_cast<int>(runs[k].index);
+      job.sweep_values = runs[k].values;
+      jobs.push_back(std::move(job));
+    }
+  } catch (const SceneError& e) {
+    return FromSceneError(e);
+  }
+  try {
+    m_scheduler.Admit(jobs.size(), [&] {
+      m_store.AddSweep(sweep, jobs);
+      return jobs;
+    });
+  } catch (const QueueFull& e) {
+    return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
+  }
+  m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, jobs.size());
+  FillSweep(sweep, response->mutable_sweep());
+  for (const JobRecord& job : jobs) response->add_job_ids(job.id);
+  return Status::OK;
+}
+
+Status DembufService::GetJob(grpc::ServerContext*, const v1::GetJobRequest* request,
+                             v1::Job* response) {
+  const auto job = m_store.GetJob(request->id());
+  if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+  FillJob(*job, true, response);
+  return Status::OK;
+}
+
+Status DembufService::GetSweep(grpc::ServerContext*, const v1::GetSweepRequest* request,
+                               v1::Sweep* response) {
+  const auto sweep = m_store.GetSweep(request->id());
+  if (!sweep)
+    return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
+  FillSweep(*sweep, response);
+  return Status::OK;
+}
+
+Status DembufService::ListJobs(grpc::ServerContext*, const v1::ListJobsRequest* request,
+                               v1::ListJobsResponse* response) {
+  JobFilter filter;
+  if (request->state() != v1::JOB_STATE_UNSPECIFIED) {
+    filter.state = FromProto(request->state());
+    if (!filter.state) return Invalid("state", "unknown job state");
+  }
+  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+  if (request->limit() < 0 || request->limit() > 100000)
+    return Invalid("limit", "must be 0 (100) to 100000");
+  filter.owner = request->owner();
+  filter.sweep_id = request->sweep_id();
+  filter.limit = request->limit() == 0 ? 100 : request->limit();
+  for (const JobRecord& job : m_store.ListJobs(filter)) FillJob(job, false, response->add_jobs());
+  return Status::OK;
+}
+
+Status DembufService::ListSweeps(grpc::ServerContext*, const v1::ListSweepsRequest* request,
+                                 v1::ListSweepsResponse* response) {
+  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+  if (request->limit() < 0 || request->limit() > 100000)
+    return Invalid("limit", "must be 0 (100) to 100000");
+  for (const SweepRecord& sweep :
+       m_store.ListSweeps(request->owner(), request->limit() == 0 ? 100 : request->limit()))
+    FillSweep(sweep, response->add_sweeps());
+  return Status::OK;
+}
+
+Status DembufService::Cancel(grpc::ServerContext*, const v1::CancelRequest* request,
+                             v1::CancelResponse* response) {
+  if ((request->job_id() != 0) == (request->sweep_id() != 0))
+    return Invalid("job_id", "give either job_id or sweep_id");
+  std::vector<JobRecord> targets;
+  if (request->job_id() != 0) {
+    const auto job = m_store.GetJob(request->job_id());
+    if (!job)
+      return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
+    targets.push_back(*job);
+  } else {
+    if (!m_store.GetSweep(request->sweep_id()))
+      return Status(StatusCode::NOT_FOUND,
+                    "sweep_id: no sweep " + std::to_string(request->sweep_id()));
+    JobFilter filter;
+    filter.sweep_id = request->sweep_id();
+    filter.limit = 1000000;
+    targets = m_store.ListJobs(filter);
+  }
+  int cancelled = 0;
+  for (const JobRecord& job : targets)
+    if (!IsFinal(job.state) && m_scheduler.Cancel(job.id)) ++cancelled;
+  if (request->job_id() != 0 && cancelled == 0)
+    return Status(StatusCode::FAILED_PRECONDITION,
+                  "job_id: job " + std::to_string(request->job_id()) + " has already ended (" +
+                      StateName(targets.front().state) + ")");
+  response->set_cancelled(cancelled);
+  return Status::OK;
+}
+
+Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                               grpc::ServerWriter<v1::WatchJobResponse>* writer) {
+  if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
+  auto next = static_cast<std::size_t>(request->from_index());
+  auto last_status = std::chrono::steady_clock::time_point{};
+  while (!context->IsCancelled()) {
+    // A running job is read live; else the store has the final word.
+    if (auto live = m_scheduler.Live(request->id())) {
+      const LiveRead read = live->Read(next, kSamplesPerMessage, std::chrono::milliseconds(500));
+      v1::WatchJobResponse message;
+      message.set_first_index(static_cast<std::int64_t>(next));
+      for (const ImpactSample& s : read.samples) FillSample(s, message.add_samples());
+      message.set_state(ToProto(read.state));
+      FillProgress(read.progress, message.mutable_progress());
+      next += read.samples.size();
+      if (!writer->Write(message)) return Status::OK;  // the watcher left
+      if (read.ended && IsFinal(read.state)) return Status::OK;
+      // Ended but not final: back to the queue (a shutdown); the worker lets go of it soon.
+      if (read.ended) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      continue;
+    }
+    const auto job = m_store.GetJob(request->id());
+    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+    if (IsFinal(job->state)) {
+      const auto results = m_store.GetResults(job->id);
+      const std::vector<ImpactSample> samples = results ? results->samples : std::vector<ImpactSample>{};
+      JobProgress progress;
+      progress.stage = StateName(job->state);
+      progress.fraction = job->state == JobState::kDone ? 1.0 : 0.0;
+      for (const ImpactSample& s : samples)
+        progress.peak_plate_force_N = std::max(progress.peak_plate_force_N, s.plate_force_N);
+      do {
+        v1::WatchJobResponse message;
+        message.set_first_index(static_cast<std::int64_t>(next));
+        const std::size_t end = std::min(samples.size(), next + kSamplesPerMessage);
+        for (std::size_t k = next; k < end; ++k) FillSample(samples[k], message.add_samples());
+        next = std::max(next, end);
+        message.set_state(ToProto(job->state));
+        FillProgress(progress, message.mutable_progress());
+        if (!writer->Write(message)) return Status::OK;
+      } while (next < samples.size());
+      return Status::OK;
+    }
+    // Queued (or about to start): say so now and then, and wait for a worker.
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_status > std::chrono::seconds(2)) {
+      v1::WatchJobResponse message;
+      message.set_first_index(static_cast<std::int64_t>(next));
+      message.set_state(ToProto(job->state));
+      message.mutable_progress()->set_stage(StateName(job->state));
+      if (!writer->Write(message)) return Status::OK;
+      last_status = now;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return Status::OK;
+}
+
+Status DembufService::FetchResults(grpc::ServerContext*, const v1::FetchResultsRequest* request,
+                                   v1::FetchResultsResponse* response) {
+  const auto job = m_store.GetJob(request->id());
+  if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+  if (!IsFinal(job->state))
+    return Status(StatusCode::FAILED_PRECONDITION,
+                  "id: job " + std::to_string(job->id) + " is " + StateName(job->state) +
+                      "; results come when it ends (watch it meanwhile)");
+  FillJob(*job, true, response->mutable_job());
+  if (auto results = m_store.GetResults(job->id))
+    for (const ImpactSample& s : results->samples) FillSample(s, response->add_samples());
+  return Status::OK;
+}
+
+Status DembufService::ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,
+                                 v1::ServerInfoResponse* response) {
+  response->set_version(kVersion);
+  response->set_workers(m_scheduler.options().workers);
+  response->set_threads_per_job(m_scheduler.options().threads_per_job);
+  response->set_queue_depth(m_scheduler.queued());
+  response->set_queue_limit(m_scheduler.options().queue_limit);
+  response->set_running(m_scheduler.running());
+  response->set_database(m_info.database);
+  response->set_host(m_info.host);
+  response->set_started_at(m_info.started_at);
+  return Status::OK;
+}
+
+}  // namespace dembuf::server

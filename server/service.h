@@ -1,0 +1,56 @@
+// The gRPC service: checks every request, turns it into jobs in the store and the queue, and
+// answers from the store (finished work) or the running jobs (live work).
+#pragma once
+
+#include <memory>
+#include <spdlog/logger.h>
+#include <string>
+
+#include "dembuf/v1/dembuf.grpc.pb.h"
+#include "scheduler.h"
+#include "store.h"
+
+namespace dembuf::server {
+
+struct ServiceInfo {
+  std::string database;
+  std::string host;
+  std::string started_at;
+  int max_sweep_jobs = 10000;
+};
+
+class DembufService final : public v1::Dembuf::Service {
+ public:
+  DembufService(Store& store, Scheduler& scheduler, ServiceInfo info,
+                std::shared_ptr<spdlog::logger> log);
+
+  grpc::Status SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest*,
+                         v1::SubmitJobResponse*) override;
+  grpc::Status SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepRequest*,
+                           v1::SubmitSweepResponse*) override;
+  grpc::Status GetJob(grpc::ServerContext*, const v1::GetJobRequest*, v1::Job*) override;
+  grpc::Status GetSweep(grpc::ServerContext*, const v1::GetSweepRequest*, v1::Sweep*) override;
+  grpc::Status ListJobs(grpc::ServerContext*, const v1::ListJobsRequest*,
+                        v1::ListJobsResponse*) override;
+  grpc::Status ListSweeps(grpc::ServerContext*, const v1::ListSweepsRequest*,
+                          v1::ListSweepsResponse*) override;
+  grpc::Status Cancel(grpc::ServerContext*, const v1::CancelRequest*,
+                      v1::CancelResponse*) override;
+  grpc::Status WatchJob(grpc::ServerContext*, const v1::WatchJobRequest*,
+                        grpc::ServerWriter<v1::WatchJobResponse>*) override;
+  grpc::Status FetchResults(grpc::ServerContext*, const v1::FetchResultsRequest*,
+                            v1::FetchResultsResponse*) override;
+  grpc::Status ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,
+                          v1::ServerInfoResponse*) override;
+
+ private:
+  void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
+  void FillSweep(const SweepRecord& record, v1::Sweep* out);
+
+  Store& m_store;
+  Scheduler& m_scheduler;
+  ServiceInfo m_info;
+  std::shared_ptr<spdlog::logger> m_log;
+};
+
+}  // namespace dembuf::server

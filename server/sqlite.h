@@ -1,0 +1,120 @@
+// A thin RAII layer over the SQLite C API: a connection, cached prepared statements with typed
+// binding, and transactions that roll back unless committed.
+#pragma once
+
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace dembuf::server {
+
+/// An SQLite failure, with SQLite's message.
+class SqliteError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Statement {
+ public:
+  /// Binary data, bound as a BLOB.
+  struct Bytes {
+    std::string_view data;
+  };
+
+  Statement(sqlite3* db, sqlite3_stmt* stmt) : m_db(db), m_stmt(stmt) {}
+  ~Statement() { sqlite3_finalize(m_stmt); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  /// Binds parameters 1, 2, ... in order, replacing earlier bindings.
+  template <class... Args>
+  Statement& Bind(const Args&... args) {
+    sqlite3_reset(m_stmt);
+    sqlite3_clear_bindings(m_stmt);
+    int index = 0;
+    (BindOne(++index, args), ...);
+    return *this;
+  }
+
+  /// Advances to the next row; false when there is none.
+  bool Step();
+  /// Runs a statement that returns no rows.
+  void Run() {
+    while (Step()) {
+    }
+  }
+
+  std::int64_t Int(int column) const { return sqlite3_column_int64(m_stmt, column); }
+  double Real(int column) const { return sqlite3_column_double(m_stmt, column); }
+  std::string Text(int column) const;
+  std::string Blob(int column) const;
+  bool IsNull(int column) const { return sqlite3_column_type(m_stmt, column) == SQLITE_NULL; }
+
+ private:
+  void BindOne(int index, std::int64_t v);
+  void BindOne(int index, int v) { BindOne(index, static_cast<std::int64_t>(v)); }
+  void BindOne(int index, double v);
+  void BindOne(int index, std::string_view v);
+  void BindOne(int index, const std::string& v) { BindOne(index, std::string_view(v)); }
+  void BindOne(int index, const char* v) { BindOne(index, std::string_view(v)); }
+  void BindOne(int index, std::nullopt_t);
+  void BindOne(int index, Bytes v);
+  friend class Database;
+
+  sqlite3* m_db;
+  sqlite3_stmt* m_stmt;
+};
+
+class Database {
+ public:
+  /// Opens (creating if absent) the database file. Throws SqliteError.
+  explicit Database(const std::string& path);
+  ~Database();
+  Database(const Database&) = delete;
+  Database& operator=(const Database&) = delete;
+
+  /// The prepared statement for this SQL, compiled once and reused.
+  Statement& Prepare(const std::string& sql);
+  /// Runs one or more statements without results.
+  void Execute(const std::string& sql);
+  std::int64_t LastInsertId() const { return sqlite3_last_insert_rowid(m_db); }
+  int Changes() const { return sqlite3_changes(m_db); }
+
+  static Statement::Bytes AsBlob(std::string_view data) { return {data}; }
+
+ private:
+  sqlite3* m_db = nullptr;
+  std::map<std::string, std::unique_ptr<Statement>> m_statements;
+};
+
+/// BEGIN IMMEDIATE on construction; ROLLBACK on destruction unless Commit() was called.
+class Transaction {
+ public:
+  explicit Transaction(Database& db) : m_db(db) { m_db.Execute("BEGIN IMMEDIATE"); }
+  ~Transaction() {
+    if (!m_done) {
+      try {
+        m_db.Execute("ROLLBACK");
+      } catch (const SqliteError&) {
+        // nothing more can be done; the connection reports it on its next use
+      }
+    }
+  }
+  void Commit() {
+    m_db.Execute("COMMIT");
+    m_done = true;
+  }
+
+ private:
+  Database& m_db;
+  bool m_done = false;
+};
+
+}  // namespace dembuf::server

@@ -1,0 +1,457 @@
+#include "store.h"
+
+#include <cstring>
+#include <ctime>
+#include <nlohmann/json.hpp>
+
+namespace dembuf::server {
+
+namespace {
+
+// Schema migrations: entry k brings user_version k to k + 1. Never edit a released entry;
+// append a new one.
+const char* const kMigrations[] = {
+    R"sql(
+CREATE TABLE sweeps (
+  id          INTEGER PRIMARY KEY,
+  owner       TEXT NOT NULL,
+  name        TEXT NOT NULL,
+  axes_json   TEXT NOT NULL,
+  created_at  TEXT NOT NULL
+);
+CREATE TABLE jobs (
+  id                 INTEGER PRIMARY KEY,
+  sweep_id           INTEGER REFERENCES sweeps(id),
+  sweep_index        INTEGER NOT NULL DEFAULT 0,
+  sweep_values_json  TEXT NOT NULL DEFAULT '[]',
+  owner              TEXT NOT NULL,
+  name               TEXT NOT NULL,
+  state              TEXT NOT NULL,
+  error              TEXT NOT NULL DEFAULT '',
+  scene_toml         TEXT NOT NULL,
+  scene_hash         TEXT NOT NULL,
+  bed_hash           TEXT NOT NULL,
+  source_hash        TEXT NOT NULL,
+  attempts           INTEGER NOT NULL DEFAULT 0,
+  created_at         TEXT NOT NULL,
+  started_at         TEXT NOT NULL DEFAULT '',
+  finished_at        TEXT NOT NULL DEFAULT '',
+  host               TEXT NOT NULL DEFAULT '',
+  code_version       TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX jobs_by_state ON jobs(state);
+CREATE INDEX jobs_by_sweep ON jobs(sweep_id);
+CREATE INDEX jobs_by_owner ON jobs(owner);
+-- series: the samples as rows of six little-endian doubles, in the columns of plate_force.csv
+CREATE TABLE results (
+  job_id        INTEGER PRIMARY KEY REFERENCES jobs(id),
+  summary_json  TEXT NOT NULL,
+  sample_count  INTEGER NOT NULL,
+  series        BLOB NOT NULL
+);
+CREATE TABLE beds (
+  hash         TEXT PRIMARY KEY,
+  stage        TEXT NOT NULL,
+  beads        INTEGER NOT NULL,
+  data         BLOB NOT NULL,
+  created_at   TEXT NOT NULL
+);
+CREATE TABLE bed_preparations (
+  hash         TEXT NOT NULL,
+  stage        TEXT NOT NULL,
+  job_id       INTEGER NOT NULL REFERENCES jobs(id),
+  at           TEXT NOT NULL
+);
+CREATE INDEX bed_preparations_by_job ON bed_preparations(job_id);
+CREATE TABLE events (
+  id       INTEGER PRIMARY KEY,
+  job_id   INTEGER NOT NULL,
+  at       TEXT NOT NULL,
+  message  TEXT NOT NULL
+);
+)sql",
+};
+constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
+
+constexpr int kSampleColumns = 6;
+
+std::string PackSamples(const std::vector<ImpactSample>& samples) {
+  std::string bytes(samples.size() * kSampleColumns * sizeof(double), '\0');
+  char* out = bytes.data();
+  for (const ImpactSample& s : samples) {
+    const double row[kSampleColumns] = {s.t_s,           s.plate_force_N,     s.wall_force_z_N,
+                                        s.projectile_z_m, s.projectile_vz_m_s, s.projectile_force_z_N};
+    std::memcpy(out, row, sizeof row);
+    out += sizeof row;
+  }
+  return bytes;
+}
+
+std::vector<ImpactSample> UnpackSamples(const std::string& bytes) {
+  std::vector<ImpactSample> samples(bytes.size() / (kSampleColumns * sizeof(double)));
+  const char* in = bytes.data();
+  for (ImpactSample& s : samples) {
+    double row[kSampleColumns];
+    std::memcpy(row, in, sizeof row);
+    in += sizeof row;
+    s = {row[0], row[1], row[2], row[3], row[4], row[5]};
+  }
+  return samples;
+}
+
+nlohmann::json AxesToJson(const std::vector<SweepAxis>& axes) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const SweepAxis& a : axes) out.push_back({{"field", a.field}, {"values", a.values}});
+  return out;
+}
+
+std::vector<SweepAxis> AxesFromJson(const std::string& text) {
+  std::vector<SweepAxis> axes;
+  for (const auto& a : nlohmann::json::parse(text))
+    axes.push_back({a["field"].get<std::string>(), a["values"].get<std::vector<std::string>>()});
+  return axes;
+}
+
+const char* const kJobColumns =
+    "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
+    "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
+    "finished_at, host, code_version";
+
+}  // namespace
+
+const char* StateName(JobState state) {
+  switch (state) {
+    case JobState::kQueued: return "queued";
+    case JobState::kPreparingBed: return "preparing_bed";
+    case JobState::kRunning: return "running";
+    case JobState::kDone: return "done";
+    case JobState::kFailed: return "failed";
+    case JobState::kCancelled: return "cancelled";
+  }
+  return "unknown";
+}
+
+std::optional<JobState> ParseState(const std::string& name) {
+  for (JobState s : {JobState::kQueued, JobState::kPreparingBed, JobState::kRunning,
+                     JobState::kDone, JobState::kFailed, JobState::kCancelled})
+    if (name == StateName(s)) return s;
+  return std::nullopt;
+}
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+Store::Store(const std::string& path) {
+  try {
+    m_db = std::make_unique<Database>(path);
+    // Read-only checks first: a foreign or damaged file is reported, never modified.
+    Statement& check = m_db->Prepare("PRAGMA quick_check");
+    check.Bind();
+    std::string verdict = check.Step() ? check.Text(0) : "no answer";
+    check.Run();
+    if (verdict != "ok") throw StoreError("integrity check failed: " + verdict);
+    Statement& version = m_db->Prepare("PRAGMA user_version");
+    version.Bind();
+    const int have = version.Step() ? static_cast<int>(version.Int(0)) : 0;
+    version.Run();
+    if (have > kSchemaVersion)
+      throw StoreError("its schema version " + std::to_string(have) +
+                       " is newer than this dembufd understands (" +
+                       std::to_string(kSchemaVersion) + ")");
+    if (have == 0) {
+      Statement& tables = m_db->Prepare("SELECT count(*) FROM sqlite_master");
+      tables.Bind();
+      const auto count = tables.Step() ? tables.Int(0) : 0;
+      tables.Run();
+      if (count != 0) throw StoreError("it holds tables but is not a dembuf database");
+    }
+    m_db->Execute("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON");
+    for (int v = have; v < kSchemaVersion; ++v) {
+      Transaction t(*m_db);
+      m_db->Execute(kMigrations[v]);
+      m_db->Execute("PRAGMA user_version = " + std::to_string(v + 1));
+      t.Commit();
+    }
+  } catch (const StoreError& e) {
+    throw StoreError("database " + path + " cannot be used: " + e.what() +
+                     "; dembufd leaves it untouched");
+  } catch (const SqliteError& e) {
+    throw StoreError("database " + path + " cannot be used (damaged or not a database?): " +
+                     e.what() + "; dembufd leaves it untouched");
+  }
+}
+
+JobRecord Store::ReadJob(Statement& s) {
+  JobRecord j;
+  j.id = s.Int(0);
+  j.sweep_id = s.Int(1);
+  j.sweep_index = static_cast<int>(s.Int(2));
+  j.sweep_values = nlohmann::json::parse(s.Text(3)).get<std::vector<std::string>>();
+  j.owner = s.Text(4);
+  j.name = s.Text(5);
+  j.state = ParseState(s.Text(6)).value_or(JobState::kFailed);
+  j.error = s.Text(7);
+  j.scene_toml = s.Text(8);
+  j.scene_hash = s.Text(9);
+  j.bed_hash = s.Text(10);
+  j.source_hash = s.Text(11);
+  j.attempts = static_cast<int>(s.Int(12));
+  j.created_at = s.Text(13);
+  j.started_at = s.Text(14);
+  j.finished_at = s.Text(15);
+  j.host = s.Text(16);
+  j.code_version = s.Text(17);
+  return j;
+}
+
+void Store::InsertJobLocked(JobRecord& job) {
+  job.created_at = UtcNow();
+  Statement& s = m_db->Prepare(
+      "INSERT INTO jobs (sweep_id, sweep_index, sweep_values_json, owner, name, state, "
+      "scene_toml, scene_hash, bed_hash, source_hash, created_at) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  if (job.sweep_id != 0) {
+    s.Bind(job.sweep_id, job.sweep_index, nlohmann::json(job.sweep_values).dump(), job.owner,
+           job.name, StateName(job.state), job.scene_toml, job.scene_hash, job.bed_hash,
+           job.source_hash, job.created_at);
+  } else {
+    s.Bind(std::nullopt, job.sweep_index, nlohmann::json(job.sweep_values).dump(), job.owner,
+           job.name, StateName(job.state), job.scene_toml, job.scene_hash, job.bed_hash,
+           job.source_hash, job.created_at);
+  }
+  s.Run();
+  job.id = m_db->LastInsertId();
+}
+
+void Store::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs) {
+  std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
+  sweep.created_at = UtcNow();
+  m_db->Prepare("INSERT INTO sweeps (owner, name, axes_json, created_at) VALUES (?, ?, ?, ?)")
+      .Bind(sweep.owner, sweep.name, AxesToJson(sweep.axes).dump(), sweep.created_at)
+      .Run();
+  sweep.id = m_db->LastInsertId();
+  for (JobRecord& job : jobs) {
+    job.sweep_id = sweep.id;
+    InsertJobLocked(job);
+  }
+  t.Commit();
+}
+
+void Store::AddJob(JobRecord& job) {
+  std::lock_guard lock(m_mutex);
+  InsertJobLocked(job);
+}
+
+std::optional<JobRecord> Store::GetJob(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?");
+  s.Bind(id);
+  if (!s.Step()) return std::nullopt;
+  JobRecord job = ReadJob(s);
+  s.Run();
+  return job;
+}
+
+std::vector<JobRecord> Store::ListJobs(const JobFilter& filter) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(std::string("SELECT ") + kJobColumns +
+                               " FROM jobs WHERE (? = '' OR state = ?) AND (? = '' OR owner = ?)"
+                               " AND (? = 0 OR sweep_id = ?) ORDER BY id DESC LIMIT ?");
+  const std::string state = filter.state ? StateName(*filter.state) : "";
+  s.Bind(state, state, filter.owner, filter.owner, filter.sweep_id, filter.sweep_id,
+         filter.limit);
+  std::vector<JobRecord> jobs;
+  while (s.Step()) jobs.push_back(ReadJob(s));
+  return jobs;
+}
+
+std::optional<SweepRecord> Store::GetSweep(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s =
+      m_db->Prepare("SELECT id, owner, name, axes_json, created_at FROM sweeps WHERE id = ?");
+  s.Bind(id);
+  if (!s.Step()) return std::nullopt;
+  SweepRecord sweep{s.Int(0), s.Text(1), s.Text(2), AxesFromJson(s.Text(3)), s.Text(4)};
+  s.Run();
+  return sweep;
+}
+
+std::vector<SweepRecord> Store::ListSweeps(const std::string& owner, int limit) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT id, owner, name, axes_json, created_at FROM sweeps WHERE (? = '' OR owner = ?) "
+      "ORDER BY id DESC LIMIT ?");
+  s.Bind(owner, owner, limit);
+  std::vector<SweepRecord> sweeps;
+  while (s.Step())
+    sweeps.push_back({s.Int(0), s.Text(1), s.Text(2), AxesFromJson(s.Text(3)), s.Text(4)});
+  return sweeps;
+}
+
+std::map<std::string, int> Store::SweepStateCounts(std::int64_t sweep_id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s =
+      m_db->Prepare("SELECT state, count(*) FROM jobs WHERE sweep_id = ? GROUP BY state");
+  s.Bind(sweep_id);
+  std::map<std::string, int> counts;
+  while (s.Step()) counts[s.Text(0)] = static_cast<int>(s.Int(1));
+  return counts;
+}
+
+int Store::SweepBedsPrepared(std::int64_t sweep_id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT count(*) FROM bed_preparations WHERE job_id IN "
+      "(SELECT id FROM jobs WHERE sweep_id = ?)");
+  s.Bind(sweep_id);
+  const int count = s.Step() ? static_cast<int>(s.Int(0)) : 0;
+  s.Run();
+  return count;
+}
+
+int Store::CountQueued() {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT count(*) FROM jobs WHERE state = 'queued'");
+  s.Bind();
+  const int count = s.Step() ? static_cast<int>(s.Int(0)) : 0;
+  s.Run();
+  return count;
+}
+
+std::vector<JobRecord> Store::QueuedJobs() {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(std::string("SELECT ") + kJobColumns +
+                               " FROM jobs WHERE state = 'queued' ORDER BY id");
+  s.Bind();
+  std::vector<JobRecord> jobs;
+  while (s.Step()) jobs.push_back(ReadJob(s));
+  return jobs;
+}
+
+void Store::MarkStarted(std::int64_t id, JobState state, const std::string& host,
+                        const std::string& code_version) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare(
+          "UPDATE jobs SET state = ?, started_at = ?, host = ?, code_version = ?, "
+          "attempts = attempts + 1 WHERE id = ?")
+      .Bind(StateName(state), UtcNow(), host, code_version, id)
+      .Run();
+}
+
+void Store::SetState(std::int64_t id, JobState state, const std::string& error) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare("UPDATE jobs SET state = ?, error = ? WHERE id = ?")
+      .Bind(StateName(state), error, id)
+      .Run();
+}
+
+void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
+                      const JobResults& results) {
+  std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
+  m_db->Prepare(
+          "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series) "
+          "VALUES (?, ?, ?, ?)")
+      .Bind(id, results.summary_json, static_cast<std::int64_t>(results.samples.size()),
+            Statement::Bytes{PackSamples(results.samples)})
+      .Run();
+  m_db->Prepare("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?")
+      .Bind(StateName(state), error, UtcNow(), id)
+      .Run();
+  t.Commit();
+}
+
+std::optional<JobResults> Store::GetResults(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT summary_json, series FROM results WHERE job_id = ?");
+  s.Bind(id);
+  if (!s.Step()) return std::nullopt;
+  JobResults results{s.Text(0), UnpackSamples(s.Blob(1))};
+  s.Run();
+  return results;
+}
+
+std::vector<JobRecord> Store::RequeueInterrupted(const std::string& reason) {
+  std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
+  Statement& s = m_db->Prepare(std::string("SELECT ") + kJobColumns +
+                               " FROM jobs WHERE state IN ('preparing_bed', 'running')");
+  s.Bind();
+  std::vector<JobRecord> jobs;
+  while (s.Step()) jobs.push_back(ReadJob(s));
+  for (const JobRecord& job : jobs) {
+    m_db->Prepare("UPDATE jobs SET state = 'queued', error = ? WHERE id = ?")
+        .Bind(reason, job.id)
+        .Run();
+    m_db->Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")
+        .Bind(job.id, UtcNow(), reason)
+        .Run();
+  }
+  t.Commit();
+  return jobs;
+}
+
+void Store::RecordBedPreparation(const std::string& hash, const std::string& stage,
+                                 std::int64_t job_id) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare("INSERT INTO bed_preparations (hash, stage, job_id, at) VALUES (?, ?, ?, ?)")
+      .Bind(hash, stage, job_id, UtcNow())
+      .Run();
+}
+
+std::vector<std::string> Store::BedsPreparedBy(std::int64_t job_id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s =
+      m_db->Prepare("SELECT stage, hash FROM bed_preparations WHERE job_id = ? ORDER BY rowid");
+  s.Bind(job_id);
+  std::vector<std::string> beds;
+  while (s.Step()) beds.push_back(s.Text(0) + " " + s.Text(1));
+  return beds;
+}
+
+void Store::LogEvent(std::int64_t job_id, const std::string& message) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")
+      .Bind(job_id, UtcNow(), message)
+      .Run();
+}
+
+std::optional<PreparedBed> Store::Beds::Load(const std::string& hash) {
+  std::lock_guard lock(m_store.m_mutex);
+  Statement& s = m_store.m_db->Prepare("SELECT data FROM beds WHERE hash = ?");
+  s.Bind(hash);
+  if (!s.Step()) return std::nullopt;
+  const std::string bytes = s.Blob(0);
+  s.Run();
+  return ParseBed(bytes, "bed " + hash + " in the database");
+}
+
+void Store::Beds::Save(const PreparedBed& bed) {
+  const std::string bytes = SerializeBed(bed);
+  std::lock_guard lock(m_store.m_mutex);
+  m_store.m_db
+      ->Prepare(
+          "INSERT OR REPLACE INTO beds (hash, stage, beads, data, created_at) "
+          "VALUES (?, ?, ?, ?, ?)")
+      .Bind(bed.hash, bed.stage, static_cast<std::int64_t>(bed.beads.size()),
+            Statement::Bytes{bytes}, UtcNow())
+      .Run();
+}
+
+bool Store::Beds::Contains(const std::string& hash) {
+  std::lock_guard lock(m_store.m_mutex);
+  Statement& s = m_store.m_db->Prepare("SELECT 1 FROM beds WHERE hash = ?");
+  s.Bind(hash);
+  const bool found = s.Step();
+  s.Run();
+  return found;
+}
+
+}  // namespace dembuf::server

@@ -1,0 +1,147 @@
+// The daemon's durable state in one SQLite database: sweeps, jobs, results (summary and force
+// series), prepared beds, and an event log for provenance. WAL mode; every change that must
+// not be seen half-done is one transaction; the schema is migrated by PRAGMA user_version.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dembuf/engine/bed.h"
+#include "dembuf/engine/impact.h"
+#include "dembuf/engine/sweep_plan.h"
+#include "sqlite.h"
+
+namespace dembuf::server {
+
+enum class JobState { kQueued, kPreparingBed, kRunning, kDone, kFailed, kCancelled };
+
+/// "queued", "preparing_bed", "running", "done", "failed", "cancelled".
+const char* StateName(JobState state);
+std::optional<JobState> ParseState(const std::string& name);
+inline bool IsFinal(JobState s) {
+  return s == JobState::kDone || s == JobState::kFailed || s == JobState::kCancelled;
+}
+
+struct JobRecord {
+  std::int64_t id = 0;
+  std::int64_t sweep_id = 0;  ///< 0: a single job
+  int sweep_index = 0;
+  std::vector<std::string> sweep_values;
+  std::string owner;
+  std::string name;
+  JobState state = JobState::kQueued;
+  std::string error;
+  std::string scene_toml;   ///< the complete resolved scene
+  std::string scene_hash;
+  std::string bed_hash;     ///< "" without beads
+  std::string source_hash;  ///< the source bed it is cut from, "" for none
+  int attempts = 0;
+  std::string created_at;
+  std::string started_at;
+  std::string finished_at;
+  std::string host;
+  std::string code_version;
+};
+
+struct SweepRecord {
+  std::int64_t id = 0;
+  std::string owner;
+  std::string name;
+  std::vector<SweepAxis> axes;
+  std::string created_at;
+};
+
+struct JobFilter {
+  std::optional<JobState> state;
+  std::string owner;  ///< "" for all
+  std::int64_t sweep_id = 0;
+  int limit = 100;
+};
+
+/// What a finished (or failed) job leaves: its summary.json and the samples written.
+struct JobResults {
+  std::string summary_json;  ///< "" when the job did not finish
+  std::vector<ImpactSample> samples;
+};
+
+/// The current UTC time as "2026-11-22T05:50:00Z".
+std::string UtcNow();
+
+class StoreError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Store {
+ public:
+  /// Opens or creates the database and brings its schema up to date. Throws StoreError with
+  /// a clear message for a file that is not a dembuf database, is damaged, or is newer than
+  /// this program; such a file is never modified.
+  explicit Store(const std::string& path);
+
+  /// Adds a sweep and its jobs in one transaction; sets their ids.
+  void AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs);
+  /// Adds one job; sets its id.
+  void AddJob(JobRecord& job);
+
+  std::optional<JobRecord> GetJob(std::int64_t id);
+  std::vector<JobRecord> ListJobs(const JobFilter& filter);
+  std::optional<SweepRecord> GetSweep(std::int64_t id);
+  std::vector<SweepRecord> ListSweeps(const std::string& owner, int limit);
+  std::map<std::string, int> SweepStateCounts(std::int64_t sweep_id);
+  /// Bed stages prepared by the sweep's jobs.
+  int SweepBedsPrepared(std::int64_t sweep_id);
+  int CountQueued();
+  /// Queued jobs, oldest first.
+  std::vector<JobRecord> QueuedJobs();
+
+  /// A worker took the job: state, start time, host and code version, one more attempt.
+  void MarkStarted(std::int64_t id, JobState state, const std::string& host,
+                   const std::string& code_version);
+  void SetState(std::int64_t id, JobState state, const std::string& error = "");
+  /// The end of a job, with its results, in one transaction.
+  void FinishJob(std::int64_t id, JobState state, const std::string& error,
+                 const JobResults& results);
+  std::optional<JobResults> GetResults(std::int64_t id);
+
+  /// At start: jobs left preparing or running by a daemon that died go back to the queue,
+  /// with a note. Returns them.
+  std::vector<JobRecord> RequeueInterrupted(const std::string& reason);
+
+  /// Which job prepared a bed (for "this bed was prepared once").
+  void RecordBedPreparation(const std::string& hash, const std::string& stage,
+                            std::int64_t job_id);
+  std::vector<std::string> BedsPreparedBy(std::int64_t job_id);
+
+  /// Appends to the provenance log.
+  void LogEvent(std::int64_t job_id, const std::string& message);
+
+  /// The prepared beds, as a BedStore for the engine's BedCache.
+  BedStore& beds() { return m_beds; }
+
+ private:
+  class Beds final : public BedStore {
+   public:
+    explicit Beds(Store& store) : m_store(store) {}
+    std::optional<PreparedBed> Load(const std::string& hash) override;
+    void Save(const PreparedBed& bed) override;
+    bool Contains(const std::string& hash) override;
+
+   private:
+    Store& m_store;
+  };
+
+  JobRecord ReadJob(Statement& s);
+  void InsertJobLocked(JobRecord& job);
+
+  std::mutex m_mutex;  // one connection, used by one thread at a time
+  std::unique_ptr<Database> m_db;
+  Beds m_beds{*this};
+};
+
+}  // namespace dembuf::server

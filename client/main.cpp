@@ -1,7 +1,10 @@
-// dembuf: the command-line client. Local mode runs scenes in this process with the engine.
+// dembuf: the command-line client. Local mode (run, sweep, plot, scene) runs scenes in this
+// process with the engine; remote mode (submit, sweep, list, status, watch, fetch, cancel,
+// server-info) talks to a dembufd. `sweep` goes to a daemon when --server or DEMBUF_SERVER
+// names one, unless --local is given.
 //
-// Exit codes: 0 success, 1 usage or I/O error, 2 invalid scene, 3 simulation failed
-// (unstable), 130 interrupted.
+// Exit codes: 0 success, 1 usage, I/O or server error, 2 invalid scene or request, 3 a
+// simulation failed (unstable) or a remote job failed, 130 interrupted.
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 #include <atomic>
@@ -16,9 +19,10 @@
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
 #include "dembuf/engine/version.h"
+#include "dembuf/report/run_output.h"
 #include "plots.h"
 #include "progress.h"
-#include "dembuf/report/run_output.h"
+#include "remote.h"
 #include "scene_input.h"
 #include "snapshot_output.h"
 #include "sweep.h"
@@ -60,6 +64,8 @@ struct RunOptions {
   std::vector<std::string> vary;
   int seeds = 1;
   int jobs = 1;
+  bool local = false;
+  std::string name;
 };
 
 // Prepared beds are kept between runs: $DEMBUF_BED_CACHE, else $XDG_CACHE_HOME/dembuf/beds,
@@ -80,20 +86,6 @@ void PrintBedProgress(const BedProgress& p) {
   std::fprintf(stderr, "\r%s: %zu beads, t = %.1f ms, kinetic %.2g m g d, balance %.2g%%   ",
                p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, p.balance_error * 100);
   std::fflush(stderr);
-}
-
-// Plots a finished run or sweep when gnuplot is there; a missing gnuplot is not an error.
-void PlotIfPossible(const fs::path& dir) {
-  if (!cli::GnuplotAvailable()) {
-    std::printf("plots: skipped (install gnuplot-nox, then: dembuf plot %s)\n", dir.c_str());
-    return;
-  }
-  try {
-    const auto files = cli::PlotFolder(dir);
-    std::printf("plots: %zu PNG files in %s\n", files.size(), dir.c_str());
-  } catch (const std::exception& e) {
-    std::printf("plots: failed: %s\n", e.what());
-  }
 }
 
 void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
@@ -170,9 +162,9 @@ int RunLocal(const RunOptions& opt) {
     progress.Finish();
     csv.Commit();
     report::WriteFileAtomically(dir / "summary.json",
-                             report::SummaryToJson(summary, scene).dump(2) + "\n");
+                                report::SummaryToJson(summary, scene).dump(2) + "\n");
     PrintSummary(summary, dir);
-    PlotIfPossible(dir);
+    cli::PlotIfPossible(dir);
     return 0;
   } catch (const SimulationError& e) {
     progress.Finish();
@@ -205,7 +197,7 @@ int SweepCommand(const RunOptions& opt) {
   // An existing folder is resumed: runs whose summary.json matches their scene are kept.
   BedCache beds(BedCacheDir(opt));
   const int failed = cli::RunSweep(base, sweep, beds);
-  PlotIfPossible(sweep.out_dir);
+  cli::PlotIfPossible(sweep.out_dir);
   return failed == 0 ? 0 : kExitUnstable;
 }
 
@@ -246,11 +238,64 @@ int main(int argc, char** argv) {
       ->add_option("--vary", opt.vary,
                    "dotted.field=START:STOP:STEP or dotted.field=v1,v2,... (repeatable)")
       ->allow_extra_args(false);
-  sweep->add_option("--seeds", opt.seeds, "bed seeds 1..N for every point (default 1)");
+  sweep->add_option("--seeds", opt.seeds,
+                    "N bed seeds for every point, from bed.seed on (default 1)");
   sweep->add_option("--jobs", opt.jobs, "runs at once (default 1; each then uses one core)");
   sweep->add_option("--out", opt.out_dir, "output folder (default: dembuf-sweep-<UTC time>)");
   sweep->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds");
   sweep->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");
+
+  sweep->add_flag("--local", opt.local, "run here even when a server is configured");
+  sweep->add_option("--name", opt.name, "a name for the sweep (remote)");
+
+  // Remote mode.
+  std::string server_flag;
+  cli::Remote remote;
+  app.add_option("--server", server_flag,
+                 "dembufd address host:port (default: $DEMBUF_SERVER, else 127.0.0.1:50051)");
+  app.add_option("--owner", remote.owner, "owner of submitted jobs (default: $USER)");
+
+  CLI::App* submit = app.add_subcommand("submit", "queue a scene on the server; prints the job id");
+  add_scene_args(submit);
+  submit->add_option("--name", opt.name, "a name for the job");
+
+  cli::ListOptions list_options;
+  CLI::App* list = app.add_subcommand("list", "list the server's jobs (or sweeps), newest first");
+  list->add_option("--state", list_options.state,
+                   "only jobs in this state: queued, preparing_bed, running, done, failed, "
+                   "cancelled");
+  list->add_option("--owner", list_options.owner, "only this owner's");
+  list->add_option("--sweep", list_options.sweep, "only this sweep's jobs");
+  list->add_option("--limit", list_options.limit, "at most this many (default 20)");
+  list->add_flag("--sweeps", list_options.sweeps, "list sweeps instead of jobs");
+
+  std::int64_t id = 0;
+  bool is_sweep = false;
+  CLI::App* status = app.add_subcommand("status", "a job's state, progress and results");
+  status->add_option("id", id, "job id (or sweep id with --sweep)")->required();
+  status->add_flag("--sweep", is_sweep, "the id is a sweep's");
+
+  bool watch_csv = false;
+  std::int64_t watch_from = 0;
+  CLI::App* watch = app.add_subcommand("watch", "follow a job's plate force live");
+  watch->add_option("id", id, "job id")->required();
+  watch->add_flag("--csv", watch_csv, "print every sample as a CSV row");
+  watch->add_option("--from", watch_from, "first sample index (to resume)");
+
+  std::string fetch_dir;
+  bool no_plots = false;
+  CLI::App* fetch = app.add_subcommand(
+      "fetch", "write a finished job's files (summary.json, plate_force.csv, ...) or a sweep's");
+  fetch->add_option("id", id, "job id (or sweep id with --sweep)")->required();
+  fetch->add_flag("--sweep", is_sweep, "the id is a sweep's");
+  fetch->add_option("--out", fetch_dir, "output folder")->required();
+  fetch->add_flag("--no-plots", no_plots, "do not draw plots");
+
+  CLI::App* cancel = app.add_subcommand("cancel", "cancel a queued or running job (or sweep)");
+  cancel->add_option("id", id, "job id (or sweep id with --sweep)")->required();
+  cancel->add_flag("--sweep", is_sweep, "cancel every unfinished job of the sweep");
+
+  CLI::App* info = app.add_subcommand("server-info", "the server's version, workers and queue");
 
   CLI::App* plot = app.add_subcommand("plot", "draw PNG plots of a run or sweep folder (gnuplot)");
   std::string plot_dir;
@@ -263,9 +308,26 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
 
+  remote.address = cli::ServerAddress(server_flag);
+  if (remote.owner.empty()) {
+    const char* user = std::getenv("USER");
+    remote.owner = user && *user ? user : "anonymous";
+  }
+  const cli::RemoteScene remote_scene{opt.scene_file, opt.preset, opt.overrides};
   try {
     if (run->parsed()) return RunLocal(opt);
-    if (sweep->parsed()) return SweepCommand(opt);
+    if (sweep->parsed()) {
+      if (!opt.local && cli::ServerGiven(server_flag))
+        return cli::RemoteSweep(remote, remote_scene, opt.vary, opt.seeds, opt.name);
+      return SweepCommand(opt);
+    }
+    if (submit->parsed()) return cli::RemoteSubmit(remote, remote_scene, opt.name);
+    if (list->parsed()) return cli::RemoteList(remote, list_options);
+    if (status->parsed()) return cli::RemoteStatus(remote, id, is_sweep);
+    if (watch->parsed()) return cli::RemoteWatch(remote, id, watch_csv, watch_from);
+    if (fetch->parsed()) return cli::RemoteFetch(remote, id, is_sweep, fetch_dir, !no_plots);
+    if (cancel->parsed()) return cli::RemoteCancel(remote, id, is_sweep);
+    if (info->parsed()) return cli::RemoteServerInfo(remote);
     if (plot->parsed()) {
       for (const auto& file : cli::PlotFolder(plot_dir)) std::printf("%s\n", file.c_str());
       return 0;

@@ -17,7 +17,8 @@ namespace {
 
 constexpr const char* kTerminal =
     "set terminal pngcairo size 1000,640 font 'DejaVu Sans,12'\n"
-    "set datafile separator ','\nset key top right noenhanced\nset grid\nset termoption noenhanced\n";
+    "set datafile separator ','\nset key top right noenhanced\nset grid\nset termoption "
+    "noenhanced\n";
 
 // Quotes a path for a gnuplot string.
 std::string Q(const fs::path& p) {
@@ -224,6 +225,20 @@ std::vector<fs::path> PlotFolder(const fs::path& dir) {
   throw std::runtime_error(dir.string() +
                            " holds neither a run (plate_force.csv, summary.json) "
                            "nor a sweep (points.csv)");
+}
+
+// Plots a finished run or sweep when gnuplot is there; a missing gnuplot is not an error.
+void PlotIfPossible(const std::filesystem::path& dir) {
+  if (!GnuplotAvailable()) {
+    std::printf("plots: skipped (install gnuplot-nox, then: dembuf plot %s)\n", dir.c_str());
+    return;
+  }
+  try {
+    const auto files = PlotFolder(dir);
+    std::printf("plots: %zu PNG files in %s\n", files.size(), dir.c_str());
+  } catch (const std::exception& e) {
+    std::printf("plots: failed: %s\n", e.what());
+  }
 }
 
 }  // namespace dembuf::cli

@@ -14,4 +14,8 @@ bool GnuplotAvailable();
 /// runs/). Returns the PNG files written; throws std::runtime_error if gnuplot fails.
 std::vector<std::filesystem::path> PlotFolder(const std::filesystem::path& dir);
 
+/// Plots a finished run or sweep folder when gnuplot is there, saying what it did; a missing
+/// gnuplot is not an error.
+void PlotIfPossible(const std::filesystem::path& dir);
+
 }  // namespace dembuf::cli

@@ -10,8 +10,8 @@
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <set>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
@@ -23,7 +23,7 @@
 namespace dembuf::cli {
 
 int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
-  const std::vector<SweepAxis> axes = WithSeedAxis(options.axes, options.seeds);
+  const std::vector<SweepAxis> axes = WithSeedAxis(options.axes, options.seeds, base.bed.seed);
   // Every scene is checked before the first run starts.
   const std::vector<SweepRun> runs = ExpandSweep(base, axes);
   const std::vector<std::size_t> order = InterleaveBySourceBed(runs);
@@ -112,8 +112,8 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
 
   std::vector<report::SweepRunReport> reports;
   for (std::size_t k = 0; k < runs.size(); ++k)
-    reports.push_back({runs[k].name, runs[k].values, results[k].ok, results[k].error,
-                       results[k].summary});
+    reports.push_back(
+        {runs[k].name, runs[k].values, results[k].ok, results[k].error, results[k].summary});
   const nlohmann::json extra = {
       {"wall_time_s",
        std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count()},

@@ -111,12 +111,13 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   points_csv.precision(10);
   for (std::size_t k = 0; k < point_axes.size(); ++k)
     points_csv << (k ? "," : "") << axes[point_axes[k]].field;
-  for (const auto& m : SweepMetricNames()) points_csv << "," << m << "," << m << "_sd," << m << "_n";
+  for (const auto& m : SweepMetricNames())
+    points_csv << "," << m << "," << m << "_sd," << m << "_n";
   points_csv << "\n";
   std::fprintf(table, "\n");
   for (std::size_t a : point_axes) std::fprintf(table, "%-22s", axes[a].field.c_str());
-  std::fprintf(table, "%4s %22s %18s %16s %8s\n", "n", "P [N] mean +- sd", "lambda [%]", "crater [cm]",
-              "C0");
+  std::fprintf(table, "%4s %22s %18s %16s %8s\n", "n", "P [N] mean +- sd", "lambda [%]",
+               "crater [cm]", "C0");
   for (const auto& [key, members] : points) {
     nlohmann::json point;
     for (std::size_t k = 0; k < point_axes.size(); ++k) point[axes[point_axes[k]].field] = key[k];
@@ -153,8 +154,8 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                     stats[m].second * scale);
       return std::string(buf);
     };
-    std::fprintf(table, 
-        "%4zu %22s %18s %16s %8s\n", members.size(), ms("P_N", 1).c_str(),
+    std::fprintf(
+        table, "%4zu %22s %18s %16s %8s\n", members.size(), ms("P_N", 1).c_str(),
         ms("lambda", 100).c_str(), ms("crater_depth_m", 100).c_str(),
         stats.count("C0") ? NumberText(std::round(stats["C0"].first * 1000) / 1000).c_str() : "-");
     if (point_axes.size() == 1 && axes[point_axes[0]].field == "bed.thickness_m" &&
@@ -178,7 +179,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
       summary["Hc_m"] = hc["Hc_m"];
       summary["critical_thickness"] = hc;
       std::fprintf(table, "critical thickness Hc = %.2f cm (plateau P = %.4g N)\n",
-                  100 * hc["Hc_m"].get<double>(), hc["plateau_P_N"].get<double>());
+                   100 * hc["Hc_m"].get<double>(), hc["plateau_P_N"].get<double>());
     }
   }
   WriteFileAtomically(dir / "summary.json", summary.dump(2) + "\n");

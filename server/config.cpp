@@ -16,9 +16,9 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
   } catch (const std::exception& e) {
     throw std::runtime_error("configuration " + path + ": " + e.what());
   }
-  const std::set<std::string> known = {"listen",         "db",       "workers",
+  const std::set<std::string> known = {"listen",          "db",          "workers",
                                        "threads_per_job", "queue_limit", "max_sweep_jobs",
-                                       "log_file",        "log_level", "shutdown_grace_s"};
+                                       "log_file",        "log_level",   "shutdown_grace_s"};
   for (const auto& [key, value] : root.as_table())
     if (!known.count(key))
       throw std::runtime_error("configuration " + path + ": unknown setting \"" + key + "\"");
@@ -56,9 +56,9 @@ void ValidateConfig(ServerConfig& config) {
           "max_sweep_jobs: must be 1 to 1000000");
   require(config.shutdown_grace_s >= 0 && config.shutdown_grace_s <= 86400,
           "shutdown_grace_s: must be 0 to 86400");
-  require(spdlog::level::from_str(config.log_level) != spdlog::level::off ||
-              config.log_level == "off",
-          "log_level: must be trace, debug, info, warn, error, critical or off");
+  require(
+      spdlog::level::from_str(config.log_level) != spdlog::level::off || config.log_level == "off",
+      "log_level: must be trace, debug, info, warn, error, critical or off");
   if (config.threads_per_job == 0) {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     config.threads_per_job = std::max(1, cores / config.workers);

@@ -78,8 +78,8 @@ void Scheduler::Admit(std::size_t count, const std::function<std::vector<JobReco
 
 bool Scheduler::Cancel(std::int64_t id) {
   std::unique_lock lock(m_mutex);
-  auto queued = std::find_if(m_queue.begin(), m_queue.end(),
-                             [&](const Queued& q) { return q.id == id; });
+  auto queued =
+      std::find_if(m_queue.begin(), m_queue.end(), [&](const Queued& q) { return q.id == id; });
   if (queued != m_queue.end()) {
     m_queue.erase(queued);
     lock.unlock();
@@ -207,8 +207,8 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
     RunControl control;
     control.on_sample = [&](const ImpactSample& s) { live->Append(s); };
     control.on_progress = [&](const ImpactProgress& p) {
-      live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0,
-                        p.t_s, p.steps);
+      live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0, p.t_s,
+                        p.steps);
     };
     control.progress_every_steps = kProgressEverySteps;
     control.cancel = &live->cancel;
@@ -229,8 +229,7 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
       live->End(JobState::kQueued);
       m_log->warn("job {}: {}", id, note);
     } else {
-      m_store.FinishJob(id, JobState::kCancelled, "cancelled while running",
-                        {"", live->Samples()});
+      m_store.FinishJob(id, JobState::kCancelled, "cancelled while running", {"", live->Samples()});
       live->End(JobState::kCancelled);
       m_log->info("job {}: cancelled while running", id);
     }

@@ -3,6 +3,7 @@
 // while the workers take other jobs: a bed is prepared once, by one worker.
 #pragma once
 
+#include <spdlog/logger.h>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -11,7 +12,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <spdlog/logger.h>
 #include <stdexcept>
 #include <string>
 #include <thread>

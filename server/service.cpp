@@ -31,25 +31,38 @@ Status FromSceneError(const SceneError& e) {
 
 v1::JobState ToProto(JobState s) {
   switch (s) {
-    case JobState::kQueued: return v1::JOB_STATE_QUEUED;
-    case JobState::kPreparingBed: return v1::JOB_STATE_PREPARING_BED;
-    case JobState::kRunning: return v1::JOB_STATE_RUNNING;
-    case JobState::kDone: return v1::JOB_STATE_DONE;
-    case JobState::kFailed: return v1::JOB_STATE_FAILED;
-    case JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+    case JobState::kQueued:
+      return v1::JOB_STATE_QUEUED;
+    case JobState::kPreparingBed:
+      return v1::JOB_STATE_PREPARING_BED;
+    case JobState::kRunning:
+      return v1::JOB_STATE_RUNNING;
+    case JobState::kDone:
+      return v1::JOB_STATE_DONE;
+    case JobState::kFailed:
+      return v1::JOB_STATE_FAILED;
+    case JobState::kCancelled:
+      return v1::JOB_STATE_CANCELLED;
   }
   return v1::JOB_STATE_UNSPECIFIED;
 }
 
 std::optional<JobState> FromProto(v1::JobState s) {
   switch (s) {
-    case v1::JOB_STATE_QUEUED: return JobState::kQueued;
-    case v1::JOB_STATE_PREPARING_BED: return JobState::kPreparingBed;
-    case v1::JOB_STATE_RUNNING: return JobState::kRunning;
-    case v1::JOB_STATE_DONE: return JobState::kDone;
-    case v1::JOB_STATE_FAILED: return JobState::kFailed;
-    case v1::JOB_STATE_CANCELLED: return JobState::kCancelled;
-    default: return std::nullopt;
+    case v1::JOB_STATE_QUEUED:
+      return JobState::kQueued;
+    case v1::JOB_STATE_PREPARING_BED:
+      return JobState::kPreparingBed;
+    case v1::JOB_STATE_RUNNING:
+      return JobState::kRunning;
+    case v1::JOB_STATE_DONE:
+      return JobState::kDone;
+    case v1::JOB_STATE_FAILED:
+      return JobState::kFailed;
+    case v1::JOB_STATE_CANCELLED:
+      return JobState::kCancelled;
+    default:
+      return std::nullopt;
   }
 }
 
@@ -211,7 +224,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepReq
         if (other.field == axis.field()) throw SceneError(axis.field(), "varied twice");
       axes.push_back(MakeSweepAxis(axis.field(), values, axis.range()));
     }
-    axes = WithSeedAxis(axes, std::max(1, request->seeds()));
+    axes = WithSeedAxis(axes, std::max(1, request->seeds()), base.bed.seed);
     const std::vector<SweepRun> runs =
         ExpandSweep(base, axes, static_cast<std::size_t>(m_info.max_sweep_jobs));
     sweep.owner = request->owner().empty() ? "anonymous" : request->owner();
@@ -252,8 +265,7 @@ Status DembufService::GetJob(grpc::ServerContext*, const v1::GetJobRequest* requ
 Status DembufService::GetSweep(grpc::ServerContext*, const v1::GetSweepRequest* request,
                                v1::Sweep* response) {
   const auto sweep = m_store.GetSweep(request->id());
-  if (!sweep)
-    return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
+  if (!sweep) return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
   FillSweep(*sweep, response);
   return Status::OK;
 }
@@ -341,7 +353,8 @@ Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobR
     if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
     if (IsFinal(job->state)) {
       const auto results = m_store.GetResults(job->id);
-      const std::vector<ImpactSample> samples = results ? results->samples : std::vector<ImpactSample>{};
+      const std::vector<ImpactSample> samples =
+          results ? results->samples : std::vector<ImpactSample>{};
       JobProgress progress;
       progress.stage = StateName(job->state);
       progress.fraction = job->state == JobState::kDone ? 1.0 : 0.0;

@@ -2,8 +2,8 @@
 // answers from the store (finished work) or the running jobs (live work).
 #pragma once
 
-#include <memory>
 #include <spdlog/logger.h>
+#include <memory>
 #include <string>
 
 #include "dembuf/v1/dembuf.grpc.pb.h"
@@ -34,8 +34,7 @@ class DembufService final : public v1::Dembuf::Service {
                         v1::ListJobsResponse*) override;
   grpc::Status ListSweeps(grpc::ServerContext*, const v1::ListSweepsRequest*,
                           v1::ListSweepsResponse*) override;
-  grpc::Status Cancel(grpc::ServerContext*, const v1::CancelRequest*,
-                      v1::CancelResponse*) override;
+  grpc::Status Cancel(grpc::ServerContext*, const v1::CancelRequest*, v1::CancelResponse*) override;
   grpc::Status WatchJob(grpc::ServerContext*, const v1::WatchJobRequest*,
                         grpc::ServerWriter<v1::WatchJobResponse>*) override;
   grpc::Status FetchResults(grpc::ServerContext*, const v1::FetchResultsRequest*,

@@ -79,8 +79,12 @@ std::string PackSamples(const std::vector<ImpactSample>& samples) {
   std::string bytes(samples.size() * kSampleColumns * sizeof(double), '\0');
   char* out = bytes.data();
   for (const ImpactSample& s : samples) {
-    const double row[kSampleColumns] = {s.t_s,           s.plate_force_N,     s.wall_force_z_N,
-                                        s.projectile_z_m, s.projectile_vz_m_s, s.projectile_force_z_N};
+    const double row[kSampleColumns] = {s.t_s,
+                                        s.plate_force_N,
+                                        s.wall_force_z_N,
+                                        s.projectile_z_m,
+                                        s.projectile_vz_m_s,
+                                        s.projectile_force_z_N};
     std::memcpy(out, row, sizeof row);
     out += sizeof row;
   }
@@ -121,12 +125,18 @@ const char* const kJobColumns =
 
 const char* StateName(JobState state) {
   switch (state) {
-    case JobState::kQueued: return "queued";
-    case JobState::kPreparingBed: return "preparing_bed";
-    case JobState::kRunning: return "running";
-    case JobState::kDone: return "done";
-    case JobState::kFailed: return "failed";
-    case JobState::kCancelled: return "cancelled";
+    case JobState::kQueued:
+      return "queued";
+    case JobState::kPreparingBed:
+      return "preparing_bed";
+    case JobState::kRunning:
+      return "running";
+    case JobState::kDone:
+      return "done";
+    case JobState::kFailed:
+      return "failed";
+    case JobState::kCancelled:
+      return "cancelled";
   }
   return "unknown";
 }
@@ -265,8 +275,7 @@ std::vector<JobRecord> Store::ListJobs(const JobFilter& filter) {
                                " FROM jobs WHERE (? = '' OR state = ?) AND (? = '' OR owner = ?)"
                                " AND (? = 0 OR sweep_id = ?) ORDER BY id DESC LIMIT ?");
   const std::string state = filter.state ? StateName(*filter.state) : "";
-  s.Bind(state, state, filter.owner, filter.owner, filter.sweep_id, filter.sweep_id,
-         filter.limit);
+  s.Bind(state, state, filter.owner, filter.owner, filter.sweep_id, filter.sweep_id, filter.limit);
   std::vector<JobRecord> jobs;
   while (s.Step()) jobs.push_back(ReadJob(s));
   return jobs;

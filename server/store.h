@@ -36,7 +36,7 @@ struct JobRecord {
   std::string name;
   JobState state = JobState::kQueued;
   std::string error;
-  std::string scene_toml;   ///< the complete resolved scene
+  std::string scene_toml;  ///< the complete resolved scene
   std::string scene_hash;
   std::string bed_hash;     ///< "" without beads
   std::string source_hash;  ///< the source bed it is cut from, "" for none
@@ -114,8 +114,7 @@ class Store {
   std::vector<JobRecord> RequeueInterrupted(const std::string& reason);
 
   /// Which job prepared a bed (for "this bed was prepared once").
-  void RecordBedPreparation(const std::string& hash, const std::string& stage,
-                            std::int64_t job_id);
+  void RecordBedPreparation(const std::string& hash, const std::string& stage, std::int64_t job_id);
   std::vector<std::string> BedsPreparedBy(std::int64_t job_id);
 
   /// Appends to the provenance log.

@@ -11,8 +11,8 @@
 #include <unordered_map>
 
 #include "dembuf/engine/bed_io.h"
-#include "dembuf/engine/errors.h"
 #include "dembuf/engine/content_hash.h"
+#include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
 

@@ -41,7 +41,8 @@ std::vector<std::string> ExpandRange(const std::string& field, const std::string
   const double count = std::floor((stop - start) / step + 1e-9) + 1;
   if (count > 10000) throw SceneError(field, "range " + range + " has over 10000 values");
   std::vector<std::string> values;
-  for (long k = 0; k < static_cast<long>(count); ++k) values.push_back(NumberText(start + k * step));
+  for (long k = 0; k < static_cast<long>(count); ++k)
+    values.push_back(NumberText(start + k * step));
   return values;
 }
 
@@ -51,8 +52,9 @@ SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>
                         const std::string& range) {
   RequireSceneField(field);
   if (values.empty() == range.empty())
-    throw SceneError(field, "a sweep axis needs either a list of values or a START:STOP:STEP "
-                            "range");
+    throw SceneError(field,
+                     "a sweep axis needs either a list of values or a START:STOP:STEP "
+                     "range");
   SweepAxis axis{field, range.empty() ? values : ExpandRange(field, range)};
   // Every value must be valid for the field before anything runs.
   Scene probe;
@@ -83,13 +85,15 @@ SweepAxis ParseSweepAxis(const std::string& spec) {
   return MakeSweepAxis(field, values, "");
 }
 
-std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds) {
-  if (std::any_of(axes.begin(), axes.end(), [](const SweepAxis& a) { return a.field == "bed.seed"; }))
+std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
+                                    std::int64_t first_seed) {
+  if (std::any_of(axes.begin(), axes.end(),
+                  [](const SweepAxis& a) { return a.field == "bed.seed"; }))
     return axes;
   if (seeds < 1 || seeds > 1000)
     throw SceneError("seeds", std::to_string(seeds) + " is out of range: must be 1 to 1000");
   SweepAxis seed{"bed.seed", {}};
-  for (int s = 1; s <= seeds; ++s) seed.values.push_back(std::to_string(s));
+  for (int s = 0; s < seeds; ++s) seed.values.push_back(std::to_string(first_seed + s));
   axes.push_back(std::move(seed));
   return axes;
 }

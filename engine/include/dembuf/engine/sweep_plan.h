@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -26,9 +27,10 @@ SweepAxis ParseSweepAxis(const std::string& spec);
 SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>& values,
                         const std::string& range);
 
-/// Adds the axis bed.seed = 1..seeds unless bed.seed is already varied. Throws SceneError
-/// unless 1 <= seeds <= 1000.
-std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds);
+/// Adds the axis bed.seed = first_seed .. first_seed + seeds - 1 unless bed.seed is already
+/// varied. Throws SceneError unless 1 <= seeds <= 1000.
+std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
+                                    std::int64_t first_seed = 1);
 
 /// One run of a sweep.
 struct SweepRun {

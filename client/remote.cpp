@@ -1,0 +1,527 @@
+#include "remote.h"
+
+#include <grpcpp/grpcpp.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "dembuf/report/run_output.h"
+#include "dembuf/report/sweep_report.h"
+#include "dembuf/v1/dembuf.grpc.pb.h"
+#include "plots.h"
+
+namespace dembuf::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kDefaultServer = "127.0.0.1:50051";
+constexpr int kExitError = 1;
+constexpr int kExitInvalid = 2;
+constexpr int kExitJobFailed = 3;
+
+std::unique_ptr<v1::Dembuf::Stub> Connect(const Remote& remote) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(1 << 30);  // a fetched series can be large
+  return v1::Dembuf::NewStub(
+      grpc::CreateCustomChannel(remote.address, grpc::InsecureChannelCredentials(), args));
+}
+
+void Deadline(grpc::ClientContext& context, int seconds = 60) {
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
+}
+
+// One line per failure, with the server's message (which names the field at fault).
+int Report(const Remote& remote, const grpc::Status& status) {
+  switch (status.error_code()) {
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      std::fprintf(stderr, "dembuf: the server refused the request: %s\n",
+                   status.error_message().c_str());
+      return kExitInvalid;
+    case grpc::StatusCode::UNAVAILABLE:
+      std::fprintf(stderr,
+                   "dembuf: cannot reach dembufd at %s (%s); start it, or point --server or "
+                   "DEMBUF_SERVER at it\n",
+                   remote.address.c_str(), status.error_message().c_str());
+      return kExitError;
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      std::fprintf(stderr, "dembuf: the server is full: %s\n", status.error_message().c_str());
+      return kExitError;
+    default:
+      std::fprintf(stderr, "dembuf: server error (%d): %s\n", status.error_code(),
+                   status.error_message().c_str());
+      return kExitError;
+  }
+}
+
+const char* StateText(v1::JobState s) {
+  switch (s) {
+    case v1::JOB_STATE_QUEUED:
+      return "queued";
+    case v1::JOB_STATE_PREPARING_BED:
+      return "preparing_bed";
+    case v1::JOB_STATE_RUNNING:
+      return "running";
+    case v1::JOB_STATE_DONE:
+      return "done";
+    case v1::JOB_STATE_FAILED:
+      return "failed";
+    case v1::JOB_STATE_CANCELLED:
+      return "cancelled";
+    default:
+      return "unknown";
+  }
+}
+
+bool Ended(v1::JobState s) {
+  return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+}
+
+v1::SceneSpec MakeSceneSpec(const RemoteScene& scene) {
+  v1::SceneSpec spec;
+  spec.set_preset(scene.preset);
+  if (!scene.scene_file.empty()) {
+    std::ifstream in(scene.scene_file);
+    if (!in) throw std::runtime_error("cannot read scene file " + scene.scene_file);
+    std::ostringstream text;
+    text << in.rdbuf();
+    spec.set_scene_toml(text.str());
+  }
+  for (const auto& s : scene.overrides) spec.add_set(s);
+  return spec;
+}
+
+ImpactSample FromProto(const v1::ForceSample& s) {
+  return {s.t_s(),      s.plate_force_n(), s.wall_force_z_n(),
+          s.proj_z_m(), s.proj_vz_m_s(),   s.proj_force_z_n()};
+}
+
+std::string Percent(double fraction) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%3.0f%%", 100 * std::clamp(fraction, 0.0, 1.0));
+  return buf;
+}
+
+// Eight-level bars of the last `width` values, scaled to their largest.
+std::string Sparkline(const std::vector<double>& values, std::size_t width) {
+  static const char* const kBars[] = {"▁", "▂", "▃", "▄", "▅", "▆", "▇", "█"};
+  if (values.empty()) return "";
+  const std::size_t columns = std::min(width, values.size());
+  const double per_column = static_cast<double>(values.size()) / columns;
+  double top = 0.0;
+  for (double v : values) top = std::max(top, v);
+  std::string line;
+  for (std::size_t c = 0; c < columns; ++c) {
+    double column_max = 0.0;
+    const auto begin = static_cast<std::size_t>(c * per_column);
+    const auto end = std::max(begin + 1, static_cast<std::size_t>((c + 1) * per_column));
+    for (std::size_t k = begin; k < end && k < values.size(); ++k)
+      column_max = std::max(column_max, values[k]);
+    const int level = top > 0 ? static_cast<int>(std::lround(7 * column_max / top)) : 0;
+    line += kBars[std::clamp(level, 0, 7)];
+  }
+  return line;
+}
+
+std::string AxisText(const v1::SweepAxis& axis) {
+  std::string text = axis.field() + " = ";
+  for (int k = 0; k < axis.values_size(); ++k) text += (k ? "," : "") + axis.values(k);
+  return text;
+}
+
+void WriteJobFiles(const v1::FetchResultsResponse& result, const fs::path& dir) {
+  fs::create_directories(dir);
+  const v1::Job& job = result.job();
+  report::SampleCsvWriter csv(dir / "plate_force.csv");
+  for (const auto& s : result.samples()) csv.Write(FromProto(s));
+  csv.Commit();
+  report::WriteFileAtomically(dir / "scene.toml", job.scene_toml());
+  nlohmann::json provenance = {
+      {"job", job.id()},
+      {"sweep", job.sweep_id()},
+      {"owner", job.owner()},
+      {"name", job.name()},
+      {"state", StateText(job.state())},
+      {"error", job.error()},
+      {"attempts", job.attempts()},
+      {"created_at", job.created_at()},
+      {"started_at", job.started_at()},
+      {"finished_at", job.finished_at()},
+      {"host", job.host()},
+      {"code_version", job.code_version()},
+      {"scene_hash", job.scene_hash()},
+      {"bed_hash", job.bed_hash()},
+      {"beds_prepared",
+       std::vector<std::string>(job.beds_prepared().begin(), job.beds_prepared().end())}};
+  report::WriteFileAtomically(dir / "job.json", provenance.dump(2) + "\n");
+  if (job.state() == v1::JOB_STATE_DONE) {
+    report::WriteFileAtomically(dir / "summary.json", job.summary_json());
+  } else {
+    report::WriteFileAtomically(
+        dir / "failure.json",
+        nlohmann::json{{"state", StateText(job.state())}, {"error", job.error()}}.dump(2) + "\n");
+  }
+}
+
+}  // namespace
+
+bool ServerGiven(const std::string& flag) {
+  const char* env = std::getenv("DEMBUF_SERVER");
+  return !flag.empty() || (env && *env);
+}
+
+std::string ServerAddress(const std::string& flag) {
+  if (!flag.empty()) return flag;
+  if (const char* env = std::getenv("DEMBUF_SERVER"); env && *env) return env;
+  return kDefaultServer;
+}
+
+int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name) {
+  v1::SubmitJobRequest request;
+  *request.mutable_scene() = MakeSceneSpec(scene);
+  request.set_name(name);
+  request.set_owner(remote.owner);
+  v1::SubmitJobResponse response;
+  grpc::ClientContext context;
+  Deadline(context);
+  const grpc::Status status = Connect(remote)->SubmitJob(&context, request, &response);
+  if (!status.ok()) return Report(remote, status);
+  std::printf("%lld\n", static_cast<long long>(response.job().id()));
+  std::fprintf(stderr, "job %lld queued on %s; watch it with: dembuf watch %lld\n",
+               static_cast<long long>(response.job().id()), remote.address.c_str(),
+               static_cast<long long>(response.job().id()));
+  return 0;
+}
+
+int RemoteSweep(const Remote& remote, const RemoteScene& scene,
+                const std::vector<std::string>& vary, int seeds, const std::string& name) {
+  v1::SubmitSweepRequest request;
+  *request.mutable_base() = MakeSceneSpec(scene);
+  for (const std::string& spec : vary) {
+    auto* axis = request.add_axes();
+    const auto eq = spec.find('=');
+    axis->set_field(spec.substr(0, eq));
+    const std::string rest = eq == std::string::npos ? "" : spec.substr(eq + 1);
+    if (rest.find(':') != std::string::npos) {
+      axis->set_range(rest);
+    } else {
+      std::size_t begin = 0;
+      while (true) {
+        const auto comma = rest.find(',', begin);
+        axis->add_values(rest.substr(begin, comma == std::string::npos ? comma : comma - begin));
+        if (comma == std::string::npos) break;
+        begin = comma + 1;
+      }
+    }
+  }
+  request.set_seeds(seeds);
+  request.set_name(name);
+  request.set_owner(remote.owner);
+  v1::SubmitSweepResponse response;
+  grpc::ClientContext context;
+  Deadline(context);
+  const grpc::Status status = Connect(remote)->SubmitSweep(&context, request, &response);
+  if (!status.ok()) return Report(remote, status);
+  const v1::Sweep& sweep = response.sweep();
+  std::printf("%lld\n", static_cast<long long>(sweep.id()));
+  std::fprintf(stderr, "sweep %lld: %d jobs queued on %s (jobs %lld to %lld)\n",
+               static_cast<long long>(sweep.id()), sweep.jobs_total(), remote.address.c_str(),
+               static_cast<long long>(response.job_ids(0)),
+               static_cast<long long>(response.job_ids(response.job_ids_size() - 1)));
+  for (const auto& axis : sweep.axes()) std::fprintf(stderr, "  %s\n", AxisText(axis).c_str());
+  std::fprintf(stderr,
+               "follow it with: dembuf status --sweep %lld; fetch it with: dembuf fetch "
+               "--sweep %lld --out DIR\n",
+               static_cast<long long>(sweep.id()), static_cast<long long>(sweep.id()));
+  return 0;
+}
+
+int RemoteList(const Remote& remote, const ListOptions& options) {
+  auto stub = Connect(remote);
+  grpc::ClientContext context;
+  Deadline(context);
+  if (options.sweeps) {
+    v1::ListSweepsRequest request;
+    request.set_owner(options.owner);
+    request.set_limit(options.limit);
+    v1::ListSweepsResponse response;
+    const grpc::Status status = stub->ListSweeps(&context, request, &response);
+    if (!status.ok()) return Report(remote, status);
+    std::printf("%6s  %-12s %-20s %6s %6s %6s %6s  %s\n", "SWEEP", "OWNER", "NAME", "JOBS", "DONE",
+                "FAILED", "BEDS", "CREATED");
+    for (const auto& s : response.sweeps()) {
+      auto count = [&](const char* state) {
+        auto it = s.jobs_by_state().find(state);
+        return it == s.jobs_by_state().end() ? 0 : it->second;
+      };
+      std::printf("%6lld  %-12s %-20s %6d %6d %6d %6d  %s\n", static_cast<long long>(s.id()),
+                  s.owner().c_str(), s.name().c_str(), s.jobs_total(), count("done"),
+                  count("failed"), s.beds_prepared(), s.created_at().c_str());
+    }
+    return 0;
+  }
+  v1::ListJobsRequest request;
+  if (!options.state.empty()) {
+    v1::JobState state = v1::JOB_STATE_UNSPECIFIED;
+    for (int s = v1::JOB_STATE_QUEUED; s <= v1::JOB_STATE_CANCELLED; ++s)
+      if (options.state == StateText(static_cast<v1::JobState>(s)))
+        state = static_cast<v1::JobState>(s);
+    if (state == v1::JOB_STATE_UNSPECIFIED) {
+      std::fprintf(stderr,
+                   "dembuf: --state %s: use queued, preparing_bed, running, done, failed or "
+                   "cancelled\n",
+                   options.state.c_str());
+      return kExitInvalid;
+    }
+    request.set_state(state);
+  }
+  request.set_owner(options.owner);
+  request.set_sweep_id(options.sweep);
+  request.set_limit(options.limit);
+  v1::ListJobsResponse response;
+  const grpc::Status status = stub->ListJobs(&context, request, &response);
+  if (!status.ok()) return Report(remote, status);
+  std::printf("%6s  %-13s %-12s %6s  %-34s %-18s %s\n", "JOB", "STATE", "OWNER", "SWEEP", "NAME",
+              "PROGRESS", "CREATED");
+  for (const auto& j : response.jobs()) {
+    const std::string progress = j.progress().stage() + " " + Percent(j.progress().fraction());
+    std::printf("%6lld  %-13s %-12s %6s  %-34s %-18s %s\n", static_cast<long long>(j.id()),
+                StateText(j.state()), j.owner().c_str(),
+                j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.name().c_str(),
+                progress.c_str(), j.created_at().c_str());
+  }
+  return 0;
+}
+
+int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
+  auto stub = Connect(remote);
+  grpc::ClientContext context;
+  Deadline(context);
+  if (sweep) {
+    v1::GetSweepRequest request;
+    request.set_id(id);
+    v1::Sweep s;
+    const grpc::Status status = stub->GetSweep(&context, request, &s);
+    if (!status.ok()) return Report(remote, status);
+    std::printf("sweep %lld  %s  owner %s  created %s\n", static_cast<long long>(s.id()),
+                s.name().c_str(), s.owner().c_str(), s.created_at().c_str());
+    for (const auto& axis : s.axes()) std::printf("  %s\n", AxisText(axis).c_str());
+    std::printf("jobs: %d", s.jobs_total());
+    for (const auto& [state, count] :
+         std::map<std::string, int>(s.jobs_by_state().begin(), s.jobs_by_state().end()))
+      std::printf(", %s %d", state.c_str(), count);
+    std::printf("\nbeds prepared: %d\n", s.beds_prepared());
+    return 0;
+  }
+  v1::GetJobRequest request;
+  request.set_id(id);
+  v1::Job j;
+  const grpc::Status status = stub->GetJob(&context, request, &j);
+  if (!status.ok()) return Report(remote, status);
+  std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), j.name().c_str(),
+              StateText(j.state()));
+  std::printf("owner %s, sweep %s, attempts %d\n", j.owner().c_str(),
+              j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.attempts());
+  std::printf("created %s, started %s, finished %s\n", j.created_at().c_str(),
+              j.started_at().empty() ? "-" : j.started_at().c_str(),
+              j.finished_at().empty() ? "-" : j.finished_at().c_str());
+  std::printf("progress: %s %s, t = %.4f ms, peak plate force so far %.5g N\n",
+              j.progress().stage().c_str(), Percent(j.progress().fraction()).c_str(),
+              j.progress().sim_time_s() * 1e3, j.progress().peak_plate_force_n());
+  std::printf("scene %s, bed %s\n", j.scene_hash().c_str(),
+              j.bed_hash().empty() ? "(none)" : j.bed_hash().c_str());
+  for (const auto& bed : j.beds_prepared()) std::printf("prepared bed: %s\n", bed.c_str());
+  if (!j.error().empty()) std::printf("note: %s\n", j.error().c_str());
+  if (!j.summary_json().empty()) {
+    const nlohmann::json s = nlohmann::json::parse(j.summary_json());
+    auto force = [&](const char* key) {
+      char text[32] = "-";
+      if (s.contains(key) && s[key].is_number())
+        std::snprintf(text, sizeof text, "%.5g N", s[key].get<double>());
+      return std::string(text);
+    };
+    std::printf(
+        "P = %.5g N, Pa = %s, Pb = %s, lambda = %.2f%%, crater %.3f cm, H = %.3f cm, C0 = "
+        "%.3f\n",
+        s.value("P_N", 0.0), force("Pa_N").c_str(), force("Pb_N").c_str(),
+        100 * s.value("lambda", 0.0), 100 * s.value("crater_depth_m", 0.0),
+        100 * s.value("bed_thickness_m", 0.0), s.value("C0", 0.0));
+  }
+  return j.state() == v1::JOB_STATE_FAILED ? kExitJobFailed : 0;
+}
+
+int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index) {
+  auto stub = Connect(remote);
+  grpc::ClientContext context;
+  v1::WatchJobRequest request;
+  request.set_id(id);
+  request.set_from_index(from_index);
+  auto reader = stub->WatchJob(&context, request);
+  const bool tty = !csv && isatty(fileno(stdout));
+  if (csv)
+    std::printf(
+        "index,t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N,"
+        "state\n");
+  std::vector<double> forces;
+  v1::WatchJobResponse message;
+  v1::JobState state = v1::JOB_STATE_UNSPECIFIED;
+  std::int64_t received = 0;
+  std::string last_line;
+  auto last_print = std::chrono::steady_clock::time_point{};
+  while (reader->Read(&message)) {
+    state = message.state();
+    for (int k = 0; k < message.samples_size(); ++k) {
+      const auto& s = message.samples(k);
+      forces.push_back(s.plate_force_n());
+      if (csv)
+        std::printf("%lld,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s\n",
+                    static_cast<long long>(message.first_index() + k), s.t_s(), s.plate_force_n(),
+                    s.wall_force_z_n(), s.proj_z_m(), s.proj_vz_m_s(), s.proj_force_z_n(),
+                    StateText(state));
+    }
+    received += message.samples_size();
+    const double force = forces.empty() ? 0.0 : forces.back();
+    char line[256];
+    std::snprintf(
+        line, sizeof line, "job %lld %-13s %-14s t = %8.3f ms  F = %9.4g N  peak %9.4g N  %s",
+        static_cast<long long>(id), StateText(state), message.progress().stage().c_str(),
+        message.progress().sim_time_s() * 1e3, force, message.progress().peak_plate_force_n(),
+        Percent(message.progress().fraction()).c_str());
+    if (tty) {
+      // Two lines, redrawn in place: the numbers and a chart of F(t) so far.
+      std::printf("\r\033[K%s\n\033[K%s\033[1A\r", line, Sparkline(forces, 72).c_str());
+      std::fflush(stdout);
+    } else if (!csv && std::chrono::steady_clock::now() - last_print > std::chrono::seconds(1)) {
+      std::printf("%s\n", line);  // a log, one line a second
+      std::fflush(stdout);
+      last_print = std::chrono::steady_clock::now();
+    }
+    last_line = line;
+    if (csv) std::fflush(stdout);
+  }
+  const grpc::Status status = reader->Finish();
+  if (tty) std::printf("\n\n");
+  if (!status.ok()) return Report(remote, status);
+  if (!csv && !tty) std::printf("%s\n", last_line.c_str());
+  std::fprintf(stderr, "job %lld %s; %lld samples received\n", static_cast<long long>(id),
+               StateText(state), static_cast<long long>(received));
+  if (state == v1::JOB_STATE_DONE) return 0;
+  return state == v1::JOB_STATE_FAILED ? kExitJobFailed : kExitError;
+}
+
+int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
+                bool plots) {
+  auto stub = Connect(remote);
+  const fs::path dir = out_dir;
+  auto fetch = [&](std::int64_t job_id, v1::FetchResultsResponse& result) {
+    grpc::ClientContext context;
+    Deadline(context, 600);
+    v1::FetchResultsRequest request;
+    request.set_id(job_id);
+    return stub->FetchResults(&context, request, &result);
+  };
+  if (!sweep) {
+    v1::FetchResultsResponse result;
+    const grpc::Status status = fetch(id, result);
+    if (!status.ok()) return Report(remote, status);
+    WriteJobFiles(result, dir);
+    std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
+                StateText(result.job().state()), dir.c_str());
+    if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
+    return result.job().state() == v1::JOB_STATE_DONE ? 0 : kExitJobFailed;
+  }
+  v1::Sweep s;
+  {
+    grpc::ClientContext context;
+    Deadline(context);
+    v1::GetSweepRequest request;
+    request.set_id(id);
+    const grpc::Status status = stub->GetSweep(&context, request, &s);
+    if (!status.ok()) return Report(remote, status);
+  }
+  v1::ListJobsResponse jobs;
+  {
+    grpc::ClientContext context;
+    Deadline(context);
+    v1::ListJobsRequest request;
+    request.set_sweep_id(id);
+    request.set_limit(100000);
+    const grpc::Status status = stub->ListJobs(&context, request, &jobs);
+    if (!status.ok()) return Report(remote, status);
+  }
+  std::vector<SweepAxis> axes;
+  for (const auto& a : s.axes())
+    axes.push_back({a.field(), std::vector<std::string>(a.values().begin(), a.values().end())});
+  std::vector<report::SweepRunReport> runs(static_cast<std::size_t>(s.jobs_total()));
+  int pending = 0;
+  for (const v1::Job& job : jobs.jobs()) {
+    const auto index = static_cast<std::size_t>(job.sweep_index());
+    if (index >= runs.size()) continue;
+    report::SweepRunReport& run = runs[index];
+    run.name = job.name();
+    run.values.assign(job.sweep_values().begin(), job.sweep_values().end());
+    if (!Ended(job.state())) {
+      run.error = std::string("still ") + StateText(job.state());
+      ++pending;
+      continue;
+    }
+    v1::FetchResultsResponse result;
+    const grpc::Status status = fetch(job.id(), result);
+    if (!status.ok()) return Report(remote, status);
+    WriteJobFiles(result, dir / "runs" / job.name());
+    run.ok = result.job().state() == v1::JOB_STATE_DONE;
+    run.error = result.job().error();
+    if (run.ok) run.summary = nlohmann::json::parse(result.job().summary_json());
+  }
+  const nlohmann::json extra = {{"sweep", s.id()},
+                                {"server", remote.address},
+                                {"beds_prepared", s.beds_prepared()},
+                                {"pending", pending}};
+  const nlohmann::json summary = report::WriteSweepReport(dir, axes, runs, extra, stdout);
+  std::printf("sweep %lld: wrote %s (%d jobs, %d failed, %d not finished)\n",
+              static_cast<long long>(id), dir.c_str(), s.jobs_total(),
+              summary["failed"].get<int>() - pending, pending);
+  if (plots) PlotIfPossible(dir);
+  return pending == 0 && summary["failed"].get<int>() == 0 ? 0 : kExitJobFailed;
+}
+
+int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {
+  v1::CancelRequest request;
+  if (sweep) {
+    request.set_sweep_id(id);
+  } else {
+    request.set_job_id(id);
+  }
+  v1::CancelResponse response;
+  grpc::ClientContext context;
+  Deadline(context);
+  const grpc::Status status = Connect(remote)->Cancel(&context, request, &response);
+  if (!status.ok()) return Report(remote, status);
+  std::printf("cancelled %d job(s)\n", response.cancelled());
+  return 0;
+}
+
+int RemoteServerInfo(const Remote& remote) {
+  v1::ServerInfoResponse info;
+  grpc::ClientContext context;
+  Deadline(context, 10);
+  const grpc::Status status = Connect(remote)->ServerInfo(&context, {}, &info);
+  if (!status.ok()) return Report(remote, status);
+  std::printf("dembufd %s at %s (host %s, up since %s)\n", info.version().c_str(),
+              remote.address.c_str(), info.host().c_str(), info.started_at().c_str());
+  std::printf("workers %d x %d threads, running %d, queued %d of %d, database %s\n", info.workers(),
+              info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
+              info.database().c_str());
+  return 0;
+}
+
+}  // namespace dembuf::cli

@@ -1,0 +1,47 @@
+// The client's remote mode: commands that talk to a dembufd over gRPC. Each returns the
+// process exit code and prints server errors as one line naming the field at fault.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace dembuf::cli {
+
+/// Where the daemon is: --server, else $DEMBUF_SERVER, else the daemon's default address.
+std::string ServerAddress(const std::string& flag);
+/// True when --server or $DEMBUF_SERVER names a daemon (so that `sweep` goes there).
+bool ServerGiven(const std::string& flag);
+
+struct RemoteScene {
+  std::string scene_file;  ///< sent as text; the server resolves and checks it
+  std::string preset;
+  std::vector<std::string> overrides;
+};
+
+struct Remote {
+  std::string address;
+  std::string owner;  ///< --owner, else $USER
+};
+
+int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name);
+int RemoteSweep(const Remote& remote, const RemoteScene& scene,
+                const std::vector<std::string>& vary, int seeds, const std::string& name);
+struct ListOptions {
+  std::string state;
+  std::string owner;
+  std::int64_t sweep = 0;
+  int limit = 20;
+  bool sweeps = false;  ///< list sweeps instead of jobs
+};
+int RemoteList(const Remote& remote, const ListOptions& options);
+int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep);
+/// Live view of a job; `csv` prints every sample as a CSV row instead.
+int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index);
+/// A job's files (or, with `sweep`, every job's and the sweep's tables) into `out_dir`.
+int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
+                bool plots);
+int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep);
+int RemoteServerInfo(const Remote& remote);
+
+}  // namespace dembuf::cli

@@ -1,0 +1,62 @@
+# Shared by the service tests: start a real dembufd on a free loopback port with a temporary
+# database, and wait for job states through the real client.
+# The caller sets: dembuf, dembufd (binaries) and work (a temporary folder).
+
+fail() { echo "FAIL: $*"; [ -n "${daemon_log:-}" ] && tail -20 "$daemon_log"; exit 1; }
+
+# start_daemon DB LOG [dembufd flags...]: starts it, sets daemon_pid and DEMBUF_SERVER.
+start_daemon() {
+  local db=$1 log=$2
+  shift 2
+  daemon_log=$log
+  local before=0
+  [ -f "$log" ] && before=$(wc -l < "$log")
+  "$dembufd" --listen 127.0.0.1:0 --db "$db" "$@" >> "$log" 2>&1 &
+  daemon_pid=$!
+  local port=""
+  for _ in $(seq 100); do
+    port=$(tail -n +$((before + 1)) "$log" | sed -n 's/.*listening on .* (port \([0-9]*\)).*/\1/p')
+    [ -n "$port" ] && break
+    kill -0 "$daemon_pid" 2>/dev/null || fail "dembufd did not start"
+    sleep 0.1
+  done
+  [ -n "$port" ] || fail "dembufd did not report its port"
+  export DEMBUF_SERVER=127.0.0.1:$port
+}
+
+stop_daemon() {
+  kill -TERM "$daemon_pid" 2>/dev/null || true
+  wait "$daemon_pid" 2>/dev/null || true
+}
+
+# job_state ID: prints the job's state.
+job_state() {
+  "$dembuf" status "$1" | sed -n '1s/.*(\(.*\))$/\1/p'
+}
+
+# wait_state ID STATE SECONDS: waits until the job is in STATE.
+wait_state() {
+  local state=""
+  for _ in $(seq $(($3 * 10))); do
+    state=$(job_state "$1")
+    [ "$state" = "$2" ] && return 0
+    sleep 0.1
+  done
+  fail "job $1 is $state, not $2, after $3 s"
+}
+
+# A bed that settles in seconds: a 2 cm cylinder, a 1.5 cm source cut to 1 cm.
+small_scene() {
+  cat > "$1" <<'TOML'
+[cylinder]
+radius_m = 0.02
+[bed]
+thickness_m = 0.01
+source_thickness_m = 0.015
+[projectile]
+diameter_m = 0.012
+mass_kg = 0.01
+speed_m_s = 2.0
+height_m = 0.02
+TOML
+}

@@ -1,0 +1,122 @@
+#!/usr/bin/env bash
+# The service end to end: a real dembufd on loopback driven by the real client. A job watched
+# live (samples before the end, in order, none missing; a late watcher gets them all), fetched
+# and compared with a local run; a sweep of 6 jobs on one bed prepared once; a cancel taking
+# effect within a second; bad requests refused naming the field; a full queue refused.
+# Usage: service_test.sh DEMBUF DEMBUFD
+set -eu
+dembuf=$1
+dembufd=$2
+work=$(mktemp -d)
+trap 'kill -9 "${daemon_pid:-0}" 2>/dev/null; rm -rf "$work"' EXIT
+. "$(dirname "$0")/lib.sh"
+export OMP_WAIT_POLICY=passive
+small_scene "$work/small.toml"
+start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
+
+"$dembuf" server-info | grep -q "workers 2" || fail "server-info"
+
+# --- a job, watched live from the start and by a late watcher --------------------------------
+# A longer impact window so that the run lasts a few seconds.
+job=$("$dembuf" submit "$work/small.toml" --set bed.seed=3 --set time.end_s=0.04)
+"$dembuf" watch "$job" --csv > "$work/watch1.csv" &
+watcher=$!
+wait_state "$job" running 120
+sleep 0.5
+"$dembuf" watch "$job" --csv > "$work/watch2.csv"
+wait "$watcher" || fail "first watcher"
+[ "$(job_state "$job")" = done ] || fail "job $job did not finish"
+"$dembuf" fetch "$job" --out "$work/fetched" --no-plots > /dev/null
+rows=$(($(wc -l < "$work/fetched/plate_force.csv") - 1))
+[ "$rows" -gt 100 ] || fail "only $rows samples"
+for w in watch1 watch2; do
+  # Every index once, in order, and as many samples as the stored series.
+  awk -F, -v rows="$rows" 'NR > 1 { if ($1 != NR - 2) { print "index " $1 " at row " NR; bad = 1 }
+                                   if (NR > 2 && $2 <= t) { print "time not increasing"; bad = 1 }
+                                   t = $2; n++ }
+       END { if (n != rows) { print n " samples, stored " rows; bad = 1 } exit bad }' \
+    "$work/$w.csv" || fail "$w: samples missing or out of order"
+done
+# The first watcher saw samples while the job was still running (live, not replayed).
+grep -q ',running$' "$work/watch1.csv" || fail "no sample arrived before the job ended"
+# Same values as the stored series.
+cut -d, -f2-4 "$work/watch1.csv" | tail -n +2 > "$work/watched"
+cut -d, -f1-3 "$work/fetched/plate_force.csv" | tail -n +2 > "$work/stored"
+cmp -s "$work/watched" "$work/stored" || fail "watched samples differ from the stored ones"
+
+# --- the fetched run equals a local run of the same scene -------------------------------------
+"$dembuf" run "$work/small.toml" --set bed.seed=3 --set time.end_s=0.04 --no-bed-cache \
+  --out "$work/local" > /dev/null 2>&1
+cmp "$work/local/plate_force.csv" "$work/fetched/plate_force.csv" || fail "series differ from local"
+python3 - "$work/local/summary.json" "$work/fetched/summary.json" <<'PY' || fail "summaries differ"
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:])
+a.pop("wall_time_s"); b.pop("wall_time_s")
+sys.exit(a != b)
+PY
+
+# --- a sweep of 6 jobs on one bed: the bed is prepared once -----------------------------------
+sweep=$("$dembuf" sweep "$work/small.toml" --set bed.seed=4 \
+        --vary projectile.speed_m_s=1,1.5,2,2.5,3,3.5 2>/dev/null)
+for _ in $(seq 600); do
+  "$dembuf" status --sweep "$sweep" | grep -q "jobs: 6, done 6$" && break
+  sleep 0.2
+done
+"$dembuf" status --sweep "$sweep" | grep -q "jobs: 6, done 6$" || fail "sweep did not finish"
+# Two bed stages (the settled source and its cut), each prepared by exactly one job.
+"$dembuf" status --sweep "$sweep" | grep -q "beds prepared: 2$" || fail "beds prepared"
+"$dembuf" fetch --sweep "$sweep" --out "$work/sweep" --no-plots > /dev/null
+[ "$(cat "$work"/sweep/runs/*/job.json | grep -c '"source ')" = 1 ] || fail "source bed count"
+[ "$(cat "$work"/sweep/runs/*/job.json | grep -c '"cut ')" = 1 ] || fail "cut bed count"
+[ "$(($(wc -l < "$work/sweep/sweep.csv") - 1))" = 6 ] || fail "sweep.csv rows"
+
+# --- cancel a running job: it stops within a second -------------------------------------------
+long=$("$dembuf" submit "$work/small.toml" --set bed.seed=3 --set projectile.enabled=false \
+       --set time.end_s=5)
+wait_state "$long" running 60
+start=$(date +%s.%N)
+"$dembuf" cancel "$long" > /dev/null
+wait_state "$long" cancelled 1
+end=$(date +%s.%N)
+awk -v s="$start" -v e="$end" 'BEGIN { exit !(e - s < 1.0) }' || fail "cancel took $(echo "$end - $start" | bc) s"
+if "$dembuf" cancel "$long" 2>/dev/null; then fail "cancelled an ended job"; fi
+
+# --- bad requests: INVALID_ARGUMENT (exit 2) and the field in the message --------------------
+bad() {  # bad FIELD COMMAND...
+  local field=$1
+  shift
+  local code=0
+  "$dembuf" "$@" > /dev/null 2> "$work/err" || code=$?
+  [ "$code" = 2 ] || fail "'$*' gave exit code $code: $(cat "$work/err")"
+  grep -q "the server refused the request: .*$field" "$work/err" || fail "'$*': $(cat "$work/err")"
+}
+printf '[bed]\nthickness_m = "thick"\n' > "$work/bad.toml"
+bad bed.thickness_m submit --set bed.thickness_m=-0.01
+bad projectile.mass_kg submit --set projectile.mass_kg=nan
+bad material.restitution submit --set material.restitution=1.5
+bad no.such_field submit --set no.such_field=1
+bad preset submit --preset e9
+bad time.alpha submit --set time.alpha=fast
+bad beads.diameter_min_m submit --set beads.diameter_min_m=0.006
+bad bed.import submit --set bed.import=/etc/passwd
+bad output.snapshot_at_peak submit --set output.snapshot_at_peak=true
+bad bed.thickness_m submit "$work/bad.toml"
+bad bed.thickness_m sweep --vary bed.thickness_m=0.02:0.01:0.005
+bad nope.field sweep --vary nope.field=1,2
+bad seeds sweep --seeds 5000 --vary projectile.speed_m_s=1,2
+bad axes sweep --vary projectile.speed_m_s=0:10:0.01 --vary bed.seed=1:100:1
+# Unknown ids are NOT_FOUND, not a crash.
+if "$dembuf" status 999999 2> "$work/err"; then fail "status of an unknown job"; fi
+grep -q "no job 999999" "$work/err" || fail "unknown job message: $(cat "$work/err")"
+"$dembuf" server-info > /dev/null || fail "the daemon died on bad requests"
+stop_daemon
+grep -q "stopped cleanly" "$work/dembufd.log" || fail "no clean shutdown"
+
+# --- a full queue: RESOURCE_EXHAUSTED, nothing stored -----------------------------------------
+start_daemon "$work/small-queue.db" "$work/small-queue.log" --workers 1 --queue-limit 3
+code=0
+"$dembuf" sweep --set bed.thickness_m=0 --vary projectile.speed_m_s=1,2,3,4 2> "$work/err" || code=$?
+[ "$code" = 1 ] && grep -q "server is full" "$work/err" || fail "full queue: $code $(cat "$work/err")"
+[ -z "$("$dembuf" list | tail -n +2)" ] || fail "a refused sweep left jobs behind"
+stop_daemon
+echo "service test passed"

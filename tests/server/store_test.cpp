@@ -1,0 +1,222 @@
+// The daemon's pieces without the network: the API's scene covers every scene field and
+// carries values exactly; the store migrates, keeps results exactly and refuses to touch a
+// database that is not its own.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/presets.h"
+#include "dembuf/engine/scene_fields.h"
+#include "scene_request.h"
+#include "store.h"
+
+namespace dembuf::server {
+namespace {
+
+namespace fs = std::filesystem;
+using google::protobuf::Descriptor;
+using google::protobuf::FieldDescriptor;
+
+// The proto field at a dotted path ("bed.thickness_m"), or null.
+const FieldDescriptor* ProtoField(const std::string& dotted) {
+  const Descriptor* message = v1::Scene::descriptor();
+  std::string rest = dotted;
+  while (true) {
+    const auto dot = rest.find('.');
+    const FieldDescriptor* field = message->FindFieldByName(rest.substr(0, dot));
+    if (!field || dot == std::string::npos) return field;
+    if (field->type() != FieldDescriptor::TYPE_MESSAGE) return nullptr;
+    message = field->message_type();
+    rest = rest.substr(dot + 1);
+  }
+}
+
+void CollectLeaves(const Descriptor* message, const std::string& prefix,
+                   std::vector<std::string>& out) {
+  for (int i = 0; i < message->field_count(); ++i) {
+    const FieldDescriptor* f = message->field(i);
+    const std::string name = prefix.empty() ? f->name() : prefix + "." + f->name();
+    if (f->type() == FieldDescriptor::TYPE_MESSAGE)
+      CollectLeaves(f->message_type(), name, out);
+    else
+      out.push_back(name);
+  }
+}
+
+TEST(SceneRequest, EverySceneFieldIsInTheApiAndBack) {
+  for (const SceneField& f : SceneFields())
+    EXPECT_NE(ProtoField(std::string(f.name)), nullptr) << f.name << " missing from dembuf.proto";
+  std::vector<std::string> leaves;
+  CollectLeaves(v1::Scene::descriptor(), "", leaves);
+  for (const std::string& leaf : leaves)
+    EXPECT_NE(FindSceneField(leaf), nullptr) << leaf << " in dembuf.proto is no scene field";
+}
+
+TEST(SceneRequest, ValuesArriveExactlyAndInOrder) {
+  v1::SceneSpec spec;
+  spec.set_preset("e2");
+  spec.set_scene_toml("[bed]\nthickness_m = 0.02\n");
+  spec.mutable_scene()->mutable_bed()->set_thickness_m(0.1 / 3.0);  // overrides the text
+  spec.mutable_scene()->mutable_projectile()->set_mass_kg(0.123456789012345678);
+  spec.mutable_scene()->mutable_output()->add_snapshot_times_s(1.0 / 7.0);
+  spec.add_set("projectile.speed_m_s=4.5");  // overrides the preset's 5
+  const Scene scene = ResolveSceneSpec(spec);
+  EXPECT_EQ(scene.bed.thickness_m, 0.1 / 3.0);
+  EXPECT_EQ(scene.projectile.mass_kg, 0.123456789012345678);
+  ASSERT_EQ(scene.output.snapshot_times_s.size(), 1u);
+  EXPECT_EQ(scene.output.snapshot_times_s[0], 1.0 / 7.0);
+  EXPECT_EQ(scene.projectile.speed_m_s, 4.5);
+  EXPECT_EQ(scene.projectile.height_m, PresetScene("e2").projectile.height_m);
+}
+
+TEST(SceneRequest, BadValuesNameTheirField) {
+  auto message = [](const v1::SceneSpec& spec) {
+    try {
+      CheckServerScene(ResolveSceneSpec(spec));
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  v1::SceneSpec nan;
+  nan.mutable_scene()->mutable_material()->set_restitution(std::nan(""));
+  EXPECT_NE(message(nan).find("material.restitution"), std::string::npos) << message(nan);
+  v1::SceneSpec huge;
+  huge.mutable_scene()->mutable_bed()->set_seed(INT64_MAX);
+  EXPECT_NE(message(huge).find("bed.seed"), std::string::npos) << message(huge);
+  v1::SceneSpec import;
+  import.mutable_scene()->mutable_bed()->set_import("/etc/passwd");
+  EXPECT_NE(message(import).find("bed.import"), std::string::npos) << message(import);
+  v1::SceneSpec samples;
+  samples.mutable_scene()->mutable_time()->set_output_interval_s(1e-9);
+  EXPECT_NE(message(samples).find("time.output_interval_s"), std::string::npos);
+}
+
+class StoreTest : public testing::Test {
+ protected:
+  fs::path path = fs::path(testing::TempDir()) /
+                  ("store-" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+                   testing::UnitTest::GetInstance()->current_test_info()->name() + ".db");
+  void SetUp() override {
+    fs::remove(path);
+    fs::remove(path.string() + "-wal");
+    fs::remove(path.string() + "-shm");
+  }
+};
+
+TEST_F(StoreTest, ResultsSurviveReopeningExactly) {
+  std::int64_t id = 0;
+  const std::vector<ImpactSample> samples = {{0.0, 1.0 / 3.0, -2.5, 0.1, -5.0, 7.0},
+                                             {1e-5, 13456.789, 0.0, std::nan(""), 0.0, 0.0}};
+  {
+    Store store(path.string());
+    JobRecord job;
+    job.owner = "ada";
+    job.name = "one";
+    job.scene_toml = "gravity_m_s2 = 9.81\n";
+    store.AddJob(job);
+    id = job.id;
+    store.MarkStarted(id, JobState::kRunning, "host", "0.1.0");
+    store.FinishJob(id, JobState::kDone, "", {"{\"P_N\": 1}\n", samples});
+  }
+  Store store(path.string());
+  const auto job = store.GetJob(id);
+  ASSERT_TRUE(job);
+  EXPECT_EQ(job->state, JobState::kDone);
+  EXPECT_EQ(job->attempts, 1);
+  const auto results = store.GetResults(id);
+  ASSERT_TRUE(results);
+  EXPECT_EQ(results->summary_json, "{\"P_N\": 1}\n");
+  ASSERT_EQ(results->samples.size(), 2u);
+  EXPECT_EQ(results->samples[0].plate_force_N, 1.0 / 3.0);
+  EXPECT_EQ(results->samples[1].plate_force_N, 13456.789);
+  EXPECT_TRUE(std::isnan(results->samples[1].projectile_z_m));
+}
+
+TEST_F(StoreTest, InterruptedJobsGoBackToTheQueue) {
+  Store store(path.string());
+  JobRecord a, b;
+  a.scene_toml = b.scene_toml = "x";
+  store.AddJob(a);
+  store.AddJob(b);
+  store.MarkStarted(a.id, JobState::kRunning, "h", "v");
+  const auto requeued = store.RequeueInterrupted("interrupted");
+  ASSERT_EQ(requeued.size(), 1u);
+  EXPECT_EQ(requeued[0].id, a.id);
+  EXPECT_EQ(store.GetJob(a.id)->state, JobState::kQueued);
+  EXPECT_EQ(store.GetJob(a.id)->error, "interrupted");
+  EXPECT_EQ(store.QueuedJobs().size(), 2u);
+}
+
+std::string ReadAll(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST_F(StoreTest, RefusesAForeignFileAndLeavesItAlone) {
+  { std::ofstream(path, std::ios::binary) << std::string(8192, '\x5a'); }
+  const std::string before = ReadAll(path);
+  try {
+    Store store(path.string());
+    FAIL() << "opened a file that is not a database";
+  } catch (const StoreError& e) {
+    EXPECT_NE(std::string(e.what()).find("leaves it untouched"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(ReadAll(path), before);
+}
+
+TEST_F(StoreTest, RefusesADatabaseOfAnotherApplication) {
+  {
+    Database db(path.string());
+    db.Execute("CREATE TABLE accounts (id INTEGER)");
+  }
+  EXPECT_THROW(Store store(path.string()), StoreError);
+}
+
+TEST_F(StoreTest, RefusesANewerSchema) {
+  { Store store(path.string()); }
+  {
+    Database db(path.string());
+    db.Execute("PRAGMA user_version = 99");
+  }
+  try {
+    Store store(path.string());
+    FAIL() << "opened a newer schema";
+  } catch (const StoreError& e) {
+    EXPECT_NE(std::string(e.what()).find("newer"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(StoreTest, BedsRoundTripExactly) {
+  Store store(path.string());
+  PreparedBed bed;
+  bed.hash = "0123456789abcdef";
+  bed.stage = "cut";
+  bed.surface_m = 0.1 / 3.0;
+  bed.beads.position.push_back(Vec3(1.0 / 3.0, 2.0 / 7.0, 0.01));
+  bed.beads.velocity.push_back(Vec3::Zero());
+  bed.beads.angular_velocity.push_back(Vec3::Zero());
+  bed.beads.force.push_back(Vec3::Zero());
+  bed.beads.torque.push_back(Vec3::Zero());
+  bed.beads.radius.push_back(0.0021);
+  bed.beads.mass.push_back(1e-4);
+  bed.beads.inv_mass.push_back(1e4);
+  bed.beads.inv_inertia.push_back(1.0);
+  EXPECT_FALSE(store.beds().Contains(bed.hash));
+  store.beds().Save(bed);
+  EXPECT_TRUE(store.beds().Contains(bed.hash));
+  const auto back = store.beds().Load(bed.hash);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->surface_m, bed.surface_m);
+  EXPECT_EQ(back->beads.position[0], bed.beads.position[0]);
+  EXPECT_EQ(back->beads.radius[0], bed.beads.radius[0]);
+}
+
+}  // namespace
+}  // namespace dembuf::server

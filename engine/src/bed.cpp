@@ -84,7 +84,8 @@ StageKeys Keys(const Scene& scene) {
   const std::string cut_text = source_text + FieldText(scene, "bed.thickness_m");
   k.cut = ContentHash(cut_text);
   k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
-                           FieldText(scene, "bed.friction_ramp_s"));
+                           FieldText(scene, "bed.friction_ramp_s") +
+                           FieldText(scene, "bed.friction_settle_tolerance"));
   return k;
 }
 
@@ -199,7 +200,7 @@ RestState MeasureRest(const Simulation& sim, double energy_scale) {
 
 // Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
 double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stage,
-                    const BedRequest& request, double max_time,
+                    const BedRequest& request, double max_time, double tolerance,
                     const std::function<void(Simulation&, double)>& before_step = {}) {
   const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
   const double m_mean =
@@ -219,13 +220,12 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
       request.on_progress(
           {stage, t, max_time, sim.beads().size(), rest.kinetic_ratio, rest.balance_error});
     const bool ramp_done = !before_step || t >= scene.bed.friction_ramp_s;
-    if (ramp_done && rest.kinetic_ratio < scene.bed.settle_tolerance && rest.balance_error < 0.01)
-      return t;
+    if (ramp_done && rest.kinetic_ratio < tolerance && rest.balance_error < 0.01) return t;
     if (t > max_time) {
       std::ostringstream what;
       what << "the bed did not come to rest within bed.max_settle_s = " << max_time << " s ("
            << stage << " stage): kinetic energy per bead " << rest.kinetic_ratio
-           << " m g d (tolerance " << scene.bed.settle_tolerance << "), force balance error "
+           << " m g d (tolerance " << tolerance << "), force balance error "
            << rest.balance_error * 100 << "% (tolerance 1%)";
       throw SimulationError(what.str(), sim.steps(), sim.time_s());
     }
@@ -278,7 +278,8 @@ PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const Bed
   const auto wall_start = std::chrono::steady_clock::now();
   Simulation sim = BedSimulation(scene, nullptr, InsertBeads(scene, SourceThickness(scene)),
                                  scene.bed.prep_friction);
-  const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s);
+  const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s,
+                                scene.bed.settle_tolerance);
   PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
   if (bed.surface_m < scene.bed.thickness_m)
     throw SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
@@ -313,8 +314,8 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
   const std::vector<bool> keep =
       CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m);
   sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
-  const double t =
-      SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s);
+  const double t = SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s,
+                                scene.bed.settle_tolerance);
   return Finish(sim, scene, hash, "cut", t, wall_start);
 }
 
@@ -330,8 +331,11 @@ PreparedBed PrepareFriction(const Scene& scene, const PreparedBed& cut, const st
     const double f = ramp > 0.0 ? std::min(t / ramp, 1.0) : 1.0;
     s.SetFriction(mu0 + f * (mu1 - mu0), wall_mu);
   };
+  const double tolerance = scene.bed.friction_settle_tolerance > 0.0
+                               ? scene.bed.friction_settle_tolerance
+                               : scene.bed.settle_tolerance;
   const double t = SettleToRest(sim, scene, "changing friction", request,
-                                ramp + scene.bed.max_settle_s, before_step);
+                                ramp + scene.bed.max_settle_s, tolerance, before_step);
   return Finish(sim, scene, hash, "friction", t, wall_start);
 }
 
@@ -339,8 +343,8 @@ PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const Bed
   const auto wall_start = std::chrono::steady_clock::now();
   Simulation sim = BedSimulation(scene, nullptr, ImportTextBed(scene.bed.import, scene),
                                  scene.material.friction_bead_bead);
-  const double t =
-      SettleToRest(sim, scene, "relaxing the imported bed", request, scene.bed.max_settle_s);
+  const double t = SettleToRest(sim, scene, "relaxing the imported bed", request,
+                                scene.bed.max_settle_s, scene.bed.settle_tolerance);
   return Finish(sim, scene, hash, "import", t, wall_start);
 }
 

@@ -55,6 +55,10 @@ struct BedSpec {
   /// Rest: mean kinetic energy per bead below this fraction of m g d (mean bead), and plate +
   /// wall support within 1% of the bed's weight.
   double settle_tolerance = 1e-5;
+  /// The same, for the relaxation after a friction change; 0: settle_tolerance. A bed whose
+  /// friction drops to zero keeps creeping for long at a few 1e-4 m g d per bead (normal
+  /// damping does not dissipate sliding), so the friction study may accept a looser rest.
+  double friction_settle_tolerance = 0.0;
   double max_settle_s = 3.0;      ///< give up settling after this much simulated time
   double friction_ramp_s = 0.01;  ///< duration of the change from prep_friction to mu_pp
 };

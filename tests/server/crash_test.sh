@@ -7,7 +7,7 @@ set -eu
 dembuf=$1
 dembufd=$2
 work=$(mktemp -d)
-trap '[ -n "${daemon_pid:-}" ] && kill -9 "$daemon_pid" 2>/dev/null; rm -rf "$work"' EXIT
+trap 'rc=$?; [ -z "${daemon_pid:-}" ] || kill -9 "$daemon_pid" 2>/dev/null || true; rm -rf "$work"; exit $rc' EXIT
 . "$(dirname "$0")/lib.sh"
 export OMP_WAIT_POLICY=passive
 small_scene "$work/small.toml"

@@ -27,6 +27,7 @@ start_daemon() {
 stop_daemon() {
   kill -TERM "$daemon_pid" 2>/dev/null || true
   wait "$daemon_pid" 2>/dev/null || true
+  daemon_pid=""
 }
 
 # job_state ID: prints the job's state.

@@ -76,7 +76,7 @@ start=$(date +%s.%N)
 "$dembuf" cancel "$long" > /dev/null
 wait_state "$long" cancelled 1
 end=$(date +%s.%N)
-awk -v s="$start" -v e="$end" 'BEGIN { exit !(e - s < 1.0) }' || fail "cancel took $(echo "$end - $start" | bc) s"
+awk -v s="$start" -v e="$end" 'BEGIN { exit !(e - s < 1.0) }' || fail "cancel took $(awk -v s="$start" -v e="$end" 'BEGIN { print e - s }') s"
 if "$dembuf" cancel "$long" 2>/dev/null; then fail "cancelled an ended job"; fi
 
 # --- bad requests: INVALID_ARGUMENT (exit 2) and the field in the message --------------------

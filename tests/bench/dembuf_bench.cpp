@@ -1,0 +1,381 @@
+// dembuf's benchmark: what a step costs and how that scales. Prints tables and writes JSON.
+//
+//   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick]
+//
+// 1. Impact throughput on a dense settled bed (the E2 scene at H = 2.5 cm, about 8,000 beads,
+//    full contact law: friction with history, rotation, damping, plate and cylinder, and the
+//    projectile arriving at its impact speed), one thread, in bead-steps per second.
+// 2. The same bed and projectile in LAMMPS (GRANULAR package, tests/bench/lammps/in.impact),
+//    when `lmp` is installed, alternating with dembuf in this run; the ratio.
+// 3. What each optional effect costs: friction (with history and rotation), the projectile.
+// 4. One job on 1 and 2 threads (more where the machine has them).
+// 5. Time per step against bead count from 1,000 to 100,000 beads (beds stacked from copies of
+//    the settled one), with the exponent of a power-law fit; memory per bead.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "dembuf/engine/bed.h"
+#include "dembuf/engine/impact.h"
+#include "dembuf/engine/presets.h"
+#include "dembuf/engine/scene_fields.h"
+
+using namespace dembuf;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  fs::path out = "bench.json";
+  fs::path bed_cache;
+  int steps = 2000;
+  bool quick = false;
+};
+
+double Seconds(std::chrono::steady_clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+// Resident memory of this process now, in bytes.
+double ResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;
+  return 0.0;
+}
+
+// The benchmark scene: the paper's E2 impact on a 2.5 cm bed cut from a 3 cm source (so that
+// a fresh machine prepares it in minutes; it is cached afterwards).
+Scene BenchScene() {
+  Scene scene = PresetScene("e2");
+  scene.bed.thickness_m = 0.025;
+  scene.bed.source_thickness_m = 0.03;
+  return scene;
+}
+
+// The world with the projectile moved to just above the bed at its impact speed, as the
+// impact pipeline leaves it after the analytic free flight.
+World ImpactWorld(const Scene& scene, BedCache& cache) {
+  World world = BuildWorld(scene, &cache);
+  RigidSphere& p = *world.projectile;
+  const double drop = p.position.z() - (world.bed_surface_m + p.radius + 1e-4);
+  const double v = std::sqrt(scene.projectile.speed_m_s * scene.projectile.speed_m_s +
+                             2.0 * scene.gravity_m_s2 * drop);
+  p.position.z() -= drop;
+  p.velocity.z() = -v;
+  return world;
+}
+
+struct Timing {
+  double seconds = 0.0;
+  std::size_t beads = 0;
+  int steps = 0;
+  double NsPerBeadStep() const { return 1e9 * seconds / (static_cast<double>(beads) * steps); }
+};
+
+// Steps a copy of the world `steps` times and times it (neighbor list builds included).
+Timing TimeSteps(const World& world, int steps, int threads, bool with_projectile = true) {
+  WorldParams params = world.params;
+  params.threads = threads;
+  Simulation sim(params, world.beads, with_projectile ? world.projectile : std::nullopt,
+                 world.history);
+  sim.RefreshForces();
+  const auto start = std::chrono::steady_clock::now();
+  for (int k = 0; k < steps; ++k) sim.Step();
+  return {Seconds(std::chrono::steady_clock::now() - start), world.beads.size(), steps};
+}
+
+Timing Best(int repeats, const std::function<Timing()>& run) {
+  Timing best;
+  for (int r = 0; r < repeats; ++r) {
+    const Timing t = run();
+    if (r == 0 || t.seconds < best.seconds) best = t;
+  }
+  return best;
+}
+
+// ---- LAMMPS ----------------------------------------------------------------------------------
+
+bool LammpsAvailable() {
+  return std::system("command -v lmp > /dev/null 2>&1") == 0;
+}
+
+// The bed and projectile as a LAMMPS data file (atom_style sphere: id type diameter density
+// x y z), with velocities.
+void WriteLammpsData(const World& world, const Scene& scene, const fs::path& path) {
+  std::ofstream out(path);
+  out.precision(17);
+  const double r = scene.cylinder.radius_m + 0.005;
+  const RigidSphere& p = *world.projectile;
+  out << "dembuf benchmark bed\n\n"
+      << world.beads.size() + 1 << " atoms\n2 atom types\n\n"
+      << -r << " " << r << " xlo xhi\n"
+      << -r << " " << r << " ylo yhi\n"
+      << -0.001 << " " << p.position.z() + p.radius + 0.01 << " zlo zhi\n\nAtoms # sphere\n\n";
+  const ParticleState& b = world.beads;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const double d = 2.0 * b.radius[i];
+    const double density = b.mass[i] / (std::numbers::pi / 6.0 * d * d * d);
+    out << i + 1 << " 1 " << d << " " << density << " " << b.position[i].x() << " "
+        << b.position[i].y() << " " << b.position[i].z() << "\n";
+  }
+  const double dp = 2.0 * p.radius;
+  out << b.size() + 1 << " 2 " << dp << " " << p.mass / (std::numbers::pi / 6.0 * dp * dp * dp)
+      << " " << p.position.x() << " " << p.position.y() << " " << p.position.z() << "\n";
+  out << "\nVelocities\n\n";
+  for (std::size_t i = 0; i < b.size(); ++i)
+    out << i + 1 << " " << b.velocity[i].x() << " " << b.velocity[i].y() << " " << b.velocity[i].z()
+        << " 0 0 0\n";
+  out << b.size() + 1 << " 0 0 " << p.velocity.z() << " 0 0 0\n";
+}
+
+// Runs LAMMPS on the data file; returns its loop time, or a negative number on failure.
+double RunLammps(const fs::path& input, const fs::path& data, const World& world,
+                 const Scene& scene, int steps, const fs::path& log) {
+  const double e_star = 0.75 * world.params.sphere_pair.kn_per_sqrt_r;
+  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double m_mean =
+      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  // LAMMPS's viscoelastic damping force is eta0 * a * m_eff * (approach rate), a = sqrt(R d);
+  // dembuf's Kuwabara-Kono term is A * 4/3 E* * a * (approach rate): equal for a mean pair.
+  const double eta0 = world.params.sphere_pair.damping_A_s * 4.0 / 3.0 * e_star / (0.5 * m_mean);
+  std::ostringstream cmd;
+  cmd.precision(12);
+  cmd << "OMP_NUM_THREADS=1 lmp -nocite -screen none -log " << log << " -in " << input
+      << " -var data " << data << " -var steps " << steps << " -var dt " << world.params.dt_s
+      << " -var E " << scene.material.youngs_modulus_Pa << " -var nu "
+      << scene.material.poisson_ratio << " -var eta " << eta0 << " -var mu "
+      << scene.material.friction_bead_bead << " -var muw " << scene.material.friction_bead_wall
+      << " -var radius " << scene.cylinder.radius_m << " -var skin "
+      << world.params.skin_fraction * scene.beads.diameter_min_m << " -var g "
+      << scene.gravity_m_s2;
+  if (std::system(cmd.str().c_str()) != 0) return -1.0;
+  std::ifstream in(log);
+  const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on 1 procs for (\d+) steps)");
+  std::string line;
+  std::smatch m;
+  while (std::getline(in, line))
+    if (std::regex_search(line, m, loop)) return std::stod(m[1]);
+  return -1.0;
+}
+
+// ---- beds of any size ------------------------------------------------------------------------
+
+// `count` beads: copies of the settled bed stacked on top of each other (each lifted by the
+// bed's height plus a bead), cut to the lowest `count`. A dense bed for timing, not physics.
+World StackedWorld(const World& base, std::size_t count) {
+  World world = base;
+  world.projectile.reset();
+  world.history.clear();
+  std::vector<std::size_t> order(base.beads.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return base.beads.position[a].z() < base.beads.position[b].z();
+  });
+  ParticleState beads;
+  const double lift = base.bed_surface_m + 0.005;
+  for (std::size_t copy = 0; beads.size() < count; ++copy)
+    for (std::size_t k = 0; k < order.size() && beads.size() < count; ++k) {
+      const std::size_t i = order[k];
+      beads.position.push_back(base.beads.position[i] + Vec3(0, 0, copy * lift));
+      beads.velocity.push_back(Vec3::Zero());
+      beads.angular_velocity.push_back(Vec3::Zero());
+      beads.force.push_back(Vec3::Zero());
+      beads.torque.push_back(Vec3::Zero());
+      beads.radius.push_back(base.beads.radius[i]);
+      beads.mass.push_back(base.beads.mass[i]);
+      beads.inv_mass.push_back(base.beads.inv_mass[i]);
+      beads.inv_inertia.push_back(base.beads.inv_inertia[i]);
+    }
+  world.beads = std::move(beads);
+  world.params.container.height_m = 100.0;
+  return world;
+}
+
+void PrintRow(const char* what, const Timing& t, double reference_ns = 0.0) {
+  std::printf("  %-44s %8zu beads %8.1f ns/bead-step %8.2f M bead-steps/s", what, t.beads,
+              t.NsPerBeadStep(), 1e3 / t.NsPerBeadStep());
+  if (reference_ns > 0) std::printf("  x%.2f", reference_ns / t.NsPerBeadStep());
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+nlohmann::json TimingJson(const Timing& t) {
+  return {{"beads", t.beads},
+          {"steps", t.steps},
+          {"seconds", t.seconds},
+          {"ns_per_bead_step", t.NsPerBeadStep()},
+          {"bead_steps_per_s", 1e9 / t.NsPerBeadStep()}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  for (int k = 1; k < argc; ++k) {
+    const std::string a = argv[k];
+    auto next = [&]() -> std::string {
+      if (k + 1 >= argc) throw std::runtime_error(a + " needs a value");
+      return argv[++k];
+    };
+    if (a == "--out")
+      opt.out = next();
+    else if (a == "--bed-cache")
+      opt.bed_cache = next();
+    else if (a == "--steps")
+      opt.steps = std::stoi(next());
+    else if (a == "--quick")
+      opt.quick = true;
+    else {
+      std::fprintf(stderr,
+                   "usage: dembuf_bench [--out FILE] [--bed-cache DIR] [--steps N] [--quick]\n");
+      return 1;
+    }
+  }
+  if (opt.bed_cache.empty()) {
+    const char* home = std::getenv("HOME");
+    opt.bed_cache = fs::path(home ? home : ".") / ".cache" / "dembuf" / "beds";
+  }
+  const int repeats = opt.quick ? 1 : 3;
+  nlohmann::json report = {{"machine_cores", std::thread::hardware_concurrency()},
+                           {"steps", opt.steps}};
+
+  std::printf("preparing (or loading) the benchmark bed: E2 scene, H = 2.5 cm ...\n");
+  std::fflush(stdout);
+  const Scene scene = BenchScene();
+  BedCache cache(opt.bed_cache);
+  const World world = ImpactWorld(scene, cache);
+  std::printf("bed: %zu beads, H = %.2f cm, C0 = %.3f, dt = %.4g us\n\n", world.beads.size(),
+              100 * world.bed.thickness_m, world.bed.solid_fraction, world.params.dt_s * 1e6);
+  report["bed"] = {{"beads", world.beads.size()},
+                   {"thickness_m", world.bed.thickness_m},
+                   {"C0", world.bed.solid_fraction},
+                   {"dt_s", world.params.dt_s}};
+
+  // 1 and 2: dembuf and LAMMPS, alternating.
+  std::printf("1-2. impact on the settled bed, one thread, %d steps (best of %d)\n", opt.steps,
+              repeats);
+  const bool lammps = LammpsAvailable();
+  const fs::path work = fs::temp_directory_path() / ("dembuf-bench-" + std::to_string(getpid()));
+  fs::create_directories(work);
+  const fs::path lammps_input = fs::path(DEMBUF_BENCH_DIR) / "lammps" / "in.impact";
+  if (lammps) WriteLammpsData(world, scene, work / "bed.data");
+  Timing ours, theirs;
+  for (int r = 0; r < repeats; ++r) {
+    const Timing t = TimeSteps(world, opt.steps, 1);
+    if (r == 0 || t.seconds < ours.seconds) ours = t;
+    if (lammps) {
+      const double s =
+          RunLammps(lammps_input, work / "bed.data", world, scene, opt.steps, work / "log.lammps");
+      if (s > 0 && (theirs.seconds == 0 || s < theirs.seconds))
+        theirs = {s, world.beads.size() + 1, opt.steps};
+    }
+  }
+  PrintRow("dembuf (full contact law, projectile)", ours);
+  report["impact_one_thread"] = TimingJson(ours);
+  if (theirs.seconds > 0) {
+    PrintRow("LAMMPS GRANULAR, same bed and steps", theirs);
+    const double ratio = theirs.NsPerBeadStep() / ours.NsPerBeadStep();
+    std::printf("  dembuf / LAMMPS throughput: %.2f\n\n", ratio);
+    report["lammps_one_thread"] = TimingJson(theirs);
+    report["dembuf_over_lammps"] = ratio;
+  } else {
+    std::printf("  LAMMPS: %s\n\n", lammps ? "run failed (see its log)" : "not installed (lmp)");
+    report["lammps_one_thread"] = nullptr;
+  }
+  fs::remove_all(work);
+
+  // 3. Effects.
+  std::printf("3. what each effect costs (one thread, best of %d)\n", repeats);
+  World frictionless = world;
+  frictionless.params.sphere_pair.friction = 0.0;
+  frictionless.params.sphere_wall.friction = 0.0;
+  frictionless.history.clear();
+  const Timing no_friction = Best(repeats, [&] { return TimeSteps(frictionless, opt.steps, 1); });
+  const Timing no_projectile = Best(repeats, [&] { return TimeSteps(world, opt.steps, 1, false); });
+  PrintRow("everything", ours);
+  PrintRow("without friction (no history, no rotation)", no_friction, ours.NsPerBeadStep());
+  PrintRow("without the projectile", no_projectile, ours.NsPerBeadStep());
+  std::printf("\n");
+  report["effects"] = {{"full", TimingJson(ours)},
+                       {"no_friction", TimingJson(no_friction)},
+                       {"no_projectile", TimingJson(no_projectile)}};
+
+  // 4. Threads, on a bed of about 30,000 beads.
+  const int max_threads = std::max(2u, std::thread::hardware_concurrency());
+  const World big = StackedWorld(world, 30000);
+  std::printf("4. one job on more threads (%zu beads, %d steps, best of %d)\n", big.beads.size(),
+              opt.steps / 4, repeats);
+  nlohmann::json scaling = nlohmann::json::array();
+  Timing one;
+  for (int threads = 1; threads <= max_threads; threads *= 2) {
+    const Timing t = Best(repeats, [&] { return TimeSteps(big, opt.steps / 4, threads); });
+    if (threads == 1) one = t;
+    char label[64];
+    std::snprintf(label, sizeof label, "%d thread%s", threads, threads > 1 ? "s" : "");
+    PrintRow(label, t, one.NsPerBeadStep() * 1.0);
+    scaling.push_back(
+        {{"threads", threads}, {"timing", TimingJson(t)}, {"speedup", one.seconds / t.seconds}});
+  }
+  std::printf("\n");
+  report["threads"] = scaling;
+
+  // 5. Bead count.
+  std::printf("5. time per step against bead count (one thread)\n");
+  nlohmann::json sizes = nlohmann::json::array();
+  std::vector<std::pair<double, double>> points;
+  const std::vector<std::size_t> counts =
+      opt.quick ? std::vector<std::size_t>{1000, 10000, 30000}
+                : std::vector<std::size_t>{1000, 3000, 10000, 30000, 100000};
+  double bytes_per_bead = 0.0;
+  for (std::size_t n : counts) {
+    const World w = StackedWorld(world, n);
+    const int steps = static_cast<int>(std::clamp<std::size_t>(4'000'000 / n, 50, 2000));
+    const double rss_before = ResidentBytes();
+    const Timing t = Best(repeats, [&] { return TimeSteps(w, steps, 1); });
+    const double us_per_step = 1e6 * t.seconds / steps;
+    std::printf("  %8zu beads  %10.1f us/step  %8.1f ns/bead-step\n", n, us_per_step,
+                t.NsPerBeadStep());
+    std::fflush(stdout);
+    points.push_back({std::log(static_cast<double>(n)), std::log(us_per_step)});
+    sizes.push_back({{"beads", n}, {"us_per_step", us_per_step}, {"timing", TimingJson(t)}});
+    if (n == counts.back()) {
+      // Memory: a simulation of this size, alive, against the process before it.
+      Simulation sim(w.params, w.beads, std::nullopt);
+      for (int k = 0; k < 10; ++k) sim.Step();
+      bytes_per_bead = (ResidentBytes() - rss_before) / static_cast<double>(n);
+    }
+  }
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const auto& [x, y] : points) {
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+  }
+  const double np = static_cast<double>(points.size());
+  const double exponent = (np * sxy - sx * sy) / (np * sxx - sx * sx);
+  std::printf("  fit: time per step ~ beads^%.3f\n", exponent);
+  std::printf("  memory: %.0f bytes per bead (resident, %zu-bead simulation)\n\n", bytes_per_bead,
+              counts.back());
+  report["sizes"] = sizes;
+  report["size_exponent"] = exponent;
+  report["bytes_per_bead"] = bytes_per_bead;
+
+  std::ofstream(opt.out) << report.dump(2) << "\n";
+  std::printf("wrote %s\n", opt.out.c_str());
+  return 0;
+}

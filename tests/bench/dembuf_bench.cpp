@@ -162,7 +162,13 @@ double RunLammps(const fs::path& input, const fs::path& data, const World& world
       << " -var radius " << scene.cylinder.radius_m << " -var skin "
       << world.params.skin_fraction * scene.beads.diameter_min_m << " -var g "
       << scene.gravity_m_s2;
-  if (std::system(cmd.str().c_str()) != 0) return -1.0;
+  if (std::system(cmd.str().c_str()) != 0) {
+    std::ifstream in(log);
+    std::string line, tail;
+    while (std::getline(in, line)) tail = line;
+    std::fprintf(stderr, "LAMMPS failed: %s\n", tail.c_str());
+    return -1.0;
+  }
   std::ifstream in(log);
   const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on 1 procs for (\d+) steps)");
   std::string line;
@@ -174,33 +180,48 @@ double RunLammps(const fs::path& input, const fs::path& data, const World& world
 
 // ---- beds of any size ------------------------------------------------------------------------
 
-// `count` beads: copies of the settled bed stacked on top of each other (each lifted by the
-// bed's height plus a bead), cut to the lowest `count`. A dense bed for timing, not physics.
+// `count` beads with the settled bed's structure: copies of it stacked on top of each other
+// (each lifted by the bed's height plus 5 mm, so that they barely interact during a timing),
+// then the `count` beads nearest the axis, in a cylinder just wide enough for them. A bed for
+// timing, not for physics.
 World StackedWorld(const World& base, std::size_t count) {
   World world = base;
   world.projectile.reset();
   world.history.clear();
-  std::vector<std::size_t> order(base.beads.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return base.beads.position[a].z() < base.beads.position[b].z();
-  });
-  ParticleState beads;
+  const std::size_t copies = (count + base.beads.size() - 1) / base.beads.size();
   const double lift = base.bed_surface_m + 0.005;
-  for (std::size_t copy = 0; beads.size() < count; ++copy)
-    for (std::size_t k = 0; k < order.size() && beads.size() < count; ++k) {
-      const std::size_t i = order[k];
-      beads.position.push_back(base.beads.position[i] + Vec3(0, 0, copy * lift));
-      beads.velocity.push_back(Vec3::Zero());
-      beads.angular_velocity.push_back(Vec3::Zero());
-      beads.force.push_back(Vec3::Zero());
-      beads.torque.push_back(Vec3::Zero());
-      beads.radius.push_back(base.beads.radius[i]);
-      beads.mass.push_back(base.beads.mass[i]);
-      beads.inv_mass.push_back(base.beads.inv_mass[i]);
-      beads.inv_inertia.push_back(base.beads.inv_inertia[i]);
+  struct Candidate {
+    double rho2;
+    std::size_t bead;
+    std::size_t copy;
+  };
+  std::vector<Candidate> candidates;
+  for (std::size_t copy = 0; copy < copies; ++copy)
+    for (std::size_t i = 0; i < base.beads.size(); ++i) {
+      const Vec3& x = base.beads.position[i];
+      candidates.push_back({x.x() * x.x() + x.y() * x.y(), i, copy});
     }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.rho2 < b.rho2; });
+  candidates.resize(count);
+  ParticleState beads;
+  double rho_max = 0.0, r_max = 0.0;
+  for (const Candidate& c : candidates) {
+    const std::size_t i = c.bead;
+    beads.position.push_back(base.beads.position[i] + Vec3(0, 0, c.copy * lift));
+    beads.velocity.push_back(Vec3::Zero());
+    beads.angular_velocity.push_back(Vec3::Zero());
+    beads.force.push_back(Vec3::Zero());
+    beads.torque.push_back(Vec3::Zero());
+    beads.radius.push_back(base.beads.radius[i]);
+    beads.mass.push_back(base.beads.mass[i]);
+    beads.inv_mass.push_back(base.beads.inv_mass[i]);
+    beads.inv_inertia.push_back(base.beads.inv_inertia[i]);
+    rho_max = std::max(rho_max, std::sqrt(c.rho2));
+    r_max = std::max(r_max, base.beads.radius[i]);
+  }
   world.beads = std::move(beads);
+  world.params.container.radius_m = rho_max + r_max;
   world.params.container.height_m = 100.0;
   return world;
 }
@@ -340,6 +361,7 @@ int main(int argc, char** argv) {
   const std::vector<std::size_t> counts =
       opt.quick ? std::vector<std::size_t>{1000, 10000, 30000}
                 : std::vector<std::size_t>{1000, 3000, 10000, 30000, 100000};
+  // Every size is timed with the same number of bead-steps (about 4e6), at least 50 steps.
   double bytes_per_bead = 0.0;
   for (std::size_t n : counts) {
     const World w = StackedWorld(world, n);

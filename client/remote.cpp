@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "dembuf/engine/sweep_plan.h"
 #include "dembuf/report/run_output.h"
 #include "dembuf/report/sweep_report.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
@@ -207,21 +208,11 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   v1::SubmitSweepRequest request;
   *request.mutable_base() = MakeSceneSpec(scene);
   for (const std::string& spec : vary) {
+    const SweepSpec parts = SplitSweepSpec(spec);  // checked by the daemon
     auto* axis = request.add_axes();
-    const auto eq = spec.find('=');
-    axis->set_field(spec.substr(0, eq));
-    const std::string rest = eq == std::string::npos ? "" : spec.substr(eq + 1);
-    if (rest.find(':') != std::string::npos) {
-      axis->set_range(rest);
-    } else {
-      std::size_t begin = 0;
-      while (true) {
-        const auto comma = rest.find(',', begin);
-        axis->add_values(rest.substr(begin, comma == std::string::npos ? comma : comma - begin));
-        if (comma == std::string::npos) break;
-        begin = comma + 1;
-      }
-    }
+    axis->set_field(parts.field);
+    axis->set_range(parts.range);
+    for (const auto& v : parts.values) axis->add_values(v);
   }
   request.set_seeds(seeds);
   request.set_name(name);

@@ -65,24 +65,33 @@ SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>
   return axis;
 }
 
+SweepSpec SplitSweepSpec(const std::string& spec) {
+  const auto eq = spec.find('=');
+  SweepSpec parts;
+  parts.field = spec.substr(0, eq);
+  const std::string rest = eq == std::string::npos ? "" : spec.substr(eq + 1);
+  if (rest.find(':') != std::string::npos) {
+    parts.range = rest;
+    return parts;
+  }
+  std::size_t begin = 0;
+  while (true) {
+    const auto comma = rest.find(',', begin);
+    parts.values.push_back(
+        rest.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+    if (comma == std::string::npos) break;
+    begin = comma + 1;
+  }
+  return parts;
+}
+
 SweepAxis ParseSweepAxis(const std::string& spec) {
   const auto eq = spec.find('=');
   if (eq == std::string::npos || eq == 0)
     throw SceneError("", "--vary \"" + spec +
                              "\" must be dotted.field=START:STOP:STEP or dotted.field=v1,v2,...");
-  const std::string field = spec.substr(0, eq);
-  const std::string rest = spec.substr(eq + 1);
-  if (rest.find(':') != std::string::npos) return MakeSweepAxis(field, {}, rest);
-  std::vector<std::string> values;
-  std::size_t begin = 0;
-  while (true) {
-    const auto comma = rest.find(',', begin);
-    values.push_back(
-        rest.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
-    if (comma == std::string::npos) break;
-    begin = comma + 1;
-  }
-  return MakeSweepAxis(field, values, "");
+  const SweepSpec parts = SplitSweepSpec(spec);
+  return MakeSweepAxis(parts.field, parts.values, parts.range);
 }
 
 std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,

@@ -10,21 +10,12 @@
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 
+#include "engine/small_bed.h"
+
 namespace dembuf {
 namespace {
 
-// A small bed that settles in seconds: a 2 cm cylinder, a 1.5 cm source cut to 1 cm.
-Scene SmallBedScene() {
-  Scene s;
-  s.cylinder.radius_m = 0.02;
-  s.bed.thickness_m = 0.01;
-  s.bed.source_thickness_m = 0.015;
-  s.projectile.diameter_m = 0.012;
-  s.projectile.mass_kg = 0.01;
-  s.projectile.speed_m_s = 2.0;
-  s.projectile.height_m = 0.02;
-  return s;
-}
+using test::SmallBedScene;
 
 // One preparation shared by the tests of this file.
 const PreparedBed& SmallBed() {

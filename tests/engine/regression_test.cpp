@@ -12,24 +12,17 @@
 #include <sstream>
 
 #include "dembuf/engine/impact.h"
+#include "engine/small_bed.h"
 
 namespace dembuf {
 namespace {
 
 const char* const kReference = DEMBUF_TEST_DATA_DIR "/regression_small_impact.csv";
 
-// A 1 cm bed in a 2 cm cylinder, hit at 2 m/s by a 1.2 cm sphere: friction, rotation,
-// damping, plate and wall all act; a few seconds to prepare and run.
+// The tests' small bed (its own seed), run for a fixed time: a few seconds to prepare and run.
 Scene RegressionScene() {
-  Scene s;
-  s.cylinder.radius_m = 0.02;
-  s.bed.thickness_m = 0.01;
-  s.bed.source_thickness_m = 0.015;
+  Scene s = test::SmallBedScene();
   s.bed.seed = 7;
-  s.projectile.diameter_m = 0.012;
-  s.projectile.mass_kg = 0.01;
-  s.projectile.speed_m_s = 2.0;
-  s.projectile.height_m = 0.02;
   s.time.end_s = 0.02;
   s.time.output_interval_s = 2e-5;
   return s;

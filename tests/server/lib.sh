@@ -1,6 +1,14 @@
 # Shared by the service tests: start a real dembufd on a free loopback port with a temporary
 # database, and wait for job states through the real client.
-# The caller sets: dembuf, dembufd (binaries) and work (a temporary folder).
+# Sourced as `. lib.sh DEMBUF DEMBUFD`: sets dembuf, dembufd and work (a temporary folder,
+# removed at exit together with any daemon still running).
+set -eu
+dembuf=$1
+dembufd=$2
+work=$(mktemp -d)
+daemon_pid=""
+trap 'rc=$?; [ -z "$daemon_pid" ] || kill -9 "$daemon_pid" 2>/dev/null || true; rm -rf "$work"; exit $rc' EXIT
+export OMP_WAIT_POLICY=passive
 
 fail() { echo "FAIL: $*"; [ -n "${daemon_log:-}" ] && tail -20 "$daemon_log"; exit 1; }
 

@@ -2,13 +2,7 @@
 # Bounded load on loopback: 200 queued jobs and 20 clients watching at once. Every watcher
 # receives every sample of its job, and the daemon's peak memory stays bounded.
 # Usage: load_test.sh DEMBUF DEMBUFD
-set -eu
-dembuf=$1
-dembufd=$2
-work=$(mktemp -d)
-trap 'rc=$?; [ -z "${daemon_pid:-}" ] || kill -9 "$daemon_pid" 2>/dev/null || true; rm -rf "$work"; exit $rc' EXIT
-. "$(dirname "$0")/lib.sh"
-export OMP_WAIT_POLICY=passive
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
 
 # 200 bare-plate impacts (quick, about 1000 samples each), queued at once.

@@ -4,13 +4,7 @@
 # and compared with a local run; a sweep of 6 jobs on one bed prepared once; a cancel taking
 # effect within a second; bad requests refused naming the field; a full queue refused.
 # Usage: service_test.sh DEMBUF DEMBUFD
-set -eu
-dembuf=$1
-dembufd=$2
-work=$(mktemp -d)
-trap 'rc=$?; [ -z "${daemon_pid:-}" ] || kill -9 "$daemon_pid" 2>/dev/null || true; rm -rf "$work"; exit $rc' EXIT
-. "$(dirname "$0")/lib.sh"
-export OMP_WAIT_POLICY=passive
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 small_scene "$work/small.toml"
 start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
 

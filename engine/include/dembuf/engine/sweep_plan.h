@@ -18,8 +18,17 @@ struct SweepAxis {
   std::vector<std::string> values;
 };
 
-/// Parses "dotted.field=START:STOP:STEP" (inclusive) or "dotted.field=v1,v2,...". Throws
-/// SceneError naming the field.
+/// The parts of "dotted.field=START:STOP:STEP" or "dotted.field=v1,v2,...", not checked
+/// (a client passes them on to the daemon, which checks them).
+struct SweepSpec {
+  std::string field;
+  std::vector<std::string> values;  ///< the listed values, or
+  std::string range;                ///< "START:STOP:STEP"
+};
+SweepSpec SplitSweepSpec(const std::string& spec);
+
+/// Parses and checks "dotted.field=START:STOP:STEP" (inclusive) or "dotted.field=v1,v2,...".
+/// Throws SceneError naming the field.
 SweepAxis ParseSweepAxis(const std::string& spec);
 
 /// An axis from a field and either explicit values or a "START:STOP:STEP" range; every value

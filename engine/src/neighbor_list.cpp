@@ -85,8 +85,9 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
 }
 
 void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, const Vec3& center,
-                          double radius, double max_bead_radius, double skin, CandidateList& list) {
-  const Vec3 half = Vec3::Constant(radius + max_bead_radius + skin);
+                          double radius, double max_bead_radius, double skin, CandidateList& list,
+                          double grid_age_margin) {
+  const Vec3 half = Vec3::Constant(radius + max_bead_radius + skin + grid_age_margin);
   std::vector<std::uint32_t> ids;
   grid.ForEachInBox(center - half, center + half, [&](std::uint32_t j) {
     const double reach = radius + beads.radius[j] + skin;

@@ -98,8 +98,11 @@ struct CandidateList {
 /// pairs already present.
 void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, PairList& list);
 
-/// Rebuilds the projectile's candidates: beads closer than R + r_i + skin.
+/// Rebuilds the projectile's candidates: beads closer than R + r_i + skin, in id order. The
+/// grid may be older than the positions if no bead has moved more than `grid_age_margin`
+/// since it was built.
 void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, const Vec3& center,
-                          double radius, double max_bead_radius, double skin, CandidateList& list);
+                          double radius, double max_bead_radius, double skin, CandidateList& list,
+                          double grid_age_margin = 0.0);
 
 }  // namespace dembuf::detail

@@ -86,6 +86,8 @@ struct Simulation::Impl {
   std::vector<Vec3> reference_position;  // bead positions at the last list build
   Vec3 projectile_reference = Vec3::Zero();
   double max_bead_displacement = 0.0;  // since the last list build
+  // max_bead_displacement when the projectile's list was last built (0: with the bead lists).
+  double projectile_list_displacement = 0.0;
   bool lists_valid = false;
   bool forces_valid = false;
 
@@ -429,20 +431,34 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
   }
   if (projectile) s.projectile_reference = projectile->position;
   s.max_bead_displacement = 0.0;
+  s.projectile_list_displacement = 0.0;
   s.lists_valid = true;
 }
 
-// The lists stay valid while no pair can have closed the skin: two beads moving towards each
-// other by at most d each, the projectile by its own displacement plus a bead's (conservatively
-// twice the largest, since the two lists may have been built at different steps).
-bool ListsStillValid(const std::optional<RigidSphere>& projectile, const Simulation::Impl& s) {
-  if (!s.lists_valid) return false;
-  if (2.0 * s.max_bead_displacement >= s.skin) return false;
-  if (projectile) {
-    const double moved = (projectile->position - s.projectile_reference).norm();
-    if (moved + 2.0 * s.max_bead_displacement >= s.skin) return false;
-  }
-  return true;
+// A fast projectile outruns its list long before the beads outrun theirs: rebuild only its
+// candidates, from the bead grid of the last full build (beads have moved less than half a
+// skin since, which the search box allows for).
+void RebuildProjectileList(const ParticleState& b, const RigidSphere& projectile,
+                           Simulation::Impl& s) {
+  if (b.size() > 0)
+    detail::RebuildCandidateList(b, s.grid, projectile.position, projectile.radius, s.max_radius,
+                                 s.skin, s.near_projectile, s.max_bead_displacement);
+  s.projectile_reference = projectile.position;
+  s.projectile_list_displacement = s.max_bead_displacement;
+}
+
+// The bead lists stay valid while no pair can have closed the skin: two beads moving towards
+// each other by at most d each.
+bool BeadListsValid(const Simulation::Impl& s) {
+  return s.lists_valid && 2.0 * s.max_bead_displacement < s.skin;
+}
+
+// The projectile's list stays valid while its own displacement plus a bead's since the list
+// was built stays below the skin. A bead's displacement since then is at most its present
+// displacement from the bead reference plus what it had when the list was built.
+bool ProjectileListValid(const RigidSphere& projectile, const Simulation::Impl& s) {
+  const double moved = (projectile.position - s.projectile_reference).norm();
+  return moved + s.max_bead_displacement + s.projectile_list_displacement < s.skin;
 }
 
 [[noreturn]] void Fail(const std::string& what, std::int64_t step, double t) {
@@ -455,7 +471,11 @@ bool ListsStillValid(const std::optional<RigidSphere>& projectile, const Simulat
 
 void Simulation::ComputeForces() {
   Impl& s = *m_impl;
-  if (!ListsStillValid(m_projectile, s)) RebuildLists(m_params, m_beads, m_projectile, s);
+  if (!BeadListsValid(s)) {
+    RebuildLists(m_params, m_beads, m_projectile, s);
+  } else if (m_projectile && !ProjectileListValid(*m_projectile, s)) {
+    RebuildProjectileList(m_beads, *m_projectile, s);
+  }
   // The only dispatch on configuration: each kernel is compiled for its set of effects.
   if (s.friction) {
     ComputeForcesImpl<true>(m_params, m_beads, m_projectile, s, m_observables);

@@ -56,6 +56,7 @@ fs::path DefaultOutputDir(const std::string& kind) {
 struct RunOptions {
   std::string scene_file;
   std::string preset;
+  std::string accuracy;
   std::vector<std::string> overrides;
   std::string out_dir;
   bool force = false;
@@ -125,7 +126,7 @@ void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
 
 int RunLocal(const RunOptions& opt) {
   // Everything about the scene is checked before anything is written.
-  Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides);
+  Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   BedCache beds(BedCacheDir(opt));
   BedRequest bed_request;
   bed_request.cancel = &g_interrupted;
@@ -184,7 +185,7 @@ int RunLocal(const RunOptions& opt) {
 }
 
 int SweepCommand(const RunOptions& opt) {
-  const Scene base = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides);
+  const Scene base = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   cli::SweepOptions sweep;
   for (const auto& spec : opt.vary) sweep.axes.push_back(ParseSweepAxis(spec));
   if (opt.seeds < 1 || opt.seeds > 1000)
@@ -202,7 +203,7 @@ int SweepCommand(const RunOptions& opt) {
 }
 
 int PrintSceneCommand(const RunOptions& opt) {
-  Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides);
+  Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   PrintScene(scene, std::cout);
   return 0;
 }
@@ -219,6 +220,9 @@ int main(int argc, char** argv) {
     cmd->add_option("scene", opt.scene_file,
                     "scene file (TOML); default: the paper's Table 1 scene");
     cmd->add_option("--preset", opt.preset, "start from a paper experiment: e1, e2, e3, e4, e5");
+    cmd->add_option("--accuracy", opt.accuracy,
+                    "draft, standard or reference: time step and settling tolerance together "
+                    "(docs/accuracy-cost.md)");
     cmd->add_option("--set", opt.overrides,
                     "override a scene field: dotted.name=value (repeatable)")
         ->allow_extra_args(false);
@@ -313,7 +317,7 @@ int main(int argc, char** argv) {
     const char* user = std::getenv("USER");
     remote.owner = user && *user ? user : "anonymous";
   }
-  const cli::RemoteScene remote_scene{opt.scene_file, opt.preset, opt.overrides};
+  const cli::RemoteScene remote_scene{opt.scene_file, opt.preset, opt.accuracy, opt.overrides};
   try {
     if (run->parsed()) return RunLocal(opt);
     if (sweep->parsed()) {

@@ -90,6 +90,7 @@ bool Ended(v1::JobState s) {
 v1::SceneSpec MakeSceneSpec(const RemoteScene& scene) {
   v1::SceneSpec spec;
   spec.set_preset(scene.preset);
+  spec.set_accuracy(scene.accuracy);
   if (!scene.scene_file.empty()) {
     std::ifstream in(scene.scene_file);
     if (!in) throw std::runtime_error("cannot read scene file " + scene.scene_file);

@@ -16,6 +16,7 @@ bool ServerGiven(const std::string& flag);
 struct RemoteScene {
   std::string scene_file;  ///< sent as text; the server resolves and checks it
   std::string preset;
+  std::string accuracy;
   std::vector<std::string> overrides;
 };
 

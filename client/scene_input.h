@@ -8,9 +8,9 @@
 
 namespace dembuf::cli {
 
-/// Default scene, then the preset (if any), then the file (if any), then each override in
-/// order; validated.
+/// Default scene, then the preset (if any), then the file (if any), then the accuracy level
+/// (if any), then each override in order; validated.
 Scene ResolveScene(const std::string& scene_file, const std::string& preset,
-                   const std::vector<std::string>& overrides);
+                   const std::vector<std::string>& overrides, const std::string& accuracy = "");
 
 }  // namespace dembuf::cli

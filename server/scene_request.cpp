@@ -72,6 +72,7 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec) {
   Scene scene;
   if (!spec.preset().empty()) scene = PresetScene(spec.preset());
   if (!spec.scene_toml().empty()) scene = LoadSceneText(spec.scene_toml(), "scene_toml", scene);
+  if (!spec.accuracy().empty()) ApplyAccuracy(scene, spec.accuracy());
   ApplyProtoScene(spec.scene(), scene);
   for (const std::string& assignment : spec.set()) ApplyOverride(scene, assignment);
   ValidateScene(scene);

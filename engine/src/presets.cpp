@@ -14,4 +14,26 @@ Scene PresetScene(const std::string& name) {
   throw SceneError("preset", "unknown preset \"" + name + "\"; known presets: " + known);
 }
 
+const std::vector<AccuracyPreset>& AccuracyPresets() {
+  static const std::vector<AccuracyPreset> presets = {
+      {"draft", "quick looks: twice the time step, a looser rest", 0.4, 1e-4},
+      {"standard", "the defaults: errors of a few tenths of a percent", 0.2, 1e-5},
+      {"reference", "converged values for checking the others", 0.05, 1e-6},
+  };
+  return presets;
+}
+
+void ApplyAccuracy(Scene& scene, const std::string& name) {
+  std::string known;
+  for (const AccuracyPreset& p : AccuracyPresets()) {
+    if (p.name == name) {
+      scene.time.alpha = p.alpha;
+      scene.bed.settle_tolerance = p.settle_tolerance;
+      return;
+    }
+    known += (known.empty() ? "" : ", ") + std::string(p.name);
+  }
+  throw SceneError("accuracy", "unknown accuracy \"" + name + "\"; known: " + known);
+}
+
 }  // namespace dembuf

@@ -28,6 +28,10 @@ awk -v c="$csv_peak" -v p="$peak" 'BEGIN { exit !(c <= p && c > 0.98 * p) }' || 
 if "$dembuf" run "${e2[@]}" --out "$work/run" 2>/dev/null; then fail "overwrote without --force"; fi
 "$dembuf" run "${e2[@]}" --out "$work/run" --force > /dev/null || fail "--force"
 
+# An accuracy level sets its knobs; --set still wins.
+"$dembuf" scene --print --accuracy reference | grep -q '^alpha = 0.05 ' || fail "accuracy reference"
+"$dembuf" scene --print --accuracy draft --set time.alpha=0.3 | grep -q '^alpha = 0.3 ' || fail "--set after --accuracy"
+
 # scene --print gives the whole scene, and reads back to the same text.
 "$dembuf" scene --print "${e2[@]}" > "$work/scene.toml"
 grep -q '^mass_kg = 0.3 ' "$work/scene.toml" || fail "printed scene lacks the override"

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "dembuf/engine/errors.h"
+#include "dembuf/engine/presets.h"
 #include "dembuf/engine/scene_fields.h"
 
 namespace dembuf {
@@ -150,6 +151,26 @@ TEST(Overrides, EveryRequiredFieldNameExists) {
         "projectile.mass_kg", "projectile.diameter_m", "projectile.speed_m_s",
         "projectile.height_m", "time.alpha", "time.end_s"})
     EXPECT_NE(FindSceneField(name), nullptr) << name;
+}
+
+TEST(AccuracyPresets, SetTheKnobsTogetherAndRefuseUnknownNames) {
+  Scene scene;
+  ApplyAccuracy(scene, "reference");
+  EXPECT_EQ(scene.time.alpha, 0.05);
+  EXPECT_EQ(scene.bed.settle_tolerance, 1e-6);
+  ApplyAccuracy(scene, "standard");  // the defaults
+  EXPECT_EQ(scene.time.alpha, Scene{}.time.alpha);
+  EXPECT_EQ(scene.bed.settle_tolerance, Scene{}.bed.settle_tolerance);
+  try {
+    ApplyAccuracy(scene, "sloppy");
+    FAIL() << "accepted an unknown accuracy";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "accuracy");
+  }
+  for (const AccuracyPreset& p : AccuracyPresets()) {
+    ApplyAccuracy(scene, std::string(p.name));
+    EXPECT_NO_THROW(ValidateScene(scene)) << p.name;
+  }
 }
 
 }  // namespace

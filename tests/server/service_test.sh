@@ -88,6 +88,7 @@ bad projectile.mass_kg submit --set projectile.mass_kg=nan
 bad material.restitution submit --set material.restitution=1.5
 bad no.such_field submit --set no.such_field=1
 bad preset submit --preset e9
+bad accuracy submit --accuracy sloppy
 bad time.alpha submit --set time.alpha=fast
 bad beads.diameter_min_m submit --set beads.diameter_min_m=0.006
 bad bed.import submit --set bed.import=/etc/passwd

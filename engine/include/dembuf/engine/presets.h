@@ -20,4 +20,19 @@ const std::vector<Preset>& Presets();
 /// "--preset" and the known names for an unknown one.
 Scene PresetScene(const std::string& name);
 
+/// A named accuracy level: the accuracy knobs (time step, settling tolerance) set together.
+/// Their measured error and cost are in docs/accuracy-cost.md.
+struct AccuracyPreset {
+  std::string_view name;
+  std::string_view description;
+  double alpha;             ///< time.alpha
+  double settle_tolerance;  ///< bed.settle_tolerance
+};
+
+/// draft, standard (the defaults) and reference.
+const std::vector<AccuracyPreset>& AccuracyPresets();
+
+/// Sets the preset's fields. Throws SceneError("accuracy", ...) for an unknown name.
+void ApplyAccuracy(Scene& scene, const std::string& name);
+
 }  // namespace dembuf

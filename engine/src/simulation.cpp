@@ -561,7 +561,15 @@ void Simulation::CheckConditions() {
     const Vec3& x = m_beads.position[c.escaped_bead];
     std::ostringstream what;
     what << "bead " << c.escaped_bead << " left the container (x, y, z = " << x.x() << ", " << x.y()
-         << ", " << x.z() << " m; wall radius " << m_params.container.radius_m << " m)";
+         << ", " << x.z() << " m; wall radius " << m_params.container.radius_m << " m, height "
+         << m_params.container.height_m << " m)";
+    const double rho = std::hypot(x.x(), x.y());
+    if (x.z() < 0.0)
+      what << ": through the plate; the time step is too large (lower time.alpha)";
+    else if (rho > m_params.container.radius_m + 2.0 * m_beads.radius[c.escaped_bead])
+      what << ": thrown over the rim and fallen outside (raise cylinder.height_m)";
+    else
+      what << ": through the side wall; the time step is too large (lower time.alpha)";
     Fail(what.str(), m_steps, m_time_s);
   }
   m_observables.max_overlap_ratio = std::max(m_observables.max_overlap_ratio, c.max_overlap_ratio);

@@ -27,13 +27,7 @@ double BeadMass() {
 
 // Two equal beads approaching head-on at relative speed v, just apart.
 Simulation HeadOn(const WorldParams& p, double v) {
-  ParticleState beads;
-  const double gap = 1e-7;
-  beads.Add(Vec3(-kRadius - gap, 0, 1), kRadius, kDensity);
-  beads.Add(Vec3(kRadius + gap, 0, 1), kRadius, kDensity);
-  beads.velocity[0] = Vec3(0.5 * v, 0, 0);
-  beads.velocity[1] = Vec3(-0.5 * v, 0, 0);
-  return Simulation(p, std::move(beads), std::nullopt);
+  return HeadOnPair(p, kRadius, kRadius, kDensity, v);
 }
 
 double PairOverlap(const Simulation& s) {
@@ -116,28 +110,6 @@ TEST(Restitution, CalibratedPairReboundsWithTargetAtReferenceSpeed) {
   RecordContact(sim, PairOverlap, PairForce, 1'000'000);
   const double e = -(sim.beads().velocity[0].x() - sim.beads().velocity[1].x()) / 1.0;
   EXPECT_NEAR(e, 0.8, 0.8 * 0.005);
-}
-
-// An independent integration of m* x'' = -Kn x^(3/2) - A Kn x^(1/2) x' in SI units, by
-// velocity Verlet with a tiny step (not the library's dimensionless RK4).
-double FineStepRestitution(double A, double kn, double m, double v) {
-  const double duration = 3.3 * std::pow(m * m / (kn * kn * v), 0.2);  // > Hertz time
-  const double h = duration * 1e-6;
-  double x = 0.0, u = v;  // overlap and its rate
-  auto accel = [&](double xx, double uu) {
-    if (xx <= 0.0) return 0.0;
-    const double f = kn * std::sqrt(xx) * (xx + A * uu);
-    return f > 0.0 ? -f / m : 0.0;
-  };
-  double a = accel(x, u);
-  for (long k = 0; k < 100'000'000; ++k) {
-    const double u_half = u + 0.5 * h * a;
-    x += h * u_half;
-    a = accel(x, u_half);
-    u = u_half + 0.5 * h * a;
-    if (x <= 0.0 && u < 0.0) return -u / v;
-  }
-  return 0.0;
 }
 
 TEST(Restitution, VelocityDependenceMatchesIndependentIntegration) {

@@ -21,6 +21,19 @@ inline WorldParams IsolatedWorld(const Scene& scene, double alpha) {
   return p;
 }
 
+/// Two beads of radii r1 and r2 (density rho) approaching head-on along x at relative speed v
+/// with zero total momentum, just apart, at height 1 m.
+inline Simulation HeadOnPair(const WorldParams& p, double r1, double r2, double rho, double v) {
+  ParticleState beads;
+  const double gap = 1e-7;
+  beads.Add(Vec3(-r1 - gap, 0, 1), r1, rho);
+  beads.Add(Vec3(r2 + gap, 0, 1), r2, rho);
+  const double m1 = beads.mass[0], m2 = beads.mass[1];
+  beads.velocity[0] = Vec3(v * m2 / (m1 + m2), 0, 0);
+  beads.velocity[1] = Vec3(-v * m1 / (m1 + m2), 0, 0);
+  return Simulation(p, std::move(beads), std::nullopt);
+}
+
 /// What one contact did, from step-by-step samples of its overlap.
 struct ContactRecord {
   double max_overlap = 0.0;
@@ -67,5 +80,27 @@ struct HertzImpact {
     duration = 2.0 * max_overlap / v * integral;
   }
 };
+
+// An independent integration of m* x'' = -Kn x^(3/2) - A Kn x^(1/2) x' in SI units, by
+// velocity Verlet with a tiny step (not the library's dimensionless RK4).
+inline double FineStepRestitution(double A, double kn, double m, double v) {
+  const double duration = 3.3 * std::pow(m * m / (kn * kn * v), 0.2);  // > Hertz time
+  const double h = duration * 1e-6;
+  double x = 0.0, u = v;  // overlap and its rate
+  auto accel = [&](double xx, double uu) {
+    if (xx <= 0.0) return 0.0;
+    const double f = kn * std::sqrt(xx) * (xx + A * uu);
+    return f > 0.0 ? -f / m : 0.0;
+  };
+  double a = accel(x, u);
+  for (long k = 0; k < 100'000'000; ++k) {
+    const double u_half = u + 0.5 * h * a;
+    x += h * u_half;
+    a = accel(x, u_half);
+    u = u_half + 0.5 * h * a;
+    if (x <= 0.0 && u < 0.0) return -u / v;
+  }
+  return 0.0;
+}
 
 }  // namespace dembuf::test

@@ -10,8 +10,8 @@ packages=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libsqlite3-dev
   # engine and tools
   libeigen3-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev
-  # tests and plots
-  libgtest-dev libgmock-dev gnuplot-nox
+  # tests, fuzzers (clang's libFuzzer and OpenMP) and plots
+  libgtest-dev libgmock-dev clang libclang-rt-dev libomp-dev gnuplot-nox
 )
 
 sudo_cmd=()

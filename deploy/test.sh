@@ -1,10 +1,28 @@
 #!/usr/bin/env bash
-# Set-up command 2: install, build, and run every test.
+# Set-up command 2: install, build, and run every test: the GoogleTest and CTest suites, the
+# same suites built with AddressSanitizer and UndefinedBehaviorSanitizer, and the fuzzers for a
+# bounded time. FUZZ_SECONDS (default 60) sets the fuzzing time per target; SANITIZE=0 and
+# FUZZ_SECONDS=0 skip those stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/build.sh
-cd build
 # ctest runs two test programs at once; OpenMP threads that spin while waiting would then
 # steal each other's cores.
 export OMP_WAIT_POLICY=passive
-ctest --output-on-failure --parallel "$(nproc)" --timeout 900
+(cd build && ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
+
+if [ "${SANITIZE:-1}" != 0 ]; then
+  echo "== the unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
+  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DDEMBUF_SANITIZE=address,undefined > /dev/null
+  cmake --build build-asan --parallel "$(nproc)" --target engine_tests server_tests
+  export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
+  # The GoogleTest suites only (the script tests need the other binaries).
+  (cd build-asan && ctest --output-on-failure --parallel "$(nproc)" --timeout 1800 \
+     --exclude-regex '^(cli|server)\.')
+fi
+
+if [ "${FUZZ_SECONDS:-60}" != 0 ]; then
+  echo "== fuzzing"
+  bash tests/fuzz/run.sh "${FUZZ_SECONDS:-60}"
+fi

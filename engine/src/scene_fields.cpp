@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <ostream>
 #include <sstream>
@@ -358,21 +359,48 @@ Scene SceneFromToml(const toml::value& root, const std::string& path, const Scen
   return scene;
 }
 
-}  // namespace
-
-Scene LoadSceneFile(const std::string& path, const Scene& base) {
-  if (!std::filesystem::is_regular_file(path))
-    throw SceneError("", "scene file \"" + path + "\" does not exist or is not a file");
-  toml::value root;
-  try {
-    root = toml::parse(path);
-  } catch (const std::exception& e) {
-    throw SceneError("", "scene file \"" + path + "\" is not valid TOML: " + e.what());
+// The byte offset of the first byte that breaks UTF-8 (overlong forms and surrogates
+// included), or npos. TOML is UTF-8; the TOML parser must never see anything else (it reads
+// past the end of some invalid sequences).
+std::size_t FirstInvalidUtf8(const std::string& text) {
+  const auto* p = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned c = p[i];
+    std::size_t len = 0;
+    unsigned min = 0;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if ((c & 0xE0) == 0xC0) {
+      len = 2;
+      min = 0x80;
+    } else if ((c & 0xF0) == 0xE0) {
+      len = 3;
+      min = 0x800;
+    } else if ((c & 0xF8) == 0xF0) {
+      len = 4;
+      min = 0x10000;
+    } else {
+      return i;
+    }
+    if (i + len > n) return i;
+    unsigned code = c & (0x7F >> len);
+    for (std::size_t k = 1; k < len; ++k) {
+      if ((p[i + k] & 0xC0) != 0x80) return i;
+      code = (code << 6) | (p[i + k] & 0x3F);
+    }
+    if (code < min || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) return i;
+    i += len;
   }
-  return SceneFromToml(root, path, base);
+  return std::string::npos;
 }
 
-Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base) {
+Scene LoadScene(const std::string& text, const std::string& name, const std::string& path,
+                const Scene& base) {
+  if (const std::size_t bad = FirstInvalidUtf8(text); bad != std::string::npos)
+    throw SceneError(
+        "", name + " is not UTF-8 text (invalid byte at offset " + std::to_string(bad) + ")");
   toml::value root;
   try {
     std::istringstream in(text);
@@ -380,7 +408,22 @@ Scene LoadSceneText(const std::string& text, const std::string& name, const Scen
   } catch (const std::exception& e) {
     throw SceneError("", name + " is not valid TOML: " + e.what());
   }
-  return SceneFromToml(root, "", base);
+  return SceneFromToml(root, path, base);
+}
+
+}  // namespace
+
+Scene LoadSceneFile(const std::string& path, const Scene& base) {
+  if (!std::filesystem::is_regular_file(path))
+    throw SceneError("", "scene file \"" + path + "\" does not exist or is not a file");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return LoadScene(text.str(), "scene file \"" + path + "\"", path, base);
+}
+
+Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base) {
+  return LoadScene(text, name, "", base);
 }
 
 void ValidateScene(const Scene& scene) {

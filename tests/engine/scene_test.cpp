@@ -153,6 +153,33 @@ TEST(Overrides, EveryRequiredFieldNameExists) {
     EXPECT_NE(FindSceneField(name), nullptr) << name;
 }
 
+TEST(SceneFile, TextThatIsNotUtf8IsRefusedBeforeParsing) {
+  // The TOML parser reads past the end of some invalid UTF-8 (found by the fuzzer), so such
+  // text never reaches it.
+  for (const std::string& text :
+       {std::string("'\xff'"), std::string("x = \"\xc3\""), std::string("a = 1 # \xed\xa0\x80")}) {
+    try {
+      LoadSceneText(text, "fuzzed");
+      FAIL() << "accepted invalid UTF-8";
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find("not UTF-8"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NO_THROW(LoadSceneText("# \xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80\n", "valid UTF-8"));
+}
+
+TEST(SceneErrors, ControlBytesInWhatWasGivenAreEscaped) {
+  // A NUL in a field name would cut the message short (found by the request fuzzer).
+  Scene scene;
+  try {
+    ApplyOverride(scene, std::string("\0\0d.thickness_m=1", 17));
+    FAIL();
+  } catch (const SceneError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("\\x00\\x00d.thickness_m: unknown field", 0), 0u)
+        << e.what();
+  }
+}
+
 TEST(AccuracyPresets, SetTheKnobsTogetherAndRefuseUnknownNames) {
   Scene scene;
   ApplyAccuracy(scene, "reference");

@@ -213,6 +213,24 @@ TEST(HardCase, ImportedBedWithSmallOverlapsRelaxesToRest) {
   EXPECT_NEAR(world.bed.rest_plate_force_N / world.bed.weight_N, 1.0, 0.01);
 }
 
+TEST(HardCase, BeadThrownOverTheRimStopsTheRunWithTheReason) {
+  // A bead flying out over the top of a 1 cm wall and falling outside it: the run stops and
+  // says so, rather than integrating a bead the container no longer holds.
+  Scene scene;
+  WorldParams p = BuildWorld(scene).params;
+  p.container = {0.02, 0.01};
+  ParticleState beads;
+  beads.Add(Vec3(0.015, 0, 0.0105), 0.00225, 2650.0);
+  beads.velocity[0] = Vec3(0.5, 0, 0.2);
+  Simulation sim(p, std::move(beads), std::nullopt);
+  try {
+    for (int k = 0; k < 1'000'000; ++k) sim.Step();
+    FAIL() << "the bead left without a word";
+  } catch (const SimulationError& e) {
+    EXPECT_NE(std::string(e.what()).find("thrown over the rim"), std::string::npos) << e.what();
+  }
+}
+
 TEST(HardCase, SingleBeadLayerStillBuffers) {
   // One layer of beads (H = one mean diameter): the impact is softened, less than fully.
   Scene scene = SmallBedScene();

@@ -3,6 +3,7 @@
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -132,6 +133,20 @@ std::string Sparkline(const std::vector<double>& values, std::size_t width) {
     line += kBars[std::clamp(level, 0, 7)];
   }
   return line;
+}
+
+// A job's name as one safe folder name: whatever the server sends, the files stay inside the
+// folder the user chose (no separators, no "..", no leading dot, printable).
+std::string SafeFolderName(const std::string& name, std::int64_t id) {
+  std::string safe;
+  for (char c : name) {
+    const bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' ||
+                    c == '=' || c == '.' || c == '+';
+    safe += ok ? c : '_';
+  }
+  while (!safe.empty() && safe.front() == '.') safe.erase(safe.begin());
+  if (safe.empty()) safe = "job" + std::to_string(id);
+  return safe.substr(0, 200);
 }
 
 std::string AxisText(const v1::SweepAxis& axis) {
@@ -459,7 +474,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     const auto index = static_cast<std::size_t>(job.sweep_index());
     if (index >= runs.size()) continue;
     report::SweepRunReport& run = runs[index];
-    run.name = job.name();
+    run.name = SafeFolderName(job.name(), job.id());
     run.values.assign(job.sweep_values().begin(), job.sweep_values().end());
     if (!Ended(job.state())) {
       run.error = std::string("still ") + StateText(job.state());
@@ -469,7 +484,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     v1::FetchResultsResponse result;
     const grpc::Status status = fetch(job.id(), result);
     if (!status.ok()) return Report(remote, status);
-    WriteJobFiles(result, dir / "runs" / job.name());
+    WriteJobFiles(result, dir / "runs" / SafeFolderName(job.name(), job.id()));
     run.ok = result.job().state() == v1::JOB_STATE_DONE;
     run.error = result.job().error();
     if (run.ok) run.summary = nlohmann::json::parse(result.job().summary_json());

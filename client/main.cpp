@@ -258,6 +258,10 @@ int main(int argc, char** argv) {
   app.add_option("--server", server_flag,
                  "dembufd address host:port (default: $DEMBUF_SERVER, else 127.0.0.1:50051)");
   app.add_option("--owner", remote.owner, "owner of submitted jobs (default: $USER)");
+  app.add_option("--token", remote.token,
+                 "API token of a server that needs one (default: $DEMBUF_TOKEN)");
+  app.add_option("--tls-ca", remote.tls_ca,
+                 "speak TLS, trusting this PEM certificate (default: $DEMBUF_TLS_CA)");
 
   CLI::App* submit = app.add_subcommand("submit", "queue a scene on the server; prints the job id");
   add_scene_args(submit);
@@ -313,6 +317,11 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   remote.address = cli::ServerAddress(server_flag);
+  auto from_env = [](std::string& value, const char* name) {
+    if (const char* env = std::getenv(name); value.empty() && env && *env) value = env;
+  };
+  from_env(remote.token, "DEMBUF_TOKEN");
+  from_env(remote.tls_ca, "DEMBUF_TLS_CA");
   if (remote.owner.empty()) {
     const char* user = std::getenv("USER");
     remote.owner = user && *user ? user : "anonymous";

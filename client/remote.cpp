@@ -34,12 +34,24 @@ constexpr int kExitJobFailed = 3;
 std::unique_ptr<v1::Dembuf::Stub> Connect(const Remote& remote) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(1 << 30);  // a fetched series can be large
-  return v1::Dembuf::NewStub(
-      grpc::CreateCustomChannel(remote.address, grpc::InsecureChannelCredentials(), args));
+  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  if (!remote.tls_ca.empty()) {
+    std::ifstream in(remote.tls_ca);
+    if (!in) throw std::runtime_error("--tls-ca: cannot read " + remote.tls_ca);
+    std::ostringstream pem;
+    pem << in.rdbuf();
+    grpc::SslCredentialsOptions ssl;
+    ssl.pem_root_certs = pem.str();
+    credentials = grpc::SslCredentials(ssl);
+  }
+  return v1::Dembuf::NewStub(grpc::CreateCustomChannel(remote.address, credentials, args));
 }
 
-void Deadline(grpc::ClientContext& context, int seconds = 60) {
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
+// Every call carries the user's token (if any) and, unless it streams, a deadline.
+void Prepare(grpc::ClientContext& context, const Remote& remote, int seconds = 60) {
+  if (seconds > 0)
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
+  if (!remote.token.empty()) context.AddMetadata("authorization", "Bearer " + remote.token);
 }
 
 // One line per failure, with the server's message (which names the field at fault).
@@ -54,6 +66,12 @@ int Report(const Remote& remote, const grpc::Status& status) {
                    "dembuf: cannot reach dembufd at %s (%s); start it, or point --server or "
                    "DEMBUF_SERVER at it\n",
                    remote.address.c_str(), status.error_message().c_str());
+      return kExitError;
+    case grpc::StatusCode::UNAUTHENTICATED:
+      std::fprintf(stderr, "dembuf: not allowed in: %s\n", status.error_message().c_str());
+      return kExitError;
+    case grpc::StatusCode::PERMISSION_DENIED:
+      std::fprintf(stderr, "dembuf: not yours: %s\n", status.error_message().c_str());
       return kExitError;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
       std::fprintf(stderr, "dembuf: the server is full: %s\n", status.error_message().c_str());
@@ -209,7 +227,7 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::stri
   request.set_owner(remote.owner);
   v1::SubmitJobResponse response;
   grpc::ClientContext context;
-  Deadline(context);
+  Prepare(context, remote);
   const grpc::Status status = Connect(remote)->SubmitJob(&context, request, &response);
   if (!status.ok()) return Report(remote, status);
   std::printf("%lld\n", static_cast<long long>(response.job().id()));
@@ -235,7 +253,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   request.set_owner(remote.owner);
   v1::SubmitSweepResponse response;
   grpc::ClientContext context;
-  Deadline(context);
+  Prepare(context, remote);
   const grpc::Status status = Connect(remote)->SubmitSweep(&context, request, &response);
   if (!status.ok()) return Report(remote, status);
   const v1::Sweep& sweep = response.sweep();
@@ -255,7 +273,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
 int RemoteList(const Remote& remote, const ListOptions& options) {
   auto stub = Connect(remote);
   grpc::ClientContext context;
-  Deadline(context);
+  Prepare(context, remote);
   if (options.sweeps) {
     v1::ListSweepsRequest request;
     request.set_owner(options.owner);
@@ -312,7 +330,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
 int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
   auto stub = Connect(remote);
   grpc::ClientContext context;
-  Deadline(context);
+  Prepare(context, remote);
   if (sweep) {
     v1::GetSweepRequest request;
     request.set_id(id);
@@ -369,6 +387,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
 int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index) {
   auto stub = Connect(remote);
   grpc::ClientContext context;
+  Prepare(context, remote, 0);
   v1::WatchJobRequest request;
   request.set_id(id);
   request.set_from_index(from_index);
@@ -431,7 +450,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
   const fs::path dir = out_dir;
   auto fetch = [&](std::int64_t job_id, v1::FetchResultsResponse& result) {
     grpc::ClientContext context;
-    Deadline(context, 600);
+    Prepare(context, remote, 600);
     v1::FetchResultsRequest request;
     request.set_id(job_id);
     return stub->FetchResults(&context, request, &result);
@@ -449,7 +468,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
   v1::Sweep s;
   {
     grpc::ClientContext context;
-    Deadline(context);
+    Prepare(context, remote);
     v1::GetSweepRequest request;
     request.set_id(id);
     const grpc::Status status = stub->GetSweep(&context, request, &s);
@@ -458,7 +477,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
   v1::ListJobsResponse jobs;
   {
     grpc::ClientContext context;
-    Deadline(context);
+    Prepare(context, remote);
     v1::ListJobsRequest request;
     request.set_sweep_id(id);
     request.set_limit(100000);
@@ -510,7 +529,7 @@ int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {
   }
   v1::CancelResponse response;
   grpc::ClientContext context;
-  Deadline(context);
+  Prepare(context, remote);
   const grpc::Status status = Connect(remote)->Cancel(&context, request, &response);
   if (!status.ok()) return Report(remote, status);
   std::printf("cancelled %d job(s)\n", response.cancelled());
@@ -520,7 +539,7 @@ int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {
 int RemoteServerInfo(const Remote& remote) {
   v1::ServerInfoResponse info;
   grpc::ClientContext context;
-  Deadline(context, 10);
+  Prepare(context, remote, 10);
   const grpc::Status status = Connect(remote)->ServerInfo(&context, {}, &info);
   if (!status.ok()) return Report(remote, status);
   std::printf("dembufd %s at %s (host %s, up since %s)\n", info.version().c_str(),

@@ -11,6 +11,7 @@ find_package(Protobuf 3.12 REQUIRED)
 find_package(gRPC 1.30 REQUIRED CONFIG)
 find_package(SQLite3 REQUIRED)
 find_package(spdlog 1.8 REQUIRED CONFIG)
+find_package(OpenSSL REQUIRED)  # SHA-256 of API tokens
 if(DEMBUF_BUILD_TESTS)
   find_package(GTest REQUIRED CONFIG)
 endif()

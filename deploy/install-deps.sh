@@ -7,7 +7,8 @@ packages=(
   # toolchain
   g++ cmake ninja-build pkg-config
   # service
-  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libsqlite3-dev
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libsqlite3-dev libssl-dev
+  openssl
   # engine and tools
   libeigen3-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev
   # tests, fuzzers (clang's libFuzzer and OpenMP) and plots

@@ -16,9 +16,10 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
   } catch (const std::exception& e) {
     throw std::runtime_error("configuration " + path + ": " + e.what());
   }
-  const std::set<std::string> known = {"listen",          "db",          "workers",
-                                       "threads_per_job", "queue_limit", "max_sweep_jobs",
-                                       "log_file",        "log_level",   "shutdown_grace_s"};
+  const std::set<std::string> known = {
+      "listen",         "db",       "workers",           "threads_per_job",  "queue_limit",
+      "max_sweep_jobs", "log_file", "log_level",         "shutdown_grace_s", "require_tokens",
+      "tls_cert",       "tls_key",  "quota_queued_jobs", "quota_beads",      "quota_steps"};
   for (const auto& [key, value] : root.as_table())
     if (!known.count(key))
       throw std::runtime_error("configuration " + path + ": unknown setting \"" + key + "\"");
@@ -39,6 +40,12 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
   get("log_file", config.log_file);
   get("log_level", config.log_level);
   get("shutdown_grace_s", config.shutdown_grace_s);
+  get("require_tokens", config.require_tokens);
+  get("tls_cert", config.tls_cert);
+  get("tls_key", config.tls_key);
+  get("quota_queued_jobs", config.quota_queued_jobs);
+  get("quota_beads", config.quota_beads);
+  get("quota_steps", config.quota_steps);
 }
 
 void ValidateConfig(ServerConfig& config) {
@@ -59,6 +66,11 @@ void ValidateConfig(ServerConfig& config) {
   require(
       spdlog::level::from_str(config.log_level) != spdlog::level::off || config.log_level == "off",
       "log_level: must be trace, debug, info, warn, error, critical or off");
+  require(config.tls_cert.empty() == config.tls_key.empty(),
+          "tls_cert and tls_key: give both (or neither)");
+  require(config.quota_queued_jobs >= 0, "quota_queued_jobs: must be >= 0 (0: no limit)");
+  require(config.quota_beads >= 0, "quota_beads: must be >= 0 (0: no limit)");
+  require(config.quota_steps >= 0, "quota_steps: must be >= 0 (0: no limit)");
   if (config.threads_per_job == 0) {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     config.threads_per_job = std::max(1, cores / config.workers);

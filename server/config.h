@@ -1,6 +1,7 @@
 // dembufd's settings: defaults, then the configuration file, then the command line.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace dembuf::server {
@@ -15,6 +16,13 @@ struct ServerConfig {
   std::string log_file;  ///< "" for the console only
   std::string log_level = "info";
   int shutdown_grace_s = 10;  ///< how long SIGTERM waits for running jobs
+  /// Every request must carry a user's token. Always so when listening beyond loopback.
+  bool require_tokens = false;
+  std::string tls_cert;       ///< PEM certificate chain; with tls_key, the daemon speaks TLS only
+  std::string tls_key;        ///< PEM private key
+  int quota_queued_jobs = 0;  ///< per user; 0: no limit beyond queue_limit
+  std::int64_t quota_beads = 0;  ///< largest bed (estimated bead count) per job; 0: no limit
+  std::int64_t quota_steps = 0;  ///< most time steps (estimated) per job; 0: no limit
 };
 
 /// Reads a TOML configuration file over `config` (keys as the struct's members). Throws

@@ -12,10 +12,14 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <csignal>
+#include <fstream>
 #include <iostream>
+#include <sstream>
 #include <thread>
 
+#include "auth.h"
 #include "config.h"
 #include "dembuf/engine/version.h"
 #include "scheduler.h"
@@ -64,6 +68,15 @@ int main(int argc, char** argv) {
                                    "trace, debug, info, warn, error, critical or off");
   auto* grace = app.add_option("--shutdown-grace", flags.shutdown_grace_s,
                                "seconds SIGTERM waits for running jobs before requeueing them");
+  // Token administration: works on the database, does not start the server.
+  std::string user;
+  bool admin = false;
+  CLI::App* create = app.add_subcommand("token-create", "make (or replace) a user's API token");
+  create->add_option("name", user, "user name")->required();
+  create->add_flag("--admin", admin, "the user sees and cancels every job");
+  CLI::App* revoke = app.add_subcommand("token-revoke", "remove a user's API token");
+  revoke->add_option("name", user, "user name")->required();
+  CLI::App* list = app.add_subcommand("token-list", "list the users that have tokens");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -80,6 +93,34 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::cerr << "dembufd: " << e.what() << "\n";
     return 1;
+  }
+
+  if (create->parsed() || revoke->parsed() || list->parsed()) {
+    try {
+      Store store(config.db);
+      if (create->parsed()) {
+        for (char c : user)
+          if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-'))
+            throw std::runtime_error("name: use letters, digits, '.', '_' and '-'");
+        const std::string token = NewToken();
+        store.SetUser(user, HashToken(token), admin);
+        std::printf("%s\n", token.c_str());
+        std::fprintf(stderr,
+                     "token for %s%s (shown once; the database keeps only its hash); the "
+                     "user sets DEMBUF_TOKEN to it\n",
+                     user.c_str(), admin ? " (admin)" : "");
+      } else if (revoke->parsed()) {
+        if (!store.RemoveUser(user)) throw std::runtime_error("no user " + user);
+        std::fprintf(stderr, "token of %s removed\n", user.c_str());
+      } else {
+        for (const User& u : store.ListUsers())
+          std::printf("%s%s\n", u.name.c_str(), u.admin ? " (admin)" : "");
+      }
+      return 0;
+    } catch (const std::exception& e) {
+      std::cerr << "dembufd: " << e.what() << "\n";
+      return 1;
+    }
   }
 
   // SIGTERM and SIGINT are taken by one thread with sigwait; every other thread (gRPC's,
@@ -112,13 +153,46 @@ int main(int argc, char** argv) {
   options.host = HostName();
   Scheduler scheduler(*store, options, log);
   ServiceInfo info{config.db, options.host, UtcNow(), config.max_sweep_jobs};
+  // Beyond loopback, every request must name its user.
+  info.require_tokens = config.require_tokens || !IsLoopback(config.listen);
+  info.quota_queued_jobs = config.quota_queued_jobs;
+  info.quota_beads = static_cast<double>(config.quota_beads);
+  info.quota_steps = static_cast<double>(config.quota_steps);
+  if (info.require_tokens && !store->AnyUsers())
+    log->warn(
+        "tokens are required but none exists: make one with dembufd --db {} token-create "
+        "NAME [--admin]",
+        config.db);
   DembufService service(*store, scheduler, info, log);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(), &port);
+  std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
+  if (!config.tls_cert.empty()) {
+    auto read = [](const std::string& path) {
+      std::ifstream in(path);
+      if (!in) throw std::runtime_error("cannot read " + path);
+      std::ostringstream text;
+      text << in.rdbuf();
+      return text.str();
+    };
+    grpc::SslServerCredentialsOptions ssl;
+    try {
+      ssl.pem_key_cert_pairs.push_back({read(config.tls_key), read(config.tls_cert)});
+    } catch (const std::exception& e) {
+      log->critical("tls: {}", e.what());
+      return 1;
+    }
+    credentials = grpc::SslServerCredentials(ssl);
+  } else if (!IsLoopback(config.listen)) {
+    log->warn(
+        "listening on {} without TLS: tokens and data cross the network in clear text "
+        "(set tls_cert and tls_key)",
+        config.listen);
+  }
+  builder.AddListeningPort(config.listen, credentials, &port);
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
@@ -126,8 +200,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   scheduler.Start();
-  log->info("dembufd {} listening on {} (port {}), database {}", dembuf::kVersion, config.listen,
-            port, config.db);
+  log->info("dembufd {} listening on {} (port {}), database {}{}{}", dembuf::kVersion,
+            config.listen, port, config.db, config.tls_cert.empty() ? "" : ", TLS",
+            info.require_tokens ? ", tokens required" : "");
 
   int signal = 0;
   sigwait(&stop_signals, &signal);

@@ -7,7 +7,8 @@
 namespace dembuf::server {
 
 /// The default scene, then the preset, the scene file text, the accuracy level, the typed
-/// fields, and each `set` assignment, in that order; validated. Throws SceneError naming the field at fault.
+/// fields, and each `set` assignment, in that order; validated. Throws SceneError naming the field
+/// at fault.
 Scene ResolveSceneSpec(const v1::SceneSpec& spec);
 
 /// Applies the fields present in a proto Scene to `scene` (no validation).

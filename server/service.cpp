@@ -4,9 +4,11 @@
 #include <sstream>
 #include <thread>
 
+#include "auth.h"
 #include "dembuf/engine/bed.h"
 #include "dembuf/engine/content_hash.h"
 #include "dembuf/engine/errors.h"
+#include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
 #include "dembuf/engine/sweep_plan.h"
 #include "dembuf/engine/version.h"
@@ -119,6 +121,72 @@ JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std:
 
 }  // namespace
 
+Status DembufService::Authenticate(const grpc::ServerContext* context, const std::string& owner,
+                                   Caller* caller) {
+  const auto& metadata = context->client_metadata();
+  const auto found = metadata.find("authorization");
+  if (found == metadata.end()) {
+    if (m_info.require_tokens)
+      return Status(StatusCode::UNAUTHENTICATED,
+                    "this server needs a token: give --token or set DEMBUF_TOKEN (the lab's "
+                    "admin makes one with: dembufd token-create NAME)");
+    *caller = {owner.empty() ? "anonymous" : owner, true};
+    return Status::OK;
+  }
+  const std::string value(found->second.data(), found->second.size());
+  const std::string prefix = "Bearer ";
+  if (value.rfind(prefix, 0) != 0)
+    return Status(StatusCode::UNAUTHENTICATED, "authorization: expected \"Bearer TOKEN\"");
+  const auto user = m_store.FindUserByTokenHash(HashToken(value.substr(prefix.size())));
+  if (!user) return Status(StatusCode::UNAUTHENTICATED, "token: not known to this server");
+  // An admin may act for another owner; anyone else is who the token says.
+  *caller = {user->admin && !owner.empty() ? owner : user->name, user->admin};
+  return Status::OK;
+}
+
+Status DembufService::CheckQueuedQuota(const std::string& owner, std::size_t more) {
+  if (m_info.quota_queued_jobs <= 0) return Status::OK;
+  const int queued = m_store.CountQueuedBy(owner);
+  if (queued + static_cast<long>(more) <= m_info.quota_queued_jobs) return Status::OK;
+  return Status(StatusCode::RESOURCE_EXHAUSTED,
+                "owner: " + owner + " has " + std::to_string(queued) + " jobs queued; " +
+                    std::to_string(more) + " more would pass the quota of " +
+                    std::to_string(m_info.quota_queued_jobs));
+}
+
+Status DembufService::CheckAccess(const Caller& caller, const JobRecord& job) {
+  if (caller.admin || job.owner == caller.name) return Status::OK;
+  return Status(StatusCode::PERMISSION_DENIED,
+                "id: job " + std::to_string(job.id) + " belongs to " + job.owner);
+}
+
+Status DembufService::CheckJobQuota(const Scene& scene) {
+  if (m_info.quota_beads > 0 && scene.bed.thickness_m > 0) {
+    // The prepared source bed, at a solid fraction of 0.6 (denser than any settled bed).
+    const double d = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+    const double h = std::max(scene.bed.thickness_m, scene.bed.source_thickness_m);
+    const double beads =
+        0.6 * scene.cylinder.radius_m * scene.cylinder.radius_m * h / (d * d * d / 6.0);
+    if (beads > m_info.quota_beads)
+      return Status(StatusCode::RESOURCE_EXHAUSTED,
+                    "bed.thickness_m: about " + std::to_string(static_cast<long>(beads)) +
+                        " beads; this server's quota is " +
+                        std::to_string(static_cast<long>(m_info.quota_beads)) + " per job");
+  }
+  if (m_info.quota_steps > 0) {
+    const double duration = scene.time.end_s > 0 ? scene.time.end_s : scene.time.impact_window_s;
+    const double dt =
+        scene.time.alpha * MakeContactSetup(scene, 0.5 * scene.beads.diameter_min_m).critical_dt_s;
+    const double steps = duration / dt;
+    if (steps > m_info.quota_steps)
+      return Status(StatusCode::RESOURCE_EXHAUSTED,
+                    "time.end_s: about " + std::to_string(static_cast<long>(steps)) +
+                        " steps; this server's quota is " +
+                        std::to_string(static_cast<long>(m_info.quota_steps)) + " per job");
+  }
+  return Status::OK;
+}
+
 DembufService::DembufService(Store& store, Scheduler& scheduler, ServiceInfo info,
                              std::shared_ptr<spdlog::logger> log)
     : m_store(store), m_scheduler(scheduler), m_info(std::move(info)), m_log(std::move(log)) {}
@@ -178,20 +246,24 @@ void DembufService::FillSweep(const SweepRecord& r, v1::Sweep* out) {
   out->set_beds_prepared(m_store.SweepBedsPrepared(r.id));
 }
 
-Status DembufService::SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest* request,
+Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                 v1::SubmitJobResponse* response) {
   if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+  Caller caller;
+  if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
   if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
   JobRecord job;
   try {
     const Scene scene = ResolveSceneSpec(request->scene());
     CheckServerScene(scene);
+    if (Status s = CheckJobQuota(scene); !s.ok()) return s;
     std::string name = request->name();
     if (name.empty()) name = request->scene().preset().empty() ? "job" : request->scene().preset();
-    job = MakeJobRecord(scene, request->owner(), name);
+    job = MakeJobRecord(scene, caller.name, name);
   } catch (const SceneError& e) {
     return FromSceneError(e);
   }
+  if (Status s = CheckQueuedQuota(caller.name, 1); !s.ok()) return s;
   try {
     m_scheduler.Admit(1, [&] {
       m_store.AddJob(job);
@@ -205,9 +277,12 @@ Status DembufService::SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest
   return Status::OK;
 }
 
-Status DembufService::SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepRequest* request,
+Status DembufService::SubmitSweep(grpc::ServerContext* context,
+                                  const v1::SubmitSweepRequest* request,
                                   v1::SubmitSweepResponse* response) {
   if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+  Caller caller;
+  if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
   if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
   if (request->axes().empty() && request->seeds() <= 1)
     return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
@@ -227,11 +302,12 @@ Status DembufService::SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepReq
     axes = WithSeedAxis(axes, std::max(1, request->seeds()), base.bed.seed);
     const std::vector<SweepRun> runs =
         ExpandSweep(base, axes, static_cast<std::size_t>(m_info.max_sweep_jobs));
-    sweep.owner = request->owner().empty() ? "anonymous" : request->owner();
+    sweep.owner = caller.name;
     sweep.name = request->name().empty() ? "sweep" : request->name();
     sweep.axes = axes;
     for (std::size_t k : InterleaveBySourceBed(runs)) {
       CheckServerScene(runs[k].scene);
+      if (Status s = CheckJobQuota(runs[k].scene); !s.ok()) return s;
       JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
       job.sweep_index = static_cast<int>(runs[k].index);
       job.sweep_values = runs[k].values;
@@ -240,6 +316,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepReq
   } catch (const SceneError& e) {
     return FromSceneError(e);
   }
+  if (Status s = CheckQueuedQuota(caller.name, jobs.size()); !s.ok()) return s;
   try {
     m_scheduler.Admit(jobs.size(), [&] {
       m_store.AddSweep(sweep, jobs);
@@ -254,24 +331,34 @@ Status DembufService::SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepReq
   return Status::OK;
 }
 
-Status DembufService::GetJob(grpc::ServerContext*, const v1::GetJobRequest* request,
+Status DembufService::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
                              v1::Job* response) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   const auto job = m_store.GetJob(request->id());
   if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+  if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
   FillJob(*job, true, response);
   return Status::OK;
 }
 
-Status DembufService::GetSweep(grpc::ServerContext*, const v1::GetSweepRequest* request,
+Status DembufService::GetSweep(grpc::ServerContext* context, const v1::GetSweepRequest* request,
                                v1::Sweep* response) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   const auto sweep = m_store.GetSweep(request->id());
   if (!sweep) return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
+  if (!caller.admin && sweep->owner != caller.name)
+    return Status(StatusCode::PERMISSION_DENIED,
+                  "id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
   FillSweep(*sweep, response);
   return Status::OK;
 }
 
-Status DembufService::ListJobs(grpc::ServerContext*, const v1::ListJobsRequest* request,
+Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
                                v1::ListJobsResponse* response) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   JobFilter filter;
   if (request->state() != v1::JOB_STATE_UNSPECIFIED) {
     filter.state = FromProto(request->state());
@@ -281,25 +368,41 @@ Status DembufService::ListJobs(grpc::ServerContext*, const v1::ListJobsRequest* 
   if (request->limit() < 0 || request->limit() > 100000)
     return Invalid("limit", "must be 0 (100) to 100000");
   filter.owner = request->owner();
+  if (!caller.admin) {
+    // Everyone else sees their own jobs only.
+    if (!request->owner().empty() && request->owner() != caller.name)
+      return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own jobs");
+    filter.owner = caller.name;
+  }
   filter.sweep_id = request->sweep_id();
   filter.limit = request->limit() == 0 ? 100 : request->limit();
   for (const JobRecord& job : m_store.ListJobs(filter)) FillJob(job, false, response->add_jobs());
   return Status::OK;
 }
 
-Status DembufService::ListSweeps(grpc::ServerContext*, const v1::ListSweepsRequest* request,
+Status DembufService::ListSweeps(grpc::ServerContext* context, const v1::ListSweepsRequest* request,
                                  v1::ListSweepsResponse* response) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
   if (request->limit() < 0 || request->limit() > 100000)
     return Invalid("limit", "must be 0 (100) to 100000");
+  std::string owner = request->owner();
+  if (!caller.admin) {
+    if (!owner.empty() && owner != caller.name)
+      return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own sweeps");
+    owner = caller.name;
+  }
   for (const SweepRecord& sweep :
-       m_store.ListSweeps(request->owner(), request->limit() == 0 ? 100 : request->limit()))
+       m_store.ListSweeps(owner, request->limit() == 0 ? 100 : request->limit()))
     FillSweep(sweep, response->add_sweeps());
   return Status::OK;
 }
 
-Status DembufService::Cancel(grpc::ServerContext*, const v1::CancelRequest* request,
+Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelRequest* request,
                              v1::CancelResponse* response) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   if ((request->job_id() != 0) == (request->sweep_id() != 0))
     return Invalid("job_id", "give either job_id or sweep_id");
   std::vector<JobRecord> targets;
@@ -307,11 +410,16 @@ Status DembufService::Cancel(grpc::ServerContext*, const v1::CancelRequest* requ
     const auto job = m_store.GetJob(request->job_id());
     if (!job)
       return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
+    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
     targets.push_back(*job);
   } else {
-    if (!m_store.GetSweep(request->sweep_id()))
+    const auto sweep = m_store.GetSweep(request->sweep_id());
+    if (!sweep)
       return Status(StatusCode::NOT_FOUND,
                     "sweep_id: no sweep " + std::to_string(request->sweep_id()));
+    if (!caller.admin && sweep->owner != caller.name)
+      return Status(StatusCode::PERMISSION_DENIED,
+                    "sweep_id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
     JobFilter filter;
     filter.sweep_id = request->sweep_id();
     filter.limit = 1000000;
@@ -330,7 +438,14 @@ Status DembufService::Cancel(grpc::ServerContext*, const v1::CancelRequest* requ
 
 Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                grpc::ServerWriter<v1::WatchJobResponse>* writer) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
+  {
+    const auto job = m_store.GetJob(request->id());
+    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+  }
   auto next = static_cast<std::size_t>(request->from_index());
   auto last_status = std::chrono::steady_clock::time_point{};
   while (!context->IsCancelled()) {
@@ -387,10 +502,14 @@ Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobR
   return Status::OK;
 }
 
-Status DembufService::FetchResults(grpc::ServerContext*, const v1::FetchResultsRequest* request,
+Status DembufService::FetchResults(grpc::ServerContext* context,
+                                   const v1::FetchResultsRequest* request,
                                    v1::FetchResultsResponse* response) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   const auto job = m_store.GetJob(request->id());
   if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+  if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
   if (!IsFinal(job->state))
     return Status(StatusCode::FAILED_PRECONDITION,
                   "id: job " + std::to_string(job->id) + " is " + StateName(job->state) +
@@ -401,8 +520,10 @@ Status DembufService::FetchResults(grpc::ServerContext*, const v1::FetchResultsR
   return Status::OK;
 }
 
-Status DembufService::ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,
+Status DembufService::ServerInfo(grpc::ServerContext* context, const v1::ServerInfoRequest*,
                                  v1::ServerInfoResponse* response) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
   response->set_version(kVersion);
   response->set_workers(m_scheduler.options().workers);
   response->set_threads_per_job(m_scheduler.options().threads_per_job);

@@ -17,6 +17,17 @@ struct ServiceInfo {
   std::string host;
   std::string started_at;
   int max_sweep_jobs = 10000;
+  bool require_tokens = false;
+  int quota_queued_jobs = 0;
+  double quota_beads = 0;
+  double quota_steps = 0;
+};
+
+/// Who is asking. Without a token (allowed on loopback unless tokens are required), the
+/// caller is whoever the request says, with every right: the trusted single-machine mode.
+struct Caller {
+  std::string name;
+  bool admin = false;
 };
 
 class DembufService final : public v1::Dembuf::Service {
@@ -43,6 +54,15 @@ class DembufService final : public v1::Dembuf::Service {
                           v1::ServerInfoResponse*) override;
 
  private:
+  /// The caller from the request's "authorization: Bearer TOKEN" metadata.
+  grpc::Status Authenticate(const grpc::ServerContext* context, const std::string& owner,
+                            Caller* caller);
+  /// A job of another user is refused unless the caller is an admin.
+  grpc::Status CheckAccess(const Caller& caller, const JobRecord& job);
+  /// The per-user quota of queued jobs.
+  grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
+  /// The per-job quotas (estimated beads and steps).
+  grpc::Status CheckJobQuota(const Scene& scene);
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);
 

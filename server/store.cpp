@@ -70,6 +70,14 @@ CREATE TABLE events (
   message  TEXT NOT NULL
 );
 )sql",
+    R"sql(
+CREATE TABLE users (
+  name        TEXT PRIMARY KEY,
+  token_hash  TEXT NOT NULL UNIQUE,
+  admin       INTEGER NOT NULL DEFAULT 0,
+  created_at  TEXT NOT NULL
+);
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 
@@ -430,6 +438,59 @@ void Store::LogEvent(std::int64_t job_id, const std::string& message) {
   m_db->Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")
       .Bind(job_id, UtcNow(), message)
       .Run();
+}
+
+void Store::SetUser(const std::string& name, const std::string& token_hash, bool admin) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare(
+          "INSERT INTO users (name, token_hash, admin, created_at) VALUES (?, ?, ?, ?) "
+          "ON CONFLICT(name) DO UPDATE SET token_hash = excluded.token_hash, "
+          "admin = excluded.admin")
+      .Bind(name, token_hash, admin ? 1 : 0, UtcNow())
+      .Run();
+}
+
+std::optional<User> Store::FindUserByTokenHash(const std::string& token_hash) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT name, admin FROM users WHERE token_hash = ?");
+  s.Bind(token_hash);
+  if (!s.Step()) return std::nullopt;
+  User user{s.Text(0), s.Int(1) != 0};
+  s.Run();
+  return user;
+}
+
+std::vector<User> Store::ListUsers() {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT name, admin FROM users ORDER BY name");
+  s.Bind();
+  std::vector<User> users;
+  while (s.Step()) users.push_back({s.Text(0), s.Int(1) != 0});
+  return users;
+}
+
+bool Store::RemoveUser(const std::string& name) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare("DELETE FROM users WHERE name = ?").Bind(name).Run();
+  return m_db->Changes() > 0;
+}
+
+bool Store::AnyUsers() {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT count(*) FROM users");
+  s.Bind();
+  const bool any = s.Step() && s.Int(0) > 0;
+  s.Run();
+  return any;
+}
+
+int Store::CountQueuedBy(const std::string& owner) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT count(*) FROM jobs WHERE state = 'queued' AND owner = ?");
+  s.Bind(owner);
+  const int count = s.Step() ? static_cast<int>(s.Int(0)) : 0;
+  s.Run();
+  return count;
 }
 
 std::optional<PreparedBed> Store::Beds::Load(const std::string& hash) {

@@ -69,6 +69,12 @@ struct JobResults {
   std::vector<ImpactSample> samples;
 };
 
+/// A holder of an API token.
+struct User {
+  std::string name;
+  bool admin = false;
+};
+
 /// The current UTC time as "2026-11-22T05:50:00Z".
 std::string UtcNow();
 
@@ -116,6 +122,14 @@ class Store {
   /// Which job prepared a bed (for "this bed was prepared once").
   void RecordBedPreparation(const std::string& hash, const std::string& stage, std::int64_t job_id);
   std::vector<std::string> BedsPreparedBy(std::int64_t job_id);
+
+  /// Users: a token's hash names its user. SetUser adds one or replaces its token.
+  void SetUser(const std::string& name, const std::string& token_hash, bool admin);
+  std::optional<User> FindUserByTokenHash(const std::string& token_hash);
+  std::vector<User> ListUsers();
+  bool RemoveUser(const std::string& name);
+  bool AnyUsers();
+  int CountQueuedBy(const std::string& owner);
 
   /// Appends to the provenance log.
   void LogEvent(std::int64_t job_id, const std::string& message);

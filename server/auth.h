@@ -1,0 +1,17 @@
+// Per-user API tokens: random, shown once when created, stored only as SHA-256 hashes.
+#pragma once
+
+#include <string>
+
+namespace dembuf::server {
+
+/// 32 random bytes from the system's generator, as 64 hex digits.
+std::string NewToken();
+
+/// SHA-256 of the token, hex.
+std::string HashToken(const std::string& token);
+
+/// Whether `listen` (host:port) is a loopback address, where tokens are optional.
+bool IsLoopback(const std::string& listen);
+
+}  // namespace dembuf::server

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # kill -9 of dembufd while a sweep runs, then a restart on the same database: every job is
 # still there, completed results are intact and identical, the interrupted job runs again and
-# finishes.
+# finishes. Then a kill during a bed preparation: the job prepares the bed again and finishes.
 # Usage: crash_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
 small_scene "$work/small.toml"
@@ -44,5 +44,15 @@ done < "$work/done_before"
 for id in $running; do
   "$dembuf" status "$id" | grep -q "attempts 2" || fail "job $id: $("$dembuf" status "$id")"
 done
+
+# kill -9 while a job prepares its bed: after the restart it prepares it again and finishes.
+bedjob=$("$dembuf" submit "$work/small.toml" --set bed.seed=8 2>/dev/null)
+wait_state "$bedjob" preparing_bed 60
+kill -9 "$daemon_pid"
+wait "$daemon_pid" 2>/dev/null || true
+start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
+wait_state "$bedjob" done 180
+"$dembuf" status "$bedjob" | grep -q "attempts 2" || fail "bed job: $("$dembuf" status "$bedjob")"
 stop_daemon
-echo "crash test passed: $(wc -l < "$work/done_before") results kept, jobs re-run: $running"
+echo "crash test passed: $(wc -l < "$work/done_before") results kept, jobs re-run: $running," \
+  "a bed preparation redone"

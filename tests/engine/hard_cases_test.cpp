@@ -159,7 +159,8 @@ TEST(HardCase, StepBeyondTheStabilityLimitIsRefused) {
   }
 }
 
-// Three layers of 4 mm beads on a square lattice tighter than touching by `squeeze`.
+// The bed file: three layers of 4 mm beads on a square lattice tighter than touching by
+// `squeeze` (a fraction of the diameter).
 std::string OverlappingBed(double squeeze, int* count) {
   const std::string path = testing::TempDir() + "overlapping-bed.txt";
   const double d = 0.004, spacing = (1.0 - squeeze) * d;
@@ -176,14 +177,20 @@ std::string OverlappingBed(double squeeze, int* count) {
   return path;
 }
 
-TEST(HardCase, ImportedBedWithFivePercentOverlapsIsRefused) {
-  // 5% of a diameter (10% of a radius): relaxing it threw beads over the 30 cm wall, so the
-  // import refuses it, naming the two beads.
+// A 2.5 cm cylinder importing that bed.
+Scene OverlappingBedScene(double squeeze, int* count) {
   Scene scene;
   scene.cylinder.radius_m = 0.025;
   scene.projectile.diameter_m = 0.01;
+  scene.bed.import = OverlappingBed(squeeze, count);
+  return scene;
+}
+
+TEST(HardCase, ImportedBedWithFivePercentOverlapsIsRefused) {
+  // 5% of a diameter (10% of a radius): relaxing it threw beads over the 30 cm wall, so the
+  // import refuses it, naming the two beads.
   int count = 0;
-  scene.bed.import = OverlappingBed(0.05, &count);
+  const Scene scene = OverlappingBedScene(0.05, &count);
   try {
     BuildWorld(scene);
     FAIL() << "an overlapping bed was accepted";
@@ -196,11 +203,8 @@ TEST(HardCase, ImportedBedWithFivePercentOverlapsIsRefused) {
 TEST(HardCase, ImportedBedWithSmallOverlapsRelaxesToRest) {
   // 0.4% of a diameter (0.8% of a radius), just inside the limit: relaxed without losing a
   // bead, to rest, not blown apart.
-  Scene scene;
-  scene.cylinder.radius_m = 0.025;
-  scene.projectile.diameter_m = 0.01;
   int count = 0;
-  scene.bed.import = OverlappingBed(0.004, &count);
+  const Scene scene = OverlappingBedScene(0.004, &count);
   const World world = BuildWorld(scene);  // throws SimulationError if a bead escapes
   ASSERT_EQ(world.beads.size(), static_cast<std::size_t>(count));
   for (std::size_t i = 0; i < world.beads.size(); ++i) {

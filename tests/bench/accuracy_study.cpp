@@ -94,23 +94,47 @@ nlohmann::json Row(const std::string& setting, const Outcome& o, const Outcome& 
               {"bed_wall_s", o.bed_s},
               {"impact_wall_s", o.impact_s},
               {"steps", o.steps}});
-  std::printf("| %s | %.4g | %+.2f%% | %.2f (%+.2f) | %+.2f%% | %+.2f%% | %s%.1f |\n",
-              setting.c_str(), o.p_N, 100 * RelativeError(o.p_N, ref.p_N), 100 * o.lambda,
-              100 * (o.lambda - ref.lambda),
-              100 * RelativeError(o.peak_after_contact_s, ref.peak_after_contact_s),
-              100 * RelativeError(o.crater_m, ref.crater_m),
-              with_bed ? (std::to_string(static_cast<int>(std::lround(o.bed_s))) + " + ").c_str()
-                       : "",
-              o.impact_s);
+  std::printf(
+      "| %s | %.4g | %+.2f%% | %.2f (%+.2f) | %+.2f%% | %+.2f%% | %s%.1f |\n", setting.c_str(),
+      o.p_N, 100 * RelativeError(o.p_N, ref.p_N), 100 * o.lambda, 100 * (o.lambda - ref.lambda),
+      100 * RelativeError(o.peak_after_contact_s, ref.peak_after_contact_s),
+      100 * RelativeError(o.crater_m, ref.crater_m),
+      with_bed ? (std::to_string(static_cast<int>(std::lround(o.bed_s))) + " + ").c_str() : "",
+      o.impact_s);
   std::fflush(stdout);
   return row;
 }
 
 void Header(const char* title, const char* knob, bool with_bed) {
-  std::printf("\n%s\n\n| %s | P [N] | error P | lambda [%%] (diff) | error t(P) | error crater | "
-              "wall time [s]%s |\n|---|---|---|---|---|---|---|\n",
-              title, knob, with_bed ? " (bed + impact)" : " (impact)");
+  std::printf(
+      "\n%s\n\n| %s | P [N] | error P | lambda [%%] (diff) | error t(P) | error crater | "
+      "wall time [s]%s |\n|---|---|---|---|---|---|---|\n",
+      title, knob, with_bed ? " (bed + impact)" : " (impact)");
   std::fflush(stdout);
+}
+
+std::vector<std::string> Labels(const std::vector<double>& values) {
+  std::vector<std::string> labels;
+  for (double v : values) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", v);
+    labels.emplace_back(text);
+  }
+  return labels;
+}
+
+// Measures every setting of one knob, then prints its table against the setting at
+// `reference` and returns it as JSON.
+nlohmann::json Study(const char* title, const char* knob, const std::vector<std::string>& settings,
+                     std::size_t reference, bool with_bed,
+                     const std::function<Outcome(std::size_t)>& measure) {
+  std::vector<Outcome> outcomes;
+  for (std::size_t k = 0; k < settings.size(); ++k) outcomes.push_back(measure(k));
+  Header(title, knob, with_bed);
+  nlohmann::json rows = nlohmann::json::array();
+  for (std::size_t k = 0; k < settings.size(); ++k)
+    rows.push_back(Row(settings[k], outcomes[k], outcomes[reference], with_bed));
+  return rows;
 }
 
 }  // namespace
@@ -120,83 +144,46 @@ int main(int argc, char** argv) {
   if (argc == 3 && std::string(argv[1]) == "--out") out = argv[2];
   nlohmann::json report;
 
-  // 1. alpha, on one bed.
-  {
-    const Scene base = StudyScene();
-    BedCache beds;
-    const std::vector<double> alphas = {0.025, 0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0};
-    std::vector<Outcome> outcomes;
-    for (double alpha : alphas) {
-      // The bed of the standard alpha; only the impact's step changes (the bare-plate
-      // reference run for lambda keeps the standard step).
-      outcomes.push_back(
-          Measure(base, [&](World& w) { w.params.dt_s = alpha * w.critical_dt_s; }, &beds));
-    }
-    Header("1. time-step factor alpha (one bed; reference alpha = 0.025)", "alpha", false);
-    nlohmann::json rows = nlohmann::json::array();
-    for (std::size_t k = 0; k < alphas.size(); ++k) {
-      char name[16];
-      std::snprintf(name, sizeof name, "%g", alphas[k]);
-      rows.push_back(Row(name, outcomes[k], outcomes[0], false));
-    }
-    report["alpha"] = rows;
-  }
+  // 1. alpha, on one bed: the bed of the standard alpha, only the impact's step changes (the
+  // bare-plate reference run for lambda keeps the standard step).
+  BedCache shared_beds;
+  const std::vector<double> alphas = {0.025, 0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0};
+  report["alpha"] =
+      Study("1. time-step factor alpha (one bed; reference alpha = 0.025)", "alpha", Labels(alphas),
+            0, false, [&](std::size_t k) {
+              return Measure(
+                  StudyScene(), [&](World& w) { w.params.dt_s = alphas[k] * w.critical_dt_s; },
+                  &shared_beds);
+            });
 
   // 2. settling tolerance.
-  {
-    const std::vector<double> tolerances = {1e-6, 1e-5, 1e-4, 1e-3};
-    std::vector<Outcome> outcomes;
-    for (double tol : tolerances) {
-      Scene scene = StudyScene();
-      scene.bed.settle_tolerance = tol;
-      outcomes.push_back(Measure(scene));
-    }
-    Header("2. settling tolerance (own bed each; reference 1e-6)", "tolerance", true);
-    nlohmann::json rows = nlohmann::json::array();
-    for (std::size_t k = 0; k < tolerances.size(); ++k) {
-      char name[16];
-      std::snprintf(name, sizeof name, "%g", tolerances[k]);
-      rows.push_back(Row(name, outcomes[k], outcomes[0], true));
-    }
-    report["settle_tolerance"] = rows;
-  }
+  const std::vector<double> tolerances = {1e-6, 1e-5, 1e-4, 1e-3};
+  report["settle_tolerance"] = Study("2. settling tolerance (own bed each; reference 1e-6)",
+                                     "tolerance", Labels(tolerances), 0, true, [&](std::size_t k) {
+                                       Scene scene = StudyScene();
+                                       scene.bed.settle_tolerance = tolerances[k];
+                                       return Measure(scene);
+                                     });
 
   // 3. bed diameter.
-  {
-    const std::vector<double> radii = {0.095, 0.075, 0.055};
-    std::vector<Outcome> outcomes;
-    for (double r : radii) {
-      Scene scene = StudyScene();
-      scene.cylinder.radius_m = r;
-      outcomes.push_back(Measure(scene));
-    }
-    Header("3. cylinder radius (own bed each; reference 0.095 m, the paper's)", "radius [m]",
-           true);
-    nlohmann::json rows = nlohmann::json::array();
-    for (std::size_t k = 0; k < radii.size(); ++k) {
-      char name[16];
-      std::snprintf(name, sizeof name, "%g", radii[k]);
-      rows.push_back(Row(name, outcomes[k], outcomes[0], true));
-    }
-    report["cylinder_radius"] = rows;
-  }
+  const std::vector<double> radii = {0.095, 0.075, 0.055};
+  report["cylinder_radius"] =
+      Study("3. cylinder radius (own bed each; reference 0.095 m, the paper's)", "radius [m]",
+            Labels(radii), 0, true, [&](std::size_t k) {
+              Scene scene = StudyScene();
+              scene.cylinder.radius_m = radii[k];
+              return Measure(scene);
+            });
 
-  // 4. presets.
-  {
-    std::vector<Outcome> outcomes;
-    std::vector<std::string> names;
-    for (const AccuracyPreset& p : AccuracyPresets()) {
-      Scene scene = StudyScene();
-      ApplyAccuracy(scene, std::string(p.name));
-      names.emplace_back(p.name);
-      outcomes.push_back(Measure(scene));
-    }
-    Header("4. accuracy presets, whole runs (reference: the reference preset)", "preset", true);
-    nlohmann::json rows = nlohmann::json::array();
-    for (std::size_t k = 0; k < names.size(); ++k)
-      rows.push_back(Row(names[k], outcomes[k], outcomes.back(), true));
-    report["presets"] = rows;
-  }
+  // 4. presets, against the reference preset.
+  std::vector<std::string> presets;
+  for (const AccuracyPreset& p : AccuracyPresets()) presets.emplace_back(p.name);
+  report["presets"] = Study("4. accuracy presets, whole runs (reference: the reference preset)",
+                            "preset", presets, presets.size() - 1, true, [&](std::size_t k) {
+                              Scene scene = StudyScene();
+                              ApplyAccuracy(scene, presets[k]);
+                              return Measure(scene);
+                            });
 
   std::ofstream(out) << report.dump(2) << "\n";
   std::printf("\nwrote %s\n", out.c_str());

@@ -83,23 +83,14 @@ int Report(const Remote& remote, const grpc::Status& status) {
   }
 }
 
-const char* StateText(v1::JobState s) {
-  switch (s) {
-    case v1::JOB_STATE_QUEUED:
-      return "queued";
-    case v1::JOB_STATE_PREPARING_BED:
-      return "preparing_bed";
-    case v1::JOB_STATE_RUNNING:
-      return "running";
-    case v1::JOB_STATE_DONE:
-      return "done";
-    case v1::JOB_STATE_FAILED:
-      return "failed";
-    case v1::JOB_STATE_CANCELLED:
-      return "cancelled";
-    default:
-      return "unknown";
-  }
+// "queued", "preparing_bed", ...: the enum's own name without its prefix, as the daemon
+// stores and filters states.
+std::string StateText(v1::JobState s) {
+  std::string name = v1::JobState_Name(s);
+  const std::string prefix = "JOB_STATE_";
+  if (name.rfind(prefix, 0) == 0) name = name.substr(prefix.size());
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return name;
 }
 
 bool Ended(v1::JobState s) {
@@ -320,7 +311,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
   for (const auto& j : response.jobs()) {
     const std::string progress = j.progress().stage() + " " + Percent(j.progress().fraction());
     std::printf("%6lld  %-13s %-12s %6s  %-34s %-18s %s\n", static_cast<long long>(j.id()),
-                StateText(j.state()), j.owner().c_str(),
+                StateText(j.state()).c_str(), j.owner().c_str(),
                 j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.name().c_str(),
                 progress.c_str(), j.created_at().c_str());
   }
@@ -353,7 +344,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
   const grpc::Status status = stub->GetJob(&context, request, &j);
   if (!status.ok()) return Report(remote, status);
   std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), j.name().c_str(),
-              StateText(j.state()));
+              StateText(j.state()).c_str());
   std::printf("owner %s, sweep %s, attempts %d\n", j.owner().c_str(),
               j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.attempts());
   std::printf("created %s, started %s, finished %s\n", j.created_at().c_str(),
@@ -412,14 +403,14 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
         std::printf("%lld,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s\n",
                     static_cast<long long>(message.first_index() + k), s.t_s(), s.plate_force_n(),
                     s.wall_force_z_n(), s.proj_z_m(), s.proj_vz_m_s(), s.proj_force_z_n(),
-                    StateText(state));
+                    StateText(state).c_str());
     }
     received += message.samples_size();
     const double force = forces.empty() ? 0.0 : forces.back();
     char line[256];
     std::snprintf(
         line, sizeof line, "job %lld %-13s %-14s t = %8.3f ms  F = %9.4g N  peak %9.4g N  %s",
-        static_cast<long long>(id), StateText(state), message.progress().stage().c_str(),
+        static_cast<long long>(id), StateText(state).c_str(), message.progress().stage().c_str(),
         message.progress().sim_time_s() * 1e3, force, message.progress().peak_plate_force_n(),
         Percent(message.progress().fraction()).c_str());
     if (tty) {
@@ -439,7 +430,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   if (!status.ok()) return Report(remote, status);
   if (!csv && !tty) std::printf("%s\n", last_line.c_str());
   std::fprintf(stderr, "job %lld %s; %lld samples received\n", static_cast<long long>(id),
-               StateText(state), static_cast<long long>(received));
+               StateText(state).c_str(), static_cast<long long>(received));
   if (state == v1::JOB_STATE_DONE) return 0;
   return state == v1::JOB_STATE_FAILED ? kExitJobFailed : kExitError;
 }
@@ -461,7 +452,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     if (!status.ok()) return Report(remote, status);
     WriteJobFiles(result, dir);
     std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
-                StateText(result.job().state()), dir.c_str());
+                StateText(result.job().state()).c_str(), dir.c_str());
     if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
     return result.job().state() == v1::JOB_STATE_DONE ? 0 : kExitJobFailed;
   }

@@ -286,9 +286,12 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
       continue;
     }
     if (scene.time.end_s > 0.0) continue;
-    // Automatic end (time.end_s = 0): the projectile has bounced clear, or has been at rest
-    // for a millisecond, or the impact window has passed.
-    if (o.projectile_contacts == 0 && p.velocity.z() > 0.0) {
+    // Automatic end (time.end_s = 0): the projectile has bounced clear of the bed (rising,
+    // touching nothing, its lowest point above the bed's original surface), or has been at
+    // rest for a millisecond, or the impact window has passed. Rising inside its own crater
+    // does not count: beads can still catch it there and load the plate again.
+    const bool clear_of_bed = p.position.z() - p.radius > world.bed_surface_m;
+    if (o.projectile_contacts == 0 && p.velocity.z() > 0.0 && clear_of_bed) {
       summary.end_reason = "projectile rebounded clear";
       break;
     }

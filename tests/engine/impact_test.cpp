@@ -99,6 +99,23 @@ TEST(ImpactRun, FixedEndTimeIsHonoured) {
   EXPECT_NEAR(s.end_time_s, 0.0524, s.dt_s);
 }
 
+TEST(ImpactRun, RisingInsideTheBedIsNotARebound) {
+  // A projectile that leaves the plate but is still below the bed's surface (rising in its
+  // crater) has not rebounded clear. Pretend the surface is 1 cm above the plate: the run must
+  // go on until the projectile's lowest point has climbed past it, which at the rebound speed
+  // (between half and all of the impact speed) takes 1.8-3.6 ms longer.
+  const Scene scene = PaperE2NoBeads();
+  const ImpactSummary at_plate = RunImpact(scene);
+  World world = BuildWorld(scene);
+  world.bed_surface_m = 0.01;
+  const ImpactSummary below_surface = RunImpact(std::move(world), scene);
+  ASSERT_EQ(below_surface.end_reason, "projectile rebounded clear");
+  const double impact_speed = 5.0 + 9.81 * FallTime(0.30, -5.0, 0.025, 9.81);
+  const double extra = below_surface.end_time_s - at_plate.end_time_s;
+  EXPECT_GT(extra, 0.01 / impact_speed);
+  EXPECT_LT(extra, 0.01 / (0.5 * impact_speed));
+}
+
 TEST(ImpactRun, CancelFlagStopsTheRun) {
   Scene scene = PaperE2NoBeads();
   std::atomic<bool> cancel{true};

@@ -19,7 +19,8 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
   const std::set<std::string> known = {
       "listen",         "db",       "workers",           "threads_per_job",  "queue_limit",
       "max_sweep_jobs", "log_file", "log_level",         "shutdown_grace_s", "require_tokens",
-      "tls_cert",       "tls_key",  "quota_queued_jobs", "quota_beads",      "quota_steps"};
+      "tls_cert",       "tls_key",  "quota_queued_jobs", "quota_beads",      "quota_steps",
+      "storage_retry_s"};
   for (const auto& [key, value] : root.as_table())
     if (!known.count(key))
       throw std::runtime_error("configuration " + path + ": unknown setting \"" + key + "\"");
@@ -40,6 +41,7 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
   get("log_file", config.log_file);
   get("log_level", config.log_level);
   get("shutdown_grace_s", config.shutdown_grace_s);
+  get("storage_retry_s", config.storage_retry_s);
   get("require_tokens", config.require_tokens);
   get("tls_cert", config.tls_cert);
   get("tls_key", config.tls_key);
@@ -63,6 +65,8 @@ void ValidateConfig(ServerConfig& config) {
           "max_sweep_jobs: must be 1 to 1000000");
   require(config.shutdown_grace_s >= 0 && config.shutdown_grace_s <= 86400,
           "shutdown_grace_s: must be 0 to 86400");
+  require(config.storage_retry_s >= 1 && config.storage_retry_s <= 86400,
+          "storage_retry_s: must be 1 to 86400");
   require(
       spdlog::level::from_str(config.log_level) != spdlog::level::off || config.log_level == "off",
       "log_level: must be trace, debug, info, warn, error, critical or off");

@@ -16,6 +16,7 @@ struct ServerConfig {
   std::string log_file;  ///< "" for the console only
   std::string log_level = "info";
   int shutdown_grace_s = 10;  ///< how long SIGTERM waits for running jobs
+  int storage_retry_s = 30;   ///< pause after the disk was found full, before the next job
   /// Every request must carry a user's token. Always so when listening beyond loopback.
   bool require_tokens = false;
   std::string tls_cert;       ///< PEM certificate chain; with tls_key, the daemon speaks TLS only

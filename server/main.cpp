@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
                                    "trace, debug, info, warn, error, critical or off");
   auto* grace = app.add_option("--shutdown-grace", flags.shutdown_grace_s,
                                "seconds SIGTERM waits for running jobs before requeueing them");
+  auto* retry = app.add_option("--storage-retry", flags.storage_retry_s,
+                               "seconds to wait before the next job once the disk was full");
   // Token administration: works on the database, does not start the server.
   std::string user;
   bool admin = false;
@@ -89,6 +91,7 @@ int main(int argc, char** argv) {
     if (*log_file) config.log_file = flags.log_file;
     if (*log_level) config.log_level = flags.log_level;
     if (*grace) config.shutdown_grace_s = flags.shutdown_grace_s;
+    if (*retry) config.storage_retry_s = flags.storage_retry_s;
     ValidateConfig(config);
   } catch (const std::exception& e) {
     std::cerr << "dembufd: " << e.what() << "\n";
@@ -150,6 +153,7 @@ int main(int argc, char** argv) {
   options.workers = config.workers;
   options.threads_per_job = config.threads_per_job;
   options.queue_limit = config.queue_limit;
+  options.storage_retry = std::chrono::seconds(config.storage_retry_s);
   options.host = HostName();
   Scheduler scheduler(*store, options, log);
   ServiceInfo info{config.db, options.host, UtcNow(), config.max_sweep_jobs};

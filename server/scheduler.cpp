@@ -81,9 +81,16 @@ bool Scheduler::Cancel(std::int64_t id) {
   auto queued =
       std::find_if(m_queue.begin(), m_queue.end(), [&](const Queued& q) { return q.id == id; });
   if (queued != m_queue.end()) {
+    const Queued job = *queued;
     m_queue.erase(queued);
     lock.unlock();
-    m_store.FinishJob(id, JobState::kCancelled, "cancelled while queued", {});
+    try {
+      m_store.FinishJob(id, JobState::kCancelled, "cancelled while queued", {});
+    } catch (const StorageFull&) {
+      lock.lock();  // not cancelled after all: it keeps its turn
+      m_queue.push_front(job);
+      throw;
+    }
     m_log->info("job {}: cancelled while queued", id);
     return true;
   }
@@ -149,6 +156,10 @@ std::optional<std::int64_t> Scheduler::Next() {
   std::unique_lock lock(m_mutex);
   while (true) {
     if (m_stopping) return std::nullopt;
+    if (std::chrono::steady_clock::now() < m_paused_until) {
+      m_wake.wait_until(lock, m_paused_until);
+      continue;
+    }
     for (auto it = m_queue.begin(); it != m_queue.end(); ++it) {
       if (BlockedLocked(*it)) continue;
       const Queued job = *it;
@@ -170,7 +181,11 @@ void Scheduler::WorkerLoop(int worker) {
     std::shared_ptr<LiveJob> live = Live(*id);
     m_log->info("worker {}: job {} starts", worker, *id);
     t_current_job = *id;
-    Run(*id, live);
+    try {
+      Run(*id, live);
+    } catch (const StorageFull& e) {
+      RequeueForStorage(*id, live, e);
+    }
     t_current_job = 0;
     {
       std::lock_guard lock(m_mutex);
@@ -221,6 +236,8 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
     m_log->info("job {}: done in {:.1f} s: P = {:.5g} N, lambda = {:.3f}", id,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
                 summary.peaks.p_N, summary.lambda);
+  } catch (const StorageFull&) {
+    throw;  // not the job's fault: WorkerLoop puts it back in the queue
   } catch (const Cancelled&) {
     if (live->cancel_for_shutdown) {
       const std::string note = "interrupted by a daemon shutdown; it runs again from the start";
@@ -240,6 +257,23 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
     live->End(JobState::kFailed);
     m_log->error("job {}: failed: {}", id, e.what());
   }
+}
+
+void Scheduler::RequeueForStorage(std::int64_t id, const std::shared_ptr<LiveJob>& live,
+                                  const StorageFull& error) {
+  const std::string note = "the server's disk is full; the job waits and runs again from the start";
+  m_log->error("job {}: {} (in {} s): {}", id, note, m_options.storage_retry.count(), error.what());
+  try {
+    m_store.SetState(id, JobState::kQueued, note);
+    m_store.LogEvent(id, note);
+  } catch (const SqliteError& e) {
+    // The database still says running; the next start of the daemon requeues such jobs too.
+    m_log->error("job {}: could not record the requeue: {}", id, e.what());
+  }
+  live->End(JobState::kQueued);
+  std::lock_guard lock(m_mutex);
+  m_queue.push_front(m_running_beds.at(id));
+  m_paused_until = std::chrono::steady_clock::now() + m_options.storage_retry;
 }
 
 }  // namespace dembuf::server

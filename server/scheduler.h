@@ -27,6 +27,9 @@ struct SchedulerOptions {
   int workers = 1;
   int threads_per_job = 1;
   int queue_limit = 1000;  ///< queued jobs at most
+  /// After a job could not be stored because the disk was full, the workers wait this long
+  /// before taking a job again.
+  std::chrono::seconds storage_retry{30};
   std::string host;
 };
 
@@ -74,6 +77,10 @@ class Scheduler {
   std::optional<std::int64_t> Next();
   bool BlockedLocked(const Queued& job);
   void Run(std::int64_t id, const std::shared_ptr<LiveJob>& live);
+  /// The database's disk is full: puts the job back at the head of the queue and pauses the
+  /// workers for storage_retry, so that nothing is lost and nothing spins.
+  void RequeueForStorage(std::int64_t id, const std::shared_ptr<LiveJob>& live,
+                         const StorageFull& error);
 
   Store& m_store;
   SchedulerOptions m_options;
@@ -86,6 +93,7 @@ class Scheduler {
   std::map<std::int64_t, std::shared_ptr<LiveJob>> m_running;
   std::map<std::int64_t, Queued> m_running_beds;
   bool m_stopping = false;
+  std::chrono::steady_clock::time_point m_paused_until{};  ///< no new job before this
   std::mutex m_admit_mutex;
   std::vector<std::jthread> m_workers;
 };

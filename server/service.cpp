@@ -31,6 +31,12 @@ Status FromSceneError(const SceneError& e) {
   return Status(StatusCode::INVALID_ARGUMENT, e.what());
 }
 
+Status DiskFull() {
+  return Status(StatusCode::RESOURCE_EXHAUSTED,
+                "the server's disk is full; nothing was changed (the administrator must free "
+                "space)");
+}
+
 v1::JobState ToProto(JobState s) {
   switch (s) {
     case JobState::kQueued:
@@ -271,6 +277,9 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     });
   } catch (const QueueFull& e) {
     return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
+  } catch (const StorageFull& e) {
+    m_log->error("a request found the disk full: {}", e.what());
+    return DiskFull();
   }
   m_log->info("job {} submitted by {}: {}", job.id, job.owner, job.name);
   FillJob(job, false, response->mutable_job());
@@ -324,6 +333,9 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     });
   } catch (const QueueFull& e) {
     return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
+  } catch (const StorageFull& e) {
+    m_log->error("a request found the disk full: {}", e.what());
+    return DiskFull();
   }
   m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, jobs.size());
   FillSweep(sweep, response->mutable_sweep());
@@ -426,8 +438,13 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
     targets = m_store.ListJobs(filter);
   }
   int cancelled = 0;
-  for (const JobRecord& job : targets)
-    if (!IsFinal(job.state) && m_scheduler.Cancel(job.id)) ++cancelled;
+  try {
+    for (const JobRecord& job : targets)
+      if (!IsFinal(job.state) && m_scheduler.Cancel(job.id)) ++cancelled;
+  } catch (const StorageFull& e) {
+    m_log->error("a request found the disk full: {}", e.what());
+    return DiskFull();
+  }
   if (request->job_id() != 0 && cancelled == 0)
     return Status(StatusCode::FAILED_PRECONDITION,
                   "job_id: job " + std::to_string(request->job_id()) + " has already ended (" +

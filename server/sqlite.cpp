@@ -4,8 +4,13 @@ namespace dembuf::server {
 
 namespace {
 
+[[noreturn]] void Throw(int code, const std::string& message) {
+  if ((code & 0xff) == SQLITE_FULL) throw StorageFull(message);
+  throw SqliteError(message);
+}
+
 [[noreturn]] void Fail(sqlite3* db, const std::string& what) {
-  throw SqliteError(what + ": " + sqlite3_errmsg(db));
+  Throw(sqlite3_errcode(db), what + ": " + sqlite3_errmsg(db));
 }
 
 }  // namespace
@@ -13,9 +18,15 @@ namespace {
 bool Statement::Step() {
   const int rc = sqlite3_step(m_stmt);
   if (rc == SQLITE_ROW) return true;
+  if (rc == SQLITE_DONE) {
+    sqlite3_reset(m_stmt);
+    return false;
+  }
+  // Read the error before the reset, which ends the statement's part in it.
+  const std::string message =
+      std::string("SQL failed (") + sqlite3_sql(m_stmt) + "): " + sqlite3_errmsg(m_db);
   sqlite3_reset(m_stmt);
-  if (rc == SQLITE_DONE) return false;
-  Fail(m_db, std::string("SQL failed (") + sqlite3_sql(m_stmt) + ")");
+  Throw(rc, message);
 }
 
 std::string Statement::Text(int column) const {
@@ -87,10 +98,12 @@ Statement& Database::Prepare(const std::string& sql) {
 
 void Database::Execute(const std::string& sql) {
   char* error = nullptr;
-  if (sqlite3_exec(m_db, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
-    const std::string message = error ? error : "unknown error";
+  const int rc = sqlite3_exec(m_db, sql.c_str(), nullptr, nullptr, &error);
+  if (rc != SQLITE_OK) {
+    const std::string message =
+        "SQL failed (" + sql.substr(0, 60) + "): " + (error ? error : "unknown error");
     sqlite3_free(error);
-    throw SqliteError("SQL failed (" + sql.substr(0, 60) + "): " + message);
+    Throw(rc, message);
   }
 }
 

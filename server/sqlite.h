@@ -21,6 +21,13 @@ class SqliteError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The disk holding the database is full: nothing was written, and the same write can succeed
+/// once space is freed.
+class StorageFull : public SqliteError {
+ public:
+  using SqliteError::SqliteError;
+};
+
 class Statement {
  public:
   /// Binary data, bound as a BLOB.

@@ -238,8 +238,10 @@ PreparedBed BedCache::FindOrMake(const std::string& hash, const std::string& sta
     std::function<void(const PreparedBed&)> on_prepared;
     {
       std::lock_guard lock(m_mutex);
-      if (m_store) m_store->Save(bed);
+      // Kept in memory first: if the store cannot take it (a full disk), the next attempt
+      // still finds the bed instead of settling it again.
       RememberLocked(bed);
+      if (m_store) m_store->Save(bed);
       ++m_prepared[stage];
       m_in_progress.erase(hash);
       on_prepared = m_on_prepared;

@@ -1,0 +1,110 @@
+#!/usr/bin/env bash
+# Faults, each shown to lose nothing that was completed:
+# 1. kill -9 of dembufd while a sweep runs, then a restart on the same database: every job is
+#    still there, completed results are intact and identical, the interrupted job runs again.
+# 2. kill -9 during a bed preparation: the job prepares the bed again and finishes.
+# 3. A damaged database file: the daemon refuses to start, says why, and leaves it untouched.
+# 4. The disk fills while a job runs (a small tmpfs; needs root to mount, else skipped with a
+#    notice): the daemon keeps serving, refuses new jobs with RESOURCE_EXHAUSTED, puts the
+#    job back in the queue, and finishes it once space is freed; earlier results are intact.
+# Usage: fault_test.sh DEMBUF DEMBUFD
+. "$(dirname "$0")/lib.sh" "$1" "$2"
+small_scene "$work/small.toml"
+start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 1
+
+sweep=$("$dembuf" sweep "$work/small.toml" --set bed.seed=6 --set time.end_s=0.3 \
+        --vary projectile.speed_m_s=1,1.25,1.5,1.75,2,2.25,2.5,2.75 2>/dev/null)
+done_count() { "$dembuf" list --sweep "$sweep" --state done --limit 100 | tail -n +2 | wc -l; }
+for _ in $(seq 1200); do
+  [ "$(done_count)" -ge 2 ] && break
+  sleep 0.1
+done
+[ "$(done_count)" -ge 2 ] || fail "no jobs finished before the crash"
+"$dembuf" list --sweep "$sweep" --state done --limit 100 | awk 'NR > 1 { print $1 }' > "$work/done_before"
+while read -r id; do
+  "$dembuf" fetch "$id" --out "$work/before/$id" --no-plots > /dev/null
+done < "$work/done_before"
+running=$("$dembuf" list --sweep "$sweep" --limit 100 | awk '$2 == "running" || $2 == "preparing_bed" { print $1 }')
+
+kill -9 "$daemon_pid"
+wait "$daemon_pid" 2>/dev/null || true
+start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
+
+[ "$("$dembuf" list --sweep "$sweep" --limit 100 | tail -n +2 | wc -l)" = 8 ] || fail "jobs lost"
+for id in $running; do
+  grep -q "job $id was running when the daemon stopped; queued to run again" "$work/dembufd.log" ||
+    fail "job $id was not re-queued"
+done
+for _ in $(seq 1800); do
+  "$dembuf" status --sweep "$sweep" | grep -q "jobs: 8, done 8$" && break
+  sleep 0.1
+done
+"$dembuf" status --sweep "$sweep" | grep -q "jobs: 8, done 8$" || fail "the sweep did not finish"
+while read -r id; do
+  "$dembuf" fetch "$id" --out "$work/after/$id" --no-plots > /dev/null
+  for f in summary.json plate_force.csv; do
+    cmp -s "$work/before/$id/$f" "$work/after/$id/$f" || fail "job $id: $f changed by the crash"
+  done
+done < "$work/done_before"
+for id in $running; do
+  "$dembuf" status "$id" | grep -q "attempts 2" || fail "job $id: $("$dembuf" status "$id")"
+done
+
+# kill -9 while a job prepares its bed: after the restart it prepares it again and finishes.
+bedjob=$("$dembuf" submit "$work/small.toml" --set bed.seed=8 2>/dev/null)
+wait_state "$bedjob" preparing_bed 60
+kill -9 "$daemon_pid"
+wait "$daemon_pid" 2>/dev/null || true
+start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
+wait_state "$bedjob" done 180
+"$dembuf" status "$bedjob" | grep -q "attempts 2" || fail "bed job: $("$dembuf" status "$bedjob")"
+stop_daemon
+
+# A damaged database: refused at start with a clear message, the file left exactly as it was.
+cp "$work/dembuf.db" "$work/damaged.db"
+# Overwrite the header of the schema's b-tree page (page 1, after the 100-byte file header).
+printf 'this is not a b-tree page header' | dd of="$work/damaged.db" bs=1 seek=100 conv=notrunc \
+  2> /dev/null
+sum_before=$(sha256sum < "$work/damaged.db")
+if "$dembufd" --listen 127.0.0.1:0 --db "$work/damaged.db" > "$work/damaged.log" 2>&1; then
+  fail "dembufd started on a damaged database"
+fi
+grep -q "cannot be used.*untouched" "$work/damaged.log" || fail "no clear reason: $(cat "$work/damaged.log")"
+[ "$(sha256sum < "$work/damaged.db")" = "$sum_before" ] || fail "the damaged database was changed"
+
+# The disk fills while a job runs.
+disk=$work/disk
+mkdir "$disk"
+if ! mount -t tmpfs -o size=4m tmpfs "$disk" 2> /dev/null; then
+  echo "fault test passed (disk-full case skipped: mounting a tmpfs needs root)"
+  exit 0
+fi
+trap 'rc=$?; [ -z "$daemon_pid" ] || kill -9 "$daemon_pid" 2>/dev/null || true
+      umount "$disk" 2>/dev/null || true; rm -rf "$work"; exit $rc' EXIT
+start_daemon "$disk/dembuf.db" "$work/full.log" --workers 1 --storage-retry 1
+first=$("$dembuf" submit "$work/small.toml" --set time.end_s=0.3 2>/dev/null)
+wait_state "$first" done 120
+"$dembuf" fetch "$first" --out "$work/full-before" --no-plots > /dev/null
+# A job with a bed of its own, so that the disk is full by the time it ends.
+second=$("$dembuf" submit "$work/small.toml" --set time.end_s=0.3 --set bed.seed=9 2>/dev/null)
+dd if=/dev/zero of="$disk/filler" bs=64k 2> /dev/null || true
+for _ in $(seq 1200); do
+  grep -q "job $second: the server's disk is full" "$work/full.log" && break
+  sleep 0.1
+done
+grep -q "job $second: the server's disk is full" "$work/full.log" || fail "the full disk went unnoticed"
+"$dembuf" server-info > /dev/null || fail "the daemon stopped serving on a full disk"
+if "$dembuf" submit "$work/small.toml" > "$work/refused.txt" 2>&1; then
+  fail "a job was accepted on a full disk"
+fi
+grep -q "disk is full" "$work/refused.txt" || fail "unclear refusal: $(cat "$work/refused.txt")"
+rm "$disk/filler"
+wait_state "$second" done 120
+"$dembuf" fetch "$first" --out "$work/full-after" --no-plots > /dev/null
+for f in summary.json plate_force.csv; do
+  cmp -s "$work/full-before/$f" "$work/full-after/$f" || fail "job $first: $f changed on a full disk"
+done
+stop_daemon
+umount "$disk"
+echo "fault test passed: $(wc -l < "$work/done_before") results kept, jobs re-run: $running," \
+  "a bed preparation redone, a damaged database refused, a full disk survived"

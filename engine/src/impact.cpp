@@ -81,7 +81,8 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
     RigidSphere p;
     p.radius = 0.5 * scene.projectile.diameter_m;
     p.mass = scene.projectile.mass_kg;
-    p.position = Vec3(0.0, 0.0, world.bed_surface_m + scene.projectile.height_m);
+    p.position =
+        Vec3(scene.projectile.offset_m, 0.0, world.bed_surface_m + scene.projectile.height_m);
     p.velocity = Vec3(0.0, 0.0, -scene.projectile.speed_m_s);
     world.projectile = p;
   }

@@ -96,6 +96,9 @@ const std::vector<SceneField>& FieldTable() {
        DEMBUF_FIELD(projectile.speed_m_s), 0.0, 1000.0},
       {"projectile.height_m", "m", "H1, initial centre height above the bed surface",
        DEMBUF_FIELD(projectile.height_m), 0.0, 100.0, true},
+      {"projectile.offset_m", "m",
+       "horizontal distance of the drop line from the axis (radius - diameter/2 grazes the wall)",
+       DEMBUF_FIELD(projectile.offset_m), 0.0, 100.0},
 
       {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
        DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
@@ -462,6 +465,11 @@ void ValidateScene(const Scene& scene) {
       fail("projectile.diameter_m", FormatNumber(p.diameter_m) +
                                         " does not fit in the cylinder (inner diameter " +
                                         FormatNumber(2.0 * scene.cylinder.radius_m) + " m)");
+    if (p.offset_m + 0.5 * p.diameter_m > scene.cylinder.radius_m * (1.0 + 1e-12))
+      fail("projectile.offset_m",
+           FormatNumber(p.offset_m) + " puts the projectile into the side wall: at most " +
+               FormatNumber(scene.cylinder.radius_m - 0.5 * p.diameter_m) +
+               " m (cylinder.radius_m - projectile.diameter_m / 2, which grazes the wall)");
     if (p.height_m <= 0.5 * p.diameter_m)
       fail("projectile.height_m", FormatNumber(p.height_m) +
                                       " puts the projectile into the bed: the centre must be more "

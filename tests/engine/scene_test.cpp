@@ -56,6 +56,8 @@ INSTANTIATE_TEST_SUITE_P(
                              "must be > 0.0 and <= 1.0"},
                     BadScene{"projectile_too_big", "[projectile]\ndiameter_m = 0.2\n",
                              "projectile.diameter_m", "does not fit in the cylinder"},
+                    BadScene{"projectile_into_the_wall", "[projectile]\noffset_m = 0.1\n",
+                             "projectile.offset_m", "into the side wall"},
                     BadScene{"nan_mass", "[projectile]\nmass_kg = nan\n", "projectile.mass_kg",
                              "not a finite number"},
                     BadScene{"infinite_speed", "[projectile]\nspeed_m_s = inf\n",

@@ -63,13 +63,16 @@ struct BedSpec {
   double friction_ramp_s = 0.01;  ///< duration of the change from prep_friction to mu_pp
 };
 
-/// The spherical projectile, dropped on the bed's axis.
+/// The spherical projectile, dropped on the bed's axis unless offset from it.
 struct ProjectileSpec {
   bool enabled = true;
   double diameter_m = 0.050;  ///< D
   double mass_kg = 0.167;     ///< M; [choice] density follows from D and M
   double speed_m_s = 0.0;     ///< V0, downward
   double height_m = 0.50;     ///< H1, centre height above the bed surface
+  /// Horizontal distance of the drop line from the cylinder's axis (along x). The paper drops
+  /// on the axis; radius - diameter/2 grazes the wall.
+  double offset_m = 0.0;
 };
 
 struct TimeSpec {

@@ -351,9 +351,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
               j.started_at().empty() ? "-" : j.started_at().c_str(),
               j.finished_at().empty() ? "-" : j.finished_at().c_str());
   // Progress while the job lives; an ended job shows its summary (or reason) below instead.
-  const bool ended = j.state() == v1::JOB_STATE_DONE || j.state() == v1::JOB_STATE_FAILED ||
-                     j.state() == v1::JOB_STATE_CANCELLED;
-  if (!ended)
+  if (!Ended(j.state()))
     std::printf("progress: %s %s, t = %.4f ms, peak plate force so far %.5g N\n",
                 j.progress().stage().c_str(), Percent(j.progress().fraction()).c_str(),
                 j.progress().sim_time_s() * 1e3, j.progress().peak_plate_force_n());

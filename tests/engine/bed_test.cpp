@@ -2,9 +2,12 @@
 // determinism whatever the number of threads.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstring>
 #include <fstream>
 #include <random>
+#include <thread>
 
 #include "dembuf/engine/bed.h"
 #include "dembuf/engine/errors.h"
@@ -103,6 +106,58 @@ TEST(BedPreparation, CachedBedIsReusedNotSettledAgain) {
   EXPECT_EQ(
       std::memcmp(a.beads.position.data(), b.beads.position.data(), a.beads.size() * sizeof(Vec3)),
       0);
+}
+
+TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
+  // Workers of a sweep or of the daemon ask for the same bed at once: one prepares it, the
+  // others wait and get the same bed. A preparation that fails releases the waiters, and the
+  // next caller tries again. (Also run under ThreadSanitizer: deploy/test.sh.)
+  BedCache cache;
+  std::atomic<int> made{0};
+  auto make = [&] {
+    ++made;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the others arrive meanwhile
+    PreparedBed bed = SmallBed();
+    bed.hash = "shared";
+    return bed;
+  };
+  std::vector<std::size_t> sizes(4);
+  {
+    std::vector<std::jthread> workers;
+    for (std::size_t t = 0; t < sizes.size(); ++t)
+      workers.emplace_back(
+          [&, t] { sizes[t] = cache.FindOrMake("shared", "cut", make).beads.size(); });
+  }
+  EXPECT_EQ(made.load(), 1);
+  for (std::size_t n : sizes) EXPECT_EQ(n, SmallBed().beads.size());
+  EXPECT_EQ(cache.prepared_counts().at("cut"), 1);
+
+  std::atomic<int> failures{0};
+  auto fail_once = [&]() -> PreparedBed {
+    if (failures++ == 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      throw std::runtime_error("the first preparation fails");
+    }
+    PreparedBed bed = SmallBed();
+    bed.hash = "retried";
+    return bed;
+  };
+  std::atomic<int> thrown{0}, got{0};
+  {
+    std::vector<std::jthread> workers;
+    for (int t = 0; t < 3; ++t)
+      workers.emplace_back([&] {
+        try {
+          cache.FindOrMake("retried", "cut", fail_once);
+          ++got;
+        } catch (const std::runtime_error&) {
+          ++thrown;
+        }
+      });
+  }
+  EXPECT_EQ(thrown.load(), 1);  // only the thread whose preparation failed sees the failure
+  EXPECT_EQ(got.load(), 2);     // one of the waiters prepared it again, the last found it
+  EXPECT_EQ(failures.load(), 2);
 }
 
 TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {

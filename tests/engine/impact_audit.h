@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 #include "dembuf/engine/impact.h"
 
@@ -29,6 +30,11 @@ struct ImpactAudit {
   double final_plate_force_N = 0.0;
   double final_wall_force_z_N = 0.0;
   double weight_N = 0.0;  ///< of beads and projectile
+  /// With `rest_from_step`: how far the projectile moved from that step to the end, and how
+  /// many beads moved by more than a thousandth of their diameter.
+  double late_projectile_displacement_m = 0.0;
+  int late_moving_beads = 0;
+  double final_bead_kinetic_J = 0.0;
 };
 
 /// The stress runs (DEMBUF_STRESS=1) scale the hard cases up: larger beds, longer runs.
@@ -38,8 +44,10 @@ inline bool StressMode() {
 }
 
 /// Runs `scene` for `steps` steps from the projectile's start position (keep it just above
-/// the bed: the audit integrates the flight too), checking every `check_every` steps.
-inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check_every = 20) {
+/// the bed: the audit integrates the flight too), checking every `check_every` steps. With
+/// `rest_from_step` >= 0 it also measures how far anything moves after that step.
+inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check_every = 20,
+                               std::int64_t rest_from_step = -1) {
   World world = BuildWorld(scene);
   const Container box = world.params.container;
   const double bed_surface = world.bed_surface_m;
@@ -68,7 +76,13 @@ inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check
     audit.energy_gain_J =
         std::max(audit.energy_gain_J, sim.Energy().Total() - audit.start_energy_J);
   };
+  std::vector<Vec3> rest_positions;
+  Vec3 rest_projectile = Vec3::Zero();
   for (std::int64_t k = 0; k < steps && audit.problem.empty(); ++k) {
+    if (k == rest_from_step) {
+      rest_positions = sim.beads().position;
+      if (sim.projectile()) rest_projectile = sim.projectile()->position;
+    }
     sim.Step();
     const StepObservables& o = sim.observables();
     audit.peak_plate_force_N = std::max(audit.peak_plate_force_N, o.plate_force_N);
@@ -85,6 +99,15 @@ inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check
     if ((k + 1) % check_every == 0) check();
   }
   check();
+  if (!rest_positions.empty()) {
+    const ParticleState& b = sim.beads();
+    for (std::size_t i = 0; i < rest_positions.size(); ++i)
+      if ((b.position[i] - rest_positions[i]).norm() > 2e-3 * b.radius[i])
+        ++audit.late_moving_beads;
+    if (sim.projectile())
+      audit.late_projectile_displacement_m = (sim.projectile()->position - rest_projectile).norm();
+  }
+  audit.final_bead_kinetic_J = sim.BeadKineticEnergy();
   audit.steps = sim.steps();
   if (sim.projectile()) audit.projectile_end = *sim.projectile();
   audit.final_plate_force_N = sim.observables().plate_force_N;

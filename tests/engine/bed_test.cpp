@@ -113,13 +113,18 @@ TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
   // others wait and get the same bed. A preparation that fails releases the waiters, and the
   // next caller tries again. (Also run under ThreadSanitizer: deploy/test.sh.)
   BedCache cache;
+  auto three_beads = [](const std::string& hash) {
+    PreparedBed bed;
+    for (int i = 0; i < 3; ++i) bed.beads.Add(Vec3(0.005 * i, 0, 0.00225), 0.00225, 2650.0);
+    bed.hash = hash;
+    bed.stage = "cut";
+    return bed;
+  };
   std::atomic<int> made{0};
   auto make = [&] {
     ++made;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the others arrive meanwhile
-    PreparedBed bed = SmallBed();
-    bed.hash = "shared";
-    return bed;
+    return three_beads("shared");
   };
   std::vector<std::size_t> sizes(4);
   {
@@ -129,7 +134,7 @@ TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
           [&, t] { sizes[t] = cache.FindOrMake("shared", "cut", make).beads.size(); });
   }
   EXPECT_EQ(made.load(), 1);
-  for (std::size_t n : sizes) EXPECT_EQ(n, SmallBed().beads.size());
+  for (std::size_t n : sizes) EXPECT_EQ(n, 3u);
   EXPECT_EQ(cache.prepared_counts().at("cut"), 1);
 
   std::atomic<int> failures{0};
@@ -138,9 +143,7 @@ TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
       throw std::runtime_error("the first preparation fails");
     }
-    PreparedBed bed = SmallBed();
-    bed.hash = "retried";
-    return bed;
+    return three_beads("retried");
   };
   std::atomic<int> thrown{0}, got{0};
   {

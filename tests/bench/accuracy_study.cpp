@@ -3,7 +3,7 @@
 // from first contact to the peak, crater depth) against the knob's most accurate setting, next
 // to the wall time it took. Prints tables (Markdown) and writes JSON.
 //
-//   dembuf_accuracy_study [--out accuracy.json]
+//   dembuf_accuracy_study [--out accuracy.json] [--parts 1,2,3,4]
 //
 // 1. Time-step factor alpha, 0.025 to 1, on one bed (prepared once at the standard settings):
 //    the impact alone. The bed is the same, so the differences are the integration's.
@@ -13,6 +13,8 @@
 // 4. The accuracy presets draft / standard / reference, whole runs (bed and impact), against
 //    the reference preset.
 // Beds are prepared in memory (nothing cached), on one thread, so that times compare.
+#include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -141,49 +143,63 @@ nlohmann::json Study(const char* title, const char* knob, const std::vector<std:
 
 int main(int argc, char** argv) {
   std::string out = "accuracy.json";
-  if (argc == 3 && std::string(argv[1]) == "--out") out = argv[2];
+  std::vector<int> parts = {1, 2, 3, 4};
+  CLI::App app{"What accuracy costs in time: each knob's error and wall time on the E2 impact"};
+  app.add_option("--out", out, "JSON file to write");
+  app.add_option("--parts", parts, "which parts to run (1 alpha, 2 tolerance, 3 radius, 4 presets)")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 4));
+  CLI11_PARSE(app, argc, argv);
+  auto wanted = [&](int part) {
+    return std::find(parts.begin(), parts.end(), part) != parts.end();
+  };
   nlohmann::json report;
 
   // 1. alpha, on one bed: the bed of the standard alpha, only the impact's step changes (the
   // bare-plate reference run for lambda keeps the standard step).
   BedCache shared_beds;
   const std::vector<double> alphas = {0.025, 0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0};
-  report["alpha"] =
-      Study("1. time-step factor alpha (one bed; reference alpha = 0.025)", "alpha", Labels(alphas),
-            0, false, [&](std::size_t k) {
-              return Measure(
-                  StudyScene(), [&](World& w) { w.params.dt_s = alphas[k] * w.critical_dt_s; },
-                  &shared_beds);
-            });
+  if (wanted(1))
+    report["alpha"] =
+        Study("1. time-step factor alpha (one bed; reference alpha = 0.025)", "alpha",
+              Labels(alphas), 0, false, [&](std::size_t k) {
+                return Measure(
+                    StudyScene(), [&](World& w) { w.params.dt_s = alphas[k] * w.critical_dt_s; },
+                    &shared_beds);
+              });
 
   // 2. settling tolerance.
   const std::vector<double> tolerances = {1e-6, 1e-5, 1e-4, 1e-3};
-  report["settle_tolerance"] = Study("2. settling tolerance (own bed each; reference 1e-6)",
-                                     "tolerance", Labels(tolerances), 0, true, [&](std::size_t k) {
-                                       Scene scene = StudyScene();
-                                       scene.bed.settle_tolerance = tolerances[k];
-                                       return Measure(scene);
-                                     });
+  if (wanted(2))
+    report["settle_tolerance"] =
+        Study("2. settling tolerance (own bed each; reference 1e-6)", "tolerance",
+              Labels(tolerances), 0, true, [&](std::size_t k) {
+                Scene scene = StudyScene();
+                scene.bed.settle_tolerance = tolerances[k];
+                return Measure(scene);
+              });
 
   // 3. bed diameter.
   const std::vector<double> radii = {0.095, 0.075, 0.055};
-  report["cylinder_radius"] =
-      Study("3. cylinder radius (own bed each; reference 0.095 m, the paper's)", "radius [m]",
-            Labels(radii), 0, true, [&](std::size_t k) {
-              Scene scene = StudyScene();
-              scene.cylinder.radius_m = radii[k];
-              return Measure(scene);
-            });
+  if (wanted(3))
+    report["cylinder_radius"] =
+        Study("3. cylinder radius (own bed each; reference 0.095 m, the paper's)", "radius [m]",
+              Labels(radii), 0, true, [&](std::size_t k) {
+                Scene scene = StudyScene();
+                scene.cylinder.radius_m = radii[k];
+                return Measure(scene);
+              });
 
   // 4. presets, against the reference preset.
   std::vector<std::string> presets;
   for (const AccuracyPreset& p : AccuracyPresets()) presets.emplace_back(p.name);
-  report["presets"] = Study("4. accuracy presets, whole runs (reference: the reference preset)",
-                            "preset", presets, presets.size() - 1, true, [&](std::size_t k) {
-                              Scene scene = StudyScene();
-                              ApplyAccuracy(scene, presets[k]);
-                              return Measure(scene);
-                            });
+  if (wanted(4))
+    report["presets"] = Study("4. accuracy presets, whole runs (reference: the reference preset)",
+                              "preset", presets, presets.size() - 1, true, [&](std::size_t k) {
+                                Scene scene = StudyScene();
+                                ApplyAccuracy(scene, presets[k]);
+                                return Measure(scene);
+                              });
 
   std::ofstream(out) << report.dump(2) << "\n";
   std::printf("\nwrote %s\n", out.c_str());

@@ -4,6 +4,8 @@
 #include <ctime>
 #include <nlohmann/json.hpp>
 
+#include "fault_injection.h"
+
 namespace dembuf::server {
 
 namespace {
@@ -379,6 +381,7 @@ void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
       .Bind(id, results.summary_json, static_cast<std::int64_t>(results.samples.size()),
             Statement::Bytes{PackSamples(results.samples)})
       .Run();
+  FaultPoint("kill-during-result-write");  // the series is written, the job not yet done
   m_db->Prepare("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?")
       .Bind(StateName(state), error, UtcNow(), id)
       .Run();

@@ -3,8 +3,11 @@
 # 1. kill -9 of dembufd while a sweep runs, then a restart on the same database: every job is
 #    still there, completed results are intact and identical, the interrupted job runs again.
 # 2. kill -9 during a bed preparation: the job prepares the bed again and finishes.
-# 3. A damaged database file: the daemon refuses to start, says why, and leaves it untouched.
-# 4. The disk fills while a job runs (a small tmpfs; needs root to mount, else skipped with a
+# 3. kill -9 halfway through writing a result (the daemon's fault point
+#    kill-during-result-write, between the series and the job's state): the half-written
+#    result is rolled back, the job runs again and its result is complete.
+# 4. A damaged database file: the daemon refuses to start, says why, and leaves it untouched.
+# 5. The disk fills while a job runs (a small tmpfs; needs root to mount, else skipped with a
 #    notice): the daemon keeps serving, refuses new jobs with RESOURCE_EXHAUSTED, puts the
 #    job back in the queue, and finishes it once space is freed; earlier results are intact.
 # Usage: fault_test.sh DEMBUF DEMBUFD
@@ -60,6 +63,31 @@ wait_state "$bedjob" done 180
 "$dembuf" status "$bedjob" | grep -q "attempts 2" || fail "bed job: $("$dembuf" status "$bedjob")"
 stop_daemon
 
+# kill -9 halfway through writing a result: the series is in the open transaction when the
+# daemon dies. After the restart the job is not done (the write rolled back), runs again, and
+# its result is complete and equal to a local run of the same scene.
+DEMBUFD_FAULT=kill-during-result-write start_daemon "$work/dembuf.db" "$work/dembufd.log" \
+  --workers 1
+writejob=$("$dembuf" submit "$work/small.toml" --set time.end_s=0.2 2>/dev/null)
+for _ in $(seq 1800); do
+  kill -0 "$daemon_pid" 2>/dev/null || break
+  sleep 0.1
+done
+kill -0 "$daemon_pid" 2>/dev/null && fail "the daemon did not stop at the fault point"
+wait "$daemon_pid" 2>/dev/null || true
+daemon_pid=""
+start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 1
+grep -q "job $writejob was running when the daemon stopped; queued to run again" \
+  "$work/dembufd.log" || fail "the half-written job $writejob was not re-queued"
+wait_state "$writejob" done 180
+"$dembuf" status "$writejob" | grep -q "attempts 2" || fail "write job: $("$dembuf" status "$writejob")"
+"$dembuf" fetch "$writejob" --out "$work/written" --no-plots > /dev/null
+"$dembuf" run "$work/small.toml" --set time.end_s=0.2 --bed-cache "$work/local-beds" \
+  --out "$work/local-written" > /dev/null 2>&1
+cmp -s "$work/written/plate_force.csv" "$work/local-written/plate_force.csv" ||
+  fail "the result written after the crash differs from a local run"
+stop_daemon
+
 # A damaged database: refused at start with a clear message, the file left exactly as it was.
 cp "$work/dembuf.db" "$work/damaged.db"
 # Overwrite the header of the schema's b-tree page (page 1, after the 100-byte file header).
@@ -107,4 +135,5 @@ done
 stop_daemon
 umount "$disk"
 echo "fault test passed: $(wc -l < "$work/done_before") results kept, jobs re-run: $running," \
-  "a bed preparation redone, a damaged database refused, a full disk survived"
+  "a bed preparation redone, a half-written result redone, a damaged database refused," \
+  "a full disk survived"

@@ -313,8 +313,8 @@ TEST(HardCase, BedImpactAt50MetersPerSecond) {
   EXPECT_GT(a.peak_plate_force_N, 1000.0);
 }
 
-TEST(HardCase, BedImpactWithFrictionZeroAndFive) {
-  for (double mu : {0.0, 5.0}) {
+TEST(HardCase, BedImpactWithFrictionZeroOneAndFive) {
+  for (double mu : {0.0, 1.0, 5.0}) {
     SCOPED_TRACE("mu_pp = " + std::to_string(mu));
     Scene scene = AuditedBedScene(2.0);
     scene.material.friction_bead_bead = mu;

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set-up command 2: install, build, and run every test: the GoogleTest and CTest suites, the
-# same suites built with AddressSanitizer and UndefinedBehaviorSanitizer, and the fuzzers for a
-# bounded time. FUZZ_SECONDS (default 60) sets the fuzzing time per target; SANITIZE=0 and
+# same suites built with AddressSanitizer and UndefinedBehaviorSanitizer, the threaded parts
+# under ThreadSanitizer, and the fuzzers for a bounded time. FUZZ_SECONDS (default 60) sets the fuzzing time per target; SANITIZE=0 and
 # FUZZ_SECONDS=0 skip those stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,6 +26,31 @@ if [ "${SANITIZE:-1}" != 0 ]; then
   engine=$!
   build-asan/tests/server_tests --gtest_brief=1
   wait "$engine"
+
+  echo "== the threaded parts under ThreadSanitizer"
+  # clang with LLVM's OpenMP runtime, whose Archer tool shows ThreadSanitizer OpenMP's barriers
+  # (without it, or with GCC's libgomp, every parallel loop would be reported as a race).
+  CC=clang CXX=clang++ cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DDEMBUF_SANITIZE=thread > /dev/null
+  cmake --build build-tsan --parallel "$(nproc)" --target engine_tests dembuf dembufd
+  OMP_TOOL_LIBRARIES="$(dirname "$(readlink -f "$(command -v clang)")")/../lib/libarcher.so"
+  export OMP_TOOL_LIBRARIES
+  export TSAN_OPTIONS="halt_on_error=1 ignore_noninstrumented_modules=1 second_deadlock_stack=1"
+  # The engine's parallel force and integration loops (1 and 2 threads, bit-identical), the
+  # bed cache shared by threads, a local sweep running two jobs at once on one bed, and the
+  # daemon end to end: its scheduler, worker pool, live streaming and cancellation (the
+  # service test with both binaries built for TSan).
+  build-tsan/tests/engine_tests --gtest_brief=1 \
+    --gtest_filter='Determinism.*:BedCacheThreads.*'
+  tsan_sweep=$(mktemp -d)
+  build-tsan/client/dembuf sweep --set cylinder.radius_m=0.015 --set bed.thickness_m=0.008 \
+    --set bed.source_thickness_m=0.012 --set projectile.diameter_m=0.01 \
+    --set projectile.mass_kg=0.005 --set projectile.height_m=0.01 --set time.end_s=0.01 \
+    --vary projectile.speed_m_s=1,2,3 --jobs 2 --local --bed-cache "$tsan_sweep/beds" \
+    --out "$tsan_sweep/sweep" > "$tsan_sweep/log" || { cat "$tsan_sweep/log"; exit 1; }
+  rm -rf "$tsan_sweep"
+  bash tests/server/service_test.sh build-tsan/client/dembuf build-tsan/server/dembufd
+  unset OMP_TOOL_LIBRARIES TSAN_OPTIONS
 fi
 
 if [ "${FUZZ_SECONDS:-60}" != 0 ]; then

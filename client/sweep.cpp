@@ -6,11 +6,14 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <deque>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 
 #include "dembuf/engine/errors.h"
@@ -22,20 +25,70 @@
 
 namespace dembuf::cli {
 
+namespace {
+
+struct RunResult {
+  bool ok = false;
+  std::string error;
+  nlohmann::json summary;
+};
+
+// Hands a sweep's runs to its workers in plan order, passing over runs that would only wait
+// for a bed another worker is preparing (WaitsForBed, the daemon's rule); when every run left
+// waits, the worker sleeps until a bed is ready or a run ends.
+class RunQueue {
+ public:
+  RunQueue(const std::vector<SweepRun>& runs, const std::vector<std::size_t>& order, BedCache& beds)
+      : m_runs(runs), m_pending(order.begin(), order.end()), m_beds(beds) {
+    m_beds.OnPrepared([this](const PreparedBed&) { m_changed.notify_all(); });
+  }
+  ~RunQueue() { m_beds.OnPrepared({}); }
+
+  std::optional<std::size_t> Next(int worker) {
+    std::unique_lock lock(m_mutex);
+    while (!m_pending.empty()) {
+      std::vector<BedNeeds> busy;
+      for (const auto& [other, needs] : m_running) busy.push_back(needs);
+      for (auto it = m_pending.begin(); it != m_pending.end(); ++it) {
+        if (WaitsForBed(m_runs[*it].beds, busy, m_beds)) continue;
+        const std::size_t run = *it;
+        m_pending.erase(it);
+        m_running[worker] = m_runs[run].beds;
+        return run;
+      }
+      // The timeout only guards against a missed wake-up.
+      m_changed.wait_for(lock, std::chrono::seconds(1));
+    }
+    return std::nullopt;
+  }
+
+  void Done(int worker) {
+    {
+      std::lock_guard lock(m_mutex);
+      m_running.erase(worker);
+    }
+    m_changed.notify_all();
+  }
+
+ private:
+  const std::vector<SweepRun>& m_runs;
+  std::deque<std::size_t> m_pending;
+  BedCache& m_beds;
+  std::mutex m_mutex;
+  std::condition_variable m_changed;
+  std::map<int, BedNeeds> m_running;  // by worker
+};
+
+}  // namespace
+
 int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
   const std::vector<SweepAxis> axes = WithSeedAxis(options.axes, options.seeds, base.bed.seed);
   // Every scene is checked before the first run starts.
   const std::vector<SweepRun> runs = ExpandSweep(base, axes);
-  const std::vector<std::size_t> order = InterleaveBySourceBed(runs);
   std::set<std::string> sources;
   for (const SweepRun& run : runs)
-    if (!run.source_hash.empty()) sources.insert(run.source_hash);
+    if (!run.beds.source_hash.empty()) sources.insert(run.beds.source_hash);
 
-  struct RunResult {
-    bool ok = false;
-    std::string error;
-    nlohmann::json summary;
-  };
   std::filesystem::create_directories(options.out_dir / "runs");
   std::vector<RunResult> results(runs.size());
   std::atomic<int> finished{0};
@@ -45,9 +98,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
               sources.size(), options.jobs, options.out_dir.c_str());
   std::fflush(stdout);
 
-#pragma omp parallel for schedule(dynamic) num_threads(options.jobs)
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    const SweepRun& job = runs[order[k]];
+  auto run_one = [&](const SweepRun& job) {
     const std::filesystem::path dir = options.out_dir / "runs" / job.name;
     RunResult& result = results[job.index];
     // A run finished by an earlier, interrupted invocation of the same sweep is kept: its
@@ -61,7 +112,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
           std::lock_guard lock(print_mutex);
           std::printf("[%d/%zu] %s: done earlier, kept\n", ++finished, runs.size(),
                       job.name.c_str());
-          continue;
+          return;
         }
       } catch (const std::exception&) {
         // unreadable: run it again
@@ -108,6 +159,16 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
       std::printf("FAILED: %s\n", result.error.c_str());
     }
     std::fflush(stdout);
+  };
+
+  RunQueue queue(runs, InterleaveBySourceBed(runs), beds);
+#pragma omp parallel num_threads(options.jobs)
+  {
+    const int worker = omp_get_thread_num();
+    while (const std::optional<std::size_t> next = queue.Next(worker)) {
+      run_one(runs[*next]);
+      queue.Done(worker);
+    }
   }
 
   std::vector<report::SweepRunReport> reports;

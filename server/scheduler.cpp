@@ -51,7 +51,7 @@ void Scheduler::Start() {
   {
     std::lock_guard lock(m_mutex);
     for (const JobRecord& job : m_store.QueuedJobs())
-      m_queue.push_back({job.id, job.bed_hash, job.source_hash});
+      m_queue.push_back({job.id, {job.source_hash, job.bed_hash}});
   }
   m_log->info("{} jobs queued; starting {} workers with {} threads each", m_queue.size(),
               m_options.workers, m_options.threads_per_job);
@@ -71,7 +71,7 @@ void Scheduler::Admit(std::size_t count, const std::function<std::vector<JobReco
   const std::vector<JobRecord> jobs = add();
   {
     std::lock_guard lock(m_mutex);
-    for (const JobRecord& job : jobs) m_queue.push_back({job.id, job.bed_hash, job.source_hash});
+    for (const JobRecord& job : jobs) m_queue.push_back({job.id, {job.source_hash, job.bed_hash}});
   }
   m_wake.notify_all();
 }
@@ -140,16 +140,11 @@ void Scheduler::Shutdown(std::chrono::seconds grace) {
 }
 
 bool Scheduler::BlockedLocked(const Queued& job) {
-  // Blocked when a running job is preparing a bed this job needs: it will be ready soon, and
-  // preparing it twice would waste a worker.
-  for (const auto& [id, running] : m_running_beds) {
-    if (!job.source_hash.empty() && running.source_hash == job.source_hash &&
-        !m_beds.Contains(job.source_hash))
-      return true;
-    if (!job.bed_hash.empty() && running.bed_hash == job.bed_hash && !m_beds.Contains(job.bed_hash))
-      return true;
-  }
-  return false;
+  // A bed another worker is preparing will be ready soon; preparing it twice would waste a
+  // worker, and waiting for it would idle one.
+  std::vector<BedNeeds> running;
+  for (const auto& [id, other] : m_running_beds) running.push_back(other.beds);
+  return WaitsForBed(job.beds, running, m_beds);
 }
 
 std::optional<std::int64_t> Scheduler::Next() {

@@ -68,8 +68,7 @@ class Scheduler {
  private:
   struct Queued {
     std::int64_t id;
-    std::string bed_hash;
-    std::string source_hash;
+    BedNeeds beds;
   };
 
   void WorkerLoop(int worker);

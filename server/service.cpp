@@ -120,8 +120,9 @@ JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std:
   job.name = name;
   job.scene_toml = SceneText(scene);
   job.scene_hash = ContentHash(job.scene_toml);
-  job.bed_hash = scene.bed.thickness_m > 0 || !scene.bed.import.empty() ? BedHash(scene) : "";
-  job.source_hash = BedSourceHash(scene);
+  const BedNeeds beds = BedNeedsOf(scene);
+  job.bed_hash = beds.bed_hash;
+  job.source_hash = beds.source_hash;
   return job;
 }
 

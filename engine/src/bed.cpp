@@ -374,6 +374,23 @@ std::string BedHash(const Scene& scene) {
   return NeedsFrictionStage(scene) ? k.friction : k.cut;
 }
 
+BedNeeds BedNeedsOf(const Scene& scene) {
+  const bool has_bed = scene.bed.thickness_m > 0.0 || !scene.bed.import.empty();
+  return {BedSourceHash(scene), has_bed ? BedHash(scene) : ""};
+}
+
+bool WaitsForBed(const BedNeeds& needs, const std::vector<BedNeeds>& running, BedCache& beds) {
+  for (const BedNeeds& other : running) {
+    if (!needs.source_hash.empty() && other.source_hash == needs.source_hash &&
+        !beds.Contains(needs.source_hash))
+      return true;
+    if (!needs.bed_hash.empty() && other.bed_hash == needs.bed_hash &&
+        !beds.Contains(needs.bed_hash))
+      return true;
+  }
+  return false;
+}
+
 PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request) {
   ValidateScene(scene);
   if (!scene.bed.import.empty())

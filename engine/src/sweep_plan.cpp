@@ -131,7 +131,7 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
       run.name.append("=").append(run.values.back());
     }
     ValidateScene(run.scene);
-    run.source_hash = BedSourceHash(run.scene);
+    run.beds = BedNeedsOf(run.scene);
     runs.push_back(std::move(run));
     std::size_t a = 0;
     while (a < axes.size() && ++pick[a] == axes[a].values.size()) pick[a++] = 0;
@@ -142,7 +142,7 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
 
 std::vector<std::size_t> InterleaveBySourceBed(const std::vector<SweepRun>& runs) {
   std::map<std::string, std::vector<std::size_t>> by_source;
-  for (const SweepRun& run : runs) by_source[run.source_hash].push_back(run.index);
+  for (const SweepRun& run : runs) by_source[run.beds.source_hash].push_back(run.index);
   std::vector<std::size_t> order;
   for (std::size_t round = 0; order.size() < runs.size(); ++round)
     for (const auto& [hash, list] : by_source)

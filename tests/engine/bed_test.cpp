@@ -163,6 +163,30 @@ TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
   EXPECT_EQ(failures.load(), 2);
 }
 
+TEST(BedCacheThreads, ARunWaitsOnlyForABedBeingPrepared) {
+  // The rule parallel workers pick runs by: pass over a run whose source or bed another
+  // running run is preparing, until that bed is ready.
+  BedCache beds;
+  const BedNeeds cut_a{"source-a", "cut-a1"};
+  const BedNeeds other_cut_a{"source-a", "cut-a2"};
+  const BedNeeds cut_b{"source-b", "cut-b1"};
+  const BedNeeds bare_plate{"", ""};
+  EXPECT_FALSE(WaitsForBed(cut_a, {}, beds));                   // nobody prepares anything
+  EXPECT_TRUE(WaitsForBed(other_cut_a, {cut_a}, beds));         // its source is being settled
+  EXPECT_TRUE(WaitsForBed(cut_a, {cut_a}, beds));               // its very bed is being made
+  EXPECT_FALSE(WaitsForBed(cut_b, {cut_a}, beds));              // another source: go
+  EXPECT_FALSE(WaitsForBed(bare_plate, {cut_a, cut_b}, beds));  // no bed at all: go
+  auto bed = [](const std::string& hash) {
+    PreparedBed b;
+    b.hash = hash;
+    b.stage = "source";
+    return b;
+  };
+  beds.FindOrMake("source-a", "source", [&] { return bed("source-a"); });
+  EXPECT_FALSE(WaitsForBed(other_cut_a, {cut_a}, beds));  // the source is ready: cut from it
+  EXPECT_TRUE(WaitsForBed(cut_a, {cut_a}, beds));         // the cut itself is not yet
+}
+
 TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   const Scene s = SmallBedScene();
   // A fixed value: a change here means every cached bed is invalidated (raise

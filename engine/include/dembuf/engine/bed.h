@@ -152,6 +152,19 @@ std::string BedSourceHash(const Scene& scene);
 /// The content hash of the bed a scene asks for (16 hex digits, FNV-1a 64 of a canonical text).
 std::string BedHash(const Scene& scene);
 
+/// The prepared beds a run needs: the settled source it is cut from and its own bed (each ""
+/// for none). Runs that share them share the settling.
+struct BedNeeds {
+  std::string source_hash;
+  std::string bed_hash;
+};
+BedNeeds BedNeedsOf(const Scene& scene);
+
+/// Whether a run needing `needs` would only wait if it started now: one of the `running` runs
+/// is preparing its source or its bed, and that bed is not ready in `beds` yet. Parallel
+/// workers (the daemon's, a local sweep's) take another run meanwhile instead of waiting.
+bool WaitsForBed(const BedNeeds& needs, const std::vector<BedNeeds>& running, BedCache& beds);
+
 /// Surface height: the mean, over square cells of side 2 d_max covering the plate (cells whose
 /// centre lies within R - d_max of the axis), of the highest bead top in the cell.
 double MeasureSurface(const ParticleState& beads, double cylinder_radius_m);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "dembuf/engine/bed.h"
 #include "dembuf/engine/scene.h"
 
 namespace dembuf {
@@ -46,8 +47,8 @@ struct SweepRun {
   std::size_t index = 0;
   std::vector<std::string> values;  ///< one per axis
   Scene scene;
-  std::string source_hash;  ///< the settled source bed it is cut from ("" for none)
-  std::string name;         ///< e.g. "003_thickness_m=0.01_seed=2"
+  BedNeeds beds;     ///< the source bed it is cut from and its own bed
+  std::string name;  ///< e.g. "003_thickness_m=0.01_seed=2"
 };
 
 /// The product of the axes on top of `base`, every scene validated. Throws SceneError naming

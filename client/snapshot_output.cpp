@@ -1,5 +1,6 @@
 #include "snapshot_output.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <numbers>
@@ -115,11 +116,14 @@ void WriteForcePdf(const ImpactSnapshot& s, const std::filesystem::path& path) {
   if (forces.empty()) return;
   double mean = 0.0;
   for (double f : forces) mean += f / forces.size();
+  // Bins of a tenth of the mean, up to the largest force: every force in its own bin (a last
+  // bin that collected the tail would show a false peak at the edge).
   constexpr double kBin = 0.1;
-  constexpr int kBins = 80;  // up to 8 times the mean; larger forces go to the last bin
-  std::vector<int> counts(kBins, 0);
-  for (double f : forces) ++counts[std::min(kBins - 1, static_cast<int>(f / mean / kBin))];
-  for (int k = 0; k < kBins; ++k)
+  const double largest = *std::max_element(forces.begin(), forces.end());
+  const int bins = static_cast<int>(largest / mean / kBin) + 1;
+  std::vector<int> counts(bins, 0);
+  for (double f : forces) ++counts[std::min(bins - 1, static_cast<int>(f / mean / kBin))];
+  for (int k = 0; k < bins; ++k)
     out << (k + 0.5) * kBin << "," << counts[k] / (forces.size() * kBin) << "," << counts[k]
         << "\n";
 }

@@ -61,4 +61,18 @@ if "$dembuf" sweep --vary projectile.mass_kg=1:0:1 --out "$work/bad" 2>"$work/er
 fi
 grep -q 'projectile.mass_kg' "$work/err" || fail "bad range message: $(cat "$work/err")"
 [ ! -e "$work/bad" ] || fail "bad sweep created its folder"
+# A snapshot's contact-force PDF (bead pairs, f over the mean force): it integrates to 1 and
+# its last bin holds the largest bead-pair force of contacts.csv (no tail folded into an edge
+# bin; contacts with the projectile, plate or wall are named and left out).
+"$dembuf" run --set cylinder.radius_m=0.02 --set bed.thickness_m=0.01 \
+  --set bed.source_thickness_m=0.015 --set projectile.diameter_m=0.012 \
+  --set projectile.mass_kg=0.01 --set projectile.height_m=0.02 --set output.snapshot_at_peak=true \
+  --no-bed-cache --out "$work/snap" > /dev/null || fail "snapshot run"
+snap=$work/snap/snapshots/peak
+awk -F, 'NR > 1 { area += $2 * 0.1 } END { exit !(area > 0.999 && area < 1.001) }' \
+  "$snap/force_pdf.csv" || fail "the force PDF does not integrate to 1"
+awk -F, 'NR == FNR { if (FNR > 1 && $1 ~ /^[0-9]+$/ && $2 ~ /^[0-9]+$/ && $9 > 0) { n++; sum += $9; if ($9 > max) max = $9 }; next }
+         FNR > 1 { last = $1; count = $3 }
+         END { x = max / (sum / n); exit !(count > 0 && x >= last - 0.05 && x < last + 0.05) }' \
+  "$snap/contacts.csv" "$snap/force_pdf.csv" || fail "the PDF's last bin is not the largest force"
 echo "1 passed, 0 failed"

@@ -44,42 +44,65 @@ void CarryHistory(const std::uint32_t* old_ids, const Vec3* old_shear, std::size
 
 }  // namespace
 
-void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin,
-                     PairList& list) {
+void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, PairList& list,
+                     int threads) {
+  // Beads are searched in fixed chunks, each into its own partner vector, which are then
+  // joined in chunk order: the same list for any number of threads.
+  constexpr std::size_t kChunkBeads = 512;
   const std::size_t n = beads.size();
+  const long chunks = static_cast<long>((n + kChunkBeads - 1) / kChunkBeads);
+  const bool parallel = threads > 1 && chunks > 1;
+  std::vector<std::vector<std::uint32_t>> found(chunks);
   PairList fresh;
   fresh.offsets.resize(n + 1);
-  fresh.partners.reserve(list.partners.empty() ? 8 * n : list.partners.size() + n);
-  for (std::size_t i = 0; i < n; ++i) {
-    fresh.offsets[i] = static_cast<std::uint32_t>(fresh.partners.size());
-    const Vec3 xi = beads.position[i];
-    const double ri = beads.radius[i];
-    grid.ForEachAround(xi, [&](std::uint32_t j) {
-      if (j <= i) return;
-      const double reach = ri + beads.radius[j] + skin;
-      if ((xi - beads.position[j]).squaredNorm() < reach * reach) fresh.partners.push_back(j);
-    });
-    std::sort(fresh.partners.begin() + fresh.offsets[i], fresh.partners.end());
-  }
-  fresh.offsets[n] = static_cast<std::uint32_t>(fresh.partners.size());
-  fresh.shear.resize(fresh.partners.size());
-  fresh.sqrt_r_star.resize(fresh.partners.size());
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::uint32_t k = fresh.offsets[i]; k < fresh.offsets[i + 1]; ++k) {
-      const double ri = beads.radius[i], rj = beads.radius[fresh.partners[k]];
-      fresh.sqrt_r_star[k] = std::sqrt(ri * rj / (ri + rj));
+#pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel)
+  for (long c = 0; c < chunks; ++c) {
+    const std::size_t first = c * kChunkBeads, last = std::min(n, first + kChunkBeads);
+    std::vector<std::uint32_t>& partners = found[c];
+    partners.reserve(8 * (last - first));
+    for (std::size_t i = first; i < last; ++i) {
+      fresh.offsets[i] = static_cast<std::uint32_t>(partners.size());  // within the chunk
+      const Vec3 xi = beads.position[i];
+      const double ri = beads.radius[i];
+      grid.ForEachAround(xi, [&](std::uint32_t j) {
+        if (j <= i) return;
+        const double reach = ri + beads.radius[j] + skin;
+        if ((xi - beads.position[j]).squaredNorm() < reach * reach) partners.push_back(j);
+      });
+      std::sort(partners.begin() + fresh.offsets[i], partners.end());
     }
+  }
+  std::vector<std::uint32_t> chunk_start(chunks + 1, 0);
+  for (long c = 0; c < chunks; ++c)
+    chunk_start[c + 1] = chunk_start[c] + static_cast<std::uint32_t>(found[c].size());
+  fresh.offsets[n] = chunk_start[chunks];
+  fresh.partners.resize(chunk_start[chunks]);
+  fresh.shear.resize(chunk_start[chunks]);
+  fresh.sqrt_r_star.resize(chunk_start[chunks]);
 
   const bool had_list = list.offsets.size() == n + 1;
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t b0 = fresh.offsets[i], b1 = fresh.offsets[i + 1];
-    if (!had_list) {
-      std::fill(fresh.shear.begin() + b0, fresh.shear.begin() + b1, Vec3::Zero());
-      continue;
+#pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel)
+  for (long c = 0; c < chunks; ++c) {
+    const std::size_t first = c * kChunkBeads, last = std::min(n, first + kChunkBeads);
+    std::copy(found[c].begin(), found[c].end(), fresh.partners.begin() + chunk_start[c]);
+    for (std::size_t i = first; i < last; ++i) fresh.offsets[i] += chunk_start[c];
+    for (std::size_t i = first; i < last; ++i) {
+      // The next chunk's offsets may not be shifted yet: its first entry is chunk_start[c + 1].
+      const std::uint32_t b0 = fresh.offsets[i];
+      const std::uint32_t b1 = i + 1 < last ? fresh.offsets[i + 1] : chunk_start[c + 1];
+      const double ri = beads.radius[i];
+      for (std::uint32_t k = b0; k < b1; ++k) {
+        const double rj = beads.radius[fresh.partners[k]];
+        fresh.sqrt_r_star[k] = std::sqrt(ri * rj / (ri + rj));
+      }
+      if (!had_list) {
+        std::fill(fresh.shear.begin() + b0, fresh.shear.begin() + b1, Vec3::Zero());
+        continue;
+      }
+      const std::uint32_t a0 = list.offsets[i], a1 = list.offsets[i + 1];
+      CarryHistory(list.partners.data() + a0, list.shear.data() + a0, a1 - a0,
+                   fresh.partners.data() + b0, fresh.shear.data() + b0, b1 - b0);
     }
-    const std::uint32_t a0 = list.offsets[i], a1 = list.offsets[i + 1];
-    CarryHistory(list.partners.data() + a0, list.shear.data() + a0, a1 - a0,
-                 fresh.partners.data() + b0, fresh.shear.data() + b0, b1 - b0);
   }
   list = std::move(fresh);
 }

@@ -35,13 +35,12 @@ class CellGrid {
   /// neighbors close in memory and groups them in layers.
   const std::vector<std::uint32_t>& CellOrder() const { return m_cell_beads; }
 
-  /// Index of the first bead (in cell order) of each z layer of cells, and one past the last.
-  std::vector<std::uint32_t> LayerStarts() const {
-    std::vector<std::uint32_t> starts;
-    const std::size_t layer = static_cast<std::size_t>(m_dims[0]) * m_dims[1];
-    for (int z = 0; z <= m_dims[2]; ++z) starts.push_back(m_cell_start[z * layer]);
-    return starts;
-  }
+  /// Number of cells along axis d (0: x, 1: y, 2: z).
+  int Dim(int d) const { return m_dims[d]; }
+
+  /// Index (in cell order) of the first bead of the row of cells (y, z); y = Dim(1) is the
+  /// first row of layer z + 1, and z = Dim(2) one past the last bead.
+  std::uint32_t RowStart(int y, int z) const { return m_cell_start[Index(0, y, z)]; }
 
   /// Calls visit(j) for every bead in the 27 cells around the cell of point p.
   template <class Visit>
@@ -95,8 +94,9 @@ struct CandidateList {
 };
 
 /// Rebuilds `list` for all pairs closer than r_i + r_j + skin, keeping the history of the
-/// pairs already present.
-void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, PairList& list);
+/// pairs already present. The result does not depend on `threads`.
+void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, PairList& list,
+                     int threads = 1);
 
 /// Rebuilds the projectile's candidates: beads closer than R + r_i + skin, in id order. The
 /// grid may be older than the positions if no bead has moved more than `grid_age_margin`

@@ -99,13 +99,16 @@ struct Simulation::Impl {
   bool friction = false;
   StepConditions conditions;
 
-  // Parallel force computation. Beads are kept in cell order (z layers of cells, bottom up)
-  // and split into blocks of whole layers. A pair (i, j > i) then joins a bead of block b to
-  // one of block b or b + 1, so all even blocks can run at once, then all odd ones, without
-  // two threads ever adding to the same bead. The blocks depend on the beads, not on the
-  // thread count, so every sum is taken in the same order: results are bit-identical for any
-  // number of threads.
+  // Parallel force computation. Beads are kept in cell order (z layers of cells, bottom up;
+  // in a layer, rows of cells along y) and split into blocks of kSlabRows rows of one layer.
+  // A pair (i, j > i) found in the 27 cells around i joins a bead of block (z, s) to one of
+  // slabs s or s + 1 of layer z, or slabs s - 1 to s + 1 of layer z + 1. Blocks whose layers
+  // differ by 2, or whose slabs differ by 3, never touch the same bead, so the blocks fall into
+  // six phases (z mod 2, s mod 3) that each run in parallel. The blocks depend on the beads,
+  // not on the thread count, and every sum is taken in the same order: results are
+  // bit-identical for any number of threads.
   std::vector<std::uint32_t> block_start{0, 0};
+  std::vector<std::vector<int>> phase_blocks{{0}};
   std::vector<StepObservables> block_observables;
   std::vector<StepConditions> block_conditions;
   int threads = 1;
@@ -260,11 +263,14 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
         if constexpr (kFriction) b.torque[i].setZero();
       }
     }
-    for (int phase = 0; phase < 2; ++phase) {
-#pragma omp for schedule(static)
-      for (int k = phase; k < blocks; k += 2)
+    for (const std::vector<int>& phase : s.phase_blocks) {
+      const int count = static_cast<int>(phase.size());
+#pragma omp for schedule(dynamic, 1)
+      for (int m = 0; m < count; ++m) {
+        const int k = phase[m];
         PairForces<kFriction>(params, b, s.pairs, start[k], start[k + 1], s.block_observables[k],
                               s.block_conditions[k]);
+      }
     }
 #pragma omp for schedule(static)
     for (int k = 0; k < blocks; ++k) {
@@ -390,6 +396,23 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(s.wall_shear, order);
 }
 
+// Splits the beads (in cell order) into the blocks and phases described at Impl::block_start.
+void PlanBlocks(Simulation::Impl& s) {
+  constexpr int kSlabRows = 2;
+  const int rows = s.grid.Dim(1), layers = s.grid.Dim(2);
+  s.block_start.clear();
+  s.phase_blocks.assign(6, {});
+  for (int z = 0; z < layers; ++z)
+    for (int slab = 0; slab * kSlabRows < rows; ++slab) {
+      const std::uint32_t first = s.grid.RowStart(slab * kSlabRows, z);
+      const std::uint32_t last = s.grid.RowStart(std::min((slab + 1) * kSlabRows, rows), z);
+      if (last == first) continue;
+      s.phase_blocks[(z % 2) * 3 + slab % 3].push_back(static_cast<int>(s.block_start.size()));
+      s.block_start.push_back(first);
+    }
+  s.block_start.push_back(s.grid.RowStart(0, layers));
+}
+
 void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
   if (b.size() > 0) {
@@ -407,6 +430,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
     s.grid.Build(b.position, cell, lo, hi);
     s.parallel = b.size() >= kParallelMinBeads;
     s.block_start = {0, static_cast<std::uint32_t>(b.size())};
+    s.phase_blocks = {{0}};
     if (s.parallel) {
       const std::vector<std::uint32_t>& order = s.grid.CellOrder();
       bool sorted = true;
@@ -415,14 +439,9 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
         ReorderBeads(b, s, std::vector<std::uint32_t>(order));
         s.grid.Build(b.position, cell, lo, hi);
       }
-      // One block per non-empty layer of cells.
-      s.block_start.clear();
-      for (std::uint32_t first : s.grid.LayerStarts())
-        if (s.block_start.empty() || first > s.block_start.back()) s.block_start.push_back(first);
-      if (s.block_start.size() < 2) s.block_start.push_back(static_cast<std::uint32_t>(b.size()));
-      s.block_start.front() = 0;
+      PlanBlocks(s);
     }
-    detail::RebuildPairList(b, s.grid, s.skin, s.pairs);
+    detail::RebuildPairList(b, s.grid, s.skin, s.pairs, s.parallel ? s.threads : 1);
     ApplyHistory(s);
     s.reference_position = b.position;
     if (projectile)
@@ -598,6 +617,11 @@ void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
   m_params.sphere_wall.friction = sphere_wall;
   m_impl->friction = sphere_pair > 0.0 || sphere_wall > 0.0;
   m_impl->forces_valid = false;
+}
+
+void Simulation::SetThreads(int threads) {
+  m_params.threads = threads;
+  m_impl->threads = threads > 0 ? threads : omp_get_max_threads();
 }
 
 std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {

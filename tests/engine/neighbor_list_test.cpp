@@ -24,6 +24,14 @@ TEST(PairList, MatchesBruteForce) {
   grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.03));
   PairList list;
   RebuildPairList(b, grid, skin, list);
+  // Built in chunks on several threads (2000 beads are four chunks), the list is the same.
+  for (int threads : {2, 3}) {
+    PairList parallel;
+    RebuildPairList(b, grid, skin, parallel, threads);
+    EXPECT_EQ(parallel.offsets, list.offsets) << threads << " threads";
+    EXPECT_EQ(parallel.partners, list.partners) << threads << " threads";
+    EXPECT_EQ(parallel.sqrt_r_star, list.sqrt_r_star) << threads << " threads";
+  }
   std::set<std::pair<std::uint32_t, std::uint32_t>> found, expected;
   for (std::uint32_t i = 0; i < b.size(); ++i) {
     for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
@@ -43,28 +51,33 @@ TEST(PairList, MatchesBruteForce) {
 }
 
 TEST(PairList, RebuildKeepsHistoryOfSurvivingPairs) {
-  ParticleState b = RandomBeads(500, 3);
-  const double skin = 0.001;
-  CellGrid grid;
-  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.06));
-  PairList list;
-  RebuildPairList(b, grid, skin, list);
-  for (std::uint32_t i = 0; i < b.size(); ++i)
-    for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k)
-      list.shear[k] = Vec3(i, list.partners[k], 1.0);
-  // Move one bead far away: its pairs vanish, every other pair keeps its stamp.
-  b.position[10] = Vec3(0.0, 0.0, 0.055);
-  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.06));
-  RebuildPairList(b, grid, skin, list);
-  for (std::uint32_t i = 0; i < b.size(); ++i)
-    for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
-      const std::uint32_t j = list.partners[k];
-      if (i == 10 || j == 10) {
-        EXPECT_EQ(list.shear[k], Vec3::Zero());
-      } else {
-        EXPECT_EQ(list.shear[k], Vec3(i, j, 1.0));
+  for (int threads : {1, 2}) {  // 1500 beads: three chunks, carried across chunk borders
+    ParticleState b = RandomBeads(1500, 3);
+    const double skin = 0.001;
+    CellGrid grid;
+    grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.06));
+    PairList list;
+    RebuildPairList(b, grid, skin, list, threads);
+    for (std::uint32_t i = 0; i < b.size(); ++i)
+      for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k)
+        list.shear[k] = Vec3(i, list.partners[k], 1.0);
+    // Move one bead far away: its pairs vanish, every other pair keeps its stamp.
+    b.position[10] = Vec3(0.0, 0.0, 0.055);
+    grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.06));
+    RebuildPairList(b, grid, skin, list, threads);
+    std::size_t kept = 0;
+    for (std::uint32_t i = 0; i < b.size(); ++i)
+      for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
+        const std::uint32_t j = list.partners[k];
+        if (i == 10 || j == 10) {
+          EXPECT_EQ(list.shear[k], Vec3::Zero());
+        } else {
+          EXPECT_EQ(list.shear[k], Vec3(i, j, 1.0)) << threads << " threads";
+          ++kept;
+        }
       }
-    }
+    EXPECT_GT(kept, 1000u);
+  }
 }
 
 TEST(CandidateList, FindsBeadsNearALargeSphere) {

@@ -244,7 +244,9 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   sweep->add_option("--seeds", opt.seeds,
                     "N bed seeds for every point, from bed.seed on (default 1)");
-  sweep->add_option("--jobs", opt.jobs, "runs at once (default 1; each then uses one core)");
+  sweep->add_option("--jobs", opt.jobs,
+                    "runs at once (default 1); the cores are shared among the runs going, so a run "
+                    "that the others wait for gets them all");
   sweep->add_option("--out", opt.out_dir, "output folder (default: dembuf-sweep-<UTC time>)");
   sweep->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds");
   sweep->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");

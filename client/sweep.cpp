@@ -16,6 +16,7 @@
 #include <optional>
 #include <set>
 
+#include "dembuf/engine/core_share.h"
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
@@ -36,10 +37,19 @@ struct RunResult {
 // Hands a sweep's runs to its workers in plan order, passing over runs that would only wait
 // for a bed another worker is preparing (WaitsForBed, the daemon's rule); when every run left
 // waits, the worker sleeps until a bed is ready or a run ends.
+//
+// The machine's cores are shared among the running workers (CoreShare): when every run left
+// waits for one source bed, the worker settling it gets all the cores instead of one.
 class RunQueue {
  public:
-  RunQueue(const std::vector<SweepRun>& runs, const std::vector<std::size_t>& order, BedCache& beds)
-      : m_runs(runs), m_pending(order.begin(), order.end()), m_beds(beds) {
+  RunQueue(const std::vector<SweepRun>& runs, const std::vector<std::size_t>& order, BedCache& beds,
+           int workers, int cores)
+      : m_runs(runs),
+        m_pending(order.begin(), order.end()),
+        m_beds(beds),
+        m_cores(std::max(cores, workers)),
+        m_threads(workers) {
+    for (std::atomic<int>& t : m_threads) t = 1;
     m_beds.OnPrepared([this](const PreparedBed&) { m_changed.notify_all(); });
   }
   ~RunQueue() { m_beds.OnPrepared({}); }
@@ -54,6 +64,7 @@ class RunQueue {
         const std::size_t run = *it;
         m_pending.erase(it);
         m_running[worker] = m_runs[run].beds;
+        ShareCores();
         return run;
       }
       // The timeout only guards against a missed wake-up.
@@ -66,14 +77,27 @@ class RunQueue {
     {
       std::lock_guard lock(m_mutex);
       m_running.erase(worker);
+      ShareCores();
     }
     m_changed.notify_all();
   }
 
+  /// The engine threads the run of `worker` may use now.
+  const std::atomic<int>* Threads(int worker) const { return &m_threads[worker]; }
+
  private:
+  void ShareCores() {
+    const int running = static_cast<int>(m_running.size());
+    int rank = 0;
+    for (const auto& [worker, needs] : m_running)
+      m_threads[worker] = CoreShare(m_cores, running, rank++);
+  }
+
   const std::vector<SweepRun>& m_runs;
   std::deque<std::size_t> m_pending;
   BedCache& m_beds;
+  const int m_cores;
+  std::vector<std::atomic<int>> m_threads;  // by worker
   std::mutex m_mutex;
   std::condition_variable m_changed;
   std::map<int, BedNeeds> m_running;  // by worker
@@ -98,7 +122,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
               sources.size(), options.jobs, options.out_dir.c_str());
   std::fflush(stdout);
 
-  auto run_one = [&](const SweepRun& job) {
+  auto run_one = [&](const SweepRun& job, const std::atomic<int>* threads) {
     const std::filesystem::path dir = options.out_dir / "runs" / job.name;
     RunResult& result = results[job.index];
     // A run finished by an earlier, interrupted invocation of the same sweep is kept: its
@@ -121,14 +145,17 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
     auto last_report = std::chrono::steady_clock::now();
     const auto job_start = last_report;
     BedRequest bed_request;
+    bed_request.threads = threads;
     bed_request.on_progress = [&](const BedProgress& p) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last_report < std::chrono::seconds(30)) return;
       last_report = now;
       std::lock_guard lock(print_mutex);
-      std::printf("  run %zu: %s, %zu beads, t = %.0f ms, kinetic %.2g m g d, balance %.2g%%\n",
-                  job.index, p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio,
-                  100 * p.balance_error);
+      std::printf(
+          "  run %zu: %s, %zu beads, t = %.0f ms, kinetic %.2g m g d, balance %.2g%%, %d "
+          "threads\n",
+          job.index, p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, 100 * p.balance_error,
+          threads->load());
       std::fflush(stdout);
     };
     try {
@@ -137,6 +164,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
       RunControl control;
       control.beds = &beds;
       control.bed_request = &bed_request;
+      control.threads = threads;
       control.on_sample = [&](const ImpactSample& s) { csv.Write(s); };
       const ImpactSummary summary = RunImpact(job.scene, control);
       csv.Commit();
@@ -161,12 +189,15 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
     std::fflush(stdout);
   };
 
-  RunQueue queue(runs, InterleaveBySourceBed(runs), beds);
+  RunQueue queue(runs, InterleaveBySourceBed(runs), beds, options.jobs, omp_get_max_threads());
+  // Each worker's engine opens its own team of threads inside the workers' team.
+  omp_set_max_active_levels(2);
 #pragma omp parallel num_threads(options.jobs)
   {
     const int worker = omp_get_thread_num();
+    omp_set_num_threads(1);  // engine parts that are not lent cores (the bare-plate run) use one
     while (const std::optional<std::size_t> next = queue.Next(worker)) {
-      run_one(runs[*next]);
+      run_one(runs[*next], queue.Threads(worker));
       queue.Done(worker);
     }
   }

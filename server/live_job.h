@@ -102,6 +102,8 @@ class LiveJob {
   std::atomic<bool> cancel{false};
   /// Why it was raised: false by the user, true by the daemon shutting down.
   std::atomic<bool> cancel_for_shutdown{false};
+  /// Engine threads the run may use now; the scheduler lends it the cores of idle workers.
+  std::atomic<int> threads{1};
 
  private:
   const std::int64_t m_id;

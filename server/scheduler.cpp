@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "dembuf/engine/core_share.h"
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
@@ -147,6 +148,13 @@ bool Scheduler::BlockedLocked(const Queued& job) {
   return WaitsForBed(job.beds, running, m_beds);
 }
 
+void Scheduler::ShareCoresLocked() {
+  const int cores = m_options.workers * m_options.threads_per_job;
+  const int running = static_cast<int>(m_running.size());
+  int rank = 0;
+  for (auto& [id, live] : m_running) live->threads = CoreShare(cores, running, rank++);
+}
+
 std::optional<std::int64_t> Scheduler::Next() {
   std::unique_lock lock(m_mutex);
   while (true) {
@@ -161,6 +169,7 @@ std::optional<std::int64_t> Scheduler::Next() {
       m_queue.erase(it);
       m_running[job.id] = std::make_shared<LiveJob>(job.id);
       m_running_beds[job.id] = job;
+      ShareCoresLocked();
       return job.id;
     }
     // Nothing runnable: wait for a new job, a finished job or a prepared bed. The timeout
@@ -186,6 +195,7 @@ void Scheduler::WorkerLoop(int worker) {
       std::lock_guard lock(m_mutex);
       m_running.erase(*id);
       m_running_beds.erase(*id);
+      ShareCoresLocked();
     }
     m_wake.notify_all();
   }
@@ -206,6 +216,7 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
     const Scene scene = LoadSceneText(job->scene_toml, "job " + std::to_string(id));
     BedRequest bed_request;
     bed_request.cancel = &live->cancel;
+    bed_request.threads = &live->threads;
     bed_request.on_progress = [&](const BedProgress& p) {
       live->SetProgress("bed: " + p.stage, p.t_max_s > 0 ? p.t_s / p.t_max_s : 0.0, p.t_s, 0);
     };
@@ -222,6 +233,7 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
     };
     control.progress_every_steps = kProgressEverySteps;
     control.cancel = &live->cancel;
+    control.threads = &live->threads;
     control.beds = &m_beds;
     control.bed_request = &bed_request;
     const ImpactSummary summary = RunImpact(std::move(world), scene, control);

@@ -75,6 +75,8 @@ class Scheduler {
   /// Blocks until a runnable job is there (or shutdown: nullopt).
   std::optional<std::int64_t> Next();
   bool BlockedLocked(const Queued& job);
+  /// Splits the workers' cores among the running jobs (CoreShare).
+  void ShareCoresLocked();
   void Run(std::int64_t id, const std::shared_ptr<LiveJob>& live);
   /// The database's disk is full: puts the job back at the head of the queue and pauses the
   /// workers for storage_retry, so that nothing is lost and nothing spins.

@@ -209,6 +209,7 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
   const double t0 = sim.time_s();
   constexpr int kCheckEvery = 200;
   while (true) {
+    if (request.threads) sim.SetThreads(request.threads->load(std::memory_order_relaxed));
     for (int k = 0; k < kCheckEvery; ++k) {
       if (before_step) before_step(sim, sim.time_s() - t0);
       sim.Step();

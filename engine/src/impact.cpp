@@ -245,6 +245,7 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
       summary.end_reason = "reached time.end_s";
       break;
     }
+    if (control.threads) sim.SetThreads(control.threads->load(std::memory_order_relaxed));
     sim.Step();
     const StepObservables& o = sim.observables();
     const double t = sim.time_s();

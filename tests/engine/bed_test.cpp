@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "dembuf/engine/bed.h"
+#include "dembuf/engine/core_share.h"
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 
@@ -211,6 +212,16 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   EXPECT_EQ(BedSourceHash(mu), BedSourceHash(s));
 }
 
+TEST(CoreShare, IdleRunnersLendTheirCores) {
+  EXPECT_EQ(CoreShare(2, 1, 0), 2);  // a sweep's last run, or a bed the other worker waits for
+  EXPECT_EQ(CoreShare(2, 2, 0), 1);
+  EXPECT_EQ(CoreShare(2, 2, 1), 1);
+  EXPECT_EQ(CoreShare(5, 2, 0), 3);  // the remainder goes to the first
+  EXPECT_EQ(CoreShare(5, 2, 1), 2);
+  EXPECT_EQ(CoreShare(2, 4, 3), 1);  // more runners than cores: one thread each
+  EXPECT_EQ(CoreShare(8, 0, 0), 8);
+}
+
 TEST(Determinism, SameResultWhateverTheThreadCount) {
   // Enough beads for the parallel blocks (>= 1024), falling and colliding with friction.
   Scene scene;
@@ -227,24 +238,29 @@ TEST(Determinism, SameResultWhateverTheThreadCount) {
         beads.Add(Vec3(x, y, 0.0025 + iz * 0.0048), 0.00225 + 0.0001 * u(rng), 2650.0);
         beads.velocity.back() = Vec3(u(rng), u(rng), u(rng));
       }
+  // threads < 0: changed during the run (1, 2, 3, ...), as a sweep lending cores does.
   auto run = [&](int threads) {
     WorldParams p = world.params;
-    p.threads = threads;
+    p.threads = std::max(threads, 1);
     Simulation sim(p, beads, std::nullopt);
     long contacts = 0;
     for (int k = 0; k < 2000; ++k) {
+      if (threads < 0 && k % 100 == 0) sim.SetThreads(1 + (k / 100) % 3);
       sim.Step();
       contacts += sim.observables().bead_contacts;
     }
     return std::make_pair(std::move(sim), contacts);
   };
   const auto [one, contacts] = run(1);
-  const auto [two, unused] = run(2);
-  ASSERT_EQ(one.beads().size(), two.beads().size());
-  EXPECT_EQ(std::memcmp(one.beads().position.data(), two.beads().position.data(),
-                        one.beads().size() * sizeof(Vec3)),
-            0);
-  EXPECT_EQ(one.observables().plate_force_N, two.observables().plate_force_N);
+  for (int threads : {2, -1}) {
+    const auto [other, unused] = run(threads);
+    ASSERT_EQ(one.beads().size(), other.beads().size());
+    EXPECT_EQ(std::memcmp(one.beads().position.data(), other.beads().position.data(),
+                          one.beads().size() * sizeof(Vec3)),
+              0)
+        << threads << " threads";
+    EXPECT_EQ(one.observables().plate_force_N, other.observables().plate_force_N);
+  }
   EXPECT_GT(contacts, 20'000);  // a colliding system: thousands of bead-bead collisions
 }
 

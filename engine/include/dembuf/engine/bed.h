@@ -139,6 +139,9 @@ PreparedBed LoadBed(const std::filesystem::path& path);
 struct BedRequest {
   const std::atomic<bool>* cancel = nullptr;
   std::function<void(const BedProgress&)> on_progress;
+  /// When set: how many engine threads the preparation may use now, read between checks, so
+  /// that a caller can lend it cores that would otherwise wait for this bed (0: the default).
+  const std::atomic<int>* threads = nullptr;
 };
 
 /// The bed of a scene with bed.thickness_m > 0 or bed.import set: from the cache, or prepared

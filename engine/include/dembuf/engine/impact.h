@@ -94,6 +94,9 @@ struct RunControl {
   bool compute_reference = true;
   BedCache* beds = nullptr;  ///< where beds are found or stored (a private cache when null)
   const BedRequest* bed_request = nullptr;
+  /// When set: how many engine threads the impact may use now, read every step (0: the
+  /// default). Results do not depend on it.
+  const std::atomic<int>* threads = nullptr;
 };
 
 struct ImpactSummary {

@@ -109,6 +109,10 @@ struct Simulation::Impl {
   // bit-identical for any number of threads.
   std::vector<std::uint32_t> block_start{0, 0};
   std::vector<std::vector<int>> phase_blocks{{0}};
+  // Per phase, the work (list entries + beads) of its blocks before each block, and the total
+  // last: each thread takes consecutive blocks of about equal work, which keeps both the
+  // balance and the memory locality of a contiguous share.
+  std::vector<std::vector<std::uint64_t>> phase_work{{0, 1}};
   std::vector<StepObservables> block_observables;
   std::vector<StepConditions> block_conditions;
   int threads = 1;
@@ -263,14 +267,20 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
         if constexpr (kFriction) b.torque[i].setZero();
       }
     }
-    for (const std::vector<int>& phase : s.phase_blocks) {
-      const int count = static_cast<int>(phase.size());
-#pragma omp for schedule(dynamic, 1)
-      for (int m = 0; m < count; ++m) {
+    const int thread = omp_get_thread_num(), team = omp_get_num_threads();
+    for (std::size_t p = 0; p < s.phase_blocks.size(); ++p) {
+      const std::vector<int>& phase = s.phase_blocks[p];
+      const std::vector<std::uint64_t>& work = s.phase_work[p];
+      auto share_start = [&](int t) {
+        return std::lower_bound(work.begin(), work.end() - 1, work.back() * t / team) -
+               work.begin();
+      };
+      for (auto m = share_start(thread); m < share_start(thread + 1); ++m) {
         const int k = phase[m];
         PairForces<kFriction>(params, b, s.pairs, start[k], start[k + 1], s.block_observables[k],
                               s.block_conditions[k]);
       }
+#pragma omp barrier
     }
 #pragma omp for schedule(static)
     for (int k = 0; k < blocks; ++k) {
@@ -413,6 +423,21 @@ void PlanBlocks(Simulation::Impl& s) {
   s.block_start.push_back(s.grid.RowStart(0, layers));
 }
 
+// The work of each phase's blocks (Impl::phase_work), after the pair list is built.
+void WeighPhases(Simulation::Impl& s) {
+  const bool listed = s.pairs.offsets.size() == s.block_start.back() + 1;
+  s.phase_work.clear();
+  for (const std::vector<int>& phase : s.phase_blocks) {
+    std::vector<std::uint64_t> work{0};
+    for (int k : phase) {
+      const std::uint32_t first = s.block_start[k], last = s.block_start[k + 1];
+      const std::uint64_t entries = listed ? s.pairs.offsets[last] - s.pairs.offsets[first] : 0;
+      work.push_back(work.back() + entries + (last - first) + 1);
+    }
+    s.phase_work.push_back(std::move(work));
+  }
+}
+
 void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
   if (b.size() > 0) {
@@ -442,6 +467,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
       PlanBlocks(s);
     }
     detail::RebuildPairList(b, s.grid, s.skin, s.pairs, s.parallel ? s.threads : 1);
+    WeighPhases(s);
     ApplyHistory(s);
     s.reference_position = b.position;
     if (projectile)
@@ -617,6 +643,12 @@ void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
   m_params.sphere_wall.friction = sphere_wall;
   m_impl->friction = sphere_pair > 0.0 || sphere_wall > 0.0;
   m_impl->forces_valid = false;
+}
+
+void Simulation::ZeroBeadVelocities() {
+  std::fill(m_beads.velocity.begin(), m_beads.velocity.end(), Vec3::Zero());
+  std::fill(m_beads.angular_velocity.begin(), m_beads.angular_velocity.end(), Vec3::Zero());
+  m_impl->forces_valid = false;  // the damping forces depended on the old velocities
 }
 
 void Simulation::SetThreads(int threads) {

@@ -103,6 +103,9 @@ class Simulation {
   /// Changes the friction coefficients (e.g. a slow ramp after settling).
   void SetFriction(double sphere_pair, double sphere_wall);
 
+  /// Stops every bead (velocities and spins to zero), keeping positions and springs.
+  void ZeroBeadVelocities();
+
   /// Threads of the next steps (0: omp_get_max_threads()). Results do not depend on it.
   void SetThreads(int threads);
 

@@ -81,7 +81,10 @@ StageKeys Keys(const Scene& scene) {
   StageKeys k;
   const std::string source_text = SourceKeyText(scene, SourceThickness(scene));
   k.source = ContentHash(source_text);
-  const std::string cut_text = source_text + FieldText(scene, "bed.thickness_m");
+  // Named only when set, so that the beds relaxed freely keep the hashes they always had.
+  const std::string cut_text =
+      source_text + FieldText(scene, "bed.thickness_m") +
+      (scene.bed.quench_cut_relaxation ? FieldText(scene, "bed.quench_cut_relaxation") : "");
   k.cut = ContentHash(cut_text);
   k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
                            FieldText(scene, "bed.friction_ramp_s") +
@@ -199,20 +202,37 @@ RestState MeasureRest(const Simulation& sim, double energy_scale) {
 }
 
 // Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
+// With `quench`, kinetic damping first: whenever the beads' kinetic energy has passed a
+// maximum, every bead is stopped, until the maxima of a whole check interval stay below the
+// tolerance. Rest is judged only on intervals without quenching, so the criterion is the same.
 double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stage,
                     const BedRequest& request, double max_time, double tolerance,
-                    const std::function<void(Simulation&, double)>& before_step = {}) {
+                    const std::function<void(Simulation&, double)>& before_step = {},
+                    bool quench = false) {
   const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
   const double m_mean =
       scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
   const double t0 = sim.time_s();
   constexpr int kCheckEvery = 200;
+  bool quenching = quench;
+  double last_energy = sim.BeadKineticEnergy();
+  bool rising = false;
   while (true) {
     if (request.threads) sim.SetThreads(request.threads->load(std::memory_order_relaxed));
+    double interval_max = 0.0;  // largest kinetic energy per bead of this interval, quenching
     for (int k = 0; k < kCheckEvery; ++k) {
       if (before_step) before_step(sim, sim.time_s() - t0);
       sim.Step();
+      if (!quenching) continue;
+      double energy = sim.BeadKineticEnergy();
+      interval_max = std::max(interval_max, energy);
+      if (rising && energy < last_energy) {
+        sim.ZeroBeadVelocities();
+        energy = 0.0;
+      }
+      rising = energy > last_energy;
+      last_energy = energy;
     }
     const double t = sim.time_s() - t0;
     const RestState rest = MeasureRest(sim, energy_scale);
@@ -221,7 +241,12 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
       request.on_progress(
           {stage, t, max_time, sim.beads().size(), rest.kinetic_ratio, rest.balance_error});
     const bool ramp_done = !before_step || t >= scene.bed.friction_ramp_s;
-    if (ramp_done && rest.kinetic_ratio < tolerance && rest.balance_error < 0.01) return t;
+    if (quenching) {
+      const double beads = static_cast<double>(std::max<std::size_t>(sim.beads().size(), 1));
+      quenching = interval_max / beads / energy_scale >= tolerance;
+    } else if (ramp_done && rest.kinetic_ratio < tolerance && rest.balance_error < 0.01) {
+      return t;
+    }
     if (t > max_time) {
       std::ostringstream what;
       what << "the bed did not come to rest within bed.max_settle_s = " << max_time << " s ("
@@ -316,7 +341,7 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
       CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m);
   sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
   const double t = SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s,
-                                scene.bed.settle_tolerance);
+                                scene.bed.settle_tolerance, {}, scene.bed.quench_cut_relaxation);
   return Finish(sim, scene, hash, "cut", t, wall_start);
 }
 

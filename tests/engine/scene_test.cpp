@@ -184,9 +184,14 @@ TEST(SceneErrors, ControlBytesInWhatWasGivenAreEscaped) {
 
 TEST(AccuracyPresets, SetTheKnobsTogetherAndRefuseUnknownNames) {
   Scene scene;
+  ApplyAccuracy(scene, "draft");
+  EXPECT_EQ(scene.time.alpha, 0.4);
+  EXPECT_EQ(scene.bed.settle_tolerance, 1e-4);
+  EXPECT_TRUE(scene.bed.quench_cut_relaxation);
   ApplyAccuracy(scene, "reference");
   EXPECT_EQ(scene.time.alpha, 0.05);
   EXPECT_EQ(scene.bed.settle_tolerance, 1e-6);
+  EXPECT_FALSE(scene.bed.quench_cut_relaxation);
   ApplyAccuracy(scene, "standard");  // the defaults
   EXPECT_EQ(scene.time.alpha, Scene{}.time.alpha);
   EXPECT_EQ(scene.bed.settle_tolerance, Scene{}.bed.settle_tolerance);

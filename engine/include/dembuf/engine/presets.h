@@ -25,8 +25,9 @@ Scene PresetScene(const std::string& name);
 struct AccuracyPreset {
   std::string_view name;
   std::string_view description;
-  double alpha;             ///< time.alpha
-  double settle_tolerance;  ///< bed.settle_tolerance
+  double alpha;                ///< time.alpha
+  double settle_tolerance;     ///< bed.settle_tolerance
+  bool quench_cut_relaxation;  ///< bed.quench_cut_relaxation
 };
 
 /// draft, standard (the defaults) and reference.

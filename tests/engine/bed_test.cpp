@@ -1,6 +1,7 @@
 // Bed preparation, the rest criterion, exact saving and loading, hashes, and the engine's
 // determinism whatever the number of threads.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <atomic>
 #include <chrono>
@@ -286,6 +287,21 @@ TEST(Determinism, SameResultWhateverTheThreadCount) {
     EXPECT_EQ(one.observables().plate_force_N, other.observables().plate_force_N);
   }
   EXPECT_GT(contacts, 20'000);  // a colliding system: thousands of bead-bead collisions
+
+  // Two workers of a local sweep, each running the simulation on two threads of its own: the
+  // nested OpenMP teams of `dembuf sweep --jobs 2` when a worker is lent a core.
+  std::vector<std::vector<Vec3>> nested(2);
+  const int levels = omp_get_max_active_levels();
+  omp_set_max_active_levels(2);
+#pragma omp parallel num_threads(2)
+  nested[omp_get_thread_num()] = run(2).first.beads().position;
+  omp_set_max_active_levels(levels);
+  for (const std::vector<Vec3>& positions : nested) {
+    ASSERT_EQ(positions.size(), one.beads().size());
+    EXPECT_EQ(
+        std::memcmp(one.beads().position.data(), positions.data(), positions.size() * sizeof(Vec3)),
+        0);
+  }
 }
 
 TEST(SmallBedImpact, BuffersTheImpactEndToEnd) {

@@ -100,13 +100,13 @@ struct Simulation::Impl {
   StepConditions conditions;
 
   // Parallel force computation. Beads are kept in cell order (z layers of cells, bottom up;
-  // in a layer, rows of cells along y) and split into blocks of kSlabRows rows of one layer.
-  // A pair (i, j > i) found in the 27 cells around i joins a bead of block (z, s) to one of
-  // slabs s or s + 1 of layer z, or slabs s - 1 to s + 1 of layer z + 1. Blocks whose layers
-  // differ by 2, or whose slabs differ by 3, never touch the same bead, so the blocks fall into
-  // six phases (z mod 2, s mod 3) that each run in parallel. The blocks depend on the beads,
-  // not on the thread count, and every sum is taken in the same order: results are
-  // bit-identical for any number of threads.
+  // in a layer, rows of cells along y) and split into blocks of kSlabRows >= 2 rows of one
+  // layer. A pair (i, j > i) found in the 27 cells around i joins a bead of block (z, s), rows
+  // [s w, s w + w), to a bead of rows s w .. s w + w of layer z or s w - 1 .. s w + w of layer
+  // z + 1. Two blocks whose layers differ by 2, or whose slabs differ by 2, then never touch
+  // the same row of beads, so the blocks fall into four phases (z mod 2, s mod 2) that each
+  // run in parallel. The blocks depend on the beads, not on the thread count, and every sum is
+  // taken in the same order: results are bit-identical for any number of threads.
   std::vector<std::uint32_t> block_start{0, 0};
   std::vector<std::vector<int>> phase_blocks{{0}};
   // Per phase, the work (list entries + beads) of its blocks before each block, and the total
@@ -408,16 +408,16 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
 
 // Splits the beads (in cell order) into the blocks and phases described at Impl::block_start.
 void PlanBlocks(Simulation::Impl& s) {
-  constexpr int kSlabRows = 2;
+  constexpr int kSlabRows = 2;  // with one row, slabs s and s + 2 would share row s + 1
   const int rows = s.grid.Dim(1), layers = s.grid.Dim(2);
   s.block_start.clear();
-  s.phase_blocks.assign(6, {});
+  s.phase_blocks.assign(4, {});
   for (int z = 0; z < layers; ++z)
     for (int slab = 0; slab * kSlabRows < rows; ++slab) {
       const std::uint32_t first = s.grid.RowStart(slab * kSlabRows, z);
       const std::uint32_t last = s.grid.RowStart(std::min((slab + 1) * kSlabRows, rows), z);
       if (last == first) continue;
-      s.phase_blocks[(z % 2) * 3 + slab % 3].push_back(static_cast<int>(s.block_start.size()));
+      s.phase_blocks[(z % 2) * 2 + slab % 2].push_back(static_cast<int>(s.block_start.size()));
       s.block_start.push_back(first);
     }
   s.block_start.push_back(s.grid.RowStart(0, layers));

@@ -220,7 +220,7 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
   bool rising = false;
   while (true) {
     if (request.threads) sim.SetThreads(request.threads->load(std::memory_order_relaxed));
-    double interval_max = 0.0;  // largest kinetic energy per bead of this interval, quenching
+    double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
     for (int k = 0; k < kCheckEvery; ++k) {
       if (before_step) before_step(sim, sim.time_s() - t0);
       sim.Step();

@@ -432,7 +432,7 @@ void WeighPhases(Simulation::Impl& s) {
     for (int k : phase) {
       const std::uint32_t first = s.block_start[k], last = s.block_start[k + 1];
       const std::uint64_t entries = listed ? s.pairs.offsets[last] - s.pairs.offsets[first] : 0;
-      work.push_back(work.back() + entries + (last - first) + 1);
+      work.push_back(work.back() + entries + (last - first) + 1);  // + 1: strictly increasing
     }
     s.phase_work.push_back(std::move(work));
   }

@@ -59,7 +59,7 @@ struct BedSpec {
   /// friction drops to zero keeps creeping for long at a few 1e-4 m g d per bead (normal
   /// damping does not dissipate sliding), so the friction study may accept a looser rest.
   double friction_settle_tolerance = 0.0;
-  /// Relax a cut bed with kinetic damping: every bead's velocity is zeroed whenever the beds's
+  /// Relax a cut bed with kinetic damping: every bead's velocity is zeroed whenever the beads'
   /// kinetic energy passes a maximum, until the maxima fall below settle_tolerance; then the
   /// bed relaxes freely to the same rest criterion. Several times faster than a free
   /// relaxation, with a slightly different packing (docs/accuracy-cost.md); the draft accuracy.

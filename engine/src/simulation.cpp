@@ -9,6 +9,7 @@
 #include "contact_kernels.h"
 #include "dembuf/engine/errors.h"
 #include "neighbor_list.h"
+#include "pair_batch.h"
 
 namespace dembuf {
 
@@ -115,6 +116,7 @@ struct Simulation::Impl {
   std::vector<std::vector<std::uint64_t>> phase_work{{0, 1}};
   std::vector<StepObservables> block_observables;
   std::vector<StepConditions> block_conditions;
+  std::vector<detail::PairBatch> batches;  // one per thread
   int threads = 1;
   bool parallel = false;
 };
@@ -196,51 +198,84 @@ int ContainerContacts(const Container& box, const PairParams& p, double dt, cons
   return touching;
 }
 
-// Pair forces of the beads of block [begin, end). Cost per pair in contact: one sqrt for the
-// distance and two in the law (about 80 flops with friction); pairs in the list but apart
-// cost 10 flops.
+// The components of an array of vectors, x y z x y z ...
+template <class V>
+auto Components(V& vectors) -> decltype(vectors.front().data()) {
+  return vectors.empty() ? nullptr : vectors.front().data();
+}
+
+// Pair forces of the beads of block [begin, end), in batches (pair_batch.h): the touching
+// pairs are collected without a branch per list entry, resolved in one vectorized loop, then
+// added to the beads in list order. Entries apart lose their history (friction only).
 template <bool kFriction>
 void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& pairs,
-                std::uint32_t begin, std::uint32_t end, StepObservables& obs,
-                StepConditions& cond) {
-  const double dt = params.dt_s;
-  const PairParams pp = params.sphere_pair;
+                detail::PairBatch& batch, std::uint32_t begin, std::uint32_t end,
+                StepObservables& obs, StepConditions& cond) {
   const std::uint32_t* offsets = pairs.offsets.data();
   const std::uint32_t* partners = pairs.partners.data();
-  const double* sqrt_r_star = pairs.sqrt_r_star.data();
-  Vec3* shear = pairs.shear.data();
+  const detail::PairBatchInputs inputs{Components(b.position),
+                                       Components(b.velocity),
+                                       Components(b.angular_velocity),
+                                       b.radius.data(),
+                                       pairs.sqrt_r_star.data(),
+                                       Components(pairs.shear),
+                                       params.sphere_pair,
+                                       params.dt_s};
+  auto flush = [&] {
+    detail::ResolvePairBatch(kFriction, inputs, batch);
+    for (std::size_t c = 0; c < batch.size; ++c) {
+      const std::uint32_t i = batch.bead[c], j = batch.partner[c];
+      const Vec3 f(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
+      b.force[i] += f;
+      b.force[j] -= f;
+      if constexpr (kFriction) {
+        b.torque[i] +=
+            Vec3(batch.torque_bead[0][c], batch.torque_bead[1][c], batch.torque_bead[2][c]);
+        b.torque[j] += Vec3(batch.torque_partner[0][c], batch.torque_partner[1][c],
+                            batch.torque_partner[2][c]);
+        pairs.shear[batch.entry[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+      }
+      cond.NoteOverlap(batch.overlap[c], std::min(b.radius[i], b.radius[j]), static_cast<long>(i),
+                       static_cast<long>(j));
+    }
+    // Entries apart lose their history: a contact that opens forgets its shear.
+    if constexpr (kFriction)
+      for (std::size_t a = 0; a < batch.apart_size; ++a) pairs.shear[batch.apart[a]].setZero();
+    obs.bead_contacts += static_cast<int>(batch.size);
+    batch.size = 0;
+    batch.apart_size = 0;
+  };
+  batch.size = batch.apart_size = 0;
   for (std::uint32_t i = begin; i < end; ++i) {
+    const std::uint32_t first = offsets[i], last = offsets[i + 1];
+    const std::size_t filled = std::max(batch.size, batch.apart_size);
+    if (filled > 0 && filled + (last - first) > detail::PairBatch::kTarget) flush();
+    batch.Reserve(std::max(batch.size, batch.apart_size) + (last - first));
     const Vec3 xi = b.position[i];
     const double ri = b.radius[i];
-    for (std::uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) {
+    std::uint32_t* bead = batch.bead.data();
+    std::uint32_t* partner = batch.partner.data();
+    std::uint32_t* entry = batch.entry.data();
+    std::uint32_t* apart = batch.apart.data();
+    std::size_t n = batch.size, m = batch.apart_size;
+    for (std::uint32_t k = first; k < last; ++k) {
       const std::uint32_t j = partners[k];
-      const Vec3 d = xi - b.position[j];
-      const double rj = b.radius[j];
-      const double rsum = ri + rj;
-      const double dist2 = d.squaredNorm();
-      if (dist2 >= rsum * rsum) {
-        if constexpr (kFriction) shear[k].setZero();
-        continue;
-      }
-      const double dist = std::sqrt(dist2);
-      const double overlap = rsum - dist;
-      const Vec3 normal = d * (1.0 / dist);
-      const double ai = detail::LeverArm(ri, overlap), aj = detail::LeverArm(rj, overlap);
-      const Vec3 w_arm =
-          kFriction ? Vec3(ai * b.angular_velocity[i] + aj * b.angular_velocity[j]) : Vec3::Zero();
-      const ContactGeometry c = detail::MakeGeometry(normal, overlap, b.velocity[i] - b.velocity[j],
-                                                     w_arm, sqrt_r_star[k]);
-      const auto out = detail::Resolve<kFriction>(c, ai, aj, pp, dt, shear[k]);
-      b.force[i] += out.force;
-      b.force[j] -= out.force;
+      const double rsum = ri + b.radius[j];
+      const bool touching = (xi - b.position[j]).squaredNorm() < rsum * rsum;
+      // Written always, kept only when touching: no branch to mispredict.
+      bead[n] = i;
+      partner[n] = j;
+      entry[n] = k;
+      n += touching;
       if constexpr (kFriction) {
-        b.torque[i] += out.torque_i;
-        b.torque[j] += out.torque_j;
+        apart[m] = k;
+        m += !touching;
       }
-      cond.NoteOverlap(overlap, std::min(ri, rj), static_cast<long>(i), static_cast<long>(j));
-      ++obs.bead_contacts;
     }
+    batch.size = n;
+    batch.apart_size = m;
   }
+  if (batch.size + batch.apart_size > 0) flush();
 }
 
 // The force pass: bead pairs (blocks in two phases), container contacts (blocks in one phase),
@@ -257,6 +292,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   s.block_observables.assign(blocks, StepObservables{});
   s.block_conditions.assign(blocks, StepConditions{});
   const std::uint32_t* start = s.block_start.data();
+  if (s.batches.size() < static_cast<std::size_t>(s.threads)) s.batches.resize(s.threads);
 
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
@@ -277,8 +313,8 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       };
       for (auto m = share_start(thread); m < share_start(thread + 1); ++m) {
         const int k = phase[m];
-        PairForces<kFriction>(params, b, s.pairs, start[k], start[k + 1], s.block_observables[k],
-                              s.block_conditions[k]);
+        PairForces<kFriction>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
+                              s.block_observables[k], s.block_conditions[k]);
       }
 #pragma omp barrier
     }

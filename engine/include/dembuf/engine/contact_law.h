@@ -6,7 +6,9 @@
 //   Kn  = 4/3 E* sqrt(R*),  Ks = 8 G* sqrt(R*),  R* = RA RB / (RA + RB)  (R* = R for a wall)
 //
 // How to add a law: write a Params struct of pair constants and a force function of the same
-// shape as HertzMindlinForce below; the kernels in contact_kernels.h call it per contact.
+// shape as HertzMindlinForce below; the kernels in contact_kernels.h call it per contact. Bead
+// pairs, the bulk of the work, use a vectorized copy of the law (engine/src/pair_batch.cpp);
+// tests/engine/pair_batch_test.cpp checks that the two give the same bits.
 #pragma once
 
 #include <algorithm>

@@ -1,0 +1,60 @@
+// The bead-pair contact law in batches. The pair loop finds the touching pairs of a stretch of
+// beads first (without a branch per list entry), then resolves all of them in one loop that
+// the compiler vectorizes (gathers, vector sqrt and division, masks for the two friction
+// branches), then adds the results to the beads in list order. The arithmetic of each contact
+// is exactly that of HertzMindlinForce and Resolve (same operations in the same order, no
+// fused multiply-add), and the sums are taken in the same order as a contact-by-contact loop,
+// so batching changes no bit of a result.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "dembuf/engine/contact_law.h"
+
+namespace dembuf::detail {
+
+/// The touching pairs of one batch (inputs: bead, partner, list entry) and the law's result
+/// for each (force on the bead, torques on both, overlap, new history), as arrays of one
+/// component each. The new histories are copied back to the list afterwards: a vector
+/// scatter is not available on every CPU, and the gather-only loop vectorizes on all.
+struct PairBatch {
+  /// A batch is resolved when it reaches this many contacts (its arrays then fit in L1).
+  static constexpr std::size_t kTarget = 256;
+
+  std::vector<std::uint32_t> bead, partner, entry;
+  std::vector<double> overlap;
+  std::vector<double> force[3], torque_bead[3], torque_partner[3], shear[3];
+  std::size_t size = 0;
+  /// List entries of the batch's beads that are apart (their histories are cleared).
+  std::vector<std::uint32_t> apart;
+  std::size_t apart_size = 0;
+
+  /// Makes room for `n` contacts.
+  void Reserve(std::size_t n) {
+    if (bead.size() < n) Grow(n);
+  }
+
+ private:
+  void Grow(std::size_t n);
+};
+
+/// What the law reads: bead arrays (3 doubles per bead for vectors), the pair constants of the
+/// list entries, and the tangential histories (updated in place).
+struct PairBatchInputs {
+  const double* position;
+  const double* velocity;
+  const double* angular_velocity;
+  const double* radius;
+  const double* sqrt_r_star;  ///< per list entry
+  const double* shear;        ///< per list entry, 3 doubles
+  PairParams params;
+  double dt;
+};
+
+/// Resolves the contacts of `batch`, filling its result arrays (the advanced histories too).
+/// Compiled for several instruction sets (the widest the CPU has is chosen at load time).
+void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch);
+
+}  // namespace dembuf::detail

@@ -79,6 +79,7 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
   fresh.partners.resize(chunk_start[chunks]);
   fresh.shear.resize(chunk_start[chunks]);
   fresh.sqrt_r_star.resize(chunk_start[chunks]);
+  fresh.owner.resize(chunk_start[chunks]);
 
   const bool had_list = list.offsets.size() == n + 1;
 #pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel)
@@ -94,6 +95,7 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
       for (std::uint32_t k = b0; k < b1; ++k) {
         const double rj = beads.radius[fresh.partners[k]];
         fresh.sqrt_r_star[k] = std::sqrt(ri * rj / (ri + rj));
+        fresh.owner[k] = static_cast<std::uint32_t>(i);
       }
       if (!had_list) {
         std::fill(fresh.shear.begin() + b0, fresh.shear.begin() + b1, Vec3::Zero());

@@ -80,9 +80,11 @@ class CellGrid {
 
 /// Half neighbor list in CSR form: the partners j > i of bead i are
 /// partners[offsets[i] .. offsets[i+1]), sorted; shear[k] is the tangential history of entry k.
+/// owner[k] is the bead i of entry k, so that a loop over entries needs no loop over beads.
 struct PairList {
   std::vector<std::uint32_t> offsets;
   std::vector<std::uint32_t> partners;
+  std::vector<std::uint32_t> owner;
   std::vector<Vec3> shear;
   std::vector<double> sqrt_r_star;  ///< sqrt(r_i r_j / (r_i + r_j)), fixed per pair
 };

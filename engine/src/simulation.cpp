@@ -211,6 +211,7 @@ template <bool kFriction>
 void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& pairs,
                 detail::PairBatch& batch, std::uint32_t begin, std::uint32_t end,
                 StepObservables& obs, StepConditions& cond) {
+  if (begin == end) return;  // (a system without beads may have no list at all)
   const std::uint32_t* offsets = pairs.offsets.data();
   const std::uint32_t* partners = pairs.partners.data();
   const detail::PairBatchInputs inputs{Components(b.position),
@@ -245,23 +246,21 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
     batch.size = 0;
     batch.apart_size = 0;
   };
-  batch.size = batch.apart_size = 0;
-  for (std::uint32_t i = begin; i < end; ++i) {
-    const std::uint32_t first = offsets[i], last = offsets[i + 1];
-    const std::size_t filled = std::max(batch.size, batch.apart_size);
-    if (filled > 0 && filled + (last - first) > detail::PairBatch::kTarget) flush();
-    batch.Reserve(std::max(batch.size, batch.apart_size) + (last - first));
-    const Vec3 xi = b.position[i];
-    const double ri = b.radius[i];
+  // One flat loop over the block's list entries, in batches of kTarget entries: no loop
+  // exit per bead to mispredict.
+  const std::uint32_t* owner = pairs.owner.data();
+  batch.Reserve(detail::PairBatch::kTarget);
+  for (std::uint32_t first = offsets[begin], stop = offsets[end]; first < stop;) {
+    const std::uint32_t last = std::min<std::uint32_t>(stop, first + detail::PairBatch::kTarget);
     std::uint32_t* bead = batch.bead.data();
     std::uint32_t* partner = batch.partner.data();
     std::uint32_t* entry = batch.entry.data();
     std::uint32_t* apart = batch.apart.data();
-    std::size_t n = batch.size, m = batch.apart_size;
+    std::size_t n = 0, m = 0;
     for (std::uint32_t k = first; k < last; ++k) {
-      const std::uint32_t j = partners[k];
-      const double rsum = ri + b.radius[j];
-      const bool touching = (xi - b.position[j]).squaredNorm() < rsum * rsum;
+      const std::uint32_t i = owner[k], j = partners[k];
+      const double rsum = b.radius[i] + b.radius[j];
+      const bool touching = (b.position[i] - b.position[j]).squaredNorm() < rsum * rsum;
       // Written always, kept only when touching: no branch to mispredict.
       bead[n] = i;
       partner[n] = j;
@@ -274,8 +273,9 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
     }
     batch.size = n;
     batch.apart_size = m;
+    flush();
+    first = last;
   }
-  if (batch.size + batch.apart_size > 0) flush();
 }
 
 // The force pass: bead pairs (blocks in two phases), container contacts (blocks in one phase),

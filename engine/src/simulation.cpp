@@ -376,6 +376,79 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   }
 }
 
+// The per-bead arrays the integrator works on, as components (x y z x y z ...), so that its
+// loops vectorize.
+struct Kinematics {
+  double* position;
+  double* velocity;
+  double* angular_velocity;
+  const double* force;
+  const double* torque;
+  const double* radius;
+  const double* inv_mass;
+  const double* inv_inertia;
+};
+
+Kinematics BeadKinematics(ParticleState& b) {
+  return {Components(b.position), Components(b.velocity), Components(b.angular_velocity),
+          Components(b.force),    Components(b.torque),   b.radius.data(),
+          b.inv_mass.data(),      b.inv_inertia.data()};
+}
+
+// Outside the side wall (below its top) or through the plate: the container leaked.
+inline bool Escaped(double x, double y, double z, double r, double wall_r2, double wall_top) {
+  return ((z < wall_top) & (x * x + y * y > wall_r2)) | (z < -r);
+}
+
+// Half a kick of beads [first, last): v += dt/2 a (and w += dt/2 alpha when they rotate).
+// Component by component, the operations of the Eigen expressions v += half * (f / m + g) and
+// w += half / I * t, in their order.
+template <bool kRotate>
+void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g) {
+  const double gx = g.x(), gy = g.y(), gz = g.z();
+#pragma omp simd
+  for (long i = first; i < last; ++i) {
+    const double inv_m = k.inv_mass[i];
+    k.velocity[3 * i] += half * (inv_m * k.force[3 * i] + gx);
+    k.velocity[3 * i + 1] += half * (inv_m * k.force[3 * i + 1] + gy);
+    k.velocity[3 * i + 2] += half * (inv_m * k.force[3 * i + 2] + gz);
+    if constexpr (kRotate) {
+      const double s = half * k.inv_inertia[i];
+      k.angular_velocity[3 * i] += s * k.torque[3 * i];
+      k.angular_velocity[3 * i + 1] += s * k.torque[3 * i + 1];
+      k.angular_velocity[3 * i + 2] += s * k.torque[3 * i + 2];
+    }
+  }
+}
+
+// Half a kick and a drift of beads [first, last), with the largest squared displacement since
+// the last list build and a count of beads that may have gone wrong: non-finite (their
+// components' sum is not finite) or outside the container.
+template <bool kRotate>
+void KickAndDrift(const Kinematics& k, long first, long last, double half, double dt, const Vec3& g,
+                  const double* reference, double wall_r2, double wall_top, double& max_disp2,
+                  long& suspects) {
+  Kick<kRotate>(k, first, last, half, g);
+  double disp2 = 0.0;
+  long count = 0;
+#pragma omp simd reduction(max : disp2) reduction(+ : count)
+  for (long i = first; i < last; ++i) {
+    double* x = k.position + 3 * i;
+    const double* v = k.velocity + 3 * i;
+    x[0] += dt * v[0];
+    x[1] += dt * v[1];
+    x[2] += dt * v[2];
+    const double dx = x[0] - reference[3 * i], dy = x[1] - reference[3 * i + 1],
+                 dz = x[2] - reference[3 * i + 2];
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    disp2 = d2 > disp2 ? d2 : disp2;
+    const double sum = ((x[0] + x[1]) + (x[2] + v[0])) + (v[1] + v[2]);
+    count += !std::isfinite(sum) | Escaped(x[0], x[1], x[2], k.radius[i], wall_r2, wall_top);
+  }
+  max_disp2 = std::max(max_disp2, disp2);
+  suspects += count;
+}
+
 // Restores saved tangential histories into the freshly built lists (a loaded bed, or beads
 // that were just reordered). A pair's shear belongs to its lower id; swapping flips its sign.
 void ApplyHistory(Simulation::Impl& s) {
@@ -584,22 +657,35 @@ void Simulation::Step() {
   const double wall_top = m_params.container.height_m;
   const bool rotate = s.friction;
   ParticleState& b = m_beads;
+  const Kinematics k = BeadKinematics(b);
+  const double* reference = Components(s.reference_position);
   double max_disp2 = 0.0;
+  long suspects = 0;  // beads that may be non-finite or outside the container
+#pragma omp parallel num_threads(s.threads) if (s.parallel)
+  {
+    double thread_disp2 = 0.0;
+    long thread_suspects = 0;
+    const int team = omp_get_num_threads(), thread = omp_get_thread_num();
+    const long first = n * thread / team, last = n * (thread + 1) / team;
+    if (rotate)
+      KickAndDrift<true>(k, first, last, half, dt, g, reference, wall_r2, wall_top, thread_disp2,
+                         thread_suspects);
+    else
+      KickAndDrift<false>(k, first, last, half, dt, g, reference, wall_r2, wall_top, thread_disp2,
+                          thread_suspects);
+#pragma omp critical
+    {
+      max_disp2 = std::max(max_disp2, thread_disp2);
+      suspects += thread_suspects;
+    }
+  }
   long nonfinite = -1, escaped = -1;
-#pragma omp parallel for schedule(static) num_threads(s.threads) if (s.parallel) \
-    reduction(max                                                                \
-              : max_disp2, nonfinite, escaped)
-  for (long i = 0; i < n; ++i) {
-    Vec3& v = b.velocity[i];
-    Vec3& x = b.position[i];
-    v += half * (b.inv_mass[i] * b.force[i] + g);
-    x += dt * v;
-    if (rotate) b.angular_velocity[i] += half * b.inv_inertia[i] * b.torque[i];
-    max_disp2 = std::max(max_disp2, (x - s.reference_position[i]).squaredNorm());
-    if (!x.allFinite() || !v.allFinite()) nonfinite = i;
-    // Outside the side wall (below its top) or through the plate: the container leaked.
-    if ((x.z() < wall_top && x.x() * x.x() + x.y() * x.y() > wall_r2) || x.z() < -b.radius[i])
-      escaped = i;
+  if (suspects > 0) {  // rare: find the beads for the message
+    for (long i = 0; i < n; ++i) {
+      const Vec3& x = b.position[i];
+      if (!x.allFinite() || !b.velocity[i].allFinite()) nonfinite = i;
+      if (Escaped(x.x(), x.y(), x.z(), b.radius[i], wall_r2, wall_top)) escaped = i;
+    }
   }
   s.conditions.nonfinite_bead = nonfinite;
   s.conditions.escaped_bead = escaped;
@@ -616,11 +702,17 @@ void Simulation::Step() {
   ComputeForces();
   CheckConditions();
 
-  // Second half kick with the new forces (the beads may have been reordered meanwhile).
-#pragma omp parallel for schedule(static) num_threads(s.threads) if (s.parallel)
-  for (long i = 0; i < n; ++i) {
-    b.velocity[i] += half * (b.inv_mass[i] * b.force[i] + g);
-    if (rotate) b.angular_velocity[i] += half * b.inv_inertia[i] * b.torque[i];
+  // Second half kick with the new forces (the beads may have been reordered meanwhile, which
+  // moves their arrays).
+  const Kinematics moved = BeadKinematics(b);
+#pragma omp parallel num_threads(s.threads) if (s.parallel)
+  {
+    const int team = omp_get_num_threads(), thread = omp_get_thread_num();
+    const long first = n * thread / team, last = n * (thread + 1) / team;
+    if (rotate)
+      Kick<true>(moved, first, last, half, g);
+    else
+      Kick<false>(moved, first, last, half, g);
   }
   if (m_projectile) {
     RigidSphere& p = *m_projectile;

@@ -1,5 +1,5 @@
 // The bead-pair contact law in batches. The pair loop finds the touching pairs of a stretch of
-// beads first (without a branch per list entry), then resolves all of them in one loop that
+// list entries first (without a branch per entry), then resolves all of them in one loop that
 // the compiler vectorizes (gathers, vector sqrt and division, masks for the two friction
 // branches), then adds the results to the beads in list order. The arithmetic of each contact
 // is exactly that of HertzMindlinForce and Resolve (same operations in the same order, no
@@ -20,14 +20,14 @@ namespace dembuf::detail {
 /// component each. The new histories are copied back to the list afterwards: a vector
 /// scatter is not available on every CPU, and the gather-only loop vectorizes on all.
 struct PairBatch {
-  /// A batch is resolved when it reaches this many contacts (its arrays then fit in L1).
+  /// A batch covers at most this many list entries (its arrays then stay in L1).
   static constexpr std::size_t kTarget = 256;
 
   std::vector<std::uint32_t> bead, partner, entry;
   std::vector<double> overlap;
   std::vector<double> force[3], torque_bead[3], torque_partner[3], shear[3];
   std::size_t size = 0;
-  /// List entries of the batch's beads that are apart (their histories are cleared).
+  /// The batch's list entries that are apart (their histories are cleared).
   std::vector<std::uint32_t> apart;
   std::size_t apart_size = 0;
 
@@ -41,7 +41,7 @@ struct PairBatch {
 };
 
 /// What the law reads: bead arrays (3 doubles per bead for vectors), the pair constants of the
-/// list entries, and the tangential histories (updated in place).
+/// list entries, and their tangential histories.
 struct PairBatchInputs {
   const double* position;
   const double* velocity;

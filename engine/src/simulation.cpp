@@ -204,15 +204,15 @@ auto Components(V& vectors) -> decltype(vectors.front().data()) {
   return vectors.empty() ? nullptr : vectors.front().data();
 }
 
-// Pair forces of the beads of block [begin, end), in batches (pair_batch.h): the touching
-// pairs are collected without a branch per list entry, resolved in one vectorized loop, then
-// added to the beads in list order. Entries apart lose their history (friction only).
+// Pair forces of the beads of block [begin, end), in batches of the list's entries
+// (pair_batch.h): the touching pairs are picked out, the law resolves them in one vectorized
+// loop, and the results go to the beads in list order. Entries apart lose their history.
 template <bool kFriction>
 void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& pairs,
                 detail::PairBatch& batch, std::uint32_t begin, std::uint32_t end,
                 StepObservables& obs, StepConditions& cond) {
   if (begin == end) return;  // (a system without beads may have no list at all)
-  const std::uint32_t* offsets = pairs.offsets.data();
+  const std::uint32_t* owner = pairs.owner.data();
   const std::uint32_t* partners = pairs.partners.data();
   const detail::PairBatchInputs inputs{Components(b.position),
                                        Components(b.velocity),
@@ -222,36 +222,15 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
                                        Components(pairs.shear),
                                        params.sphere_pair,
                                        params.dt_s};
-  auto flush = [&] {
-    detail::ResolvePairBatch(kFriction, inputs, batch);
-    for (std::size_t c = 0; c < batch.size; ++c) {
-      const std::uint32_t i = batch.bead[c], j = batch.partner[c];
-      const Vec3 f(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
-      b.force[i] += f;
-      b.force[j] -= f;
-      if constexpr (kFriction) {
-        b.torque[i] +=
-            Vec3(batch.torque_bead[0][c], batch.torque_bead[1][c], batch.torque_bead[2][c]);
-        b.torque[j] += Vec3(batch.torque_partner[0][c], batch.torque_partner[1][c],
-                            batch.torque_partner[2][c]);
-        pairs.shear[batch.entry[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
-      }
-      cond.NoteOverlap(batch.overlap[c], std::min(b.radius[i], b.radius[j]), static_cast<long>(i),
-                       static_cast<long>(j));
-    }
-    // Entries apart lose their history: a contact that opens forgets its shear.
-    if constexpr (kFriction)
-      for (std::size_t a = 0; a < batch.apart_size; ++a) pairs.shear[batch.apart[a]].setZero();
-    obs.bead_contacts += static_cast<int>(batch.size);
-    batch.size = 0;
-    batch.apart_size = 0;
-  };
-  // One flat loop over the block's list entries, in batches of kTarget entries: no loop
-  // exit per bead to mispredict.
-  const std::uint32_t* owner = pairs.owner.data();
   batch.Reserve(detail::PairBatch::kTarget);
-  for (std::uint32_t first = offsets[begin], stop = offsets[end]; first < stop;) {
+  // One flat loop over the entries (not beads, then their entries): no loop exit per bead to
+  // mispredict.
+  const std::uint32_t stop = pairs.offsets[end];
+  for (std::uint32_t first = pairs.offsets[begin]; first < stop;) {
     const std::uint32_t last = std::min<std::uint32_t>(stop, first + detail::PairBatch::kTarget);
+
+    // 1. Pick out the touching pairs, and the entries apart. Every entry is written and the
+    // counts advance by a comparison's result: no branch to mispredict.
     std::uint32_t* bead = batch.bead.data();
     std::uint32_t* partner = batch.partner.data();
     std::uint32_t* entry = batch.entry.data();
@@ -261,7 +240,6 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
       const std::uint32_t i = owner[k], j = partners[k];
       const double rsum = b.radius[i] + b.radius[j];
       const bool touching = (b.position[i] - b.position[j]).squaredNorm() < rsum * rsum;
-      // Written always, kept only when touching: no branch to mispredict.
       bead[n] = i;
       partner[n] = j;
       entry[n] = k;
@@ -273,12 +251,36 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
     }
     batch.size = n;
     batch.apart_size = m;
-    flush();
+
+    // 2. The contact law, vectorized.
+    detail::ResolvePairBatch(kFriction, inputs, batch);
+
+    // 3. Forces and torques to both beads, in list order; the histories back to the list.
+    for (std::size_t c = 0; c < n; ++c) {
+      const std::uint32_t i = bead[c], j = partner[c];
+      const Vec3 f(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
+      b.force[i] += f;
+      b.force[j] -= f;
+      if constexpr (kFriction) {
+        b.torque[i] +=
+            Vec3(batch.torque_bead[0][c], batch.torque_bead[1][c], batch.torque_bead[2][c]);
+        b.torque[j] += Vec3(batch.torque_partner[0][c], batch.torque_partner[1][c],
+                            batch.torque_partner[2][c]);
+        pairs.shear[entry[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+      }
+      cond.NoteOverlap(batch.overlap[c], std::min(b.radius[i], b.radius[j]), static_cast<long>(i),
+                       static_cast<long>(j));
+    }
+    obs.bead_contacts += static_cast<int>(n);
+
+    // 4. A contact that has opened forgets its history.
+    if constexpr (kFriction)
+      for (std::size_t a = 0; a < m; ++a) pairs.shear[apart[a]].setZero();
     first = last;
   }
 }
 
-// The force pass: bead pairs (blocks in two phases), container contacts (blocks in one phase),
+// The force pass: bead pairs (blocks in four phases), container contacts (blocks in one phase),
 // then the projectile (one body, serial). Observables and conditions are summed per block and
 // merged in block order, so the result does not depend on the thread count.
 template <bool kFriction>

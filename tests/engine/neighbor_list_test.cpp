@@ -31,11 +31,13 @@ TEST(PairList, MatchesBruteForce) {
     EXPECT_EQ(parallel.offsets, list.offsets) << threads << " threads";
     EXPECT_EQ(parallel.partners, list.partners) << threads << " threads";
     EXPECT_EQ(parallel.sqrt_r_star, list.sqrt_r_star) << threads << " threads";
+    EXPECT_EQ(parallel.owner, list.owner) << threads << " threads";
   }
   std::set<std::pair<std::uint32_t, std::uint32_t>> found, expected;
   for (std::uint32_t i = 0; i < b.size(); ++i) {
     for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
       EXPECT_GT(list.partners[k], i);
+      EXPECT_EQ(list.owner[k], i);
       if (k > list.offsets[i]) {
         EXPECT_LT(list.partners[k - 1], list.partners[k]);
       }

@@ -10,6 +10,7 @@
 #include "dembuf/engine/errors.h"
 #include "neighbor_list.h"
 #include "pair_batch.h"
+#include "thread_shares.h"
 
 namespace dembuf {
 
@@ -117,6 +118,8 @@ struct Simulation::Impl {
   std::vector<StepObservables> block_observables;
   std::vector<StepConditions> block_conditions;
   std::vector<detail::PairBatch> batches;  // one per thread
+  // Each thread's share of the force and integration passes, following its measured speed.
+  detail::ThreadShares shares;
   int threads = 1;
   bool parallel = false;
 };
@@ -295,6 +298,8 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   s.block_conditions.assign(blocks, StepConditions{});
   const std::uint32_t* start = s.block_start.data();
   if (s.batches.size() < static_cast<std::size_t>(s.threads)) s.batches.resize(s.threads);
+  s.shares.Prepare(s.threads);
+  int team_size = 1;
 
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
@@ -306,20 +311,28 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       }
     }
     const int thread = omp_get_thread_num(), team = omp_get_num_threads();
+    if (thread == 0) team_size = team;
+    double busy = 0.0;  // this thread's time in its blocks, without the waits at barriers
+    std::uint64_t done = 0;
     for (std::size_t p = 0; p < s.phase_blocks.size(); ++p) {
       const std::vector<int>& phase = s.phase_blocks[p];
       const std::vector<std::uint64_t>& work = s.phase_work[p];
       auto share_start = [&](int t) {
-        return std::lower_bound(work.begin(), work.end() - 1, work.back() * t / team) -
-               work.begin();
+        const double target = static_cast<double>(work.back()) * s.shares.Start(t, team);
+        return std::lower_bound(work.begin(), work.end() - 1, target) - work.begin();
       };
-      for (auto m = share_start(thread); m < share_start(thread + 1); ++m) {
+      const auto first = share_start(thread), last = share_start(thread + 1);
+      const double began = omp_get_wtime();
+      for (auto m = first; m < last; ++m) {
         const int k = phase[m];
         PairForces<kFriction>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
                               s.block_observables[k], s.block_conditions[k]);
       }
+      busy += omp_get_wtime() - began;
+      done += work[last] - work[first];
 #pragma omp barrier
     }
+    if (team > 1) s.shares.Record(thread, static_cast<double>(done), busy);
 #pragma omp for schedule(static)
     for (int k = 0; k < blocks; ++k) {
       for (std::uint32_t i = start[k]; i < start[k + 1]; ++i)
@@ -329,6 +342,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
             s.block_observables[k], s.block_conditions[k], static_cast<long>(i));
     }
   }
+  s.shares.Update(team_size);
   obs = StepObservables{};
   StepConditions& cond = s.conditions;
   for (int k = 0; k < blocks; ++k) {
@@ -668,7 +682,8 @@ void Simulation::Step() {
     double thread_disp2 = 0.0;
     long thread_suspects = 0;
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const long first = n * thread / team, last = n * (thread + 1) / team;
+    const long first = static_cast<long>(n * s.shares.Start(thread, team));
+    const long last = static_cast<long>(n * s.shares.Start(thread + 1, team));
     if (rotate)
       KickAndDrift<true>(k, first, last, half, dt, g, reference, wall_r2, wall_top, thread_disp2,
                          thread_suspects);
@@ -710,7 +725,8 @@ void Simulation::Step() {
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const long first = n * thread / team, last = n * (thread + 1) / team;
+    const long first = static_cast<long>(n * s.shares.Start(thread, team));
+    const long last = static_cast<long>(n * s.shares.Start(thread + 1, team));
     if (rotate)
       Kick<true>(moved, first, last, half, g);
     else

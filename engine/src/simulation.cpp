@@ -459,7 +459,9 @@ void KickAndDrift(const Kinematics& k, long first, long last, double half, doubl
     const double d2 = dx * dx + dy * dy + dz * dz;
     disp2 = d2 > disp2 ? d2 : disp2;
     const double sum = ((x[0] + x[1]) + (x[2] + v[0])) + (v[1] + v[2]);
-    count += !std::isfinite(sum) | Escaped(x[0], x[1], x[2], k.radius[i], wall_r2, wall_top);
+    const bool suspect =
+        !std::isfinite(sum) || Escaped(x[0], x[1], x[2], k.radius[i], wall_r2, wall_top);
+    count += suspect;
   }
   max_disp2 = std::max(max_disp2, disp2);
   suspects += count;

@@ -115,6 +115,15 @@ struct Simulation::Impl {
   // last: each thread takes consecutive blocks of about equal work, which keeps both the
   // balance and the memory locality of a contiguous share.
   std::vector<std::vector<std::uint64_t>> phase_work{{0, 1}};
+  // The touching pairs of each block in the last force pass, which weigh the blocks' work
+  // (empty after a list build, until a pass has counted them).
+  std::vector<std::uint32_t> block_contacts;
+  // The beads that can touch the plate or the side wall before the next list build (closer to
+  // one than a skin, or holding a history with one), in id order, and where each block's
+  // beads start in that list. The others' container contacts are skipped: the walls stand
+  // still and no bead moves half a skin within a list's life, so skipping them is exact.
+  std::vector<std::uint32_t> near_container;
+  std::vector<std::uint32_t> block_near_container{0, 0};
   std::vector<StepObservables> block_observables;
   std::vector<StepConditions> block_conditions;
   std::vector<detail::PairBatch> batches;  // one per thread
@@ -283,9 +292,34 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
   }
 }
 
-// The force pass: bead pairs (blocks in four phases), container contacts (blocks in one phase),
-// then the projectile (one body, serial). Observables and conditions are summed per block and
-// merged in block order, so the result does not depend on the thread count.
+// The work of each phase's blocks (Impl::phase_work): a block's list entries and beads, and
+// its touching pairs once a pass has counted them. Resolving a touching pair costs several
+// times as much as checking an entry, and touching pairs are not spread evenly: a bed at rest
+// is full of them, the beads thrown up by an impact have few.
+void WeighPhases(Simulation::Impl& s) {
+  // A touching pair costs about as much as six entries checked (a profile of the impact puts
+  // it at 5 to 10); only the split between threads depends on it, never a result.
+  constexpr std::uint64_t kContactWork = 6;
+  const bool listed = s.pairs.offsets.size() == s.block_start.back() + 1;
+  const bool counted = s.block_contacts.size() + 1 == s.block_start.size();
+  s.phase_work.resize(s.phase_blocks.size());
+  for (std::size_t p = 0; p < s.phase_blocks.size(); ++p) {
+    std::vector<std::uint64_t>& work = s.phase_work[p];
+    work.assign(1, 0);
+    for (int k : s.phase_blocks[p]) {
+      const std::uint32_t first = s.block_start[k], last = s.block_start[k + 1];
+      const std::uint64_t entries = listed ? s.pairs.offsets[last] - s.pairs.offsets[first] : 0;
+      const std::uint64_t contacts = counted ? s.block_contacts[k] : 0;
+      // + 1: strictly increasing
+      work.push_back(work.back() + entries + kContactWork * contacts + (last - first) + 1);
+    }
+  }
+}
+
+// The force pass: bead pairs (blocks in four phases), container contacts of the beads near the
+// walls (blocks in one phase), then the projectile (one body, serial). Observables and conditions
+// are summed per block and merged in block order, so the result does not depend on the thread
+// count.
 template <bool kFriction>
 void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
                        std::optional<RigidSphere>& projectile, Simulation::Impl& s,
@@ -294,6 +328,10 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   const PairParams pp = params.sphere_pair;
   const PairParams pw = params.sphere_wall;
   const int blocks = static_cast<int>(s.block_start.size()) - 1;
+  // Weigh the blocks by the last pass's contacts (not needed by one thread, nor before they
+  // are counted; a pass on other weights is not timed for the shares).
+  const bool weighed = s.block_contacts.size() == static_cast<std::size_t>(blocks);
+  if (s.threads > 1 && weighed) WeighPhases(s);
   s.block_observables.assign(blocks, StepObservables{});
   s.block_conditions.assign(blocks, StepConditions{});
   const std::uint32_t* start = s.block_start.data();
@@ -303,14 +341,15 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
 
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
-#pragma omp for schedule(static)
-    for (int k = 0; k < blocks; ++k) {
-      for (std::uint32_t i = start[k]; i < start[k + 1]; ++i) {
-        b.force[i].setZero();
-        if constexpr (kFriction) b.torque[i].setZero();
-      }
-    }
     const int thread = omp_get_thread_num(), team = omp_get_num_threads();
+    // Each thread clears the beads it integrates, whose cache lines it already holds.
+    const long n = static_cast<long>(b.size());
+    const auto [first_bead, last_bead] = s.shares.Part(n, thread, team);
+    for (long i = first_bead; i < last_bead; ++i) {
+      b.force[i].setZero();
+      if constexpr (kFriction) b.torque[i].setZero();
+    }
+#pragma omp barrier
     if (thread == 0) team_size = team;
     double busy = 0.0;  // this thread's time in its blocks, without the waits at barriers
     std::uint64_t done = 0;
@@ -332,21 +371,34 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
       done += work[last] - work[first];
 #pragma omp barrier
     }
-    if (team > 1) s.shares.Record(thread, static_cast<double>(done), busy);
-#pragma omp for schedule(static)
-    for (int k = 0; k < blocks; ++k) {
-      for (std::uint32_t i = start[k]; i < start[k + 1]; ++i)
+    if (team > 1 && weighed) s.shares.Record(thread, static_cast<double>(done), busy);
+    // Container contacts of the beads near the plate or the wall: each thread takes
+    // consecutive blocks holding about its share of those beads.
+    const std::vector<std::uint32_t>& near_start = s.block_near_container;
+    auto container_start = [&](int t) {
+      if (t == team) return blocks;
+      const double target = static_cast<double>(near_start.back()) * s.shares.Start(t, team);
+      return static_cast<int>(std::lower_bound(near_start.begin(), near_start.end() - 1, target) -
+                              near_start.begin());
+    };
+    const int first_block = container_start(thread), last_block = container_start(thread + 1);
+    for (int k = first_block; k < last_block; ++k) {
+      for (std::uint32_t c = near_start[k]; c < near_start[k + 1]; ++c) {
+        const std::uint32_t i = s.near_container[c];
         ContainerContacts<kFriction>(
             params.container, pw, dt, b.position[i], b.velocity[i], b.angular_velocity[i],
             b.radius[i], s.plate_shear[i], s.wall_shear[i], b.force[i], b.torque[i],
             s.block_observables[k], s.block_conditions[k], static_cast<long>(i));
+      }
     }
   }
   s.shares.Update(team_size);
   obs = StepObservables{};
   StepConditions& cond = s.conditions;
+  s.block_contacts.resize(blocks);
   for (int k = 0; k < blocks; ++k) {
     const StepObservables& o = s.block_observables[k];
+    s.block_contacts[k] = static_cast<std::uint32_t>(o.bead_contacts);
     obs.plate_force_N += o.plate_force_N;
     obs.wall_force_z_N += o.wall_force_z_N;
     obs.bead_contacts += o.bead_contacts;
@@ -550,23 +602,31 @@ void PlanBlocks(Simulation::Impl& s) {
   s.block_start.push_back(s.grid.RowStart(0, layers));
 }
 
-// The work of each phase's blocks (Impl::phase_work), after the pair list is built.
-void WeighPhases(Simulation::Impl& s) {
-  const bool listed = s.pairs.offsets.size() == s.block_start.back() + 1;
-  s.phase_work.clear();
-  for (const std::vector<int>& phase : s.phase_blocks) {
-    std::vector<std::uint64_t> work{0};
-    for (int k : phase) {
-      const std::uint32_t first = s.block_start[k], last = s.block_start[k + 1];
-      const std::uint64_t entries = listed ? s.pairs.offsets[last] - s.pairs.offsets[first] : 0;
-      work.push_back(work.back() + entries + (last - first) + 1);  // + 1: strictly increasing
-    }
-    s.phase_work.push_back(std::move(work));
+// The beads near the plate or the side wall (Impl::near_container), after the blocks are
+// planned and the histories applied.
+void ListNearContainer(const ParticleState& b, const Container& box, Simulation::Impl& s) {
+  s.near_container.clear();
+  for (std::uint32_t i = 0; i < b.size(); ++i) {
+    const Vec3& x = b.position[i];
+    const double r = b.radius[i];
+    const double inner = box.radius_m - r - s.skin;
+    const bool near_plate = x.z() - r < s.skin;
+    const bool near_wall = inner <= 0.0 || x.x() * x.x() + x.y() * x.y() > inner * inner;
+    const bool history = s.plate_shear[i] != Vec3::Zero() || s.wall_shear[i] != Vec3::Zero();
+    if (near_plate || near_wall || history) s.near_container.push_back(i);
   }
+  s.block_near_container.clear();
+  for (const std::uint32_t first : s.block_start)
+    s.block_near_container.push_back(static_cast<std::uint32_t>(
+        std::lower_bound(s.near_container.begin(), s.near_container.end(), first) -
+        s.near_container.begin()));
 }
 
 void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
+  s.block_start = {0, static_cast<std::uint32_t>(b.size())};
+  s.phase_blocks = {{0}};
+  s.block_contacts.clear();
   if (b.size() > 0) {
     // The grid spans the container; beads above the wall top or outside it are clamped into
     // the border cells. Its height follows the beads, so a shallow bed has few cells.
@@ -581,8 +641,6 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
                   z_top + margin);
     s.grid.Build(b.position, cell, lo, hi);
     s.parallel = b.size() >= kParallelMinBeads;
-    s.block_start = {0, static_cast<std::uint32_t>(b.size())};
-    s.phase_blocks = {{0}};
     if (s.parallel) {
       const std::vector<std::uint32_t>& order = s.grid.CellOrder();
       bool sorted = true;
@@ -594,13 +652,14 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
       PlanBlocks(s);
     }
     detail::RebuildPairList(b, s.grid, s.skin, s.pairs, s.parallel ? s.threads : 1);
-    WeighPhases(s);
     ApplyHistory(s);
     s.reference_position = b.position;
     if (projectile)
       detail::RebuildCandidateList(b, s.grid, projectile->position, projectile->radius,
                                    s.max_radius, s.skin, s.near_projectile);
   }
+  WeighPhases(s);
+  ListNearContainer(b, params.container, s);
   if (projectile) s.projectile_reference = projectile->position;
   s.max_bead_displacement = 0.0;
   s.projectile_list_displacement = 0.0;
@@ -684,8 +743,7 @@ void Simulation::Step() {
     double thread_disp2 = 0.0;
     long thread_suspects = 0;
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const long first = static_cast<long>(n * s.shares.Start(thread, team));
-    const long last = static_cast<long>(n * s.shares.Start(thread + 1, team));
+    const auto [first, last] = s.shares.Part(n, thread, team);
     if (rotate)
       KickAndDrift<true>(k, first, last, half, dt, g, reference, wall_r2, wall_top, thread_disp2,
                          thread_suspects);
@@ -727,8 +785,7 @@ void Simulation::Step() {
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const long first = static_cast<long>(n * s.shares.Start(thread, team));
-    const long last = static_cast<long>(n * s.shares.Start(thread + 1, team));
+    const auto [first, last] = s.shares.Part(n, thread, team);
     if (rotate)
       Kick<true>(moved, first, last, half, g);
     else

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <utility>
 #include <vector>
 
 namespace dembuf::detail {
@@ -22,6 +23,11 @@ class ThreadShares {
   double Start(int t, int team) const {
     if (m_start.size() != static_cast<std::size_t>(team) + 1) return static_cast<double>(t) / team;
     return m_start[t];
+  }
+
+  /// Thread t's part [first, last) of `n` items split by the shares.
+  std::pair<long, long> Part(long n, int t, int team) const {
+    return {static_cast<long>(n * Start(t, team)), static_cast<long>(n * Start(t + 1, team))};
   }
 
   /// Thread t did `work` units of work in `seconds` of its own time. Each thread records only

@@ -53,6 +53,9 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
   const long chunks = static_cast<long>((n + kChunkBeads - 1) / kChunkBeads);
   const bool parallel = threads > 1 && chunks > 1;
   std::vector<std::vector<std::uint32_t>> found(chunks);
+  // Beads numbered in cell order (large beds are kept so) have all their partners j > i in
+  // the forward half of the cells around them.
+  const bool forward = grid.InCellOrder();
   PairList fresh;
   fresh.offsets.resize(n + 1);
 #pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel)
@@ -64,11 +67,15 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
       fresh.offsets[i] = static_cast<std::uint32_t>(partners.size());  // within the chunk
       const Vec3 xi = beads.position[i];
       const double ri = beads.radius[i];
-      grid.ForEachAround(xi, [&](std::uint32_t j) {
+      auto near = [&](std::uint32_t j) {
         if (j <= i) return;
         const double reach = ri + beads.radius[j] + skin;
         if ((xi - beads.position[j]).squaredNorm() < reach * reach) partners.push_back(j);
-      });
+      };
+      if (forward)
+        grid.ForEachForward(xi, near);
+      else
+        grid.ForEachAround(xi, near);
       std::sort(partners.begin() + fresh.offsets[i], partners.end());
     }
   }

@@ -45,17 +45,22 @@ class CellGrid {
   /// Calls visit(j) for every bead in the 27 cells around the cell of point p.
   template <class Visit>
   void ForEachAround(const Vec3& p, Visit&& visit) const {
-    int c[3];
-    CellCoords(p, c);
-    const int x0 = c[0] > 0 ? c[0] - 1 : 0, x1 = c[0] + 1 < m_dims[0] ? c[0] + 1 : c[0];
-    const int y0 = c[1] > 0 ? c[1] - 1 : 0, y1 = c[1] + 1 < m_dims[1] ? c[1] + 1 : c[1];
-    const int z0 = c[2] > 0 ? c[2] - 1 : 0, z1 = c[2] + 1 < m_dims[2] ? c[2] + 1 : c[2];
-    for (int z = z0; z <= z1; ++z)
-      for (int y = y0; y <= y1; ++y) {
-        const std::size_t row = Index(0, y, z);
-        for (std::uint32_t k = m_cell_start[row + x0]; k < m_cell_start[row + x1 + 1]; ++k)
-          visit(m_cell_beads[k]);
-      }
+    ForEachInStencil<false>(p, visit);
+  }
+
+  /// Calls visit(j) for every bead in the cell of point p and in those of the 27 around it
+  /// that come after it in cell order (13). When the beads are numbered in cell order, these
+  /// hold all the neighbors j > i of a bead i at p: half the cells of ForEachAround.
+  template <class Visit>
+  void ForEachForward(const Vec3& p, Visit&& visit) const {
+    ForEachInStencil<true>(p, visit);
+  }
+
+  /// True when the beads are numbered in cell order (CellOrder() is 0, 1, 2, ...).
+  bool InCellOrder() const {
+    for (std::size_t k = 0; k < m_cell_beads.size(); ++k)
+      if (m_cell_beads[k] != k) return false;
+    return true;
   }
 
  private:
@@ -68,6 +73,24 @@ class CellGrid {
   }
   std::size_t Index(int x, int y, int z) const {
     return (static_cast<std::size_t>(z) * m_dims[1] + y) * m_dims[0] + x;
+  }
+
+  // The 27 cells around the cell of p, or (kForward) only the cell and those after it: the
+  // rows of the layers above, the rows after it in its layer, and the rest of its own row.
+  template <bool kForward, class Visit>
+  void ForEachInStencil(const Vec3& p, Visit& visit) const {
+    int c[3];
+    CellCoords(p, c);
+    const int x0 = c[0] > 0 ? c[0] - 1 : 0, x1 = c[0] + 1 < m_dims[0] ? c[0] + 1 : c[0];
+    const int y0 = c[1] > 0 ? c[1] - 1 : 0, y1 = c[1] + 1 < m_dims[1] ? c[1] + 1 : c[1];
+    const int z0 = c[2] > 0 ? c[2] - 1 : 0, z1 = c[2] + 1 < m_dims[2] ? c[2] + 1 : c[2];
+    for (int z = kForward ? c[2] : z0; z <= z1; ++z)
+      for (int y = kForward && z == c[2] ? c[1] : y0; y <= y1; ++y) {
+        const std::size_t row = Index(0, y, z);
+        const int first = kForward && z == c[2] && y == c[1] ? c[0] : x0;
+        for (std::uint32_t k = m_cell_start[row + first]; k < m_cell_start[row + x1 + 1]; ++k)
+          visit(m_cell_beads[k]);
+      }
   }
 
   Vec3 m_lo = Vec3::Zero();

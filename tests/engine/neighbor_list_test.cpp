@@ -17,22 +17,8 @@ ParticleState RandomBeads(int n, std::uint64_t seed) {
   return b;
 }
 
-TEST(PairList, MatchesBruteForce) {
-  const ParticleState b = RandomBeads(2000, 7);
-  const double skin = 0.0008;
-  CellGrid grid;
-  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.03));
-  PairList list;
-  RebuildPairList(b, grid, skin, list);
-  // Built in chunks on several threads (2000 beads are four chunks), the list is the same.
-  for (int threads : {2, 3}) {
-    PairList parallel;
-    RebuildPairList(b, grid, skin, parallel, threads);
-    EXPECT_EQ(parallel.offsets, list.offsets) << threads << " threads";
-    EXPECT_EQ(parallel.partners, list.partners) << threads << " threads";
-    EXPECT_EQ(parallel.sqrt_r_star, list.sqrt_r_star) << threads << " threads";
-    EXPECT_EQ(parallel.owner, list.owner) << threads << " threads";
-  }
+// The list holds exactly the pairs i < j within reach, partners sorted; returns their count.
+std::size_t ExpectMatchesBruteForce(const ParticleState& b, const PairList& list, double skin) {
   std::set<std::pair<std::uint32_t, std::uint32_t>> found, expected;
   for (std::uint32_t i = 0; i < b.size(); ++i) {
     for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
@@ -48,8 +34,44 @@ TEST(PairList, MatchesBruteForce) {
       if ((b.position[i] - b.position[j]).squaredNorm() < reach * reach) expected.insert({i, j});
     }
   }
-  EXPECT_EQ(found, expected);  // the grid is shorter than the beads' z range: clamping works
-  EXPECT_GT(expected.size(), 1000u);
+  EXPECT_EQ(found, expected);
+  return expected.size();
+}
+
+TEST(PairList, MatchesBruteForce) {
+  const ParticleState b = RandomBeads(2000, 7);
+  const double skin = 0.0008;
+  CellGrid grid;
+  grid.Build(b.position, 0.005 + skin, Vec3(-0.06, -0.06, -0.005), Vec3(0.06, 0.06, 0.03));
+  ASSERT_FALSE(grid.InCellOrder());  // the search over all 27 cells around each bead
+  PairList list;
+  RebuildPairList(b, grid, skin, list);
+  // Built in chunks on several threads (2000 beads are four chunks), the list is the same.
+  for (int threads : {2, 3}) {
+    PairList parallel;
+    RebuildPairList(b, grid, skin, parallel, threads);
+    EXPECT_EQ(parallel.offsets, list.offsets) << threads << " threads";
+    EXPECT_EQ(parallel.partners, list.partners) << threads << " threads";
+    EXPECT_EQ(parallel.sqrt_r_star, list.sqrt_r_star) << threads << " threads";
+    EXPECT_EQ(parallel.owner, list.owner) << threads << " threads";
+  }
+  // The grid is shorter than the beads' z range: clamping works.
+  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 1000u);
+}
+
+TEST(PairList, BeadsInCellOrderSearchHalfTheCellsAndMatchBruteForce) {
+  const ParticleState random = RandomBeads(2000, 11);
+  const double skin = 0.0008;
+  const Vec3 lo(-0.06, -0.06, -0.005), hi(0.06, 0.06, 0.03);
+  CellGrid grid;
+  grid.Build(random.position, 0.005 + skin, lo, hi);
+  ParticleState b;  // the same beads numbered in cell order, as large beds are kept
+  for (std::uint32_t i : grid.CellOrder()) b.Add(random.position[i], random.radius[i], 2650.0);
+  grid.Build(b.position, 0.005 + skin, lo, hi);
+  ASSERT_TRUE(grid.InCellOrder());  // the search over the forward half of the cells
+  PairList list;
+  RebuildPairList(b, grid, skin, list, 2);
+  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 1000u);
 }
 
 TEST(PairList, RebuildKeepsHistoryOfSurvivingPairs) {

@@ -20,6 +20,13 @@ namespace {
 
 constexpr double kUnbounded = 1e300;
 
+// Whether `path` names a regular file. A name the system refuses to look up (too long, say)
+// names no file: the caller reports it as such, instead of the library throwing.
+bool IsRegularFile(const std::string& path) {
+  std::error_code ignored;
+  return std::filesystem::is_regular_file(path, ignored);
+}
+
 // Ranges are wide enough for any physical scene the engine can handle and tight enough to
 // catch unit slips (millimetres typed as metres, GPa typed as Pa).
 const std::vector<SceneField>& FieldTable() {
@@ -420,7 +427,7 @@ Scene LoadScene(const std::string& text, const std::string& name, const std::str
 }  // namespace
 
 Scene LoadSceneFile(const std::string& path, const Scene& base) {
-  if (!std::filesystem::is_regular_file(path))
+  if (!IsRegularFile(path))
     throw SceneError("", "scene file \"" + path + "\" does not exist or is not a file");
   std::ifstream in(path, std::ios::binary);
   std::ostringstream text;
@@ -479,7 +486,7 @@ void ValidateScene(const Scene& scene) {
                                       "than one radius (" +
                                       FormatNumber(0.5 * p.diameter_m) + " m) above the surface");
   }
-  if (!scene.bed.import.empty() && !std::filesystem::is_regular_file(scene.bed.import))
+  if (!scene.bed.import.empty() && !IsRegularFile(scene.bed.import))
     fail("bed.import", "file \"" + scene.bed.import + "\" does not exist or is not a file");
 }
 

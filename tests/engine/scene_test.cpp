@@ -28,6 +28,12 @@ void PrintTo(const BadScene& c, std::ostream* os) {
   *os << c.label;
 }
 
+// A scene importing a bed file whose name is longer than the system allows (255 bytes).
+const char* TooLongBedFileName() {
+  static const std::string toml = "[bed]\nimport = \"" + std::string(300, 'q') + ".txt\"\n";
+  return toml.c_str();
+}
+
 class BadSceneFile : public testing::TestWithParam<BadScene> {};
 
 TEST_P(BadSceneFile, IsRefusedNamingTheFieldAndRange) {
@@ -77,6 +83,10 @@ INSTANTIATE_TEST_SUITE_P(
                              "projectile.height_m", "more than one radius"},
                     BadScene{"missing_bed_file", "[bed]\nimport = \"no-such-bed.txt\"\n",
                              "bed.import", "does not exist"},
+                    // A name longer than the system allows (found by the fuzzer: the file
+                    // system library threw instead of the field being named).
+                    BadScene{"bed_file_name_too_long", TooLongBedFileName(), "bed.import",
+                             "does not exist"},
                     BadScene{"fractional_seed", "[bed]\nseed = 1.5\n", "bed.seed",
                              "expected a whole number, got a float"},
                     BadScene{"number_for_bool", "[projectile]\nenabled = 1\n", "projectile.enabled",

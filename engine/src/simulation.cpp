@@ -316,6 +316,18 @@ void WeighPhases(Simulation::Impl& s) {
   }
 }
 
+// Where a thread's run of consecutive items starts when each thread takes about its share of
+// their work: `cumulative` holds the work before each item and the total last, `fraction` is
+// where the thread's share starts (ThreadShares::Start). 0 gives the first item, 1 one past
+// the last.
+template <class Work>
+long ShareStart(const std::vector<Work>& cumulative, double fraction) {
+  const long items = static_cast<long>(cumulative.size()) - 1;
+  if (fraction >= 1.0) return items;
+  const double target = static_cast<double>(cumulative.back()) * fraction;
+  return std::lower_bound(cumulative.begin(), cumulative.end() - 1, target) - cumulative.begin();
+}
+
 // The force pass: bead pairs (blocks in four phases), container contacts of the beads near the
 // walls (blocks in one phase), then the projectile (one body, serial). Observables and conditions
 // are summed per block and merged in block order, so the result does not depend on the thread
@@ -342,7 +354,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int thread = omp_get_thread_num(), team = omp_get_num_threads();
-    // Each thread clears the beads it integrates, whose cache lines it already holds.
+    // Each thread clears the forces of the beads it integrates (the same part of them).
     const long n = static_cast<long>(b.size());
     const auto [first_bead, last_bead] = s.shares.Part(n, thread, team);
     for (long i = first_bead; i < last_bead; ++i) {
@@ -356,11 +368,8 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
     for (std::size_t p = 0; p < s.phase_blocks.size(); ++p) {
       const std::vector<int>& phase = s.phase_blocks[p];
       const std::vector<std::uint64_t>& work = s.phase_work[p];
-      auto share_start = [&](int t) {
-        const double target = static_cast<double>(work.back()) * s.shares.Start(t, team);
-        return std::lower_bound(work.begin(), work.end() - 1, target) - work.begin();
-      };
-      const auto first = share_start(thread), last = share_start(thread + 1);
+      const long first = ShareStart(work, s.shares.Start(thread, team));
+      const long last = ShareStart(work, s.shares.Start(thread + 1, team));
       const double began = omp_get_wtime();
       for (auto m = first; m < last; ++m) {
         const int k = phase[m];
@@ -375,14 +384,9 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
     // Container contacts of the beads near the plate or the wall: each thread takes
     // consecutive blocks holding about its share of those beads.
     const std::vector<std::uint32_t>& near_start = s.block_near_container;
-    auto container_start = [&](int t) {
-      if (t == team) return blocks;
-      const double target = static_cast<double>(near_start.back()) * s.shares.Start(t, team);
-      return static_cast<int>(std::lower_bound(near_start.begin(), near_start.end() - 1, target) -
-                              near_start.begin());
-    };
-    const int first_block = container_start(thread), last_block = container_start(thread + 1);
-    for (int k = first_block; k < last_block; ++k) {
+    const long first_block = ShareStart(near_start, s.shares.Start(thread, team));
+    const long last_block = ShareStart(near_start, s.shares.Start(thread + 1, team));
+    for (long k = first_block; k < last_block; ++k) {
       for (std::uint32_t c = near_start[k]; c < near_start[k + 1]; ++c) {
         const std::uint32_t i = s.near_container[c];
         ContainerContacts<kFriction>(
@@ -642,11 +646,8 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
     s.grid.Build(b.position, cell, lo, hi);
     s.parallel = b.size() >= kParallelMinBeads;
     if (s.parallel) {
-      const std::vector<std::uint32_t>& order = s.grid.CellOrder();
-      bool sorted = true;
-      for (std::size_t k = 0; k < order.size() && sorted; ++k) sorted = order[k] == k;
-      if (!sorted) {
-        ReorderBeads(b, s, std::vector<std::uint32_t>(order));
+      if (!s.grid.InCellOrder()) {
+        ReorderBeads(b, s, std::vector<std::uint32_t>(s.grid.CellOrder()));
         s.grid.Build(b.position, cell, lo, hi);
       }
       PlanBlocks(s);

@@ -18,11 +18,116 @@ void PairBatch::Grow(std::size_t n) {
   }
 }
 
+void WallBatch::Grow(std::size_t n) {
+  bead.resize(n);
+  apart.resize(n);
+  overlap.resize(n);
+  normal_force.resize(n);
+  for (int d = 0; d < 3; ++d) {
+    force[d].resize(n);
+    torque[d].resize(n);
+    shear[d].resize(n);
+  }
+}
+
 namespace {
 
-// One contact per loop iteration, written component by component so that the loop
-// vectorizes; each line mirrors the Eigen expression of MakeGeometry, HertzMindlinForce or
-// Resolve that it replaces (same operation order, so the same bits).
+// Where the law writes one contact's results (arrays of one component each).
+struct LawResults {
+  double *fx, *fy, *fz;     // force on the bead
+  double *tix, *tiy, *tiz;  // torque on the bead
+  double *tjx, *tjy, *tjz;  // torque on the partner (not written for a wall)
+  double *hx, *hy, *hz;     // the advanced history
+  double* normal_force;     // magnitude of the normal force (kept for a wall)
+};
+
+// What the bead touches: another bead (which takes a torque too) or a wall (whose normal force
+// is summed into the observables).
+enum class Partner { kBead, kWall };
+
+// One contact's geometry, as MakeGeometry takes it: unit normal n (towards the bead), overlap,
+// relative velocity v (bead minus partner), w_arm = ai w_bead + aj w_partner, lever arms.
+struct LaneGeometry {
+  double nx, ny, nz, overlap;
+  double vx, vy, vz;
+  double wx, wy, wz;
+  double sqrt_r_star, ai, aj;
+};
+
+// The law of contact c (one lane of a vectorized loop), component by component: each line
+// mirrors the Eigen expression of MakeGeometry, HertzMindlinForce or Resolve that it replaces
+// (same operation order, so the same bits). Its history before this step is
+// history[3 k .. 3 k + 2] (indexed here, not through a pointer to it: that form gathers).
+template <bool kFriction, Partner kPartner>
+inline __attribute__((always_inline)) void ResolveLane(const LaneGeometry& g, const PairParams& p,
+                                                       double dt, const double* history,
+                                                       std::size_t k, const LawResults& out,
+                                                       std::size_t c) {
+  const double nx = g.nx, ny = g.ny, nz = g.nz, overlap = g.overlap;
+  const double approach = -(g.vx * nx + g.vy * ny + g.vz * nz);
+  // Hertz normal force with nonlinear damping, clamped at 0.
+  const double sqrt_x = std::sqrt(overlap);
+  const double f = p.kn_per_sqrt_r * g.sqrt_r_star * sqrt_x * (overlap + p.damping_A_s * approach);
+  const double fn = f > 0.0 ? f : 0.0;
+  if constexpr (kPartner == Partner::kWall) out.normal_force[c] = fn;
+  if constexpr (!kFriction) {
+    out.fx[c] = fn * nx;
+    out.fy[c] = fn * ny;
+    out.fz[c] = fn * nz;
+  } else {
+    // Slip at the contact point.
+    const double sx = (g.vx + approach * nx) - (g.wy * nz - g.wz * ny);
+    const double sy = (g.vy + approach * ny) - (g.wz * nx - g.wx * nz);
+    const double sz = (g.vz + approach * nz) - (g.wx * ny - g.wy * nx);
+    // The history, turned into the tangent plane with its length kept.
+    double hx = history[3 * k], hy = history[3 * k + 1], hz = history[3 * k + 2];
+    const double old_norm2 = hx * hx + hy * hy + hz * hz;
+    const double along = hx * nx + hy * ny + hz * nz;
+    const double px = hx - along * nx, py = hy - along * ny, pz = hz - along * nz;
+    const double new_norm2 = px * px + py * py + pz * pz;
+    // Computed in every lane and used where the scalar code would (selects, not branches).
+    const double rescale = std::sqrt(old_norm2 / new_norm2);
+    const bool turn = old_norm2 > 0.0;
+    const bool scale = new_norm2 > 0.0;
+    hx = turn ? (scale ? px * rescale : px) : hx;
+    hy = turn ? (scale ? py * rescale : py) : hy;
+    hz = turn ? (scale ? pz * rescale : pz) : hz;
+    hx = hx + sx * dt;
+    hy = hy + sy * dt;
+    hz = hz + sz * dt;
+    // Mindlin spring, capped at mu Fn; while sliding the spring shortens to the cap.
+    const double ks_x = p.ks_per_sqrt_r * g.sqrt_r_star * sqrt_x;
+    double tx = -ks_x * hx, ty = -ks_x * hy, tz = -ks_x * hz;
+    const double cap = p.friction * fn;
+    const double ft2 = tx * tx + ty * ty + tz * tz;
+    const bool slide = ft2 > cap * cap;
+    const double shorten = cap / std::sqrt(ft2);
+    tx = slide ? tx * shorten : tx;
+    ty = slide ? ty * shorten : ty;
+    tz = slide ? tz * shorten : tz;
+    const bool spring = ks_x > 0.0;
+    const double ux = -tx / ks_x, uy = -ty / ks_x, uz = -tz / ks_x;
+    out.hx[c] = slide ? (spring ? ux : 0.0) : hx;
+    out.hy[c] = slide ? (spring ? uy : 0.0) : hy;
+    out.hz[c] = slide ? (spring ? uz : 0.0) : hz;
+    out.fx[c] = fn * nx + tx;
+    out.fy[c] = fn * ny + ty;
+    out.fz[c] = fn * nz + tz;
+    // Both torques are -a (n x Ft).
+    const double mx = ny * tz - nz * ty, my = nz * tx - nx * tz, mz = nx * ty - ny * tx;
+    out.tix[c] = -g.ai * mx;
+    out.tiy[c] = -g.ai * my;
+    out.tiz[c] = -g.ai * mz;
+    if constexpr (kPartner == Partner::kBead) {
+      out.tjx[c] = -g.aj * mx;
+      out.tjy[c] = -g.aj * my;
+      out.tjz[c] = -g.aj * mz;
+    }
+  }
+}
+
+// Bead pairs, one contact per loop iteration (the loop vectorizes: gathers of both beads'
+// state, vector square roots and divisions, masks for the law's branches).
 template <bool kFriction>
 inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in,
                                                        PairBatch& batch) {
@@ -30,100 +135,123 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
   const std::uint32_t* partner = batch.partner.data();
   const std::uint32_t* entry = batch.entry.data();
   double* overlap_out = batch.overlap.data();
-  double *fx = batch.force[0].data(), *fy = batch.force[1].data(), *fz = batch.force[2].data();
-  double *tix = batch.torque_bead[0].data(), *tiy = batch.torque_bead[1].data(),
-         *tiz = batch.torque_bead[2].data();
-  double *tjx = batch.torque_partner[0].data(), *tjy = batch.torque_partner[1].data(),
-         *tjz = batch.torque_partner[2].data();
-  double *hx_out = batch.shear[0].data(), *hy_out = batch.shear[1].data(),
-         *hz_out = batch.shear[2].data();
+  const LawResults out{batch.force[0].data(),
+                       batch.force[1].data(),
+                       batch.force[2].data(),
+                       batch.torque_bead[0].data(),
+                       batch.torque_bead[1].data(),
+                       batch.torque_bead[2].data(),
+                       batch.torque_partner[0].data(),
+                       batch.torque_partner[1].data(),
+                       batch.torque_partner[2].data(),
+                       batch.shear[0].data(),
+                       batch.shear[1].data(),
+                       batch.shear[2].data(),
+                       nullptr};
   const double* x = in.position;
   const double* v = in.velocity;
   const double* w = in.angular_velocity;
   const double* radius = in.radius;
   const double* sqrt_r_star = in.sqrt_r_star;
   const double* shear = in.shear;
-  const double kn_per_sqrt_r = in.params.kn_per_sqrt_r;
-  const double ks_per_sqrt_r = in.params.ks_per_sqrt_r;
-  const double damping = in.params.damping_A_s;
-  const double mu = in.params.friction;
+  // Copies: the stores to the result arrays could otherwise alias them.
+  const PairParams params = in.params;
   const double dt = in.dt;
   const std::size_t n = batch.size;
 
 #pragma omp simd
   for (std::size_t c = 0; c < n; ++c) {
     const std::size_t i = bead[c], j = partner[c], k = entry[c];
-    // Geometry: normal from j to i, overlap, lever arms.
+    // Normal from j to i, overlap, lever arms.
     const double dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1],
                  dz = x[3 * i + 2] - x[3 * j + 2];
     const double ri = radius[i], rj = radius[j];
     const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
-    const double overlap = (ri + rj) - dist;
+    LaneGeometry g;
+    g.overlap = (ri + rj) - dist;
     const double inv_dist = 1.0 / dist;
-    const double nx = dx * inv_dist, ny = dy * inv_dist, nz = dz * inv_dist;
-    const double ai = ri - 0.5 * overlap, aj = rj - 0.5 * overlap;
-    // Relative velocity, approach rate and (with friction) slip at the contact point.
-    const double vx = v[3 * i] - v[3 * j], vy = v[3 * i + 1] - v[3 * j + 1],
-                 vz = v[3 * i + 2] - v[3 * j + 2];
-    const double approach = -(vx * nx + vy * ny + vz * nz);
-    // Hertz normal force with nonlinear damping, clamped at 0.
-    const double sqrt_x = std::sqrt(overlap);
-    const double f = kn_per_sqrt_r * sqrt_r_star[k] * sqrt_x * (overlap + damping * approach);
-    const double fn = f > 0.0 ? f : 0.0;
-    overlap_out[c] = overlap;
-    if constexpr (!kFriction) {
-      fx[c] = fn * nx;
-      fy[c] = fn * ny;
-      fz[c] = fn * nz;
+    g.nx = dx * inv_dist;
+    g.ny = dy * inv_dist;
+    g.nz = dz * inv_dist;
+    g.ai = ri - 0.5 * g.overlap;
+    g.aj = rj - 0.5 * g.overlap;
+    g.vx = v[3 * i] - v[3 * j];
+    g.vy = v[3 * i + 1] - v[3 * j + 1];
+    g.vz = v[3 * i + 2] - v[3 * j + 2];
+    if constexpr (kFriction) {
+      g.wx = g.ai * w[3 * i] + g.aj * w[3 * j];
+      g.wy = g.ai * w[3 * i + 1] + g.aj * w[3 * j + 1];
+      g.wz = g.ai * w[3 * i + 2] + g.aj * w[3 * j + 2];
     } else {
-      const double wx = ai * w[3 * i] + aj * w[3 * j], wy = ai * w[3 * i + 1] + aj * w[3 * j + 1],
-                   wz = ai * w[3 * i + 2] + aj * w[3 * j + 2];
-      const double sx = (vx + approach * nx) - (wy * nz - wz * ny);
-      const double sy = (vy + approach * ny) - (wz * nx - wx * nz);
-      const double sz = (vz + approach * nz) - (wx * ny - wy * nx);
-      // The history, turned into the tangent plane with its length kept.
-      double hx = shear[3 * k], hy = shear[3 * k + 1], hz = shear[3 * k + 2];
-      const double old_norm2 = hx * hx + hy * hy + hz * hz;
-      const double along = hx * nx + hy * ny + hz * nz;
-      const double px = hx - along * nx, py = hy - along * ny, pz = hz - along * nz;
-      const double new_norm2 = px * px + py * py + pz * pz;
-      // Computed in every lane and used where the scalar code would (selects, not branches).
-      const double rescale = std::sqrt(old_norm2 / new_norm2);
-      const bool turn = old_norm2 > 0.0;
-      const bool scale = new_norm2 > 0.0;
-      hx = turn ? (scale ? px * rescale : px) : hx;
-      hy = turn ? (scale ? py * rescale : py) : hy;
-      hz = turn ? (scale ? pz * rescale : pz) : hz;
-      hx = hx + sx * dt;
-      hy = hy + sy * dt;
-      hz = hz + sz * dt;
-      // Mindlin spring, capped at mu Fn; while sliding the spring shortens to the cap.
-      const double ks_x = ks_per_sqrt_r * sqrt_r_star[k] * sqrt_x;
-      double tx = -ks_x * hx, ty = -ks_x * hy, tz = -ks_x * hz;
-      const double cap = mu * fn;
-      const double ft2 = tx * tx + ty * ty + tz * tz;
-      const bool slide = ft2 > cap * cap;
-      const double shorten = cap / std::sqrt(ft2);
-      tx = slide ? tx * shorten : tx;
-      ty = slide ? ty * shorten : ty;
-      tz = slide ? tz * shorten : tz;
-      const bool spring = ks_x > 0.0;
-      const double ux = -tx / ks_x, uy = -ty / ks_x, uz = -tz / ks_x;
-      hx_out[c] = slide ? (spring ? ux : 0.0) : hx;
-      hy_out[c] = slide ? (spring ? uy : 0.0) : hy;
-      hz_out[c] = slide ? (spring ? uz : 0.0) : hz;
-      fx[c] = fn * nx + tx;
-      fy[c] = fn * ny + ty;
-      fz[c] = fn * nz + tz;
-      // Both torques are -a (n x Ft).
-      const double mx = ny * tz - nz * ty, my = nz * tx - nx * tz, mz = nx * ty - ny * tx;
-      tix[c] = -ai * mx;
-      tiy[c] = -ai * my;
-      tiz[c] = -ai * mz;
-      tjx[c] = -aj * mx;
-      tjy[c] = -aj * my;
-      tjz[c] = -aj * mz;
+      g.wx = g.wy = g.wz = 0.0;
     }
+    g.sqrt_r_star = sqrt_r_star[k];
+    overlap_out[c] = g.overlap;
+    ResolveLane<kFriction, Partner::kBead>(g, params, dt, shear, k, out, c);
+  }
+}
+
+// Beads against the plate (kPlate) or the side wall, one contact per loop iteration, as
+// ContainerContacts resolves them: the wall does not move and takes no torque (aj = 0).
+template <bool kFriction, bool kPlate>
+inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs& in,
+                                                           WallBatch& batch) {
+  const std::uint32_t* bead = batch.bead.data();
+  double* overlap_out = batch.overlap.data();
+  const LawResults out{batch.force[0].data(),
+                       batch.force[1].data(),
+                       batch.force[2].data(),
+                       batch.torque[0].data(),
+                       batch.torque[1].data(),
+                       batch.torque[2].data(),
+                       nullptr,
+                       nullptr,
+                       nullptr,
+                       batch.shear[0].data(),
+                       batch.shear[1].data(),
+                       batch.shear[2].data(),
+                       batch.normal_force.data()};
+  const double* x = in.position;
+  const double* v = in.velocity;
+  const double* w = in.angular_velocity;
+  const double* radius = in.radius;
+  const double* shear = in.shear;
+  // Copies: the stores to the result arrays could otherwise alias them.
+  const PairParams params = in.params;
+  const double dt = in.dt;
+  const double wall_radius = in.wall_radius;
+  const std::size_t n = batch.size;
+
+#pragma omp simd
+  for (std::size_t c = 0; c < n; ++c) {
+    const std::size_t i = bead[c];
+    const double r = radius[i];
+    LaneGeometry g;
+    if constexpr (kPlate) {
+      g.overlap = r - x[3 * i + 2];
+      g.nx = 0.0;
+      g.ny = 0.0;
+      g.nz = 1.0;
+    } else {
+      // Normal from the wall towards the axis (SideWallContact).
+      const double px = x[3 * i], py = x[3 * i + 1];
+      const double rho = std::sqrt(px * px + py * py);
+      g.overlap = rho - (wall_radius - r);
+      g.nx = -px / rho;
+      g.ny = -py / rho;
+      g.nz = 0.0;
+    }
+    g.ai = r - 0.5 * g.overlap;
+    g.aj = 0.0;
+    g.vx = v[3 * i];
+    g.vy = v[3 * i + 1];
+    g.vz = v[3 * i + 2];
+    g.wx = g.ai * w[3 * i];
+    g.wy = g.ai * w[3 * i + 1];
+    g.wz = g.ai * w[3 * i + 2];
+    g.sqrt_r_star = std::sqrt(r);
+    overlap_out[c] = g.overlap;
+    ResolveLane<kFriction, Partner::kWall>(g, params, dt, shear, i, out, c);
   }
 }
 
@@ -143,7 +271,38 @@ DEMBUF_VECTOR_CLONES void ResolveWithoutFriction(const PairBatchInputs& in, Pair
   ResolveBody<false>(in, batch);
 }
 
+DEMBUF_VECTOR_CLONES void ResolvePlateWithFriction(const WallBatchInputs& in, WallBatch& batch) {
+  ResolveWallBody<true, true>(in, batch);
+}
+
+DEMBUF_VECTOR_CLONES void ResolvePlateWithoutFriction(const WallBatchInputs& in, WallBatch& batch) {
+  ResolveWallBody<false, true>(in, batch);
+}
+
+DEMBUF_VECTOR_CLONES void ResolveSideWallWithFriction(const WallBatchInputs& in, WallBatch& batch) {
+  ResolveWallBody<true, false>(in, batch);
+}
+
+DEMBUF_VECTOR_CLONES void ResolveSideWallWithoutFriction(const WallBatchInputs& in,
+                                                         WallBatch& batch) {
+  ResolveWallBody<false, false>(in, batch);
+}
+
 }  // namespace
+
+void ResolveWallBatch(bool friction, Wall wall, const WallBatchInputs& in, WallBatch& batch) {
+  if (wall == Wall::kPlate) {
+    if (friction)
+      ResolvePlateWithFriction(in, batch);
+    else
+      ResolvePlateWithoutFriction(in, batch);
+  } else {
+    if (friction)
+      ResolveSideWallWithFriction(in, batch);
+    else
+      ResolveSideWallWithoutFriction(in, batch);
+  }
+}
 
 void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch) {
   if (friction)

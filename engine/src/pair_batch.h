@@ -57,4 +57,43 @@ struct PairBatchInputs {
 /// Compiled for several instruction sets (the widest the CPU has is chosen at load time).
 void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch);
 
+/// Contacts of beads with the plate or the side wall, batched like the pairs: the beads that
+/// touch (picked out beforehand) and the law's result for each. The histories are the beads'
+/// own (one per bead and wall).
+struct WallBatch {
+  static constexpr std::size_t kTarget = PairBatch::kTarget;
+
+  std::vector<std::uint32_t> bead;
+  std::vector<double> overlap, normal_force;
+  std::vector<double> force[3], torque[3], shear[3];
+  std::size_t size = 0;
+  /// The beads of the batch's stretch that do not touch (their histories are cleared).
+  std::vector<std::uint32_t> apart;
+  std::size_t apart_size = 0;
+
+  void Reserve(std::size_t n) {
+    if (bead.size() < n) Grow(n);
+  }
+
+ private:
+  void Grow(std::size_t n);
+};
+
+struct WallBatchInputs {
+  const double* position;
+  const double* velocity;
+  const double* angular_velocity;
+  const double* radius;
+  const double* shear;  ///< per bead, 3 doubles: its history with this wall
+  PairParams params;
+  double dt;
+  double wall_radius;  ///< the side wall's (the container's inner radius)
+};
+
+enum class Wall { kPlate, kSide };
+
+/// Resolves the contacts of `batch` with the plate or the side wall (the same arithmetic as
+/// ContainerContacts, so the same bits), filling its result arrays.
+void ResolveWallBatch(bool friction, Wall wall, const WallBatchInputs& in, WallBatch& batch);
+
 }  // namespace dembuf::detail

@@ -126,7 +126,8 @@ struct Simulation::Impl {
   std::vector<std::uint32_t> block_near_container{0, 0};
   std::vector<StepObservables> block_observables;
   std::vector<StepConditions> block_conditions;
-  std::vector<detail::PairBatch> batches;  // one per thread
+  std::vector<detail::PairBatch> batches;       // one per thread
+  std::vector<detail::WallBatch> wall_batches;  // one per thread
   // Each thread's share of the force and integration passes, following its measured speed.
   detail::ThreadShares shares;
   int threads = 1;
@@ -170,7 +171,8 @@ void Simulation::SetProjectile(const RigidSphere& projectile, double time_s) {
 
 namespace {
 
-// Plate and side-wall contacts of one sphere; adds to force/torque and the observables and
+// Plate and side-wall contacts of one sphere (the projectile; the beads' go in batches through
+// ContainerForces, with the same arithmetic); adds to force/torque and the observables and
 // returns how many of the two it touches.
 template <bool kFriction>
 int ContainerContacts(const Container& box, const PairParams& p, double dt, const Vec3& x,
@@ -292,6 +294,66 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
   }
 }
 
+// Plate and side-wall contacts of the beads near_container[begin, end), in batches like the
+// pairs: the beads touching the plate are picked out and resolved in one vectorized loop, then
+// those touching the side wall. Each bead gets its plate force before its wall force, as in
+// ContainerContacts. Beads apart from a wall lose their history with it.
+template <bool kFriction>
+void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Impl& s,
+                     detail::WallBatch& batch, std::uint32_t begin, std::uint32_t end,
+                     StepObservables& obs, StepConditions& cond) {
+  const Container& box = params.container;
+  batch.Reserve(detail::WallBatch::kTarget);
+  for (std::uint32_t first = begin; first < end;) {
+    const std::uint32_t last = std::min<std::uint32_t>(end, first + detail::WallBatch::kTarget);
+    for (const detail::Wall wall : {detail::Wall::kPlate, detail::Wall::kSide}) {
+      const bool plate = wall == detail::Wall::kPlate;
+      std::vector<Vec3>& history = plate ? s.plate_shear : s.wall_shear;
+      // Pick out the beads touching this wall (the tests of ContainerContacts), without a branch.
+      std::size_t n = 0, m = 0;
+      for (std::uint32_t c = first; c < last; ++c) {
+        const std::uint32_t i = s.near_container[c];
+        const Vec3& x = b.position[i];
+        const double r = b.radius[i];
+        const double inner = box.radius_m - r;
+        const bool touching = plate ? r - x.z() > 0.0
+                                    : (x.x() * x.x() + x.y() * x.y() > inner * inner) &
+                                          (x.z() >= 0.0) & (x.z() <= box.height_m);
+        batch.bead[n] = i;
+        n += touching;
+        batch.apart[m] = i;
+        m += !touching;
+      }
+      batch.size = n;
+      const detail::WallBatchInputs inputs{Components(b.position),
+                                           Components(b.velocity),
+                                           Components(b.angular_velocity),
+                                           b.radius.data(),
+                                           Components(history),
+                                           params.sphere_wall,
+                                           params.dt_s,
+                                           box.radius_m};
+      detail::ResolveWallBatch(kFriction, wall, inputs, batch);
+      for (std::size_t c = 0; c < n; ++c) {
+        const std::uint32_t i = batch.bead[c];
+        b.force[i] += Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
+        if constexpr (kFriction) {
+          b.torque[i] += Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]);
+          history[i] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+        }
+        if (plate)
+          obs.plate_force_N += batch.normal_force[c];
+        else
+          obs.wall_force_z_N += batch.force[2][c];
+        cond.NoteOverlap(batch.overlap[c], b.radius[i], static_cast<long>(i), plate ? -1 : -2);
+      }
+      if constexpr (kFriction)
+        for (std::size_t a = 0; a < m; ++a) history[batch.apart[a]].setZero();
+    }
+    first = last;
+  }
+}
+
 // The work of each phase's blocks (Impl::phase_work): a block's list entries and beads, and
 // its touching pairs once a pass has counted them. Resolving a touching pair costs several
 // times as much as checking an entry, and touching pairs are not spread evenly: a bed at rest
@@ -347,7 +409,10 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   s.block_observables.assign(blocks, StepObservables{});
   s.block_conditions.assign(blocks, StepConditions{});
   const std::uint32_t* start = s.block_start.data();
-  if (s.batches.size() < static_cast<std::size_t>(s.threads)) s.batches.resize(s.threads);
+  if (s.batches.size() < static_cast<std::size_t>(s.threads)) {
+    s.batches.resize(s.threads);
+    s.wall_batches.resize(s.threads);
+  }
   s.shares.Prepare(s.threads);
   int team_size = 1;
 
@@ -386,15 +451,9 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
     const std::vector<std::uint32_t>& near_start = s.block_near_container;
     const long first_block = ShareStart(near_start, s.shares.Start(thread, team));
     const long last_block = ShareStart(near_start, s.shares.Start(thread + 1, team));
-    for (long k = first_block; k < last_block; ++k) {
-      for (std::uint32_t c = near_start[k]; c < near_start[k + 1]; ++c) {
-        const std::uint32_t i = s.near_container[c];
-        ContainerContacts<kFriction>(
-            params.container, pw, dt, b.position[i], b.velocity[i], b.angular_velocity[i],
-            b.radius[i], s.plate_shear[i], s.wall_shear[i], b.force[i], b.torque[i],
-            s.block_observables[k], s.block_conditions[k], static_cast<long>(i));
-      }
-    }
+    for (long k = first_block; k < last_block; ++k)
+      ContainerForces<kFriction>(params, b, s, s.wall_batches[thread], near_start[k],
+                                 near_start[k + 1], s.block_observables[k], s.block_conditions[k]);
   }
   s.shares.Update(team_size);
   obs = StepObservables{};

@@ -1,7 +1,8 @@
-// The batched (vectorized) contact law gives the same bits as the contact-by-contact law it
-// replaces, in every branch of the law: sticking, sliding, a history to turn into the tangent
-// plane, a history along the normal (nothing left to turn), none at all, and a normal force
-// clamped to zero by a fast separation.
+// The batched (vectorized) contact law, for bead pairs and for beads against the plate and the
+// side wall, gives the same bits as the contact-by-contact law it replaces, in every branch of
+// the law: sticking, sliding, a history to turn into the tangent plane, a history along the
+// normal (nothing left to turn), none at all, and a normal force clamped to zero by a fast
+// separation.
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -13,6 +14,21 @@
 
 namespace dembuf::detail {
 namespace {
+
+// A contact's history, by turns: none, small (sticks), large (slides), or along the normal n.
+Vec3 SomeHistory(int k, const Vec3& n, std::mt19937& rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  switch (k % 4) {
+    case 0:
+      return Vec3::Zero();
+    case 1:
+      return 3e-6 * Vec3(unit(rng), unit(rng), unit(rng));
+    case 2:
+      return 1e-4 * Vec3(unit(rng), unit(rng), unit(rng));
+    default:
+      return 1e-6 * n;
+  }
+}
 
 // Two beads per contact (bead 2c touches bead 2c + 1), one list entry per contact.
 struct Contacts {
@@ -40,21 +56,7 @@ Contacts RandomContacts(int count, std::uint32_t seed) {
       c.velocity.push_back(5.0 * Vec3(unit(rng), unit(rng), unit(rng)));
       c.angular_velocity.push_back(3000.0 * Vec3(unit(rng), unit(rng), unit(rng)));
     }
-    // Histories: none, small (sticks), large (slides), or along the normal.
-    switch (k % 4) {
-      case 0:
-        c.shear.push_back(Vec3::Zero());
-        break;
-      case 1:
-        c.shear.push_back(3e-6 * Vec3(unit(rng), unit(rng), unit(rng)));
-        break;
-      case 2:
-        c.shear.push_back(1e-4 * Vec3(unit(rng), unit(rng), unit(rng)));
-        break;
-      default:
-        c.shear.push_back(1e-6 * n);
-        break;
-    }
+    c.shear.push_back(SomeHistory(k, n, rng));
   }
   return c;
 }
@@ -145,6 +147,96 @@ TEST(PairBatch, FrictionalLawGivesTheScalarLawsBits) {
 
 TEST(PairBatch, FrictionlessLawGivesTheScalarLawsBits) {
   CompareWithScalarLaw(false);
+}
+
+// Beads pressed into the plate (even ones) or the side wall (odd ones), one contact each, with
+// the histories of SomeHistory: the batched wall law against ContainerContacts' arithmetic
+// (MakeGeometry and Resolve with the wall's normal, lever arm 0 on the wall's side).
+void CompareWallsWithScalarLaw(bool friction) {
+  constexpr int kCount = 999;
+  const Container box{0.05, 0.1};
+  std::mt19937 rng(friction ? 9u : 10u);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), share(0.0, 1.0);
+  std::vector<Vec3> position, velocity, angular_velocity, shear;
+  std::vector<double> radius;
+  for (int k = 0; k < kCount; ++k) {
+    const double r = 0.001 * (1.0 + share(rng));
+    const double overlap = 0.03 * r * share(rng) + 1e-9;
+    if (k % 2 == 0) {
+      position.emplace_back(0.03 * unit(rng), 0.03 * unit(rng), r - overlap);
+      shear.push_back(SomeHistory(k / 2, Vec3::UnitZ(), rng));
+    } else {
+      const double angle = 3.14159 * unit(rng), rho = box.radius_m - r + overlap;
+      position.emplace_back(rho * std::cos(angle), rho * std::sin(angle), 0.09 * share(rng));
+      shear.push_back(SomeHistory(k / 2, -position.back().normalized(), rng));
+    }
+    radius.push_back(r);
+    velocity.push_back(5.0 * Vec3(unit(rng), unit(rng), unit(rng)));
+    angular_velocity.push_back(3000.0 * Vec3(unit(rng), unit(rng), unit(rng)));
+  }
+  // Damping strong enough that the fastest separations clamp the normal force to 0.
+  const PairParams params{4.0 / 3.0 * 6.0e10, 8.0 * 2.0e10, 4e-6, 0.3};
+  const double dt = 2e-7;
+  const WallBatchInputs inputs{position.front().data(),
+                               velocity.front().data(),
+                               angular_velocity.front().data(),
+                               radius.data(),
+                               shear.front().data(),
+                               params,
+                               dt,
+                               box.radius_m};
+
+  int clamped = 0, sliding = 0;
+  for (const Wall wall : {Wall::kPlate, Wall::kSide}) {
+    const int parity = wall == Wall::kPlate ? 0 : 1;
+    WallBatch batch;
+    batch.Reserve(kCount);
+    batch.size = 0;
+    for (int k = parity; k < kCount; k += 2) batch.bead[batch.size++] = k;
+    ResolveWallBatch(friction, wall, inputs, batch);
+
+    for (std::size_t c = 0; c < batch.size; ++c) {
+      const int k = static_cast<int>(batch.bead[c]);
+      const double r = radius[k];
+      double overlap = r - position[k].z();
+      Vec3 normal = Vec3::UnitZ();
+      if (wall == Wall::kSide) {
+        ASSERT_TRUE(SideWallContact(box, position[k], r, overlap, normal));
+      }
+      const double arm = LeverArm(r, overlap);
+      const ContactGeometry g =
+          MakeGeometry(normal, overlap, velocity[k], arm * angular_velocity[k], std::sqrt(r));
+      Vec3 history = shear[k];
+      const ContactOutcome out = friction ? Resolve<true>(g, arm, 0.0, params, dt, history)
+                                          : Resolve<false>(g, arm, 0.0, params, dt, history);
+      clamped += out.normal == 0.0;
+      sliding +=
+          friction && out.normal > 0.0 &&
+          (out.force - out.normal * normal).norm() >= 0.999999 * params.friction * out.normal;
+      EXPECT_TRUE(SameBits(batch.overlap[c], overlap)) << "overlap of bead " << k;
+      EXPECT_TRUE(SameBits(batch.normal_force[c], out.normal)) << "normal force of bead " << k;
+      ExpectSameBits(Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]), out.force,
+                     "force", k);
+      if (friction) {
+        ExpectSameBits(Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]),
+                       out.torque_i, "torque", k);
+        ExpectSameBits(Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]), history,
+                       "history", k);
+      }
+    }
+  }
+  EXPECT_GT(clamped, kCount / 20);
+  if (friction) {
+    EXPECT_GT(sliding, kCount / 10);
+  }
+}
+
+TEST(WallBatch, FrictionalLawGivesTheScalarLawsBits) {
+  CompareWallsWithScalarLaw(true);
+}
+
+TEST(WallBatch, FrictionlessLawGivesTheScalarLawsBits) {
+  CompareWallsWithScalarLaw(false);
 }
 
 }  // namespace

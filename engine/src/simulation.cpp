@@ -531,35 +531,49 @@ inline bool Escaped(double x, double y, double z, double r, double wall_r2, doub
   return ((z < wall_top) & (x * x + y * y > wall_r2)) | (z < -r);
 }
 
-// Half a kick of beads [first, last): v += dt/2 a (and w += dt/2 alpha when they rotate).
-// Component by component, the operations of the Eigen expressions v += half * (f / m + g) and
-// w += half / I * t, in their order.
-template <bool kRotate>
+// Half kicks of beads [first, last) with their current forces: v += dt/2 a (and w += dt/2 alpha
+// when they rotate), done kHalves times. Two are the last step's closing half kick and this
+// step's opening one, in one pass over the beads. Component by component, the operations of
+// the Eigen expressions v += half * (f / m + g) and w += half / I * t, in their order.
+template <bool kRotate, int kHalves = 1>
 void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g) {
   const double gx = g.x(), gy = g.y(), gz = g.z();
 #pragma omp simd
   for (long i = first; i < last; ++i) {
     const double inv_m = k.inv_mass[i];
-    k.velocity[3 * i] += half * (inv_m * k.force[3 * i] + gx);
-    k.velocity[3 * i + 1] += half * (inv_m * k.force[3 * i + 1] + gy);
-    k.velocity[3 * i + 2] += half * (inv_m * k.force[3 * i + 2] + gz);
+    const double dvx = half * (inv_m * k.force[3 * i] + gx);
+    const double dvy = half * (inv_m * k.force[3 * i + 1] + gy);
+    const double dvz = half * (inv_m * k.force[3 * i + 2] + gz);
+    for (int h = 0; h < kHalves; ++h) {
+      k.velocity[3 * i] += dvx;
+      k.velocity[3 * i + 1] += dvy;
+      k.velocity[3 * i + 2] += dvz;
+    }
     if constexpr (kRotate) {
       const double s = half * k.inv_inertia[i];
-      k.angular_velocity[3 * i] += s * k.torque[3 * i];
-      k.angular_velocity[3 * i + 1] += s * k.torque[3 * i + 1];
-      k.angular_velocity[3 * i + 2] += s * k.torque[3 * i + 2];
+      const double dwx = s * k.torque[3 * i], dwy = s * k.torque[3 * i + 1],
+                   dwz = s * k.torque[3 * i + 2];
+      for (int h = 0; h < kHalves; ++h) {
+        k.angular_velocity[3 * i] += dwx;
+        k.angular_velocity[3 * i + 1] += dwy;
+        k.angular_velocity[3 * i + 2] += dwz;
+      }
     }
   }
 }
 
-// Half a kick and a drift of beads [first, last), with the largest squared displacement since
-// the last list build and a count of beads that may have gone wrong: non-finite (their
-// components' sum is not finite) or outside the container.
+// The opening half kick (after the last step's closing one when `closing`) and the drift of
+// beads [first, last), with the largest squared displacement since the last list build and a
+// count of beads that may have gone wrong: non-finite (their components' sum is not finite)
+// or outside the container.
 template <bool kRotate>
-void KickAndDrift(const Kinematics& k, long first, long last, double half, double dt, const Vec3& g,
-                  const double* reference, double wall_r2, double wall_top, double& max_disp2,
-                  long& suspects) {
-  Kick<kRotate>(k, first, last, half, g);
+void KickAndDrift(const Kinematics& k, long first, long last, bool closing, double half, double dt,
+                  const Vec3& g, const double* reference, double wall_r2, double wall_top,
+                  double& max_disp2, long& suspects) {
+  if (closing)
+    Kick<kRotate, 2>(k, first, last, half, g);
+  else
+    Kick<kRotate, 1>(k, first, last, half, g);
   double disp2 = 0.0;
   long count = 0;
 #pragma omp simd reduction(max : disp2) reduction(+ : count)
@@ -777,6 +791,7 @@ void Simulation::ComputeForces() {
 }
 
 void Simulation::RefreshForces() {
+  CompleteKick();  // the pending half kick needs the forces it was computed with
   ComputeForces();
   CheckConditions();
 }
@@ -788,7 +803,10 @@ void Simulation::Step() {
   const Vec3 g(0.0, 0.0, -m_params.gravity_m_s2);
   if (!s.forces_valid) RefreshForces();
 
-  // Velocity Verlet, first half: kick to t + dt/2, drift to t + dt.
+  // Velocity Verlet, first half: kick to t + dt/2 (after the last step's closing half kick,
+  // left pending by it), drift to t + dt.
+  const bool closing = m_kick_pending;
+  m_kick_pending = false;
   const long n = static_cast<long>(m_beads.size());
   const double wall_r2 = m_params.container.radius_m * m_params.container.radius_m;
   const double wall_top = m_params.container.height_m;
@@ -805,11 +823,11 @@ void Simulation::Step() {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
     const auto [first, last] = s.shares.Part(n, thread, team);
     if (rotate)
-      KickAndDrift<true>(k, first, last, half, dt, g, reference, wall_r2, wall_top, thread_disp2,
-                         thread_suspects);
+      KickAndDrift<true>(k, first, last, closing, half, dt, g, reference, wall_r2, wall_top,
+                         thread_disp2, thread_suspects);
     else
-      KickAndDrift<false>(k, first, last, half, dt, g, reference, wall_r2, wall_top, thread_disp2,
-                          thread_suspects);
+      KickAndDrift<false>(k, first, last, closing, half, dt, g, reference, wall_r2, wall_top,
+                          thread_disp2, thread_suspects);
 #pragma omp critical
     {
       max_disp2 = std::max(max_disp2, thread_disp2);
@@ -839,18 +857,9 @@ void Simulation::Step() {
   ComputeForces();
   CheckConditions();
 
-  // Second half kick with the new forces (the beads may have been reordered meanwhile, which
-  // moves their arrays).
-  const Kinematics moved = BeadKinematics(b);
-#pragma omp parallel num_threads(s.threads) if (s.parallel)
-  {
-    const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const auto [first, last] = s.shares.Part(n, thread, team);
-    if (rotate)
-      Kick<true>(moved, first, last, half, g);
-    else
-      Kick<false>(moved, first, last, half, g);
-  }
+  // Second half kick with the new forces: left pending for the beads (the next step does it
+  // in its first pass over them, or CompleteKick when someone looks at them first).
+  m_kick_pending = true;
   if (m_projectile) {
     RigidSphere& p = *m_projectile;
     p.velocity += half * (p.force / p.mass + g);
@@ -858,6 +867,25 @@ void Simulation::Step() {
   }
   m_time_s += dt;
   ++m_steps;
+}
+
+void Simulation::CompleteKick() const {
+  if (!m_kick_pending) return;
+  m_kick_pending = false;
+  const Impl& s = *m_impl;
+  const double half = 0.5 * m_params.dt_s;
+  const Vec3 g(0.0, 0.0, -m_params.gravity_m_s2);
+  const long n = static_cast<long>(m_beads.size());
+  const Kinematics k = BeadKinematics(m_beads);
+#pragma omp parallel num_threads(s.threads) if (s.parallel)
+  {
+    const int team = omp_get_num_threads(), thread = omp_get_thread_num();
+    const auto [first, last] = s.shares.Part(n, thread, team);
+    if (s.friction)
+      Kick<true>(k, first, last, half, g);
+    else
+      Kick<false>(k, first, last, half, g);
+  }
 }
 
 void Simulation::CheckConditions() {
@@ -895,6 +923,7 @@ void Simulation::CheckConditions() {
 }
 
 double Simulation::BeadKineticEnergy() const {
+  CompleteKick();
   double e = 0.0;
   const ParticleState& b = m_beads;
   for (std::size_t i = 0; i < b.size(); ++i)
@@ -904,6 +933,7 @@ double Simulation::BeadKineticEnergy() const {
 }
 
 void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
+  CompleteKick();  // with the forces and rotation of the old friction
   m_params.sphere_pair.friction = sphere_pair;
   m_params.sphere_wall.friction = sphere_wall;
   m_impl->friction = sphere_pair > 0.0 || sphere_wall > 0.0;
@@ -911,6 +941,7 @@ void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
 }
 
 void Simulation::ZeroBeadVelocities() {
+  m_kick_pending = false;  // it would only have changed velocities set to zero here
   std::fill(m_beads.velocity.begin(), m_beads.velocity.end(), Vec3::Zero());
   std::fill(m_beads.angular_velocity.begin(), m_beads.angular_velocity.end(), Vec3::Zero());
   m_impl->forces_valid = false;  // the damping forces depended on the old velocities
@@ -922,6 +953,7 @@ void Simulation::SetThreads(int threads) {
 }
 
 std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
+  CompleteKick();
   const Impl& s = *m_impl;
   std::vector<ContactHistoryEntry> out;
   out.insert(out.end(), s.pending_history.begin(), s.pending_history.end());
@@ -941,6 +973,7 @@ std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
 }
 
 void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
+  CompleteKick();
   Impl& s = *m_impl;
   std::vector<ContactHistoryEntry> history = ExportHistory();
   std::vector<std::uint32_t> new_id(m_beads.size(), ContactHistoryEntry::kPlate);
@@ -1033,6 +1066,7 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
 }  // namespace
 
 std::vector<ContactSnapshot> Simulation::Contacts() const {
+  CompleteKick();
   std::vector<ContactSnapshot> out;
   // Normal force from the law with the current velocities, tangential from the stored spring
   // (already capped by Coulomb in the last step).
@@ -1049,6 +1083,7 @@ std::vector<ContactSnapshot> Simulation::Contacts() const {
 }
 
 EnergyBreakdown Simulation::Energy() const {
+  CompleteKick();
   EnergyBreakdown e;
   const double g = m_params.gravity_m_s2;
   const ParticleState& b = m_beads;

@@ -84,7 +84,11 @@ class Simulation {
   double time_s() const { return m_time_s; }
   std::int64_t steps() const { return m_steps; }
   const WorldParams& params() const { return m_params; }
-  const ParticleState& beads() const { return m_beads; }
+  /// The beads at time_s() (completing the last step's closing half kick if it is pending).
+  const ParticleState& beads() const {
+    CompleteKick();
+    return m_beads;
+  }
   const std::optional<RigidSphere>& projectile() const { return m_projectile; }
   const StepObservables& observables() const { return m_observables; }
 
@@ -125,9 +129,14 @@ class Simulation {
   void RemoveBeadsMasked(const std::vector<bool>& keep);
   void ComputeForces();
   void CheckConditions();
+  void CompleteKick() const;
 
   WorldParams m_params;
-  ParticleState m_beads;
+  // Step leaves the beads' closing half kick pending: the next step fuses it with its opening
+  // half kick (one pass over the beads instead of two). Whoever reads the beads first completes
+  // it, so that they are seen at time_s(); hence mutable.
+  mutable ParticleState m_beads;
+  mutable bool m_kick_pending = false;
   std::optional<RigidSphere> m_projectile;
   StepObservables m_observables;
   double m_time_s = 0.0;

@@ -67,15 +67,31 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
       fresh.offsets[i] = static_cast<std::uint32_t>(partners.size());  // within the chunk
       const Vec3 xi = beads.position[i];
       const double ri = beads.radius[i];
+      if (forward) {
+        // Ids are positions in cell order: each run holds consecutive ids, the runs come in
+        // increasing order (so the partners come sorted), and j > i skips the start of the
+        // first run. Every candidate is written and the count advances by the test's result:
+        // no branch to mispredict.
+        grid.ForEachForwardRun(xi, [&](std::uint32_t run_first, std::uint32_t run_last) {
+          const std::uint32_t from = std::max<std::uint32_t>(run_first, i + 1);
+          if (from >= run_last) return;
+          std::size_t count = partners.size();
+          partners.resize(count + (run_last - from));
+          for (std::uint32_t j = from; j < run_last; ++j) {
+            const double reach = ri + beads.radius[j] + skin;
+            partners[count] = j;
+            count += (xi - beads.position[j]).squaredNorm() < reach * reach;
+          }
+          partners.resize(count);
+        });
+        continue;
+      }
       auto near = [&](std::uint32_t j) {
         if (j <= i) return;
         const double reach = ri + beads.radius[j] + skin;
         if ((xi - beads.position[j]).squaredNorm() < reach * reach) partners.push_back(j);
       };
-      if (forward)
-        grid.ForEachForward(xi, near);
-      else
-        grid.ForEachAround(xi, near);
+      grid.ForEachAround(xi, near);
       std::sort(partners.begin() + fresh.offsets[i], partners.end());
     }
   }

@@ -45,15 +45,19 @@ class CellGrid {
   /// Calls visit(j) for every bead in the 27 cells around the cell of point p.
   template <class Visit>
   void ForEachAround(const Vec3& p, Visit&& visit) const {
-    ForEachInStencil<false>(p, visit);
+    ForEachRunInStencil<false>(p, [&](std::uint32_t first, std::uint32_t last) {
+      for (std::uint32_t k = first; k < last; ++k) visit(m_cell_beads[k]);
+    });
   }
 
-  /// Calls visit(j) for every bead in the cell of point p and in those of the 27 around it
-  /// that come after it in cell order (13). When the beads are numbered in cell order, these
-  /// hold all the neighbors j > i of a bead i at p: half the cells of ForEachAround.
-  template <class Visit>
-  void ForEachForward(const Vec3& p, Visit&& visit) const {
-    ForEachInStencil<true>(p, visit);
+  /// The cell of point p and those of the 27 around it that come after it in cell order (13),
+  /// as runs [first, last) of positions in cell order (CellOrder()), one per row of cells, in
+  /// increasing order. When the beads are numbered in cell order, positions are ids, and these
+  /// runs hold all the neighbors j > i of a bead i at p (with i and the ids before it in its
+  /// own cell): half the cells of ForEachAround.
+  template <class VisitRun>
+  void ForEachForwardRun(const Vec3& p, VisitRun&& visit_run) const {
+    ForEachRunInStencil<true>(p, visit_run);
   }
 
   /// True when the beads are numbered in cell order (CellOrder() is 0, 1, 2, ...).
@@ -75,10 +79,11 @@ class CellGrid {
     return (static_cast<std::size_t>(z) * m_dims[1] + y) * m_dims[0] + x;
   }
 
-  // The 27 cells around the cell of p, or (kForward) only the cell and those after it: the
-  // rows of the layers above, the rows after it in its layer, and the rest of its own row.
-  template <bool kForward, class Visit>
-  void ForEachInStencil(const Vec3& p, Visit& visit) const {
+  // The 27 cells around the cell of p, or (kForward) only the cell and those after it (the
+  // rows of the layers above, the rows after it in its layer, and the rest of its own row), as
+  // runs [first, last) of positions in cell order, one per row of cells, in increasing order.
+  template <bool kForward, class VisitRun>
+  void ForEachRunInStencil(const Vec3& p, VisitRun&& visit_run) const {
     int c[3];
     CellCoords(p, c);
     const int x0 = c[0] > 0 ? c[0] - 1 : 0, x1 = c[0] + 1 < m_dims[0] ? c[0] + 1 : c[0];
@@ -88,8 +93,7 @@ class CellGrid {
       for (int y = kForward && z == c[2] ? c[1] : y0; y <= y1; ++y) {
         const std::size_t row = Index(0, y, z);
         const int first = kForward && z == c[2] && y == c[1] ? c[0] : x0;
-        for (std::uint32_t k = m_cell_start[row + first]; k < m_cell_start[row + x1 + 1]; ++k)
-          visit(m_cell_beads[k]);
+        visit_run(m_cell_start[row + first], m_cell_start[row + x1 + 1]);
       }
   }
 

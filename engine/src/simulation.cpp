@@ -313,12 +313,12 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
       std::size_t n = 0, m = 0;
       for (std::uint32_t c = first; c < last; ++c) {
         const std::uint32_t i = s.near_container[c];
-        const Vec3& x = b.position[i];
+        const double x = b.position[i].x(), y = b.position[i].y(), z = b.position[i].z();
         const double r = b.radius[i];
         const double inner = box.radius_m - r;
-        const bool touching = plate ? r - x.z() > 0.0
-                                    : (x.x() * x.x() + x.y() * x.y() > inner * inner) &
-                                          (x.z() >= 0.0) & (x.z() <= box.height_m);
+        const bool touching =
+            plate ? r - z > 0.0
+                  : (x * x + y * y > inner * inner) & (z >= 0.0) & (z <= box.height_m);
         batch.bead[n] = i;
         n += touching;
         batch.apart[m] = i;

@@ -29,7 +29,6 @@ struct PairBatch {
   std::size_t size = 0;
   /// The batch's list entries that are apart (their histories are cleared).
   std::vector<std::uint32_t> apart;
-  std::size_t apart_size = 0;
 
   /// Makes room for `n` contacts.
   void Reserve(std::size_t n) {
@@ -69,7 +68,6 @@ struct WallBatch {
   std::size_t size = 0;
   /// The beads of the batch's stretch that do not touch (their histories are cleared).
   std::vector<std::uint32_t> apart;
-  std::size_t apart_size = 0;
 
   void Reserve(std::size_t n) {
     if (bead.size() < n) Grow(n);

@@ -264,7 +264,6 @@ void PairForces(const WorldParams& params, ParticleState& b, detail::PairList& p
       }
     }
     batch.size = n;
-    batch.apart_size = m;
 
     // 2. The contact law, vectorized.
     detail::ResolvePairBatch(kFriction, inputs, batch);

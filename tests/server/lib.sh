@@ -54,6 +54,19 @@ wait_state() {
   fail "job $1 is $state, not $2, after $3 s"
 }
 
+# wait_started ID SECONDS: waits until the job has left the queue and its bed preparation:
+# running, or already ended. A short run under a sanitizer on a loaded machine can take less
+# time than one round trip of the client, so polling for "running" alone may never see it.
+wait_started() {
+  local state=""
+  for _ in $(seq $(($2 * 10))); do
+    state=$(job_state "$1")
+    case $state in running | done | failed | cancelled) return 0 ;; esac
+    sleep 0.1
+  done
+  fail "job $1 is $state, not started, after $2 s"
+}
+
 # A bed that settles in seconds: a 2 cm cylinder, a 1.5 cm source cut to 1 cm.
 small_scene() {
   cat > "$1" <<'TOML'

@@ -15,7 +15,7 @@ start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
 job=$("$dembuf" submit "$work/small.toml" --set bed.seed=3 --set time.end_s=0.04)
 "$dembuf" watch "$job" --csv > "$work/watch1.csv" &
 watcher=$!
-wait_state "$job" running 120
+wait_started "$job" 300
 sleep 0.5
 "$dembuf" watch "$job" --csv > "$work/watch2.csv"
 wait "$watcher" || fail "first watcher"

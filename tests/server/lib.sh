@@ -43,28 +43,15 @@ job_state() {
   "$dembuf" status "$1" | sed -n '1s/.*(\(.*\))$/\1/p'
 }
 
-# wait_state ID STATE SECONDS: waits until the job is in STATE.
+# wait_state ID STATES SECONDS: waits until the job is in one of STATES (separated by spaces).
 wait_state() {
-  local state=""
+  local state="" wanted
   for _ in $(seq $(($3 * 10))); do
     state=$(job_state "$1")
-    [ "$state" = "$2" ] && return 0
+    for wanted in $2; do [ "$state" = "$wanted" ] && return 0; done
     sleep 0.1
   done
   fail "job $1 is $state, not $2, after $3 s"
-}
-
-# wait_started ID SECONDS: waits until the job has left the queue and its bed preparation:
-# running, or already ended. A short run under a sanitizer on a loaded machine can take less
-# time than one round trip of the client, so polling for "running" alone may never see it.
-wait_started() {
-  local state=""
-  for _ in $(seq $(($2 * 10))); do
-    state=$(job_state "$1")
-    case $state in running | done | failed | cancelled) return 0 ;; esac
-    sleep 0.1
-  done
-  fail "job $1 is $state, not started, after $2 s"
 }
 
 # A bed that settles in seconds: a 2 cm cylinder, a 1.5 cm source cut to 1 cm.

@@ -1,6 +1,7 @@
 // dembuf's benchmark: what a step costs and how that scales. Prints tables and writes JSON.
 //
 //   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick]
+//                [--sweep draft|standard|reference]
 //
 // 1. Impact throughput on a dense settled bed (the E2 scene at H = 2.5 cm, about 8,000 beads,
 //    full contact law: friction with history, rotation, damping, plate and cylinder, and the
@@ -12,8 +13,12 @@
 // 4. One job on 1 and 2 threads (more where the machine has them).
 // 5. Time per step against bead count from 1,000 to 100,000 beads (beds tiled from copies of
 //    the settled one, side by side), with the exponent of a power-law fit; memory per bead.
+// 6. With --sweep: the wall time of the paper's whole thickness sweep (E2, H = 0 to 8 cm in
+//    0.5 cm steps, one seed) at that accuracy, beds prepared from nothing in an empty store,
+//    one run per core at a time, as `dembuf sweep --jobs N` runs it.
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -32,6 +37,8 @@
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/presets.h"
 #include "dembuf/engine/scene_fields.h"
+#include "dembuf/engine/sweep_plan.h"
+#include "sweep.h"
 
 using namespace dembuf;
 namespace fs = std::filesystem;
@@ -43,6 +50,7 @@ struct Options {
   fs::path bed_cache;
   int steps = 2000;
   bool quick = false;
+  std::string sweep_accuracy;  ///< empty: no sweep
 };
 
 double Seconds(std::chrono::steady_clock::duration d) {
@@ -280,26 +288,19 @@ nlohmann::json TimingJson(const Timing& t) {
 
 int main(int argc, char** argv) {
   Options opt;
-  for (int k = 1; k < argc; ++k) {
-    const std::string a = argv[k];
-    auto next = [&]() -> std::string {
-      if (k + 1 >= argc) throw std::runtime_error(a + " needs a value");
-      return argv[++k];
-    };
-    if (a == "--out")
-      opt.out = next();
-    else if (a == "--bed-cache")
-      opt.bed_cache = next();
-    else if (a == "--steps")
-      opt.steps = std::stoi(next());
-    else if (a == "--quick")
-      opt.quick = true;
-    else {
-      std::fprintf(stderr,
-                   "usage: dembuf_bench [--out FILE] [--bed-cache DIR] [--steps N] [--quick]\n");
-      return 1;
-    }
-  }
+  CLI::App app{"dembuf's speed benchmark: what a step costs, against LAMMPS, and how it scales"};
+  app.add_option("--out", opt.out, "JSON file to write")->capture_default_str();
+  app.add_option("--bed-cache", opt.bed_cache, "prepared beds (default ~/.cache/dembuf/beds)");
+  app.add_option("--steps", opt.steps, "impact steps per timing")
+      ->capture_default_str()
+      ->check(CLI::Range(10, 1000000));
+  app.add_flag("--quick", opt.quick, "one repeat per timing and fewer bed sizes");
+  std::vector<std::string> accuracies;
+  for (const AccuracyPreset& p : AccuracyPresets()) accuracies.emplace_back(p.name);
+  app.add_option("--sweep", opt.sweep_accuracy,
+                 "also time the whole E2 thickness sweep at this accuracy, beds included")
+      ->check(CLI::IsMember(accuracies));
+  CLI11_PARSE(app, argc, argv);
   if (opt.bed_cache.empty()) {
     const char* home = std::getenv("HOME");
     opt.bed_cache = fs::path(home ? home : ".") / ".cache" / "dembuf" / "beds";
@@ -442,6 +443,36 @@ int main(int argc, char** argv) {
   report["sizes"] = sizes;
   report["size_exponent"] = exponent;
   report["bytes_per_bead"] = bytes_per_bead;
+
+  // 6. The whole E2 sweep, on request (minutes to tens of minutes).
+  if (!opt.sweep_accuracy.empty()) {
+    const int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    std::printf(
+        "6. the E2 thickness sweep, H = 0 to 8 cm in 0.5 cm steps, accuracy %s, "
+        "beds prepared from nothing, %d runs at a time\n",
+        opt.sweep_accuracy.c_str(), jobs);
+    std::fflush(stdout);
+    Scene e2 = PresetScene("e2");
+    ApplyAccuracy(e2, opt.sweep_accuracy);
+    cli::SweepOptions sweep;
+    sweep.axes = {ParseSweepAxis("bed.thickness_m=0:0.08:0.005")};
+    sweep.jobs = jobs;
+    const fs::path sweep_dir =
+        fs::temp_directory_path() / ("dembuf-bench-sweep-" + std::to_string(getpid()));
+    sweep.out_dir = sweep_dir / "out";
+    BedCache empty_store(sweep_dir / "beds");
+    const auto start = std::chrono::steady_clock::now();
+    const int failed = cli::RunSweep(e2, sweep, empty_store);
+    const double seconds = Seconds(std::chrono::steady_clock::now() - start);
+    fs::remove_all(sweep_dir);
+    std::printf("  E2 sweep (%s): %.0f s wall, %d failed runs\n\n", opt.sweep_accuracy.c_str(),
+                seconds, failed);
+    report["e2_sweep"] = {{"accuracy", opt.sweep_accuracy},
+                          {"runs", ExpandSweep(e2, sweep.axes).size()},
+                          {"jobs", jobs},
+                          {"failed", failed},
+                          {"seconds", seconds}};
+  }
 
   std::ofstream(opt.out) << report.dump(2) << "\n";
   std::printf("wrote %s\n", opt.out.c_str());

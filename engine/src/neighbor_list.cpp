@@ -9,11 +9,22 @@ void CellGrid::Build(const std::vector<Vec3>& positions, double cell_size, const
                      const Vec3& hi) {
   m_lo = lo;
   m_inv_cell = 1.0 / cell_size;
+  int space_dims[3];
   std::size_t cells = 1;
   for (int d = 0; d < 3; ++d) {
-    m_dims[d] = std::max(1, static_cast<int>(std::ceil((hi[d] - lo[d]) * m_inv_cell)));
-    cells *= m_dims[d];
+    space_dims[d] = std::max(1, static_cast<int>(std::ceil((hi[d] - lo[d]) * m_inv_cell)));
+    cells *= space_dims[d];
   }
+  // Horizontal layers (rows along y) unless they are too large and the grid is wider than
+  // tall; then vertical slices across the longest horizontal axis, with rows along z. The
+  // choice depends on the grid's width alone, which is fixed for a run.
+  const int wide = space_dims[1] > space_dims[0] ? 1 : 0;
+  const bool slices = static_cast<std::size_t>(space_dims[0]) * space_dims[1] > kMaxLayerCells &&
+                      space_dims[wide] > space_dims[2];
+  m_axis[0] = slices ? 1 - wide : 0;
+  m_axis[1] = slices ? 2 : 1;
+  m_axis[2] = slices ? wide : 2;
+  for (int a = 0; a < 3; ++a) m_dims[a] = space_dims[m_axis[a]];
   const std::size_t n = positions.size();
   m_bead_cell.resize(n);
   m_cell_start.assign(cells + 1, 0);

@@ -1,6 +1,7 @@
 // The Verlet list finds every pair within reach, and history survives rebuilds.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 #include <set>
 
@@ -72,6 +73,54 @@ TEST(PairList, BeadsInCellOrderSearchHalfTheCellsAndMatchBruteForce) {
   PairList list;
   RebuildPairList(b, grid, skin, list, 2);
   EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 1000u);
+}
+
+TEST(CellGrid, PaperCylinderKeepsHorizontalLayersAWideGridSlicesAcrossItsLongestAxis) {
+  const double cell = 0.0058;  // d_max + skin of the paper's beads
+  CellGrid paper;
+  paper.Build({}, cell, Vec3(-0.1, -0.1, -0.005), Vec3(0.1, 0.1, 0.1));
+  EXPECT_EQ(paper.SpaceAxis(2), 2);  // layers along z
+  EXPECT_EQ(paper.SpaceAxis(1), 1);  // rows along y
+  CellGrid wide;                     // 69 x 35 cells per horizontal layer
+  wide.Build({}, cell, Vec3(-0.2, -0.1, -0.005), Vec3(0.2, 0.1, 0.02));
+  EXPECT_EQ(wide.SpaceAxis(2), 0);  // slices across x, the longest axis
+  EXPECT_EQ(wide.SpaceAxis(1), 2);  // rows along z
+  EXPECT_EQ(wide.SpaceAxis(0), 1);
+  EXPECT_EQ(wide.Dim(2), 69);
+  CellGrid tall;  // as wide, but taller than wide: layers stay horizontal
+  tall.Build({}, cell, Vec3(-0.2, -0.1, -0.005), Vec3(0.2, 0.1, 0.5));
+  EXPECT_EQ(tall.SpaceAxis(2), 2);
+}
+
+TEST(PairList, BeadsInSliceOrderSearchHalfTheCellsAndMatchBruteForce) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> x(-0.2, 0.2), y(-0.1, 0.1), z(0.0, 0.02), r(0.002, 0.0025);
+  ParticleState random;
+  for (int i = 0; i < 4000; ++i) random.Add(Vec3(x(rng), y(rng), z(rng)), r(rng), 2650.0);
+  const double skin = 0.0008;
+  const Vec3 lo(-0.2, -0.1, -0.005), hi(0.2, 0.1, 0.025);
+  CellGrid grid;
+  grid.Build(random.position, 0.005 + skin, lo, hi);
+  ASSERT_EQ(grid.SpaceAxis(2), 0);
+  ParticleState b;
+  for (std::uint32_t i : grid.CellOrder()) b.Add(random.position[i], random.radius[i], 2650.0);
+  grid.Build(b.position, 0.005 + skin, lo, hi);
+  ASSERT_TRUE(grid.InCellOrder());
+  for (std::uint32_t i = 1; i < b.size(); ++i)  // slices follow each other along x
+    ASSERT_LE(std::floor((b.position[i - 1].x() - lo.x()) / (0.005 + skin)),
+              std::floor((b.position[i].x() - lo.x()) / (0.005 + skin)));
+  PairList list;
+  RebuildPairList(b, grid, skin, list, 2);
+  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 2000u);
+  // The box search of the projectile's candidates sees the same axes.
+  CandidateList near;
+  const Vec3 c(0.05, -0.02, 0.01);
+  RebuildCandidateList(b, grid, c, 0.025, 0.0025, skin, near);
+  std::vector<std::uint32_t> expected;
+  for (std::uint32_t j = 0; j < b.size(); ++j)
+    if ((b.position[j] - c).norm() < 0.025 + b.radius[j] + skin) expected.push_back(j);
+  EXPECT_EQ(near.beads, expected);
+  EXPECT_GT(expected.size(), 20u);
 }
 
 TEST(PairList, RebuildKeepsHistoryOfSurvivingPairs) {

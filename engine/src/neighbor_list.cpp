@@ -15,15 +15,15 @@ void CellGrid::Build(const std::vector<Vec3>& positions, double cell_size, const
     space_dims[d] = std::max(1, static_cast<int>(std::ceil((hi[d] - lo[d]) * m_inv_cell)));
     cells *= space_dims[d];
   }
-  // Horizontal layers (rows along y) unless they are too large and the grid is wider than
-  // tall; then vertical slices across the longest horizontal axis, with rows along z. The
-  // choice depends on the grid's width alone, which is fixed for a run.
-  const int wide = space_dims[1] > space_dims[0] ? 1 : 0;
-  const bool slices = static_cast<std::size_t>(space_dims[0]) * space_dims[1] > kMaxLayerCells &&
-                      space_dims[wide] > space_dims[2];
-  m_axis[0] = slices ? 1 - wide : 0;
-  m_axis[1] = slices ? 2 : 1;
-  m_axis[2] = slices ? wide : 2;
+  // Layers across the axis with the most cells (z, then x, on ties): the more layers, the
+  // thinner a layer, and the fewer the beads at the border between two threads' shares of
+  // them, whose cache lines pass between the cores. Rows run across the axis with the fewest
+  // cells, so that a row, the run a neighbor search visits at once, is long.
+  int axes[3] = {2, 0, 1};
+  std::stable_sort(axes, axes + 3, [&](int a, int b) { return space_dims[a] > space_dims[b]; });
+  m_axis[2] = axes[0];
+  m_axis[0] = axes[1];
+  m_axis[1] = axes[2];
   for (int a = 0; a < 3; ++a) m_dims[a] = space_dims[m_axis[a]];
   const std::size_t n = positions.size();
   m_bead_cell.resize(n);

@@ -37,9 +37,9 @@ class CellGrid {
   /// below are in this order (0: along a row, 1: rows of a layer, 2: layers).
   const std::vector<std::uint32_t>& CellOrder() const { return m_cell_beads; }
 
-  /// The space axis (0: x, 1: y, 2: z) of cell axis a. Layers are horizontal (rows along y)
-  /// unless a horizontal layer has more than kMaxLayerCells cells and the grid is wider than
-  /// tall; then they are vertical slices across its longest horizontal axis (rows along z).
+  /// The space axis (0: x, 1: y, 2: z) of cell axis a. The layers are slices across the
+  /// grid's longest axis: a bed in the paper's cylinder, wider than deep, is cut into
+  /// vertical slices; a tall column into horizontal layers.
   int SpaceAxis(int a) const { return m_axis[a]; }
 
   /// Number of cells along cell axis a.
@@ -48,11 +48,6 @@ class CellGrid {
   /// Index (in cell order) of the first bead of the row of cells (y, z); y = Dim(1) is the
   /// first row of layer z + 1, and z = Dim(2) one past the last bead.
   std::uint32_t RowStart(int y, int z) const { return m_cell_start[Index(0, y, z)]; }
-
-  /// Threads take contiguous shares of the layers, so the beads whose cache lines pass
-  /// between two threads' cores are about a layer's. A dense layer of this many cells holds
-  /// about 5,000 beads; the paper's cylinder has 1,225 cells per layer (about 2,400 beads).
-  static constexpr std::size_t kMaxLayerCells = 2048;
 
   /// Calls visit(j) for every bead in the 27 cells around the cell of point p.
   template <class Visit>

@@ -75,21 +75,26 @@ TEST(PairList, BeadsInCellOrderSearchHalfTheCellsAndMatchBruteForce) {
   EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 1000u);
 }
 
-TEST(CellGrid, PaperCylinderKeepsHorizontalLayersAWideGridSlicesAcrossItsLongestAxis) {
+TEST(CellGrid, LayersAreSlicesAcrossTheLongestAxis) {
   const double cell = 0.0058;  // d_max + skin of the paper's beads
-  CellGrid paper;
-  paper.Build({}, cell, Vec3(-0.1, -0.1, -0.005), Vec3(0.1, 0.1, 0.1));
-  EXPECT_EQ(paper.SpaceAxis(2), 2);  // layers along z
-  EXPECT_EQ(paper.SpaceAxis(1), 1);  // rows along y
-  CellGrid wide;                     // 69 x 35 cells per horizontal layer
+  CellGrid bed;                // the paper's cylinder, a 9 cm bed: 35 x 35 x 19 cells
+  bed.Build({}, cell, Vec3(-0.1, -0.1, -0.005), Vec3(0.1, 0.1, 0.1));
+  EXPECT_EQ(bed.SpaceAxis(2), 0);  // vertical slices across x (x before y on ties)
+  EXPECT_EQ(bed.SpaceAxis(1), 2);  // rows of cells stacked along z, the shortest axis
+  EXPECT_EQ(bed.SpaceAxis(0), 1);  // each row along y
+  EXPECT_EQ(bed.Dim(2), 35);
+  EXPECT_EQ(bed.Dim(1), 19);
+  CellGrid wide;  // 69 x 35 x 5 cells
   wide.Build({}, cell, Vec3(-0.2, -0.1, -0.005), Vec3(0.2, 0.1, 0.02));
-  EXPECT_EQ(wide.SpaceAxis(2), 0);  // slices across x, the longest axis
-  EXPECT_EQ(wide.SpaceAxis(1), 2);  // rows along z
-  EXPECT_EQ(wide.SpaceAxis(0), 1);
-  EXPECT_EQ(wide.Dim(2), 69);
-  CellGrid tall;  // as wide, but taller than wide: layers stay horizontal
-  tall.Build({}, cell, Vec3(-0.2, -0.1, -0.005), Vec3(0.2, 0.1, 0.5));
+  EXPECT_EQ(wide.SpaceAxis(2), 0);
+  CellGrid deep;  // 69 x 73 x 5 cells: slices across y
+  deep.Build({}, cell, Vec3(-0.2, -0.21, -0.005), Vec3(0.2, 0.21, 0.02));
+  EXPECT_EQ(deep.SpaceAxis(2), 1);
+  CellGrid tall;  // a column taller than wide: horizontal layers, rows along y
+  tall.Build({}, cell, Vec3(-0.1, -0.1, -0.005), Vec3(0.1, 0.1, 0.5));
   EXPECT_EQ(tall.SpaceAxis(2), 2);
+  EXPECT_EQ(tall.SpaceAxis(1), 1);
+  EXPECT_EQ(tall.SpaceAxis(0), 0);
 }
 
 TEST(PairList, BeadsInSliceOrderSearchHalfTheCellsAndMatchBruteForce) {

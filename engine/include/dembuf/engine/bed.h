@@ -34,7 +34,7 @@ namespace dembuf {
 /// Version of the preparation procedure; part of every bed hash. Raise it with any change
 /// that alters the beds the procedure makes (insertion, settling, the integrator's sums), so
 /// that stale cached beds are not reused.
-inline constexpr int kBedPreparationVersion = 1;
+inline constexpr int kBedPreparationVersion = 2;
 
 /// A bed at rest, with what was measured on it.
 struct PreparedBed {

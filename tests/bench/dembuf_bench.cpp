@@ -51,6 +51,7 @@ struct Options {
   int steps = 2000;
   bool quick = false;
   std::string sweep_accuracy;  ///< empty: no sweep
+  fs::path sweep_out;          ///< where the sweep writes its results; empty: a temporary folder
 };
 
 double Seconds(std::chrono::steady_clock::duration d) {
@@ -300,6 +301,9 @@ int main(int argc, char** argv) {
   app.add_option("--sweep", opt.sweep_accuracy,
                  "also time the whole E2 thickness sweep at this accuracy, beds included")
       ->check(CLI::IsMember(accuracies));
+  app.add_option("--sweep-out", opt.sweep_out,
+                 "keep the sweep's results (sweep.csv, runs) in this folder; it must not exist")
+      ->check(CLI::NonexistentPath);
   CLI11_PARSE(app, argc, argv);
   if (opt.bed_cache.empty()) {
     const char* home = std::getenv("HOME");
@@ -379,24 +383,30 @@ int main(int argc, char** argv) {
                        {"rest_projectile_above", TimingJson(projectile_above)},
                        {"rest_no_projectile", TimingJson(no_projectile)}};
 
-  // 4. Threads, on a bed of about 30,000 beads.
+  // 4. Threads: a bed of about 30,000 beads at rest, and the impact of section 1.
   const int max_threads = std::max(2u, std::thread::hardware_concurrency());
   const World big = TiledWorld(world, 30000);
-  std::printf("4. one job on more threads (%zu beads, %d steps, best of %d)\n", big.beads.size(),
-              opt.steps / 4, repeats);
-  nlohmann::json scaling = nlohmann::json::array();
-  Timing one;
-  for (int threads = 1; threads <= max_threads; threads *= 2) {
-    const Timing t = Best(repeats, [&] { return TimeSteps(big, opt.steps / 4, threads); });
-    if (threads == 1) one = t;
-    char label[64];
-    std::snprintf(label, sizeof label, "%d thread%s", threads, threads > 1 ? "s" : "");
-    PrintRow(label, t, one.NsPerBeadStep() * 1.0);
-    scaling.push_back(
-        {{"threads", threads}, {"timing", TimingJson(t)}, {"speedup", one.seconds / t.seconds}});
-  }
+  auto thread_series = [&](const World& w, int steps, bool projectile) {
+    nlohmann::json scaling = nlohmann::json::array();
+    Timing one;
+    for (int threads = 1; threads <= max_threads; threads *= 2) {
+      const Timing t = Best(repeats, [&] { return TimeSteps(w, steps, threads, projectile); });
+      if (threads == 1) one = t;
+      char label[64];
+      std::snprintf(label, sizeof label, "%d thread%s", threads, threads > 1 ? "s" : "");
+      PrintRow(label, t, one.NsPerBeadStep() * 1.0);
+      scaling.push_back(
+          {{"threads", threads}, {"timing", TimingJson(t)}, {"speedup", one.seconds / t.seconds}});
+    }
+    return scaling;
+  };
+  std::printf("4. one job on more threads: tiled bed at rest (%zu beads, %d steps, best of %d)\n",
+              big.beads.size(), opt.steps / 4, repeats);
+  report["threads"] = thread_series(big, opt.steps / 4, false);
+  std::printf("   the impact of section 1 (%zu beads, %d steps, best of %d)\n", world.beads.size(),
+              opt.steps, repeats);
+  report["threads_impact"] = thread_series(world, opt.steps, true);
   std::printf("\n");
-  report["threads"] = scaling;
 
   // 5. Bead count.
   std::printf("5. time per step against bead count (one thread)\n");
@@ -457,14 +467,14 @@ int main(int argc, char** argv) {
     cli::SweepOptions sweep;
     sweep.axes = {ParseSweepAxis("bed.thickness_m=0:0.08:0.005")};
     sweep.jobs = jobs;
-    const fs::path sweep_dir =
+    const fs::path scratch =
         fs::temp_directory_path() / ("dembuf-bench-sweep-" + std::to_string(getpid()));
-    sweep.out_dir = sweep_dir / "out";
-    BedCache empty_store(sweep_dir / "beds");
+    sweep.out_dir = opt.sweep_out.empty() ? scratch / "out" : opt.sweep_out;
+    BedCache empty_store(scratch / "beds");
     const auto start = std::chrono::steady_clock::now();
     const int failed = cli::RunSweep(e2, sweep, empty_store);
     const double seconds = Seconds(std::chrono::steady_clock::now() - start);
-    fs::remove_all(sweep_dir);
+    fs::remove_all(scratch);
     std::printf("  E2 sweep (%s): %.0f s wall, %d failed runs\n\n", opt.sweep_accuracy.c_str(),
                 seconds, failed);
     report["e2_sweep"] = {{"accuracy", opt.sweep_accuracy},

@@ -17,8 +17,8 @@ void CellGrid::Build(const std::vector<Vec3>& positions, double cell_size, const
   }
   // Layers across the axis with the most cells (z, then x, on ties): the more layers, the
   // thinner a layer, and the fewer the beads at the border between two threads' shares of
-  // them, whose cache lines pass between the cores. Rows run across the axis with the fewest
-  // cells, so that a row, the run a neighbor search visits at once, is long.
+  // them, whose cache lines pass between the cores. A layer's rows are stacked along the axis
+  // with the fewest cells, so that each row, the run a neighbor search visits at once, is long.
   int axes[3] = {2, 0, 1};
   std::stable_sort(axes, axes + 3, [&](int a, int b) { return space_dims[a] > space_dims[b]; });
   m_axis[2] = axes[0];

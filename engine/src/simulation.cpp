@@ -101,9 +101,10 @@ struct Simulation::Impl {
   bool friction = false;
   StepConditions conditions;
 
-  // Parallel force computation. Beads are kept in cell order (z layers of cells, bottom up;
-  // in a layer, rows of cells along y) and split into blocks of kSlabRows >= 2 rows of one
-  // layer. A pair (i, j > i) found in the 27 cells around i joins a bead of block (z, s), rows
+  // Parallel force computation. Beads are kept in cell order (layers of cells across the
+  // grid's longest axis, CellGrid::SpaceAxis; in a layer, rows of cells) and split into blocks
+  // of w = kSlabRows >= 2 rows of one layer (z numbers the layers, s the slabs of w rows).
+  // A pair (i, j > i) found in the 27 cells around i joins a bead of block (z, s), rows
   // [s w, s w + w), to a bead of rows s w .. s w + w of layer z or s w - 1 .. s w + w of layer
   // z + 1. Two blocks whose layers differ by 2, or whose slabs differ by 2, then never touch
   // the same row of beads, so the blocks fall into four phases (z mod 2, s mod 2) that each

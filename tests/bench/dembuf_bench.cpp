@@ -3,6 +3,7 @@
 //   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick]
 //                [--sweep draft|standard|reference]
 //
+// 0. One thread on each core: the fastest runs every one-thread figure (and LAMMPS).
 // 1. Impact throughput on a dense settled bed (the E2 scene at H = 2.5 cm, about 8,000 beads,
 //    full contact law: friction with history, rotation, damping, plate and cylinder, and the
 //    projectile arriving at its impact speed), one thread, in bead-steps per second.
@@ -16,6 +17,7 @@
 // 6. With --sweep: the wall time of the paper's whole thickness sweep (E2, H = 0 to 8 cm in
 //    0.5 cm steps, one seed) at that accuracy, beds prepared from nothing in an empty store,
 //    one run per core at a time, as `dembuf sweep --jobs N` runs it.
+#include <sched.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -89,6 +91,32 @@ World ImpactWorld(const Scene& scene, BedCache& cache) {
   return world;
 }
 
+// Keeps the calling thread, and the processes it starts, on one core while alive (core < 0:
+// no change). This virtual machine's cores are not always equally fast (one ran the same job
+// 30% slower than the other for minutes), so every one-thread figure, dembuf's and LAMMPS's,
+// is taken on the same core, the fastest.
+class PinnedTo {
+ public:
+  explicit PinnedTo(int core) {
+    if (core < 0 || sched_getaffinity(0, sizeof m_saved, &m_saved) != 0) return;
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(core, &one);
+    m_pinned = sched_setaffinity(0, sizeof one, &one) == 0;
+  }
+  ~PinnedTo() {
+    if (m_pinned) sched_setaffinity(0, sizeof m_saved, &m_saved);
+  }
+  PinnedTo(const PinnedTo&) = delete;
+  PinnedTo& operator=(const PinnedTo&) = delete;
+
+ private:
+  cpu_set_t m_saved;
+  bool m_pinned = false;
+};
+
+int g_single_thread_core = -1;  // where one-thread timings run; -1: wherever the OS puts them
+
 struct Timing {
   double seconds = 0.0;
   std::size_t beads = 0;
@@ -98,6 +126,8 @@ struct Timing {
 
 // Steps a copy of the world `steps` times and times it (neighbor list builds included).
 Timing TimeSteps(const World& world, int steps, int threads, bool with_projectile = true) {
+  // Several threads start unpinned, so OpenMP's workers may use every core.
+  const PinnedTo pin(threads == 1 ? g_single_thread_core : -1);
   WorldParams params = world.params;
   params.threads = threads;
   Simulation sim(params, world.beads, with_projectile ? world.projectile : std::nullopt,
@@ -325,6 +355,27 @@ int main(int argc, char** argv) {
                    {"C0", world.bed.solid_fraction},
                    {"dt_s", world.params.dt_s}};
 
+  // 0. The fastest core, for every one-thread figure below.
+  std::printf("0. one thread on each core (300 impact steps, best of 2)\n");
+  cpu_set_t allowed;
+  nlohmann::json cores = nlohmann::json::array();
+  double fastest_ns = 0.0;
+  if (sched_getaffinity(0, sizeof allowed, &allowed) == 0)
+    for (int core = 0; core < CPU_SETSIZE && cores.size() < 64; ++core) {
+      if (!CPU_ISSET(core, &allowed)) continue;
+      const PinnedTo pin(core);
+      const Timing t = Best(2, [&] { return TimeSteps(world, 300, 1); });
+      std::printf("  core %d: %.1f ns/bead-step\n", core, t.NsPerBeadStep());
+      cores.push_back({{"core", core}, {"ns_per_bead_step", t.NsPerBeadStep()}});
+      if (g_single_thread_core < 0 || t.NsPerBeadStep() < fastest_ns) {
+        g_single_thread_core = core;
+        fastest_ns = t.NsPerBeadStep();
+      }
+    }
+  std::printf("  one-thread figures below run on core %d, LAMMPS's too\n\n", g_single_thread_core);
+  report["cores"] = cores;
+  report["single_thread_core"] = g_single_thread_core;
+
   // 1 and 2: dembuf and LAMMPS, alternating.
   std::printf("1-2. impact on the settled bed, one thread, %d steps (best of %d)\n", opt.steps,
               repeats);
@@ -338,6 +389,7 @@ int main(int argc, char** argv) {
     const Timing t = TimeSteps(world, opt.steps, 1);
     if (r == 0 || t.seconds < ours.seconds) ours = t;
     if (lammps) {
+      const PinnedTo pin(g_single_thread_core);  // LAMMPS inherits the core
       const double s =
           RunLammps(lammps_input, work / "bed.data", world, scene, opt.steps, work / "log.lammps");
       if (s > 0 && (theirs.seconds == 0 || s < theirs.seconds))

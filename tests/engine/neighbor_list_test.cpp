@@ -10,12 +10,24 @@
 namespace dembuf::detail {
 namespace {
 
-ParticleState RandomBeads(int n, std::uint64_t seed) {
+// n beads of radius 2 to 2.5 mm at random in the box [lo, hi], overlaps allowed.
+ParticleState RandomBeads(int n, std::uint64_t seed, const Vec3& lo = Vec3(-0.05, -0.05, 0.0),
+                          const Vec3& hi = Vec3(0.05, 0.05, 0.05)) {
   std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> xy(-0.05, 0.05), z(0.0, 0.05), r(0.002, 0.0025);
+  std::uniform_real_distribution<double> x(lo.x(), hi.x()), y(lo.y(), hi.y()), z(lo.z(), hi.z()),
+      r(0.002, 0.0025);
   ParticleState b;
-  for (int i = 0; i < n; ++i) b.Add(Vec3(xy(rng), xy(rng), z(rng)), r(rng), 2650.0);
+  for (int i = 0; i < n; ++i) b.Add(Vec3(x(rng), y(rng), z(rng)), r(rng), 2650.0);
   return b;
+}
+
+// The ids of the beads within reach of a sphere (centre c, radius R), in id order.
+std::vector<std::uint32_t> CandidatesByBruteForce(const ParticleState& b, const Vec3& c, double R,
+                                                  double skin) {
+  std::vector<std::uint32_t> ids;
+  for (std::uint32_t j = 0; j < b.size(); ++j)
+    if ((b.position[j] - c).norm() < R + b.radius[j] + skin) ids.push_back(j);
+  return ids;
 }
 
 // The list holds exactly the pairs i < j within reach, partners sorted; returns their count.
@@ -98,10 +110,7 @@ TEST(CellGrid, LayersAreSlicesAcrossTheLongestAxis) {
 }
 
 TEST(PairList, BeadsInSliceOrderSearchHalfTheCellsAndMatchBruteForce) {
-  std::mt19937_64 rng(5);
-  std::uniform_real_distribution<double> x(-0.2, 0.2), y(-0.1, 0.1), z(0.0, 0.02), r(0.002, 0.0025);
-  ParticleState random;
-  for (int i = 0; i < 4000; ++i) random.Add(Vec3(x(rng), y(rng), z(rng)), r(rng), 2650.0);
+  const ParticleState random = RandomBeads(4000, 5, Vec3(-0.2, -0.1, 0.0), Vec3(0.2, 0.1, 0.02));
   const double skin = 0.0008;
   const Vec3 lo(-0.2, -0.1, -0.005), hi(0.2, 0.1, 0.025);
   CellGrid grid;
@@ -121,9 +130,7 @@ TEST(PairList, BeadsInSliceOrderSearchHalfTheCellsAndMatchBruteForce) {
   CandidateList near;
   const Vec3 c(0.05, -0.02, 0.01);
   RebuildCandidateList(b, grid, c, 0.025, 0.0025, skin, near);
-  std::vector<std::uint32_t> expected;
-  for (std::uint32_t j = 0; j < b.size(); ++j)
-    if ((b.position[j] - c).norm() < 0.025 + b.radius[j] + skin) expected.push_back(j);
+  const std::vector<std::uint32_t> expected = CandidatesByBruteForce(b, c, 0.025, skin);
   EXPECT_EQ(near.beads, expected);
   EXPECT_GT(expected.size(), 20u);
 }
@@ -166,9 +173,7 @@ TEST(CandidateList, FindsBeadsNearALargeSphere) {
   CandidateList near;
   const Vec3 c(0.01, -0.005, 0.03);
   RebuildCandidateList(b, grid, c, 0.025, 0.0025, skin, near);
-  std::vector<std::uint32_t> expected;
-  for (std::uint32_t j = 0; j < b.size(); ++j)
-    if ((b.position[j] - c).norm() < 0.025 + b.radius[j] + skin) expected.push_back(j);
+  const std::vector<std::uint32_t> expected = CandidatesByBruteForce(b, c, 0.025, skin);
   EXPECT_EQ(near.beads, expected);
   EXPECT_EQ(near.shear.size(), expected.size());
 }

@@ -1,7 +1,7 @@
 // dembuf's benchmark: what a step costs and how that scales. Prints tables and writes JSON.
 //
 //   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick]
-//                [--sweep draft|standard|reference]
+//                [--sweep draft|standard|reference] [--sweep-out DIR]
 //
 // 0. One thread on each core: the fastest runs every one-thread figure (and LAMMPS).
 // 1. Impact throughput on a dense settled bed (the E2 scene at H = 2.5 cm, about 8,000 beads,
@@ -446,7 +446,7 @@ int main(int argc, char** argv) {
       if (threads == 1) one = t;
       char label[64];
       std::snprintf(label, sizeof label, "%d thread%s", threads, threads > 1 ? "s" : "");
-      PrintRow(label, t, one.NsPerBeadStep() * 1.0);
+      PrintRow(label, t, one.NsPerBeadStep());
       scaling.push_back(
           {{"threads", threads}, {"timing", TimingJson(t)}, {"speedup", one.seconds / t.seconds}});
     }

@@ -94,6 +94,7 @@ struct Simulation::Impl {
   bool forces_valid = false;
 
   std::vector<ContactHistoryEntry> pending_history;  // applied at the next list build
+  std::vector<std::uint32_t> origin;                 // Simulation::BeadOrigins
 
   double skin = 0.0;
   double max_radius = 0.0;
@@ -157,6 +158,8 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   s.parallel = m_beads.size() >= kParallelMinBeads;
   s.threads = params.threads > 0 ? params.threads : omp_get_max_threads();
   s.block_start = {0, static_cast<std::uint32_t>(m_beads.size())};
+  s.origin.resize(m_beads.size());
+  for (std::size_t i = 0; i < s.origin.size(); ++i) s.origin[i] = static_cast<std::uint32_t>(i);
 }
 
 Simulation::~Simulation() = default;
@@ -535,22 +538,24 @@ inline bool Escaped(double x, double y, double z, double r, double wall_r2, doub
 // when they rotate), done kHalves times. Two are the last step's closing half kick and this
 // step's opening one, in one pass over the beads. Component by component, the operations of
 // the Eigen expressions v += half * (f / m + g) and w += half / I * t, in their order.
+// A bead with inv_mass 0 is held in place: neither its contacts nor gravity move or turn it.
 template <bool kRotate, int kHalves = 1>
 void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g) {
   const double gx = g.x(), gy = g.y(), gz = g.z();
 #pragma omp simd
   for (long i = first; i < last; ++i) {
     const double inv_m = k.inv_mass[i];
-    const double dvx = half * (inv_m * k.force[3 * i] + gx);
-    const double dvy = half * (inv_m * k.force[3 * i + 1] + gy);
-    const double dvz = half * (inv_m * k.force[3 * i + 2] + gz);
+    const bool held = inv_m == 0.0;
+    const double dvx = half * (inv_m * k.force[3 * i] + (held ? 0.0 : gx));
+    const double dvy = half * (inv_m * k.force[3 * i + 1] + (held ? 0.0 : gy));
+    const double dvz = half * (inv_m * k.force[3 * i + 2] + (held ? 0.0 : gz));
     for (int h = 0; h < kHalves; ++h) {
       k.velocity[3 * i] += dvx;
       k.velocity[3 * i + 1] += dvy;
       k.velocity[3 * i + 2] += dvz;
     }
     if constexpr (kRotate) {
-      const double s = half * k.inv_inertia[i];
+      const double s = held ? 0.0 : half * k.inv_inertia[i];
       const double dwx = s * k.torque[3 * i], dwy = s * k.torque[3 * i + 1],
                    dwz = s * k.torque[3 * i + 2];
       for (int h = 0; h < kHalves; ++h) {
@@ -660,6 +665,7 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(b.inv_inertia, order);
   Permute(s.plate_shear, order);
   Permute(s.wall_shear, order);
+  Permute(s.origin, order);
 }
 
 // Splits the beads (in cell order) into the blocks and phases described at Impl::block_start.
@@ -947,6 +953,15 @@ void Simulation::ZeroBeadVelocities() {
   m_impl->forces_valid = false;  // the damping forces depended on the old velocities
 }
 
+const std::vector<std::uint32_t>& Simulation::BeadOrigins() const {
+  return m_impl->origin;
+}
+
+void Simulation::SetClock(double time_s, std::int64_t steps) {
+  m_time_s = time_s;
+  m_steps = steps;
+}
+
 void Simulation::SetThreads(int threads) {
   m_params.threads = threads;
   m_impl->threads = threads > 0 ? threads : omp_get_max_threads();
@@ -979,9 +994,11 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   std::vector<std::uint32_t> new_id(m_beads.size(), ContactHistoryEntry::kPlate);
   ParticleState kept;
   std::vector<Vec3> plate_shear, wall_shear;
+  std::vector<std::uint32_t> origin;
   for (std::size_t i = 0; i < m_beads.size(); ++i) {
     if (!keep[i]) continue;
     new_id[i] = static_cast<std::uint32_t>(kept.size());
+    origin.push_back(s.origin[i]);
     kept.position.push_back(m_beads.position[i]);
     kept.velocity.push_back(m_beads.velocity[i]);
     kept.angular_velocity.push_back(m_beads.angular_velocity[i]);
@@ -1007,6 +1024,7 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   m_beads = std::move(kept);
   s.plate_shear = std::move(plate_shear);
   s.wall_shear = std::move(wall_shear);
+  s.origin = std::move(origin);
   s.pairs = detail::PairList{};
   s.near_projectile = detail::CandidateList{};
   s.lists_valid = false;

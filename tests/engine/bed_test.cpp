@@ -133,6 +133,37 @@ TEST(BedPreparation, KineticDampingReachesTheSameRest) {
               static_cast<long long>(free.settle_steps));
 }
 
+TEST(Simulation, BeadOriginsFollowTheReorderAndRemovals) {
+  // Large beds are reordered in memory at list builds; BeadOrigins maps each bead back to the
+  // state the simulation was made with, also after beads are removed.
+  Scene scene = SmallBedScene();
+  scene.cylinder.radius_m = 0.1;
+  const double r = 0.5 * scene.beads.diameter_min_m;
+  ParticleState given;  // a lattice of 1,440 beads, numbered from the top down, far from cell order
+  for (int z = 9; z >= 0; --z)
+    for (int y = 11; y >= 0; --y)
+      for (int x = 11; x >= 0; --x)
+        given.Add(Vec3((x - 6) * 2.2 * r, (y - 6) * 2.2 * r, (z + 1) * 2.2 * r), r,
+                  scene.material.density_kg_m3);
+  Simulation sim(MakeContactSetup(scene, r).params, given, std::nullopt);
+  sim.RefreshForces();
+  auto expect_origins = [&](const char* when) {
+    const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
+    ASSERT_EQ(origin.size(), sim.beads().size()) << when;
+    std::size_t moved = 0;
+    for (std::size_t k = 0; k < origin.size(); ++k) {
+      EXPECT_EQ(sim.beads().position[k], given.position[origin[k]]) << when;
+      EXPECT_EQ(sim.beads().radius[k], given.radius[origin[k]]) << when;
+      moved += origin[k] != k;
+    }
+    EXPECT_GT(moved, origin.size() / 2) << when;  // the reorder did happen
+  };
+  expect_origins("after the first list build");
+  sim.RemoveBeads([](std::size_t i) { return i % 3 != 0; });
+  sim.RefreshForces();
+  expect_origins("after removing a third");
+}
+
 TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
   // Workers of a sweep or of the daemon ask for the same bed at once: one prepares it, the
   // others wait and get the same bed. A preparation that fails releases the waiters, and the

@@ -217,5 +217,37 @@ TEST(ObliqueImpact, NewtonsThirdLawAndAngularMomentumForBeadPair) {
   EXPECT_LT((angular_momentum(sim) - l0).norm(), 1e-9 * l0.norm());
 }
 
+TEST(HeldBead, ABeadHittingAHeldBeadMeetsAnImmovableHertzBody) {
+  // A bead with inv_mass 0 is held in place (local settling holds a region's edge this way):
+  // a bead hitting it sees Hertz's impact on an immovable sphere, with its own mass as the
+  // reduced mass, and the held bead keeps its position bit for bit, under gravity too.
+  WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
+  const double v = 1.0;
+  Simulation sim = HeadOn(p, 0.0);
+  {
+    ParticleState beads = sim.beads();
+    beads.inv_mass[1] = 0.0;
+    beads.velocity[0] = Vec3(v, 0, 0);
+    sim = Simulation(p, std::move(beads), std::nullopt);
+  }
+  const Vec3 held = sim.beads().position[1];
+  const ContactRecord rec = RecordContact(sim, PairOverlap, PairForce, 1'000'000);
+  const HertzImpact hertz(p.sphere_pair.kn_per_sqrt_r * std::sqrt(0.5 * kRadius), BeadMass(), v);
+  EXPECT_NEAR(rec.max_overlap / hertz.max_overlap, 1.0, 0.01);
+  EXPECT_NEAR(rec.max_force / hertz.max_force, 1.0, 0.01);
+  EXPECT_NEAR(rec.Duration() / hertz.duration, 1.0, 0.01);
+  EXPECT_NEAR(sim.beads().velocity[0].x(), -v, 1e-3 * v);  // elastic: it bounces straight back
+  EXPECT_EQ(sim.beads().position[1], held);
+  EXPECT_EQ(sim.beads().velocity[1], Vec3::Zero());
+
+  p.gravity_m_s2 = 9.81;
+  ParticleState alone;
+  alone.Add(Vec3(0, 0, 0.5), kRadius, kDensity);
+  alone.inv_mass[0] = 0.0;
+  Simulation hanging(p, std::move(alone), std::nullopt);
+  for (int k = 0; k < 1000; ++k) hanging.Step();
+  EXPECT_EQ(hanging.beads().position[0], Vec3(0, 0, 0.5));
+}
+
 }  // namespace
 }  // namespace dembuf::test

@@ -116,6 +116,13 @@ class Simulation {
   /// The tangential histories of all bead contacts in touch (pairs, plate, side wall).
   std::vector<ContactHistoryEntry> ExportHistory() const;
 
+  /// For each bead of beads(), its index in the ParticleState the simulation was made with
+  /// (large beds are reordered in memory; RemoveBeads drops the indices of removed beads).
+  const std::vector<std::uint32_t>& BeadOrigins() const;
+
+  /// Sets the clock (e.g. to continue a run that went on in another simulation).
+  void SetClock(double time_s, std::int64_t steps);
+
   /// All contacts of the current state with their forces (recomputed from the state).
   std::vector<ContactSnapshot> Contacts() const;
 

@@ -15,12 +15,17 @@
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
+#include "neighbor_list.h"
 
 namespace dembuf {
 
 namespace {
 
 // ---- hashing ---------------------------------------------------------------------------------
+
+std::string FieldText(const Scene& scene, const char* name) {
+  return std::string(name) + "=" + FormatSceneField(scene, *FindSceneField(name)) + "\n";
+}
 
 // The canonical text of the fields that determine the source bed: exact number texts, fixed
 // order. Anything that changes the settled packing belongs here, including the time step.
@@ -48,6 +53,8 @@ std::string SourceKeyText(const Scene& scene, double source_thickness) {
   key << "dembuf bed v" << kBedPreparationVersion << "\n";
   for (const char* name : kFields)
     key << name << "=" << FormatSceneField(scene, *FindSceneField(name)) << "\n";
+  // Named only when set, so that the beds settled as a whole keep the hashes they had.
+  if (scene.bed.local_settling) key << FieldText(scene, "bed.local_settling");
   key << "source_thickness_m="
       << FormatSceneField(
              [&] {
@@ -58,10 +65,6 @@ std::string SourceKeyText(const Scene& scene, double source_thickness) {
              *FindSceneField("bed.source_thickness_m"))
       << "\n";
   return key.str();
-}
-
-std::string FieldText(const Scene& scene, const char* name) {
-  return std::string(name) + "=" + FormatSceneField(scene, *FindSceneField(name)) + "\n";
 }
 
 // Every H up to source_thickness_m - d_max is cut from the same source; a thicker bed gets a
@@ -201,14 +204,189 @@ RestState MeasureRest(const Simulation& sim, double energy_scale) {
           weight};
 }
 
+// ---- local settling --------------------------------------------------------------------------
+//
+// Once the bulk of a settling bed carries its weight, nearly all of its kinetic energy sits in
+// a few beads near the surface that are still finding their place, while every bead is
+// stepped. Local settling steps only their neighbourhood: the beads within kRegionReach of a
+// moving bead are free, the beads a free bead can reach are held in place (inv_mass 0), and
+// all others are stopped and left out. When a free bead has drifted kMaxDrift, the region is
+// chosen again around the beads moving then. Rest is still judged on the whole bed, after an
+// interval in which every bead moves. The held and stopped beads are the approximation; its
+// effect on the beds and on the outputs is measured in docs/accuracy-cost.md.
+
+// Moving: a bead with more than this many times the rest tolerance's energy per bead.
+constexpr double kMovingEnergy = 100.0;
+// Local settling starts only when at most this share of the beads moves.
+constexpr double kMaxMovingShare = 0.1;
+// ...and goes on until the beads' kinetic energy is this fraction of the rest tolerance's.
+constexpr double kLocalEnergyTarget = 0.5;
+// Free: the beads whose centres lie within this many mean diameters of a moving bead.
+constexpr double kRegionReach = 2.0;
+// A region is chosen again when one of its free beads has moved this many mean diameters.
+constexpr double kMaxDrift = 0.5;
+
+double BeadKinetic(const ParticleState& b, std::size_t i) {
+  return 0.5 * b.mass[i] * b.velocity[i].squaredNorm() +
+         0.5 / b.inv_inertia[i] * b.angular_velocity[i].squaredNorm();
+}
+
+double TotalKinetic(const ParticleState& b) {
+  double kinetic = 0.0;
+  for (std::size_t i = 0; i < b.size(); ++i) kinetic += BeadKinetic(b, i);
+  return kinetic;
+}
+
+// The beads within `reach` (centre to centre) of a marked bead, the marked ones included.
+std::vector<char> Near(const ParticleState& b, const std::vector<char>& marked, double reach) {
+  Vec3 lo = b.position.front(), hi = b.position.front();
+  for (const Vec3& x : b.position) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  detail::CellGrid grid;
+  grid.Build(b.position, reach, lo, hi);
+  std::vector<char> near = marked;
+  const Vec3 box = Vec3::Constant(reach);
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    if (!marked[i]) continue;
+    grid.ForEachInBox(b.position[i] - box, b.position[i] + box, [&](std::uint32_t j) {
+      if (!near[j] && (b.position[j] - b.position[i]).squaredNorm() <= reach * reach) near[j] = 1;
+    });
+  }
+  return near;
+}
+
+bool IsWall(std::uint32_t other) {
+  return other == ContactHistoryEntry::kPlate || other == ContactHistoryEntry::kSideWall;
+}
+
+// One region: steps the free beads around `moving`, with the beads they can reach held, until
+// a free bead has drifted kMaxDrift or the region's kinetic energy is down to energy_limit.
+// Writes the free beads' state and springs back into `beads` and `history`, and stops every
+// other bead. Returns the steps taken.
+std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
+                          std::vector<ContactHistoryEntry>& history,
+                          const std::vector<char>& moving, double d_mean, double d_max,
+                          double energy_limit, std::int64_t max_steps) {
+  const std::vector<char> free_bead = Near(beads, moving, kRegionReach * d_mean);
+  const double drift = kMaxDrift * d_mean;
+  // A free bead stops within one step of moving `drift`, so it cannot touch a bead whose
+  // centre is farther than d_max + 1.5 drift from where it started.
+  const std::vector<char> in_region = Near(beads, free_bead, d_max + 1.5 * drift);
+
+  ParticleState region;
+  std::vector<std::uint32_t> region_id(beads.size(), 0);
+  std::vector<std::uint32_t> bed_id;
+  for (std::size_t i = 0; i < beads.size(); ++i) {
+    if (!in_region[i]) continue;
+    region_id[i] = static_cast<std::uint32_t>(region.size());
+    bed_id.push_back(static_cast<std::uint32_t>(i));
+    const bool is_free = free_bead[i];
+    region.position.push_back(beads.position[i]);
+    region.velocity.push_back(is_free ? beads.velocity[i] : Vec3::Zero());
+    region.angular_velocity.push_back(is_free ? beads.angular_velocity[i] : Vec3::Zero());
+    region.force.push_back(Vec3::Zero());
+    region.torque.push_back(Vec3::Zero());
+    region.radius.push_back(beads.radius[i]);
+    region.mass.push_back(beads.mass[i]);
+    region.inv_mass.push_back(is_free ? beads.inv_mass[i] : 0.0);
+    region.inv_inertia.push_back(beads.inv_inertia[i]);
+  }
+  auto touches_free = [&](const ContactHistoryEntry& h) {
+    return free_bead[h.bead] || (!IsWall(h.other) && free_bead[h.other]);
+  };
+  std::vector<ContactHistoryEntry> region_history, kept_history;
+  for (const ContactHistoryEntry& h : history) {
+    if (in_region[h.bead] && (IsWall(h.other) || in_region[h.other]))
+      region_history.push_back(
+          {region_id[h.bead], IsWall(h.other) ? h.other : region_id[h.other], h.shear});
+    if (!touches_free(h)) kept_history.push_back(h);  // springs the region cannot change
+  }
+
+  const std::vector<Vec3> start = region.position;
+  Simulation sim(params, std::move(region), std::nullopt, region_history);
+  // Large regions are reordered in memory at list builds; origin maps back to region order.
+  const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
+  std::int64_t steps = 0;
+  while (steps < max_steps) {
+    sim.Step();
+    ++steps;
+    const ParticleState& b = sim.beads();
+    bool drifted = false;
+    for (std::size_t k = 0; k < b.size() && !drifted; ++k)
+      drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
+    if (drifted) break;
+    if (steps % 50 == 0 && sim.BeadKineticEnergy() <= energy_limit) break;
+  }
+
+  const ParticleState& b = sim.beads();
+  for (std::size_t i = 0; i < beads.size(); ++i) {
+    beads.velocity[i].setZero();
+    beads.angular_velocity[i].setZero();
+  }
+  for (std::size_t k = 0; k < b.size(); ++k) {
+    const std::uint32_t i = bed_id[origin[k]];
+    if (!free_bead[i]) continue;
+    beads.position[i] = b.position[k];
+    beads.velocity[i] = b.velocity[k];
+    beads.angular_velocity[i] = b.angular_velocity[k];
+  }
+  for (ContactHistoryEntry h : sim.ExportHistory()) {
+    h.bead = bed_id[origin[h.bead]];
+    if (!IsWall(h.other)) h.other = bed_id[origin[h.other]];
+    if (touches_free(h)) kept_history.push_back(h);
+  }
+  history = std::move(kept_history);
+  return steps;
+}
+
+// Local settling of `sim` when at most kMaxMovingShare of its beads move, until the beads'
+// kinetic energy is down to kLocalEnergyTarget of the rest tolerance (`tolerance_energy` per
+// bead). Returns the bed as a new simulation, its clock advanced by the steps taken, or
+// nothing when too many beads move for it to pay. report(steps, kinetic energy) follows it.
+std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d_max,
+                                        double tolerance_energy, std::int64_t max_steps,
+                                        const std::function<void(std::int64_t, double)>& report) {
+  ParticleState beads = sim.beads();
+  const std::size_t n = beads.size();
+  std::vector<char> moving(n);
+  auto count_moving = [&] {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      count += moving[i] = BeadKinetic(beads, i) > kMovingEnergy * tolerance_energy;
+    return count;
+  };
+  std::size_t count = count_moving();
+  if (count == 0 || count > kMaxMovingShare * static_cast<double>(n)) return std::nullopt;
+  const double energy_limit = kLocalEnergyTarget * tolerance_energy * static_cast<double>(n);
+  std::vector<ContactHistoryEntry> history = sim.ExportHistory();
+  WorldParams params = sim.params();
+  std::int64_t steps = 0, reported = 0;
+  while (count > 0 && steps < max_steps && TotalKinetic(beads) > energy_limit) {
+    steps += SettleRegion(params, beads, history, moving, d_mean, d_max, energy_limit,
+                          max_steps - steps);
+    count = count_moving();
+    if (steps - reported >= 1000) {
+      report(steps, TotalKinetic(beads));
+      reported = steps;
+    }
+  }
+  Simulation settled(params, std::move(beads), std::nullopt, history);
+  settled.SetClock(sim.time_s() + static_cast<double>(steps) * params.dt_s, sim.steps() + steps);
+  return settled;
+}
+
 // Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
 // With `quench`, kinetic damping first: whenever the beads' kinetic energy has passed a
 // maximum, every bead is stopped, until the maxima of a whole check interval stay below the
 // tolerance. Rest is judged only on intervals without quenching, so the criterion is the same.
+// With `local`, local settling (above) whenever the bulk carries its weight but the bed is not
+// yet at rest; rest is judged on the whole bed, after an interval in which every bead moves.
 double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stage,
                     const BedRequest& request, double max_time, double tolerance,
                     const std::function<void(Simulation&, double)>& before_step = {},
-                    bool quench = false) {
+                    bool quench = false, bool local = false) {
   const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
   const double m_mean =
       scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
@@ -246,6 +424,19 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
       quenching = interval_max / beads / energy_scale >= tolerance;
     } else if (ramp_done && rest.kinetic_ratio < tolerance && rest.balance_error < 0.01) {
       return t;
+    } else if (local && !before_step && rest.balance_error < 0.01) {
+      const auto max_steps = static_cast<std::int64_t>((max_time - t) / sim.params().dt_s) + 1;
+      auto report = [&](std::int64_t steps, double kinetic) {
+        if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+        if (request.on_progress)
+          request.on_progress({stage + " (locally)", t + steps * sim.params().dt_s, max_time,
+                               sim.beads().size(),
+                               kinetic / static_cast<double>(sim.beads().size()) / energy_scale,
+                               rest.balance_error});
+      };
+      if (auto settled = SettleLocally(sim, d_mean, scene.beads.diameter_max_m,
+                                       tolerance * energy_scale, max_steps, report))
+        sim = std::move(*settled);
     }
     if (t > max_time) {
       std::ostringstream what;
@@ -305,7 +496,7 @@ PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const Bed
   Simulation sim = BedSimulation(scene, nullptr, InsertBeads(scene, SourceThickness(scene)),
                                  scene.bed.prep_friction);
   const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s,
-                                scene.bed.settle_tolerance);
+                                scene.bed.settle_tolerance, {}, false, scene.bed.local_settling);
   PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
   if (bed.surface_m < scene.bed.thickness_m)
     throw SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
@@ -341,7 +532,8 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
       CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m);
   sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
   const double t = SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s,
-                                scene.bed.settle_tolerance, {}, scene.bed.quench_cut_relaxation);
+                                scene.bed.settle_tolerance, {}, scene.bed.quench_cut_relaxation,
+                                scene.bed.local_settling);
   return Finish(sim, scene, hash, "cut", t, wall_start);
 }
 

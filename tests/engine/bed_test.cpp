@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 #include <random>
+#include <set>
 #include <thread>
 
 #include "dembuf/engine/bed.h"
@@ -133,6 +134,32 @@ TEST(BedPreparation, KineticDampingReachesTheSameRest) {
               static_cast<long long>(free.settle_steps));
 }
 
+TEST(BedPreparation, LocalSettlingReachesTheSameRest) {
+  // Local settling steps only the neighbourhood of the last moving beads. It is used (its
+  // progress is reported), the bed meets the whole-bed rest criterion, and its packing stays
+  // within 1% of the bed settled as a whole.
+  BedCache cache;
+  Scene local = SmallBedScene();
+  local.bed.local_settling = true;
+  const PreparedBed& whole = SmallBed();
+  std::set<std::string> stages;
+  BedRequest request;
+  request.on_progress = [&](const BedProgress& p) { stages.insert(p.stage); };
+  const PreparedBed bed = GetBed(local, cache, request);
+  EXPECT_TRUE(stages.count("settling (locally)")) << "the source was settled as a whole";
+  EXPECT_EQ(bed.stage, "cut");
+  EXPECT_NE(bed.hash, whole.hash);
+  EXPECT_LT(bed.kinetic_ratio, local.bed.settle_tolerance);
+  EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
+  EXPECT_NEAR(bed.solid_fraction / whole.solid_fraction, 1.0, 0.01);
+  EXPECT_NEAR(bed.surface_m / whole.surface_m, 1.0, 0.01);
+  std::printf("local: %lld steps, %.1f s; whole: %lld steps, %.1f s; stages:",
+              static_cast<long long>(bed.settle_steps), bed.wall_time_s,
+              static_cast<long long>(whole.settle_steps), whole.wall_time_s);
+  for (const std::string& stage : stages) std::printf(" [%s]", stage.c_str());
+  std::printf("\n");
+}
+
 TEST(Simulation, BeadOriginsFollowTheReorderAndRemovals) {
   // Large beds are reordered in memory at list builds; BeadOrigins maps each bead back to the
   // state the simulation was made with, also after beads are removed.
@@ -252,9 +279,10 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
   projectile.time.end_s = 0.1;
   EXPECT_EQ(BedHash(projectile), BedHash(s));
-  for (const char* field : {"seed", "prep", "thickness", "mu", "alpha", "quench"}) {
+  for (const char* field : {"seed", "prep", "thickness", "mu", "alpha", "quench", "local"}) {
     Scene other = s;
     if (std::string(field) == "quench") other.bed.quench_cut_relaxation = true;
+    if (std::string(field) == "local") other.bed.local_settling = true;
     if (std::string(field) == "seed") other.bed.seed = 2;
     if (std::string(field) == "prep") other.bed.prep_friction = 0.3;
     if (std::string(field) == "thickness") other.bed.thickness_m = 0.011;

@@ -210,13 +210,14 @@ RestState MeasureRest(const Simulation& sim, double energy_scale) {
 // a few beads near the surface that are still finding their place, while every bead is
 // stepped. Local settling steps only their neighbourhood: the beads within kRegionReach of a
 // moving bead are free, the beads a free bead can reach are held in place (inv_mass 0), and
-// all others are stopped and left out. When a free bead has drifted kMaxDrift, the region is
-// chosen again around the beads moving then. Rest is still judged on the whole bed, after an
-// interval in which every bead moves. The held and stopped beads are the approximation; its
-// effect on the beds and on the outputs is measured in docs/accuracy-cost.md.
+// all others are stopped and left out. When a free bead has drifted kMaxDrift, or half of
+// the moving beads have stopped, the region is chosen again around the beads moving then.
+// Rest is still judged on the whole bed, after an interval in which every bead moves. The
+// held and stopped beads are the approximation; its effect on the beds and on the outputs is
+// measured in docs/accuracy-cost.md.
 
 // Moving: a bead with more than this many times the rest tolerance's energy per bead.
-constexpr double kMovingEnergy = 100.0;
+constexpr double kMovingEnergy = 1000.0;
 // Local settling starts only when at most this share of the beads moves.
 constexpr double kMaxMovingShare = 0.1;
 // ...and goes on until the beads' kinetic energy is this fraction of the rest tolerance's.
@@ -262,14 +263,16 @@ bool IsWall(std::uint32_t other) {
 }
 
 // One region: steps the free beads around `moving`, with the beads they can reach held, until
-// a free bead has drifted kMaxDrift or the region's kinetic energy is down to energy_limit.
+// a free bead has drifted kMaxDrift, half of the moving beads have stopped (kinetic energy
+// below moving_energy), or the region's kinetic energy is down to energy_limit.
 // Writes the free beads' state and springs back into `beads` and `history`, and stops every
 // other bead. Returns the steps taken.
 std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
                           std::vector<ContactHistoryEntry>& history,
-                          const std::vector<char>& moving, double d_mean, double d_max,
-                          double energy_limit, std::int64_t max_steps) {
+                          const std::vector<char>& moving, double moving_energy, double d_mean,
+                          double d_max, double energy_limit, std::int64_t max_steps) {
   const std::vector<char> free_bead = Near(beads, moving, kRegionReach * d_mean);
+  const auto moving_count = static_cast<std::size_t>(std::count(moving.begin(), moving.end(), 1));
   const double drift = kMaxDrift * d_mean;
   // A free bead stops within one step of moving `drift`, so it cannot touch a bead whose
   // centre is farther than d_max + 1.5 drift from where it started.
@@ -317,7 +320,12 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
     for (std::size_t k = 0; k < b.size() && !drifted; ++k)
       drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
     if (drifted) break;
-    if (steps % 50 == 0 && sim.BeadKineticEnergy() <= energy_limit) break;
+    if (steps % 50 == 0) {
+      if (sim.BeadKineticEnergy() <= energy_limit) break;
+      std::size_t still = 0;
+      for (std::size_t k = 0; k < b.size(); ++k) still += BeadKinetic(b, k) > moving_energy;
+      if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
+    }
   }
 
   const ParticleState& b = sim.beads();
@@ -364,8 +372,8 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
   WorldParams params = sim.params();
   std::int64_t steps = 0, reported = 0;
   while (count > 0 && steps < max_steps && TotalKinetic(beads) > energy_limit) {
-    steps += SettleRegion(params, beads, history, moving, d_mean, d_max, energy_limit,
-                          max_steps - steps);
+    steps += SettleRegion(params, beads, history, moving, kMovingEnergy * tolerance_energy, d_mean,
+                          d_max, energy_limit, max_steps - steps);
     count = count_moving();
     if (steps - reported >= 1000) {
       report(steps, TotalKinetic(beads));

@@ -137,7 +137,9 @@ TEST(BedPreparation, KineticDampingReachesTheSameRest) {
 TEST(BedPreparation, LocalSettlingReachesTheSameRest) {
   // Local settling steps only the neighbourhood of the last moving beads. It is used (its
   // progress is reported), the bed meets the whole-bed rest criterion, and its packing stays
-  // within 1% of the bed settled as a whole.
+  // close to the bed settled as a whole: the beads it stops do not creep into place, which
+  // leaves the top layer a little looser, most in the thinnest beds (C0 lower by 1.9% in this
+  // bed of two layers, by 1.1% at most in the paper's beds: docs/accuracy-cost.md).
   BedCache cache;
   Scene local = SmallBedScene();
   local.bed.local_settling = true;
@@ -151,7 +153,7 @@ TEST(BedPreparation, LocalSettlingReachesTheSameRest) {
   EXPECT_NE(bed.hash, whole.hash);
   EXPECT_LT(bed.kinetic_ratio, local.bed.settle_tolerance);
   EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
-  EXPECT_NEAR(bed.solid_fraction / whole.solid_fraction, 1.0, 0.01);
+  EXPECT_NEAR(bed.solid_fraction / whole.solid_fraction, 1.0, 0.025);
   EXPECT_NEAR(bed.surface_m / whole.surface_m, 1.0, 0.01);
   std::printf("local: %lld steps, %.1f s; whole: %lld steps, %.1f s; stages:",
               static_cast<long long>(bed.settle_steps), bed.wall_time_s,

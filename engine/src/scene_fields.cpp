@@ -93,7 +93,7 @@ const std::vector<SceneField>& FieldTable() {
        "relax a cut bed with kinetic damping (zero velocities at each kinetic-energy peak)",
        DEMBUF_FIELD(bed.quench_cut_relaxation)},
       {"bed.local_settling", "",
-       "relax a cut bed's last rolling beads locally, the rest of the bed held in place",
+       "settle beds by stepping only the last moving beads' neighbourhood (faster, looser top)",
        DEMBUF_FIELD(bed.local_settling)},
       {"bed.max_settle_s", "s", "simulated time allowed for settling before giving up",
        DEMBUF_FIELD(bed.max_settle_s), 0.0, 1e3, true},

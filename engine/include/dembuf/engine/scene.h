@@ -64,10 +64,10 @@ struct BedSpec {
   /// bed relaxes freely to the same rest criterion. Several times faster than a free
   /// relaxation, with a slightly different packing (docs/accuracy-cost.md); the draft accuracy.
   bool quench_cut_relaxation = false;
-  /// Once the bulk of a cut bed carries its weight again, step only the neighbourhood of the
-  /// beads still moving, holding the rest in place; rest is still judged on the whole bed.
-  /// Several times faster when a few surface beads roll on; the packing differs slightly
-  /// (docs/accuracy-cost.md).
+  /// Once the bulk of a settling bed (source or cut) carries its weight, step only the
+  /// neighbourhood of the beads still moving, holding the beads around it in place and
+  /// stopping the rest; rest is still judged on the whole bed. Several times faster; the top
+  /// of the bed comes out a little looser (docs/accuracy-cost.md).
   bool local_settling = false;
   double max_settle_s = 3.0;      ///< give up settling after this much simulated time
   double friction_ramp_s = 0.01;  ///< duration of the change from prep_friction to mu_pp

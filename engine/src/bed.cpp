@@ -227,14 +227,9 @@ constexpr double kRegionReach = 2.0;
 // A region is chosen again when one of its free beads has moved this many mean diameters.
 constexpr double kMaxDrift = 0.5;
 
-double BeadKinetic(const ParticleState& b, std::size_t i) {
-  return 0.5 * b.mass[i] * b.velocity[i].squaredNorm() +
-         0.5 / b.inv_inertia[i] * b.angular_velocity[i].squaredNorm();
-}
-
 double TotalKinetic(const ParticleState& b) {
   double kinetic = 0.0;
-  for (std::size_t i = 0; i < b.size(); ++i) kinetic += BeadKinetic(b, i);
+  for (std::size_t i = 0; i < b.size(); ++i) kinetic += b.KineticEnergy(i);
   return kinetic;
 }
 
@@ -285,16 +280,12 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
     if (!in_region[i]) continue;
     region_id[i] = static_cast<std::uint32_t>(region.size());
     bed_id.push_back(static_cast<std::uint32_t>(i));
-    const bool is_free = free_bead[i];
-    region.position.push_back(beads.position[i]);
-    region.velocity.push_back(is_free ? beads.velocity[i] : Vec3::Zero());
-    region.angular_velocity.push_back(is_free ? beads.angular_velocity[i] : Vec3::Zero());
-    region.force.push_back(Vec3::Zero());
-    region.torque.push_back(Vec3::Zero());
-    region.radius.push_back(beads.radius[i]);
-    region.mass.push_back(beads.mass[i]);
-    region.inv_mass.push_back(is_free ? beads.inv_mass[i] : 0.0);
-    region.inv_inertia.push_back(beads.inv_inertia[i]);
+    region.AddCopy(beads, i);
+    if (!free_bead[i]) {  // held: at rest, and neither contacts nor gravity move it
+      region.velocity.back().setZero();
+      region.angular_velocity.back().setZero();
+      region.inv_mass.back() = 0.0;
+    }
   }
   auto touches_free = [&](const ContactHistoryEntry& h) {
     return free_bead[h.bead] || (!IsWall(h.other) && free_bead[h.other]);
@@ -323,7 +314,7 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
     if (steps % 50 == 0) {
       if (sim.BeadKineticEnergy() <= energy_limit) break;
       std::size_t still = 0;
-      for (std::size_t k = 0; k < b.size(); ++k) still += BeadKinetic(b, k) > moving_energy;
+      for (std::size_t k = 0; k < b.size(); ++k) still += b.KineticEnergy(k) > moving_energy;
       if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
     }
   }
@@ -362,7 +353,7 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
   auto count_moving = [&] {
     std::size_t count = 0;
     for (std::size_t i = 0; i < n; ++i)
-      count += moving[i] = BeadKinetic(beads, i) > kMovingEnergy * tolerance_energy;
+      count += moving[i] = beads.KineticEnergy(i) > kMovingEnergy * tolerance_energy;
     return count;
   };
   std::size_t count = count_moving();

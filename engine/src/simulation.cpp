@@ -932,9 +932,7 @@ double Simulation::BeadKineticEnergy() const {
   CompleteKick();
   double e = 0.0;
   const ParticleState& b = m_beads;
-  for (std::size_t i = 0; i < b.size(); ++i)
-    e += 0.5 * b.mass[i] * b.velocity[i].squaredNorm() +
-         0.5 / b.inv_inertia[i] * b.angular_velocity[i].squaredNorm();
+  for (std::size_t i = 0; i < b.size(); ++i) e += b.KineticEnergy(i);
   return e;
 }
 
@@ -999,15 +997,7 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
     if (!keep[i]) continue;
     new_id[i] = static_cast<std::uint32_t>(kept.size());
     origin.push_back(s.origin[i]);
-    kept.position.push_back(m_beads.position[i]);
-    kept.velocity.push_back(m_beads.velocity[i]);
-    kept.angular_velocity.push_back(m_beads.angular_velocity[i]);
-    kept.force.push_back(m_beads.force[i]);
-    kept.torque.push_back(m_beads.torque[i]);
-    kept.radius.push_back(m_beads.radius[i]);
-    kept.mass.push_back(m_beads.mass[i]);
-    kept.inv_mass.push_back(m_beads.inv_mass[i]);
-    kept.inv_inertia.push_back(m_beads.inv_inertia[i]);
+    kept.AddCopy(m_beads, i);
     plate_shear.push_back(Vec3::Zero());
     wall_shear.push_back(Vec3::Zero());
   }
@@ -1106,8 +1096,7 @@ EnergyBreakdown Simulation::Energy() const {
   const double g = m_params.gravity_m_s2;
   const ParticleState& b = m_beads;
   for (std::size_t i = 0; i < b.size(); ++i) {
-    e.kinetic_J += 0.5 * b.mass[i] * b.velocity[i].squaredNorm() +
-                   0.5 / b.inv_inertia[i] * b.angular_velocity[i].squaredNorm();
+    e.kinetic_J += b.KineticEnergy(i);
     e.potential_J += b.mass[i] * g * b.position[i].z();
   }
   if (m_projectile) {

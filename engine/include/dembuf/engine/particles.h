@@ -36,6 +36,25 @@ struct ParticleState {
     inv_mass.push_back(1.0 / m);
     inv_inertia.push_back(1.0 / (0.4 * m * r * r));
   }
+
+  /// Appends bead i of `from` with every property as it is.
+  void AddCopy(const ParticleState& from, std::size_t i) {
+    position.push_back(from.position[i]);
+    velocity.push_back(from.velocity[i]);
+    angular_velocity.push_back(from.angular_velocity[i]);
+    force.push_back(from.force[i]);
+    torque.push_back(from.torque[i]);
+    radius.push_back(from.radius[i]);
+    mass.push_back(from.mass[i]);
+    inv_mass.push_back(from.inv_mass[i]);
+    inv_inertia.push_back(from.inv_inertia[i]);
+  }
+
+  /// Kinetic energy of bead i, translation and rotation [J].
+  double KineticEnergy(std::size_t i) const {
+    return 0.5 * mass[i] * velocity[i].squaredNorm() +
+           0.5 / inv_inertia[i] * angular_velocity[i].squaredNorm();
+  }
 };
 
 /// A rigid sphere with its own mass (the projectile).

@@ -261,11 +261,13 @@ bool IsWall(std::uint32_t other) {
 // a free bead has drifted kMaxDrift, half of the moving beads have stopped (kinetic energy
 // below moving_energy), or the region's kinetic energy is down to energy_limit.
 // Writes the free beads' state and springs back into `beads` and `history`, and stops every
-// other bead. Returns the steps taken.
+// other bead. Returns the steps taken. The region's clock starts at the bed's (`time_s`,
+// `step`), so that an error in it names the bed's step and time.
 std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
                           std::vector<ContactHistoryEntry>& history,
                           const std::vector<char>& moving, double moving_energy, double d_mean,
-                          double d_max, double energy_limit, std::int64_t max_steps) {
+                          double d_max, double energy_limit, std::int64_t max_steps, double time_s,
+                          std::int64_t step) {
   const std::vector<char> free_bead = Near(beads, moving, kRegionReach * d_mean);
   const auto moving_count = static_cast<std::size_t>(std::count(moving.begin(), moving.end(), 1));
   const double drift = kMaxDrift * d_mean;
@@ -300,23 +302,31 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
 
   const std::vector<Vec3> start = region.position;
   Simulation sim(params, std::move(region), std::nullopt, region_history);
+  sim.SetClock(time_s, step);
   // Large regions are reordered in memory at list builds; origin maps back to region order.
   const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
   std::int64_t steps = 0;
-  while (steps < max_steps) {
-    sim.Step();
-    ++steps;
-    const ParticleState& b = sim.beads();
-    bool drifted = false;
-    for (std::size_t k = 0; k < b.size() && !drifted; ++k)
-      drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
-    if (drifted) break;
-    if (steps % 50 == 0) {
-      if (sim.BeadKineticEnergy() <= energy_limit) break;
-      std::size_t still = 0;
-      for (std::size_t k = 0; k < b.size(); ++k) still += b.KineticEnergy(k) > moving_energy;
-      if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
+  try {
+    while (steps < max_steps) {
+      sim.Step();
+      ++steps;
+      const ParticleState& b = sim.beads();
+      bool drifted = false;
+      for (std::size_t k = 0; k < b.size() && !drifted; ++k)
+        drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
+      if (drifted) break;
+      if (steps % 50 == 0) {
+        if (sim.BeadKineticEnergy() <= energy_limit) break;
+        std::size_t still = 0;
+        for (std::size_t k = 0; k < b.size(); ++k) still += b.KineticEnergy(k) > moving_energy;
+        if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
+      }
     }
+  } catch (const SimulationError& e) {
+    throw SimulationError(
+        std::string("in local settling (bead numbers count the settling region's beads): ") +
+            e.what(),
+        e.step(), e.time_s());
   }
 
   const ParticleState& b = sim.beads();
@@ -363,8 +373,10 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
   WorldParams params = sim.params();
   std::int64_t steps = 0, reported = 0;
   while (count > 0 && steps < max_steps && TotalKinetic(beads) > energy_limit) {
-    steps += SettleRegion(params, beads, history, moving, kMovingEnergy * tolerance_energy, d_mean,
-                          d_max, energy_limit, max_steps - steps);
+    steps +=
+        SettleRegion(params, beads, history, moving, kMovingEnergy * tolerance_energy, d_mean,
+                     d_max, energy_limit, max_steps - steps,
+                     sim.time_s() + static_cast<double>(steps) * params.dt_s, sim.steps() + steps);
     count = count_moving();
     if (steps - reported >= 1000) {
       report(steps, TotalKinetic(beads));

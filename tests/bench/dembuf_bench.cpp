@@ -1,7 +1,7 @@
 // dembuf's benchmark: what a step costs and how that scales. Prints tables and writes JSON.
 //
 //   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick]
-//                [--sweep draft|standard|reference] [--sweep-out DIR]
+//                [--sweep draft|standard|reference] [--sweep-local-settling] [--sweep-out DIR]
 //
 // 0. One thread on each core: the fastest runs every one-thread figure (and LAMMPS).
 // 1. Impact throughput on a dense settled bed (the E2 scene at H = 2.5 cm, about 8,000 beads,
@@ -16,7 +16,8 @@
 //    the settled one, side by side), with the exponent of a power-law fit; memory per bead.
 // 6. With --sweep: the wall time of the paper's whole thickness sweep (E2, H = 0 to 8 cm in
 //    0.5 cm steps, one seed) at that accuracy, beds prepared from nothing in an empty store,
-//    one run per core at a time, as `dembuf sweep --jobs N` runs it.
+//    one run per core at a time, as `dembuf sweep --jobs N` runs it. --sweep-local-settling
+//    prepares its beds with bed.local_settling.
 #include <sched.h>
 #include <unistd.h>
 
@@ -53,7 +54,8 @@ struct Options {
   int steps = 2000;
   bool quick = false;
   std::string sweep_accuracy;  ///< empty: no sweep
-  fs::path sweep_out;          ///< where the sweep writes its results; empty: a temporary folder
+  bool sweep_local_settling = false;
+  fs::path sweep_out;  ///< where the sweep writes its results; empty: a temporary folder
 };
 
 double Seconds(std::chrono::steady_clock::duration d) {
@@ -331,6 +333,9 @@ int main(int argc, char** argv) {
   app.add_option("--sweep", opt.sweep_accuracy,
                  "also time the whole E2 thickness sweep at this accuracy, beds included")
       ->check(CLI::IsMember(accuracies));
+  app.add_flag("--sweep-local-settling", opt.sweep_local_settling,
+               "prepare the sweep's beds with local settling (bed.local_settling)")
+      ->needs("--sweep");
   app.add_option("--sweep-out", opt.sweep_out,
                  "keep the sweep's results (sweep.csv, runs) in this folder; it must not exist")
       ->check(CLI::NonexistentPath);
@@ -511,11 +516,12 @@ int main(int argc, char** argv) {
     const int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     std::printf(
         "6. the E2 thickness sweep, H = 0 to 8 cm in 0.5 cm steps, accuracy %s, "
-        "beds prepared from nothing, %d runs at a time\n",
-        opt.sweep_accuracy.c_str(), jobs);
+        "beds prepared from nothing%s, %d runs at a time\n",
+        opt.sweep_accuracy.c_str(), opt.sweep_local_settling ? " with local settling" : "", jobs);
     std::fflush(stdout);
     Scene e2 = PresetScene("e2");
     ApplyAccuracy(e2, opt.sweep_accuracy);
+    e2.bed.local_settling = opt.sweep_local_settling;
     cli::SweepOptions sweep;
     sweep.axes = {ParseSweepAxis("bed.thickness_m=0:0.08:0.005")};
     sweep.jobs = jobs;
@@ -530,6 +536,7 @@ int main(int argc, char** argv) {
     std::printf("  E2 sweep (%s): %.0f s wall, %d failed runs\n\n", opt.sweep_accuracy.c_str(),
                 seconds, failed);
     report["e2_sweep"] = {{"accuracy", opt.sweep_accuracy},
+                          {"local_settling", opt.sweep_local_settling},
                           {"runs", ExpandSweep(e2, sweep.axes).size()},
                           {"jobs", jobs},
                           {"failed", failed},

@@ -35,6 +35,9 @@ namespace dembuf {
 /// that alters the beds the procedure makes (insertion, settling, the integrator's sums), so
 /// that stale cached beds are not reused.
 inline constexpr int kBedPreparationVersion = 2;
+/// Version of local settling (bed.local_settling), in the hash of the beds it makes. Raise it
+/// with any change to how it settles (its thresholds among them).
+inline constexpr int kLocalSettlingVersion = 2;
 
 /// A bed at rest, with what was measured on it.
 struct PreparedBed {

@@ -363,11 +363,11 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
                                         const std::function<void(std::int64_t, double)>& report) {
   ParticleState beads = sim.beads();
   const std::size_t n = beads.size();
+  const double moving_energy = kMovingEnergy * tolerance_energy;  // per bead
   std::vector<char> moving(n);
   auto count_moving = [&] {
     std::size_t count = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      count += moving[i] = beads.KineticEnergy(i) > kMovingEnergy * tolerance_energy;
+    for (std::size_t i = 0; i < n; ++i) count += moving[i] = beads.KineticEnergy(i) > moving_energy;
     return count;
   };
   std::size_t count = count_moving();
@@ -378,9 +378,9 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
   std::int64_t steps = 0, reported = 0;
   while (count > 0 && steps < max_steps && TotalKinetic(beads) > energy_limit) {
     steps +=
-        SettleRegion(params, beads, history, moving, kMovingEnergy * tolerance_energy, d_mean,
-                     d_max, energy_limit, max_steps - steps,
-                     sim.time_s() + static_cast<double>(steps) * params.dt_s, sim.steps() + steps);
+        SettleRegion(params, beads, history, moving, moving_energy, d_mean, d_max, energy_limit,
+                     max_steps - steps, sim.time_s() + static_cast<double>(steps) * params.dt_s,
+                     sim.steps() + steps);
     count = count_moving();
     if (steps - reported >= 1000) {
       report(steps, TotalKinetic(beads));

@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 seconds=${1:-60}
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DDEMBUF_FUZZ=ON -DDEMBUF_BUILD_TESTS=OFF > /dev/null
+  -DDEMBUF_FUZZ=ON > /dev/null
 cmake --build build-fuzz --target scene_parser_fuzz request_fuzz
 for target in scene_parser request; do
   work=build-fuzz/corpus-$target

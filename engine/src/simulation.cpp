@@ -103,16 +103,19 @@ struct Simulation::Impl {
   StepConditions conditions;
 
   // Parallel force computation. Beads are kept in cell order (layers of cells across the
-  // grid's longest axis, CellGrid::SpaceAxis; in a layer, rows of cells) and split into blocks
-  // of w = kSlabRows >= 2 rows of one layer (z numbers the layers, s the slabs of w rows).
-  // A pair (i, j > i) found in the 27 cells around i joins a bead of block (z, s), rows
-  // [s w, s w + w), to a bead of rows s w .. s w + w of layer z or s w - 1 .. s w + w of layer
-  // z + 1. Two blocks whose layers differ by 2, or whose slabs differ by 2, then never touch
-  // the same row of beads, so the blocks fall into four phases (z mod 2, s mod 2) that each
-  // run in parallel. The blocks depend on the beads, not on the thread count, and every sum is
-  // taken in the same order: results are bit-identical for any number of threads.
+  // grid's longest axis, CellGrid::SpaceAxis; in a layer, rows of cells), and each layer of
+  // cells is a block. A pair (i, j > i) found in the 27 cells around i joins a bead of layer z
+  // to one of layer z or z + 1, so blocks two layers apart never touch the same bead: the
+  // even layers form one phase, the odd layers another, and each phase runs in parallel.
+  // A bead of an even layer z then takes its forces from layer z, then from layer z - 1; one
+  // of an odd layer from layer z - 1, then from layer z. One thread keeps that order in a
+  // single sweep, serial_order (layers 0, 2, 1, 4, 3, ...), which touches each bead's data
+  // while it is still in cache, instead of one pass over the bed per phase. The blocks depend
+  // on the beads, not on the thread count, and every sum is taken in the same order: results
+  // are bit-identical for any number of threads.
   std::vector<std::uint32_t> block_start{0, 0};
   std::vector<std::vector<int>> phase_blocks{{0}};
+  std::vector<int> serial_order{0};
   // Per phase, the work (list entries + beads) of its blocks before each block, and the total
   // last: each thread takes consecutive blocks of about equal work, which keeps both the
   // balance and the memory locality of a contiguous share.
@@ -393,7 +396,7 @@ long ShareStart(const std::vector<Work>& cumulative, double fraction) {
   return std::lower_bound(cumulative.begin(), cumulative.end() - 1, target) - cumulative.begin();
 }
 
-// The force pass: bead pairs (blocks in four phases), container contacts of the beads near the
+// The force pass: bead pairs (blocks in two phases), container contacts of the beads near the
 // walls (blocks in one phase), then the projectile (one body, serial). Observables and conditions
 // are summed per block and merged in block order, so the result does not depend on the thread
 // count.
@@ -433,7 +436,12 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
     if (thread == 0) team_size = team;
     double busy = 0.0;  // this thread's time in its blocks, without the waits at barriers
     std::uint64_t done = 0;
-    for (std::size_t p = 0; p < s.phase_blocks.size(); ++p) {
+    // One thread: every block in one sweep (Impl::serial_order), the same sums in the same order.
+    if (team == 1)
+      for (const int k : s.serial_order)
+        PairForces<kFriction>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
+                              s.block_observables[k], s.block_conditions[k]);
+    for (std::size_t p = 0; p < s.phase_blocks.size() && team > 1; ++p) {
       const std::vector<int>& phase = s.phase_blocks[p];
       const std::vector<std::uint64_t>& work = s.phase_work[p];
       const long first = ShareStart(work, s.shares.Start(thread, team));
@@ -670,19 +678,25 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
 
 // Splits the beads (in cell order) into the blocks and phases described at Impl::block_start.
 void PlanBlocks(Simulation::Impl& s) {
-  constexpr int kSlabRows = 2;  // with one row, slabs s and s + 2 would share row s + 1
-  const int rows = s.grid.Dim(1), layers = s.grid.Dim(2);
+  const int layers = s.grid.Dim(2);
+  std::vector<int> block_of_layer(layers, -1);  // -1: no beads
   s.block_start.clear();
-  s.phase_blocks.assign(4, {});
-  for (int z = 0; z < layers; ++z)
-    for (int slab = 0; slab * kSlabRows < rows; ++slab) {
-      const std::uint32_t first = s.grid.RowStart(slab * kSlabRows, z);
-      const std::uint32_t last = s.grid.RowStart(std::min((slab + 1) * kSlabRows, rows), z);
-      if (last == first) continue;
-      s.phase_blocks[(z % 2) * 2 + slab % 2].push_back(static_cast<int>(s.block_start.size()));
-      s.block_start.push_back(first);
-    }
+  s.phase_blocks.assign(2, {});
+  for (int z = 0; z < layers; ++z) {
+    const std::uint32_t first = s.grid.RowStart(0, z);
+    if (s.grid.RowStart(0, z + 1) == first) continue;
+    block_of_layer[z] = static_cast<int>(s.block_start.size());
+    s.phase_blocks[z % 2].push_back(block_of_layer[z]);
+    s.block_start.push_back(first);
+  }
   s.block_start.push_back(s.grid.RowStart(0, layers));
+  // Each even layer before the odd layer below it: 0, 2, 1, 4, 3, ...
+  s.serial_order.clear();
+  for (int even = 0; even - 1 < layers; even += 2) {
+    if (even < layers && block_of_layer[even] >= 0) s.serial_order.push_back(block_of_layer[even]);
+    if (even >= 1 && block_of_layer[even - 1] >= 0)
+      s.serial_order.push_back(block_of_layer[even - 1]);
+  }
 }
 
 // The beads near the plate or the side wall (Impl::near_container), after the blocks are
@@ -709,6 +723,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
   s.block_start = {0, static_cast<std::uint32_t>(b.size())};
   s.phase_blocks = {{0}};
+  s.serial_order = {0};
   s.block_contacts.clear();
   if (b.size() > 0) {
     // The grid spans the container; beads above the wall top or outside it are clamped into

@@ -280,7 +280,7 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   const Scene s = SmallBedScene();
   // A fixed value: a change here means every cached bed is invalidated (raise
   // kBedPreparationVersion instead when that is intended).
-  EXPECT_EQ(BedHash(s), "eb8b3d1253e390ca");  // preparation version 2
+  EXPECT_EQ(BedHash(s), "b9619fad74a56931");  // preparation version 3
   Scene projectile = s;
   projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
   projectile.time.end_s = 0.1;
@@ -299,7 +299,7 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   // Local settling names its version: beds of an earlier version are not reused.
   Scene local = s;
   local.bed.local_settling = true;
-  EXPECT_EQ(BedHash(local), "fecb7dfd7ea3217c");  // local settling version 2
+  EXPECT_EQ(BedHash(local), "cf7c59483829c521");  // preparation version 3, local settling version 2
   // Changing friction after settling keeps the source (shared settling).
   Scene mu = s;
   mu.material.friction_bead_bead = 0.2;

@@ -34,7 +34,7 @@ namespace dembuf {
 /// Version of the preparation procedure; part of every bed hash. Raise it with any change
 /// that alters the beds the procedure makes (insertion, settling, the integrator's sums), so
 /// that stale cached beds are not reused.
-inline constexpr int kBedPreparationVersion = 2;
+inline constexpr int kBedPreparationVersion = 3;
 /// Version of local settling (bed.local_settling), in the hash of the beds it makes. Raise it
 /// with any change to how it settles (its thresholds among them).
 inline constexpr int kLocalSettlingVersion = 2;

@@ -3,8 +3,11 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <memory>
 #include <sstream>
+#include <thread>
 
 #include "contact_kernels.h"
 #include "dembuf/engine/errors.h"
@@ -104,22 +107,25 @@ struct Simulation::Impl {
 
   // Parallel force computation. Beads are kept in cell order (layers of cells across the
   // grid's longest axis, CellGrid::SpaceAxis; in a layer, rows of cells), and each layer of
-  // cells is a block. A pair (i, j > i) found in the 27 cells around i joins a bead of layer z
-  // to one of layer z or z + 1, so blocks two layers apart never touch the same bead: the
-  // even layers form one phase, the odd layers another, and each phase runs in parallel.
-  // A bead of an even layer z then takes its forces from layer z, then from layer z - 1; one
-  // of an odd layer from layer z - 1, then from layer z. One thread keeps that order in a
-  // single sweep, serial_order (layers 0, 2, 1, 4, 3, ...), which touches each bead's data
-  // while it is still in cache, instead of one pass over the bed per phase. The blocks depend
-  // on the beads, not on the thread count, and every sum is taken in the same order: results
-  // are bit-identical for any number of threads.
+  // cells is a block (k numbers both). A pair (i, j > i) found in the 27 cells around i joins
+  // a bead of layer k to one of layer k or k + 1, so only neighbouring blocks touch the same
+  // beads, and the rule "of two neighbouring blocks, the even one first" fixes the order of
+  // every bead's sum: an even layer's beads take their forces from their own block, then from
+  // the one below; an odd layer's from the one below, then from their own. Each thread sweeps
+  // its consecutive blocks once in that order (0, 2, 1, 4, 3, ...: each bead's data is still
+  // in cache when its forces are complete), and an odd block at the edge of its share waits
+  // for the even neighbour of the next share (block_done), which that thread does first. The
+  // blocks depend on the beads, not on the thread count, and every sum is taken in the same
+  // order: results are bit-identical for any number of threads.
   std::vector<std::uint32_t> block_start{0, 0};
-  std::vector<std::vector<int>> phase_blocks{{0}};
-  std::vector<int> serial_order{0};
-  // Per phase, the work (list entries + beads) of its blocks before each block, and the total
-  // last: each thread takes consecutive blocks of about equal work, which keeps both the
-  // balance and the memory locality of a contiguous share.
-  std::vector<std::vector<std::uint64_t>> phase_work{{0, 1}};
+  // The work (list entries + beads) of the blocks before each block, and the total last: each
+  // thread takes consecutive blocks of about equal work, which keeps both the balance and the
+  // memory locality of a contiguous share.
+  std::vector<std::uint64_t> block_work{0, 1};
+  // The force pass (force_pass) in which each block was done last.
+  std::unique_ptr<std::atomic<std::uint64_t>[]> block_done;
+  std::size_t block_done_size = 0;
+  std::uint64_t force_pass = 0;
   // The touching pairs of each block in the last force pass, which weigh the blocks' work
   // (empty after a list build, until a pass has counted them).
   std::vector<std::uint32_t> block_contacts;
@@ -360,27 +366,36 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
   }
 }
 
-// The work of each phase's blocks (Impl::phase_work): a block's list entries and beads, and
-// its touching pairs once a pass has counted them. Resolving a touching pair costs several
+// The work of the blocks (Impl::block_work): a block's list entries and beads, and its
+// touching pairs once a pass has counted them. Resolving a touching pair costs several
 // times as much as checking an entry, and touching pairs are not spread evenly: a bed at rest
 // is full of them, the beads thrown up by an impact have few.
-void WeighPhases(Simulation::Impl& s) {
+void WeighBlocks(Simulation::Impl& s) {
   // A touching pair costs about as much as six entries checked (a profile of the impact puts
   // it at 5 to 10); only the split between threads depends on it, never a result.
   constexpr std::uint64_t kContactWork = 6;
   const bool listed = s.pairs.offsets.size() == s.block_start.back() + 1;
   const bool counted = s.block_contacts.size() + 1 == s.block_start.size();
-  s.phase_work.resize(s.phase_blocks.size());
-  for (std::size_t p = 0; p < s.phase_blocks.size(); ++p) {
-    std::vector<std::uint64_t>& work = s.phase_work[p];
-    work.assign(1, 0);
-    for (int k : s.phase_blocks[p]) {
-      const std::uint32_t first = s.block_start[k], last = s.block_start[k + 1];
-      const std::uint64_t entries = listed ? s.pairs.offsets[last] - s.pairs.offsets[first] : 0;
-      const std::uint64_t contacts = counted ? s.block_contacts[k] : 0;
-      // + 1: strictly increasing
-      work.push_back(work.back() + entries + kContactWork * contacts + (last - first) + 1);
-    }
+  std::vector<std::uint64_t>& work = s.block_work;
+  work.assign(1, 0);
+  for (std::size_t k = 0; k + 1 < s.block_start.size(); ++k) {
+    const std::uint32_t first = s.block_start[k], last = s.block_start[k + 1];
+    const std::uint64_t entries = listed ? s.pairs.offsets[last] - s.pairs.offsets[first] : 0;
+    const std::uint64_t contacts = counted ? s.block_contacts[k] : 0;
+    // + 1: strictly increasing
+    work.push_back(work.back() + entries + kContactWork * contacts + (last - first) + 1);
+  }
+}
+
+// Waits a moment for another thread (a short spin, then giving the core away: the other
+// thread may be waiting for this core when teams are nested or cores are shared).
+void Pause(int& spins) {
+  if (++spins < 1000) {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+  } else {
+    std::this_thread::yield();
   }
 }
 
@@ -396,10 +411,10 @@ long ShareStart(const std::vector<Work>& cumulative, double fraction) {
   return std::lower_bound(cumulative.begin(), cumulative.end() - 1, target) - cumulative.begin();
 }
 
-// The force pass: bead pairs (blocks in two phases), container contacts of the beads near the
-// walls (blocks in one phase), then the projectile (one body, serial). Observables and conditions
-// are summed per block and merged in block order, so the result does not depend on the thread
-// count.
+// The force pass: bead pairs (blocks of layers, Impl::block_start), container contacts of the beads
+// near the walls (blocks in one phase), then the projectile (one body, serial). Observables and
+// conditions are summed per block and merged in block order, so the result does not depend on the
+// thread count.
 template <bool kFriction>
 void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
                        std::optional<RigidSphere>& projectile, Simulation::Impl& s,
@@ -411,7 +426,7 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   // Weigh the blocks by the last pass's contacts (not needed by one thread, nor before they
   // are counted; a pass on other weights is not timed for the shares).
   const bool weighed = s.block_contacts.size() == static_cast<std::size_t>(blocks);
-  if (s.threads > 1 && weighed) WeighPhases(s);
+  if (s.threads > 1 && weighed) WeighBlocks(s);
   s.block_observables.assign(blocks, StepObservables{});
   s.block_conditions.assign(blocks, StepConditions{});
   const std::uint32_t* start = s.block_start.data();
@@ -421,6 +436,13 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   }
   s.shares.Prepare(s.threads);
   int team_size = 1;
+  if (s.block_done_size != static_cast<std::size_t>(blocks)) {
+    s.block_done = std::make_unique<std::atomic<std::uint64_t>[]>(blocks);  // all 0
+    s.block_done_size = blocks;
+    s.force_pass = 0;
+  }
+  const std::uint64_t pass = ++s.force_pass;
+  std::atomic<std::uint64_t>* block_done = s.block_done.get();
 
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
@@ -434,28 +456,30 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
     }
 #pragma omp barrier
     if (thread == 0) team_size = team;
-    double busy = 0.0;  // this thread's time in its blocks, without the waits at barriers
-    std::uint64_t done = 0;
-    // One thread: every block in one sweep (Impl::serial_order), the same sums in the same order.
-    if (team == 1)
-      for (const int k : s.serial_order)
-        PairForces<kFriction>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
-                              s.block_observables[k], s.block_conditions[k]);
-    for (std::size_t p = 0; p < s.phase_blocks.size() && team > 1; ++p) {
-      const std::vector<int>& phase = s.phase_blocks[p];
-      const std::vector<std::uint64_t>& work = s.phase_work[p];
-      const long first = ShareStart(work, s.shares.Start(thread, team));
-      const long last = ShareStart(work, s.shares.Start(thread + 1, team));
-      const double began = omp_get_wtime();
-      for (auto m = first; m < last; ++m) {
-        const int k = phase[m];
-        PairForces<kFriction>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
-                              s.block_observables[k], s.block_conditions[k]);
-      }
-      busy += omp_get_wtime() - began;
-      done += work[last] - work[first];
-#pragma omp barrier
+    // This thread's blocks [first, last), in the order of Impl::block_start.
+    const long first = ShareStart(s.block_work, s.shares.Start(thread, team));
+    const long last = ShareStart(s.block_work, s.shares.Start(thread + 1, team));
+    const double began = omp_get_wtime();
+    auto resolve = [&](long k) {
+      if (k % 2 == 1)  // odd: after its even neighbours, which may be another thread's
+        for (const long even : {k - 1, k + 1})
+          if (even >= 0 && even < blocks && (even < first || even >= last))
+            for (int spins = 0; block_done[even].load(std::memory_order_acquire) != pass;)
+              Pause(spins);
+      PairForces<kFriction>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
+                            s.block_observables[k], s.block_conditions[k]);
+      block_done[k].store(pass, std::memory_order_release);
+    };
+    // An even last block first: the next share's first block may be waiting for it.
+    const bool last_first = last > first && (last - 1) % 2 == 0;
+    if (last_first) resolve(last - 1);
+    for (long even = first + first % 2; even - 1 < last; even += 2) {
+      if (even < last && !(last_first && even == last - 1)) resolve(even);
+      if (even - 1 >= first) resolve(even - 1);
     }
+    const double busy = omp_get_wtime() - began;  // this thread's time in its blocks
+    const std::uint64_t done = s.block_work[last] - s.block_work[first];
+#pragma omp barrier
     if (team > 1 && weighed) s.shares.Record(thread, static_cast<double>(done), busy);
     // Container contacts of the beads near the plate or the wall: each thread takes
     // consecutive blocks holding about its share of those beads.
@@ -676,27 +700,11 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(s.origin, order);
 }
 
-// Splits the beads (in cell order) into the blocks and phases described at Impl::block_start.
+// Splits the beads (in cell order) into the blocks described at Impl::block_start: one a layer.
 void PlanBlocks(Simulation::Impl& s) {
   const int layers = s.grid.Dim(2);
-  std::vector<int> block_of_layer(layers, -1);  // -1: no beads
   s.block_start.clear();
-  s.phase_blocks.assign(2, {});
-  for (int z = 0; z < layers; ++z) {
-    const std::uint32_t first = s.grid.RowStart(0, z);
-    if (s.grid.RowStart(0, z + 1) == first) continue;
-    block_of_layer[z] = static_cast<int>(s.block_start.size());
-    s.phase_blocks[z % 2].push_back(block_of_layer[z]);
-    s.block_start.push_back(first);
-  }
-  s.block_start.push_back(s.grid.RowStart(0, layers));
-  // Each even layer before the odd layer below it: 0, 2, 1, 4, 3, ...
-  s.serial_order.clear();
-  for (int even = 0; even - 1 < layers; even += 2) {
-    if (even < layers && block_of_layer[even] >= 0) s.serial_order.push_back(block_of_layer[even]);
-    if (even >= 1 && block_of_layer[even - 1] >= 0)
-      s.serial_order.push_back(block_of_layer[even - 1]);
-  }
+  for (int z = 0; z <= layers; ++z) s.block_start.push_back(s.grid.RowStart(0, z));
 }
 
 // The beads near the plate or the side wall (Impl::near_container), after the blocks are
@@ -722,8 +730,6 @@ void ListNearContainer(const ParticleState& b, const Container& box, Simulation:
 void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
   s.block_start = {0, static_cast<std::uint32_t>(b.size())};
-  s.phase_blocks = {{0}};
-  s.serial_order = {0};
   s.block_contacts.clear();
   if (b.size() > 0) {
     // The grid spans the container; beads above the wall top or outside it are clamped into
@@ -753,7 +759,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
       detail::RebuildCandidateList(b, s.grid, projectile->position, projectile->radius,
                                    s.max_radius, s.skin, s.near_projectile);
   }
-  WeighPhases(s);
+  WeighBlocks(s);
   ListNearContainer(b, params.container, s);
   if (projectile) s.projectile_reference = projectile->position;
   s.max_bead_displacement = 0.0;

@@ -113,10 +113,10 @@ struct Simulation::Impl {
   // every bead's sum: an even layer's beads take their forces from their own block, then from
   // the one below; an odd layer's from the one below, then from their own. Each thread sweeps
   // its consecutive blocks once in that order (0, 2, 1, 4, 3, ...: each bead's data is still
-  // in cache when its forces are complete), and an odd block at the edge of its share waits
-  // for the even neighbour of the next share (block_done), which that thread does first. The
-  // blocks depend on the beads, not on the thread count, and every sum is taken in the same
-  // order: results are bit-identical for any number of threads.
+  // in cache when its forces are complete). An odd block at the edge of a share waits for
+  // its even neighbour in the share next to it (block_done), which the thread holding that
+  // share does first. The blocks depend on the beads, not on the thread count, and every sum
+  // is taken in the same order: results are bit-identical for any number of threads.
   std::vector<std::uint32_t> block_start{0, 0};
   // The work (list entries + beads) of the blocks before each block, and the total last: each
   // thread takes consecutive blocks of about equal work, which keeps both the balance and the

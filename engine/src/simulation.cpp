@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <memory>
 #include <sstream>
 #include <thread>
 
@@ -123,8 +122,7 @@ struct Simulation::Impl {
   // memory locality of a contiguous share.
   std::vector<std::uint64_t> block_work{0, 1};
   // The force pass (force_pass) in which each block was done last.
-  std::unique_ptr<std::atomic<std::uint64_t>[]> block_done;
-  std::size_t block_done_size = 0;
+  std::vector<std::atomic<std::uint64_t>> block_done;
   std::uint64_t force_pass = 0;
   // The touching pairs of each block in the last force pass, which weigh the blocks' work
   // (empty after a list build, until a pass has counted them).
@@ -412,9 +410,9 @@ long ShareStart(const std::vector<Work>& cumulative, double fraction) {
 }
 
 // The force pass: bead pairs (blocks of layers, Impl::block_start), container contacts of the beads
-// near the walls (blocks in one phase), then the projectile (one body, serial). Observables and
-// conditions are summed per block and merged in block order, so the result does not depend on the
-// thread count.
+// near the walls (each thread a run of blocks), then the projectile (one body, serial). Observables
+// and conditions are summed per block and merged in block order, so the result does not depend on
+// the thread count.
 template <bool kFriction>
 void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
                        std::optional<RigidSphere>& projectile, Simulation::Impl& s,
@@ -436,13 +434,12 @@ void ComputeForcesImpl(const WorldParams& params, ParticleState& b,
   }
   s.shares.Prepare(s.threads);
   int team_size = 1;
-  if (s.block_done_size != static_cast<std::size_t>(blocks)) {
-    s.block_done = std::make_unique<std::atomic<std::uint64_t>[]>(blocks);  // all 0
-    s.block_done_size = blocks;
+  if (s.block_done.size() != static_cast<std::size_t>(blocks)) {
+    s.block_done = std::vector<std::atomic<std::uint64_t>>(blocks);  // all 0
     s.force_pass = 0;
   }
   const std::uint64_t pass = ++s.force_pass;
-  std::atomic<std::uint64_t>* block_done = s.block_done.get();
+  std::atomic<std::uint64_t>* block_done = s.block_done.data();
 
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {

@@ -151,6 +151,20 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
       if (columns[k] == name) return std::to_string(k + 1);
     throw std::runtime_error("points.csv has no column " + name);
   };
+  // The sweep's points; a metric is plotted only where some point has it (a bare plate has no
+  // Pb, a thin bed no dS): gnuplot refuses a plot whose every series is empty.
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(points, line);) {
+    std::vector<std::string> row;
+    std::istringstream row_cells(line);
+    for (std::string c; std::getline(row_cells, c, ',');) row.push_back(c);
+    rows.push_back(std::move(row));
+  }
+  auto has_data = [&](const std::string& metric) {
+    const std::size_t k = std::stoul(col(metric)) - 1;
+    return std::any_of(rows.begin(), rows.end(),
+                       [&](const auto& row) { return k < row.size() && !row[k].empty(); });
+  };
   const std::string field = columns.at(0);
   const bool thickness = field == "bed.thickness_m";
   const std::string x = thickness ? "($1*100)" : "1";
@@ -166,13 +180,18 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   gp << kTerminal << "set xlabel '" << xlabel << "'\n"
      << "set output " << Q(dir / "sweep_peaks.png") << "\nset ylabel 'force [kN]'\n"
      << "set title 'peak plate force (mean +- sd over seeds)'\n"
-     << "plot " << series("P_N", 1e-3, "P") << ", " << series("Pa_N", 1e-3, "Pa") << ", "
-     << series("Pb_N", 1e-3, "Pb") << "\n"
+     << "plot " << series("P_N", 1e-3, "P");
+  for (const char* peak : {"Pa", "Pb"})
+    if (has_data(std::string(peak) + "_N"))
+      gp << ", " << series(std::string(peak) + "_N", 1e-3, peak);
+  gp << "\n"
      << "set output " << Q(dir / "sweep_lambda.png") << "\nset ylabel 'buffer ratio lambda [%]'\n"
      << "set title 'buffer ratio'\nplot " << series("lambda", 100, "lambda") << "\n"
      << "set output " << Q(dir / "sweep_crater.png") << "\nset ylabel 'crater depth [cm]'\n"
      << "set title 'crater depth'\nplot " << series("crater_depth_m", 100, "crater depth") << "\n";
-  if (thickness)
+  // dS and dt exist where both peaks were found (dt comes with dS).
+  const bool two_peaks = thickness && has_data("dS_m");
+  if (two_peaks)
     gp << "set output " << Q(dir / "sweep_ds_dt.png") << "\nset ylabel 'dS [cm]'\n"
        << "set y2label 'dt [ms]'\nset y2tics\nset title 'travel and time between Pb and Pa'\n"
        << "plot " << series("dS_m", 100, "dS") << ", " << Q(data) << " every ::1 using " << x
@@ -181,7 +200,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   RunGnuplot(gp.str(), dir / "sweep.gp");
   for (const char* name : {"sweep_peaks.png", "sweep_lambda.png", "sweep_crater.png"})
     out.push_back(dir / name);
-  if (thickness) out.push_back(dir / "sweep_ds_dt.png");
+  if (two_peaks) out.push_back(dir / "sweep_ds_dt.png");
 
   // F(t) of each point's first run, aligned at first contact.
   std::ostringstream curves;

@@ -140,29 +140,27 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
 // F(t) curves of the first seed at each point, aligned at first contact.
 std::vector<fs::path> PlotSweep(const fs::path& dir) {
   std::vector<fs::path> out;
+  // The header, then the sweep's points. A metric is plotted only where some point has it (a
+  // bare plate has no Pb, a thin bed no dS): gnuplot refuses a plot whose every series is empty.
   std::ifstream points(dir / "points.csv");
-  std::string header;
-  std::getline(points, header);
-  std::vector<std::string> columns;
-  std::istringstream cells(header);
-  for (std::string c; std::getline(cells, c, ',');) columns.push_back(c);
-  auto col = [&](const std::string& name) {
-    for (std::size_t k = 0; k < columns.size(); ++k)
-      if (columns[k] == name) return std::to_string(k + 1);
-    throw std::runtime_error("points.csv has no column " + name);
-  };
-  // The sweep's points; a metric is plotted only where some point has it (a bare plate has no
-  // Pb, a thin bed no dS): gnuplot refuses a plot whose every series is empty.
   std::vector<std::vector<std::string>> rows;
   for (std::string line; std::getline(points, line);) {
     std::vector<std::string> row;
-    std::istringstream row_cells(line);
-    for (std::string c; std::getline(row_cells, c, ',');) row.push_back(c);
+    std::istringstream cells(line);
+    for (std::string c; std::getline(cells, c, ',');) row.push_back(c);
     rows.push_back(std::move(row));
   }
+  if (rows.empty()) throw std::runtime_error("points.csv is empty");
+  const std::vector<std::string>& columns = rows.front();
+  auto index = [&](const std::string& name) {
+    const auto at = std::find(columns.begin(), columns.end(), name);
+    if (at == columns.end()) throw std::runtime_error("points.csv has no column " + name);
+    return static_cast<std::size_t>(at - columns.begin());
+  };
+  auto col = [&](const std::string& name) { return std::to_string(index(name) + 1); };
   auto has_data = [&](const std::string& metric) {
-    const std::size_t k = std::stoul(col(metric)) - 1;
-    return std::any_of(rows.begin(), rows.end(),
+    const std::size_t k = index(metric);
+    return std::any_of(rows.begin() + 1, rows.end(),
                        [&](const auto& row) { return k < row.size() && !row[k].empty(); });
   };
   const std::string field = columns.at(0);

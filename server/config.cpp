@@ -3,18 +3,46 @@
 #include <spdlog/common.h>
 
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <toml.hpp>
 
+#include "dembuf/engine/text_limits.h"
+
 namespace dembuf::server {
 
+namespace {
+
+// A configuration file is a page of settings: the scene files' limits, and 64 KiB.
+TomlLimits ConfigLimits() {
+  TomlLimits limits;
+  limits.max_bytes = 64 << 10;
+  return limits;
+}
+
+}  // namespace
+
 void LoadConfigFile(const std::string& path, ServerConfig& config) {
+  std::string text;
+  try {
+    text = ReadBoundedFile(path, ConfigLimits().max_bytes, "configuration");
+  } catch (const InputLimitError& e) {
+    throw ConfigError(e.what());
+  }
+  LoadConfigText(text, path, config);
+}
+
+void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config) {
   toml::value root;
   try {
-    root = toml::parse(path);
+    CheckTomlText(text, "configuration " + path, ConfigLimits());
+    std::istringstream in(text);
+    root = toml::parse(in, path);
+  } catch (const InputLimitError& e) {
+    throw ConfigError(e.what());
   } catch (const std::exception& e) {
-    throw std::runtime_error("configuration " + path + ": " + e.what());
+    throw ConfigError("configuration " + path + ": " + e.what());
   }
   const std::set<std::string> known = {
       "listen",         "db",       "workers",           "threads_per_job",  "queue_limit",
@@ -23,13 +51,13 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
       "storage_retry_s"};
   for (const auto& [key, value] : root.as_table())
     if (!known.count(key))
-      throw std::runtime_error("configuration " + path + ": unknown setting \"" + key + "\"");
+      throw ConfigError("configuration " + path + ": unknown setting \"" + key + "\"");
   auto get = [&](const char* key, auto& target) {
     if (!root.contains(key)) return;
     try {
       target = toml::find<std::decay_t<decltype(target)>>(root, key);
     } catch (const std::exception&) {
-      throw std::runtime_error("configuration " + path + ": " + key + " has the wrong type");
+      throw ConfigError("configuration " + path + ": " + key + " has the wrong type");
     }
   };
   get("listen", config.listen);
@@ -52,7 +80,7 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
 
 void ValidateConfig(ServerConfig& config) {
   auto require = [](bool ok, const std::string& what) {
-    if (!ok) throw std::runtime_error(what);
+    if (!ok) throw ConfigError(what);
   };
   require(!config.listen.empty(), "listen: give an address such as 127.0.0.1:50051");
   require(!config.db.empty(), "db: give a database file");

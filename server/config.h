@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 
 namespace dembuf::server {
@@ -26,11 +27,20 @@ struct ServerConfig {
   std::int64_t quota_steps = 0;  ///< most time steps (estimated) per job; 0: no limit
 };
 
-/// Reads a TOML configuration file over `config` (keys as the struct's members). Throws
-/// std::runtime_error naming the file and key for unknown keys, wrong types or bad values.
-void LoadConfigFile(const std::string& path, ServerConfig& config);
+/// A setting is unknown, of the wrong type or out of range; the message names it.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
-/// Checks ranges; throws std::runtime_error naming the setting.
+/// Reads a TOML configuration file over `config` (keys as the struct's members). Throws
+/// ConfigError naming the file and key for unknown keys, wrong types or bad values, and for
+/// a file past the limits of text inputs (dembuf/engine/text_limits.h).
+void LoadConfigFile(const std::string& path, ServerConfig& config);
+/// The same for the file's text (`path` names it in messages).
+void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config);
+
+/// Checks ranges; throws ConfigError naming the setting.
 void ValidateConfig(ServerConfig& config);
 
 }  // namespace dembuf::server

@@ -1,8 +1,8 @@
 // dembufd: the dembuf daemon. Serves the gRPC API of proto/dembuf/v1, keeps everything in one
 // SQLite database and runs the queued jobs on a pool of workers.
 //
-// Exit codes: 0 after a clean shutdown (SIGTERM or SIGINT), 1 for bad settings or a database
-// or address that cannot be used.
+// Exit codes: 0 after a clean shutdown (SIGTERM or SIGINT), 1 when a database or address
+// cannot be used (or another runtime failure), 2 for bad flags or settings.
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
@@ -29,6 +29,9 @@
 using namespace dembuf::server;
 
 namespace {
+
+constexpr int kExitRuntime = 1;
+constexpr int kExitBadInput = 2;
 
 std::shared_ptr<spdlog::logger> MakeLogger(const ServerConfig& config) {
   std::vector<spdlog::sink_ptr> sinks;
@@ -79,7 +82,12 @@ int main(int argc, char** argv) {
   CLI::App* revoke = app.add_subcommand("token-revoke", "remove a user's API token");
   revoke->add_option("name", user, "user name")->required();
   CLI::App* list = app.add_subcommand("token-list", "list the users that have tokens");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version end the program well; any other parse error is bad input.
+    return app.exit(e) == 0 ? 0 : kExitBadInput;
+  }
 
   try {
     if (!config_file.empty()) LoadConfigFile(config_file, config);
@@ -93,9 +101,9 @@ int main(int argc, char** argv) {
     if (*grace) config.shutdown_grace_s = flags.shutdown_grace_s;
     if (*retry) config.storage_retry_s = flags.storage_retry_s;
     ValidateConfig(config);
-  } catch (const std::exception& e) {
+  } catch (const ConfigError& e) {
     std::cerr << "dembufd: " << e.what() << "\n";
-    return 1;
+    return kExitBadInput;
   }
 
   if (create->parsed() || revoke->parsed() || list->parsed()) {
@@ -122,7 +130,7 @@ int main(int argc, char** argv) {
       return 0;
     } catch (const std::exception& e) {
       std::cerr << "dembufd: " << e.what() << "\n";
-      return 1;
+      return kExitRuntime;
     }
   }
 
@@ -139,14 +147,14 @@ int main(int argc, char** argv) {
     log = MakeLogger(config);
   } catch (const std::exception& e) {
     std::cerr << "dembufd: log_file: " << e.what() << "\n";
-    return 1;
+    return kExitRuntime;
   }
   std::unique_ptr<Store> store;
   try {
     store = std::make_unique<Store>(config.db);
   } catch (const std::exception& e) {
     log->critical("{}", e.what());
-    return 1;
+    return kExitRuntime;
   }
 
   SchedulerOptions options;
@@ -187,7 +195,7 @@ int main(int argc, char** argv) {
       ssl.pem_key_cert_pairs.push_back({read(config.tls_key), read(config.tls_cert)});
     } catch (const std::exception& e) {
       log->critical("tls: {}", e.what());
-      return 1;
+      return kExitRuntime;
     }
     credentials = grpc::SslServerCredentials(ssl);
   } else if (!IsLoopback(config.listen)) {
@@ -201,7 +209,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     log->critical("cannot listen on {} (in use, or not a host:port address)", config.listen);
-    return 1;
+    return kExitRuntime;
   }
   scheduler.Start();
   log->info("dembufd {} listening on {} (port {}), database {}{}{}", dembuf::kVersion,

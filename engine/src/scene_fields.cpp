@@ -11,6 +11,7 @@
 #include <toml.hpp>
 
 #include "dembuf/engine/errors.h"
+#include "dembuf/engine/text_limits.h"
 
 namespace dembuf {
 namespace {
@@ -19,6 +20,10 @@ namespace {
 #define DEMBUF_FIELD(member) +[](Scene& s) -> decltype(auto) { return (s.member); }
 
 constexpr double kUnbounded = 1e300;
+
+// The limits of scene text, and of the strings and lists a field takes from anywhere (files,
+// `--set`, requests): a list longer than a TOML array may be, or a string longer than a path.
+const TomlLimits kSceneLimits;
 
 // Whether `path` names a regular file. A name the system refuses to look up (too long, say)
 // names no file: the caller reports it as such, instead of the library throwing.
@@ -202,6 +207,10 @@ void SetNumber(Scene& scene, const SceneField& f, double v, std::string_view tex
 }
 
 void SetString(Scene& scene, const SceneField& f, std::string_view v) {
+  if (v.size() > kSceneLimits.max_string)
+    throw SceneError(std::string(f.name), "a value of " + std::to_string(v.size()) +
+                                              " bytes; at most " +
+                                              std::to_string(kSceneLimits.max_string) + " bytes");
   if (!f.choices.empty() && std::find(f.choices.begin(), f.choices.end(), v) == f.choices.end()) {
     std::string allowed;
     for (auto c : f.choices) allowed += (allowed.empty() ? "" : ", ") + std::string(c);
@@ -316,6 +325,10 @@ void SetSceneField(Scene& scene, std::string_view name, std::string_view value) 
       SetString(scene, f, value);
       break;
     default: {  // comma-separated numbers; empty for none
+      const auto count = value.empty() ? 0 : std::count(value.begin(), value.end(), ',') + 1;
+      if (static_cast<std::size_t>(count) > kSceneLimits.max_array)
+        throw SceneError(std::string(name), std::to_string(count) + " values; at most " +
+                                                std::to_string(kSceneLimits.max_array));
       std::vector<double> list;
       std::string_view rest = value;
       while (!rest.empty()) {
@@ -375,48 +388,13 @@ Scene SceneFromToml(const toml::value& root, const std::string& path, const Scen
   return scene;
 }
 
-// The byte offset of the first byte that breaks UTF-8 (overlong forms and surrogates
-// included), or npos. TOML is UTF-8; the TOML parser must never see anything else (it reads
-// past the end of some invalid sequences).
-std::size_t FirstInvalidUtf8(const std::string& text) {
-  const auto* p = reinterpret_cast<const unsigned char*>(text.data());
-  const std::size_t n = text.size();
-  for (std::size_t i = 0; i < n;) {
-    const unsigned c = p[i];
-    std::size_t len = 0;
-    unsigned min = 0;
-    if (c < 0x80) {
-      ++i;
-      continue;
-    } else if ((c & 0xE0) == 0xC0) {
-      len = 2;
-      min = 0x80;
-    } else if ((c & 0xF0) == 0xE0) {
-      len = 3;
-      min = 0x800;
-    } else if ((c & 0xF8) == 0xF0) {
-      len = 4;
-      min = 0x10000;
-    } else {
-      return i;
-    }
-    if (i + len > n) return i;
-    unsigned code = c & (0x7F >> len);
-    for (std::size_t k = 1; k < len; ++k) {
-      if ((p[i + k] & 0xC0) != 0x80) return i;
-      code = (code << 6) | (p[i + k] & 0x3F);
-    }
-    if (code < min || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) return i;
-    i += len;
-  }
-  return std::string::npos;
-}
-
 Scene LoadScene(const std::string& text, const std::string& name, const std::string& path,
                 const Scene& base) {
-  if (const std::size_t bad = FirstInvalidUtf8(text); bad != std::string::npos)
-    throw SceneError(
-        "", name + " is not UTF-8 text (invalid byte at offset " + std::to_string(bad) + ")");
+  try {
+    CheckTomlText(text, name, kSceneLimits);
+  } catch (const InputLimitError& e) {
+    throw SceneError("", e.what());
+  }
   toml::value root;
   try {
     std::istringstream in(text);
@@ -430,12 +408,13 @@ Scene LoadScene(const std::string& text, const std::string& name, const std::str
 }  // namespace
 
 Scene LoadSceneFile(const std::string& path, const Scene& base) {
-  if (!IsRegularFile(path))
-    throw SceneError("", "scene file \"" + path + "\" does not exist or is not a file");
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return LoadScene(text.str(), "scene file \"" + path + "\"", path, base);
+  std::string text;
+  try {
+    text = ReadBoundedFile(path, kSceneLimits.max_bytes, "scene file");
+  } catch (const InputLimitError& e) {
+    throw SceneError("", e.what());
+  }
+  return LoadScene(text, "scene file \"" + path + "\"", path, base);
 }
 
 Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base) {

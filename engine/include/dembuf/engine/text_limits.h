@@ -1,0 +1,40 @@
+// Limits on the text inputs dembuf parses: scene files, the daemon's configuration and the
+// scene text inside requests. They are checked by one linear pass before any parser sees the
+// text, so that a hostile file costs linear time and bounded memory: the TOML library parses
+// nesting recursively (20,000 nested arrays overflow the stack) and long arrays in quadratic
+// time (40,000 elements took 4 s), and neither has a limit of its own.
+#pragma once
+
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace dembuf {
+
+/// A text input passed one of its limits. The message names the input, the line, what was
+/// found and the limit.
+class InputLimitError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct TomlLimits {
+  std::size_t max_bytes = 1 << 20;  ///< the whole text (scene files are a few kB)
+  int max_depth = 8;                ///< arrays and tables nested in each other
+  std::size_t max_string = 4096;    ///< bytes in one string (a path is at most 4096)
+  std::size_t max_array = 1024;     ///< elements of one array, entries of one inline table
+  std::size_t max_keys = 1000;      ///< key = value pairs (a scene has 46 fields)
+};
+
+/// Checks TOML text against the limits without parsing it, and that it is UTF-8 (the parser
+/// reads past the end of some invalid sequences). Throws InputLimitError naming `name` (e.g.
+/// `scene file "e2.toml"`).
+void CheckTomlText(std::string_view text, const std::string& name, const TomlLimits& limits = {});
+
+/// The content of a regular file of at most `max_bytes`, read without reading more (a device
+/// or a huge file is refused, not read). Throws InputLimitError naming `what` and the path.
+std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes,
+                            const std::string& what);
+
+}  // namespace dembuf

@@ -55,10 +55,6 @@ ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
 
 World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request) {
   ValidateScene(scene);
-  if (!scene.projectile.enabled && scene.time.end_s == 0.0)
-    throw SceneError("time.end_s",
-                     "must be > 0 when projectile.enabled = false (the automatic "
-                     "end waits for the projectile's impact)");
   World world;
   if (!scene.bed.import.empty() || scene.bed.thickness_m > 0.0) {
     BedCache private_cache;
@@ -92,18 +88,23 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
 namespace {
 
 // Emits samples on the global grid t = k * interval, so that runs line up sample by sample.
+// At most one sample a step: an interval below the step samples every step.
 class SampleClock {
  public:
   explicit SampleClock(double interval) : m_interval(interval) {}
   bool Due(double t) const { return t >= m_next * m_interval * (1.0 - 1e-12); }
+  /// Moves past every grid time up to t. The index is computed, not counted: a long flight
+  /// at a tiny interval passes more grid times than any loop could count, and k is a double
+  /// because it can pass 2^63 (it stays exact below 2^53).
   void Advance(double t) {
-    while (Due(t)) ++m_next;
+    if (!Due(t)) return;
+    m_next = std::max(m_next, std::floor(t / (m_interval * (1.0 - 1e-12))));
+    while (Due(t)) m_next = std::max(m_next + 1.0, std::nextafter(m_next, HUGE_VAL));
   }
-  double NextTime() const { return m_next * m_interval; }
 
  private:
   double m_interval;
-  std::int64_t m_next = 0;
+  double m_next = 0.0;  ///< k of the next grid time
 };
 
 ImpactSample MakeSample(const Simulation& sim) {
@@ -202,7 +203,6 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     if (t_fly < 0.0) t_fly = std::isfinite(t_limit) ? t_limit : 0.0;
     t_fly = std::min(t_fly, t_limit);
     if (t_fly > 0.0) {
-      ImpactSample s = MakeSample(sim);
       const double z0 = p.position.z(), vz0 = p.velocity.z();
       const ImpactSnapshot at_rest =
           snapshot_times.empty() ? ImpactSnapshot{} : TakeSnapshot(sim, "");
@@ -215,12 +215,10 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
         snap.projectile->velocity.z() = vz0 - g * t;
         snapshot(snap);
       }
-      for (double t = clock.NextTime(); t <= t_fly; clock.Advance(t), t = clock.NextTime()) {
-        s.t_s = t;
-        s.projectile_z_m = z0 + vz0 * t - 0.5 * g * t * t;
-        s.projectile_vz_m_s = vz0 - g * t;
-        emit(s);
-      }
+      // The record starts after the flight: a resting bed under a falling sphere has nothing
+      // to show, and its samples would cost up to a gigabyte (summary.free_flight_s says how
+      // long it fell).
+      clock.Advance(t_fly);
       p.position.z() = z0 + vz0 * t_fly - 0.5 * g * t_fly * t_fly;
       p.velocity.z() = vz0 - g * t_fly;
       sim.SetProjectile(p, t_fly);
@@ -231,8 +229,11 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     if (scene.time.end_s == 0.0) t_end_estimate = t_fly + scene.time.impact_window_s;
   }
 
-  // The impact, step by step. Every step goes into the series the peaks are found in.
+  // The impact, step by step. The steps of the impact window (time.impact_window_s from the
+  // first contact, or from the start without one) go into the series the peaks are found in,
+  // so that its memory is bounded however long the run goes on (time.end_s).
   ImpactSeries series;
+  const double series_start = sim.time_s();
   double peak = sim.observables().plate_force_N;
   double peak_time = sim.time_s();
   std::int64_t peak_at_step = 0;
@@ -255,11 +256,16 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
       peak_time = t;
       peak_at_step = sim.steps();
     }
-    series.t_s.push_back(t);
-    series.plate_force_N.push_back(o.plate_force_N);
+    const double window_start =
+        summary.first_contact_time_s >= 0.0 ? summary.first_contact_time_s : series_start;
+    const bool in_window = t <= window_start + scene.time.impact_window_s;
+    if (in_window) {
+      series.t_s.push_back(t);
+      series.plate_force_N.push_back(o.plate_force_N);
+    }
     if (sim.projectile()) {
       const RigidSphere& p = *sim.projectile();
-      series.projectile_z_m.push_back(p.position.z());
+      if (in_window) series.projectile_z_m.push_back(p.position.z());
       crater = std::max(crater, world.bed_surface_m - (p.position.z() - p.radius));
     }
     if (clock.Due(t)) {

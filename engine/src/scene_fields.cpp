@@ -11,6 +11,7 @@
 #include <toml.hpp>
 
 #include "dembuf/engine/errors.h"
+#include "dembuf/engine/impact.h"
 #include "dembuf/engine/text_limits.h"
 
 namespace dembuf {
@@ -20,6 +21,11 @@ namespace {
 #define DEMBUF_FIELD(member) +[](Scene& s) -> decltype(auto) { return (s.member); }
 
 constexpr double kUnbounded = 1e300;
+
+// The longest free flight a scene may ask for, as long as the longest run (time.end_s). The
+// flight is computed, not stepped, but the run's clock must still resolve a time step after
+// it, and a flight of 1e299 s is a typing error.
+constexpr double kMaxFlightTime_s = 1e3;
 
 // The limits of scene text, and of the strings and lists a field takes from anywhere (files,
 // `--set`, requests): a list longer than a TOML array may be, or a string longer than a path.
@@ -148,6 +154,13 @@ std::string FormatNumber(double v) {
   // Keep it a TOML float, so that the printed scene reads back with the same types.
   if (std::isfinite(v) && s.find_first_of(".e") == std::string::npos) s += ".0";
   return s;
+}
+
+// A number for a message: 3 significant digits.
+std::string FormatShort(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
 }
 
 std::string RangeText(const SceneField& f) {
@@ -467,6 +480,24 @@ void ValidateScene(const Scene& scene) {
                                       " puts the projectile into the bed: the centre must be more "
                                       "than one radius (" +
                                       FormatNumber(0.5 * p.diameter_m) + " m) above the surface");
+    // The automatic end waits for the impact: the projectile must get there. (With a fixed
+    // end the run may end in flight.)
+    const double flight = FallTime(scene.bed.thickness_m + p.height_m, -p.speed_m_s,
+                                   scene.bed.thickness_m + 0.5 * p.diameter_m, scene.gravity_m_s2);
+    if (scene.time.end_s == 0.0 && flight < 0.0)
+      fail("projectile.speed_m_s",
+           "0 with gravity_m_s2 = 0: the projectile never reaches the bed; give it a speed or "
+           "gravity, or set time.end_s");
+    if (scene.time.end_s == 0.0 && !(flight <= kMaxFlightTime_s))
+      fail("projectile.speed_m_s",
+           FormatShort(p.speed_m_s) + " m/s with gravity_m_s2 = " +
+               FormatShort(scene.gravity_m_s2) + ": the projectile reaches the bed after " +
+               FormatShort(flight) + " s; at most 1000 s" +
+               " s (raise the speed or gravity, lower projectile.height_m, or set time.end_s)");
+  } else if (scene.time.end_s == 0.0) {
+    fail("time.end_s",
+         "0 (automatic) needs a projectile: the automatic end waits for its impact; set "
+         "time.end_s > 0 when projectile.enabled = false");
   }
   if (!scene.bed.import.empty() && !IsRegularFile(scene.bed.import))
     fail("bed.import", "file \"" + scene.bed.import + "\" does not exist or is not a file");

@@ -7,6 +7,7 @@
 
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
+#include "dembuf/engine/scene_fields.h"
 #include "engine/two_body.h"
 
 namespace dembuf {
@@ -71,19 +72,74 @@ TEST(FreeFlight, AnalyticFlightMatchesStepByStepIntegration) {
   EXPECT_NEAR(p.velocity.z(), -5.0 - 9.81 * t, 1e-9);
 }
 
-TEST(ImpactRun, SamplesAreOrderedAndOnTheOutputGrid) {
+TEST(FreeFlight, IsNotSampled) {
+  // A 10 m drop sampled every microsecond: the 1.4 s of free fall once wrote 1.4 million
+  // samples of a resting plate (a 100 m drop at 0.15 us, 30 million, crashed the daemon). The
+  // record now starts at the first output time after the analytic flight, just before contact.
   Scene scene = PaperE2NoBeads();
-  scene.time.output_interval_s = 1e-4;
+  scene.projectile.height_m = 10.0;
+  scene.time.output_interval_s = 1e-6;
   std::vector<ImpactSample> samples;
   RunControl control;
   control.on_sample = [&](const ImpactSample& s) { samples.push_back(s); };
   const ImpactSummary summary = RunImpact(scene, control);
-  ASSERT_GT(samples.size(), 500u);
+  ASSERT_FALSE(samples.empty());
+  EXPECT_GT(summary.free_flight_s, 1.0);
+  EXPECT_GE(samples.front().t_s, summary.free_flight_s);
+  EXPECT_LT(samples.front().t_s, summary.free_flight_s + 1e-6 + summary.dt_s);
+  EXPECT_LT(samples.front().t_s, summary.first_contact_time_s);
+  // From there to the rebound, one sample a microsecond.
+  EXPECT_LT(samples.size(), (summary.end_time_s - summary.free_flight_s) / 1e-6 + 2);
+  EXPECT_NEAR(summary.impact_speed_m_s, std::sqrt(25.0 + 2.0 * 9.81 * (10.0 - 0.025)), 1e-3);
+}
+
+TEST(FreeFlight, AProjectileThatNeverArrivesIsRefused) {
+  // No gravity and no speed: it would hang in the air for ever, waiting to touch the bed.
+  Scene scene = PaperE2NoBeads();
+  scene.gravity_m_s2 = 0.0;
+  scene.projectile.speed_m_s = 0.0;
+  try {
+    ValidateScene(scene);
+    FAIL() << "a projectile that never arrives was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "projectile.speed_m_s");
+    EXPECT_NE(std::string(e.what()).find("never reaches the bed"), std::string::npos) << e.what();
+  }
+  // A creeping one takes longer than any run may last (it ran out of memory in the daemon).
+  scene.projectile.speed_m_s = 1e-300;
+  try {
+    ValidateScene(scene);
+    FAIL() << "a flight of 3e299 s was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "projectile.speed_m_s");
+    EXPECT_NE(std::string(e.what()).find("after 2.75e+299 s; at most 1000 s"), std::string::npos)
+        << e.what();
+  }
+  // With a fixed end the run simply ends in flight, which is legal.
+  scene.time.end_s = 0.01;
+  EXPECT_NO_THROW(ValidateScene(scene));
+  const ImpactSummary s = RunImpact(scene);
+  EXPECT_EQ(s.end_reason, "reached time.end_s");
+  EXPECT_LT(s.first_contact_time_s, 0.0);
+  // And a scene without a projectile needs a fixed end, which submission checks too.
+  scene.projectile.enabled = false;
+  scene.time.end_s = 0.0;
+  EXPECT_THROW(ValidateScene(scene), SceneError);
+}
+
+TEST(ImpactRun, SamplesAreOrderedAndOnTheOutputGrid) {
+  Scene scene = PaperE2NoBeads();
+  scene.time.output_interval_s = 1e-6;
+  std::vector<ImpactSample> samples;
+  RunControl control;
+  control.on_sample = [&](const ImpactSample& s) { samples.push_back(s); };
+  const ImpactSummary summary = RunImpact(scene, control);
+  ASSERT_GT(samples.size(), 200u);
   double max_sampled = 0.0;
   for (std::size_t k = 1; k < samples.size(); ++k) {
     EXPECT_GT(samples[k].t_s, samples[k - 1].t_s);
     // Each sample is taken at the first step at or after its grid time.
-    const double grid = std::round(samples[k].t_s / 1e-4) * 1e-4;
+    const double grid = std::round(samples[k].t_s / 1e-6) * 1e-6;
     EXPECT_LT(samples[k].t_s - grid, summary.dt_s + 1e-12);
     max_sampled = std::max(max_sampled, samples[k].plate_force_N);
   }

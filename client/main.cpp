@@ -13,11 +13,15 @@
 #include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <thread>
 
+#include "cost_check.h"
 #include "dembuf/engine/bed.h"
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
+#include "dembuf/engine/resource_estimate.h"
 #include "dembuf/engine/scene_fields.h"
+#include "dembuf/engine/sweep_plan.h"
 #include "dembuf/engine/version.h"
 #include "dembuf/report/run_output.h"
 #include "plots.h"
@@ -67,7 +71,13 @@ struct RunOptions {
   int jobs = 1;
   bool local = false;
   std::string name;
+  bool dry_run = false;  ///< print the estimate and stop
+  bool yes = false;      ///< run even past this machine's limits
 };
+
+int Cores() {
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
 
 // Prepared beds are kept between runs: $DEMBUF_BED_CACHE, else $XDG_CACHE_HOME/dembuf/beds,
 // else ~/.cache/dembuf/beds.
@@ -125,9 +135,24 @@ void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
 }
 
 int RunLocal(const RunOptions& opt) {
-  // Everything about the scene is checked before anything is written.
+  // Everything about the scene, its cost and its folder is checked before anything is
+  // prepared or written.
   Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   BedCache beds(BedCacheDir(opt));
+  const ResourceEstimate cost = EstimateResources(scene);
+  if (opt.dry_run) {
+    std::printf("%s", cli::DescribeRun(cost, beds, Cores()).c_str());
+    return 0;
+  }
+  const fs::path dir = opt.out_dir.empty() ? DefaultOutputDir("run") : fs::path(opt.out_dir);
+  if (fs::exists(dir / "summary.json") && !opt.force) {
+    std::fprintf(stderr,
+                 "dembuf: error: %s already holds a run (summary.json); choose another --out "
+                 "or pass --force to replace it\n",
+                 dir.c_str());
+    return kExitUsage;
+  }
+  cli::CheckLocalCost({scene}, {cost}, dir, 1, beds, opt.yes);
   BedRequest bed_request;
   bed_request.cancel = &g_interrupted;
   bed_request.on_progress = PrintBedProgress;
@@ -138,14 +163,6 @@ int RunLocal(const RunOptions& opt) {
     std::fprintf(stderr, "%sprepared %d %s bed(s)\n", isatty(fileno(stderr)) ? "\n" : "", count,
                  stage.c_str());
 
-  const fs::path dir = opt.out_dir.empty() ? DefaultOutputDir("run") : fs::path(opt.out_dir);
-  if (fs::exists(dir / "summary.json") && !opt.force) {
-    std::fprintf(stderr,
-                 "dembuf: error: %s already holds a run (summary.json); choose another --out "
-                 "or pass --force to replace it\n",
-                 dir.c_str());
-    return kExitUsage;
-  }
   fs::create_directories(dir);
 
   report::SampleCsvWriter csv(dir / "plate_force.csv");
@@ -195,8 +212,20 @@ int SweepCommand(const RunOptions& opt) {
   sweep.seeds = opt.seeds;
   sweep.jobs = opt.jobs;
   sweep.out_dir = opt.out_dir.empty() ? DefaultOutputDir("sweep") : fs::path(opt.out_dir);
-  // An existing folder is resumed: runs whose summary.json matches their scene are kept.
   BedCache beds(BedCacheDir(opt));
+  std::vector<Scene> scenes;
+  std::vector<ResourceEstimate> costs;
+  for (const SweepRun& run :
+       ExpandSweep(base, WithSeedAxis(sweep.axes, opt.seeds, base.bed.seed))) {
+    scenes.push_back(run.scene);
+    costs.push_back(EstimateResources(run.scene));
+  }
+  if (opt.dry_run) {
+    std::printf("%s", cli::DescribeSweep(costs, beds, opt.jobs, Cores()).c_str());
+    return 0;
+  }
+  cli::CheckLocalCost(scenes, costs, sweep.out_dir, opt.jobs, beds, opt.yes);
+  // An existing folder is resumed: runs whose summary.json matches their scene are kept.
   const int failed = cli::RunSweep(base, sweep, beds);
   cli::PlotIfPossible(sweep.out_dir);
   return failed == 0 ? 0 : kExitUnstable;
@@ -235,6 +264,10 @@ int main(int argc, char** argv) {
   run->add_option("--bed-cache", opt.bed_cache,
                   "folder of prepared beds (default ~/.cache/dembuf/beds)");
   run->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");
+  run->add_flag("--dry-run", opt.dry_run,
+                "print what the run would cost (beads, steps, output, memory, predicted time, "
+                "cached beds) and stop");
+  run->add_flag("--yes", opt.yes, "run even when the estimate passes this machine's limits");
 
   CLI::App* sweep = app.add_subcommand("sweep", "run a scene over ranges of fields and seeds");
   add_scene_args(sweep);
@@ -250,6 +283,8 @@ int main(int argc, char** argv) {
   sweep->add_option("--out", opt.out_dir, "output folder (default: dembuf-sweep-<UTC time>)");
   sweep->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds");
   sweep->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");
+  sweep->add_flag("--dry-run", opt.dry_run, "print what the sweep would cost and stop");
+  sweep->add_flag("--yes", opt.yes, "run even when the estimate passes this machine's limits");
 
   sweep->add_flag("--local", opt.local, "run here even when a server is configured");
   sweep->add_option("--name", opt.name, "a name for the sweep (remote)");
@@ -350,6 +385,9 @@ int main(int argc, char** argv) {
     if (scene_cmd->parsed()) return PrintSceneCommand(opt);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "dembuf: invalid scene: %s\n", e.what());
+    return kExitBadScene;
+  } catch (const ResourceError& e) {
+    std::fprintf(stderr, "dembuf: too costly: %s\n", e.what());
     return kExitBadScene;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dembuf: error: %s\n", e.what());

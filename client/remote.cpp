@@ -74,6 +74,13 @@ int Report(const Remote& remote, const grpc::Status& status) {
       std::fprintf(stderr, "dembuf: not yours: %s\n", status.error_message().c_str());
       return kExitError;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      // A job past the server's limits names the field to change (bad input); a full queue
+      // or disk is worth trying again later.
+      if (status.error_details().rfind("field=", 0) == 0) {
+        std::fprintf(stderr, "dembuf: refused by the server's limits: %s\n",
+                     status.error_message().c_str());
+        return kExitInvalid;
+      }
       std::fprintf(stderr, "dembuf: the server is full: %s\n", status.error_message().c_str());
       return kExitError;
     default:

@@ -12,7 +12,7 @@ packages=(
   # engine and tools
   libeigen3-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev
   # tests, fuzzers (clang's libFuzzer and OpenMP) and plots
-  libgtest-dev libgmock-dev clang libclang-rt-dev libomp-dev gnuplot-nox
+  libgtest-dev libgmock-dev clang libclang-rt-dev libomp-dev gnuplot-nox python3
 )
 
 sudo_cmd=()

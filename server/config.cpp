@@ -44,18 +44,41 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
   } catch (const std::exception& e) {
     throw ConfigError("configuration " + path + ": " + e.what());
   }
-  const std::set<std::string> known = {
-      "listen",         "db",       "workers",           "threads_per_job",  "queue_limit",
-      "max_sweep_jobs", "log_file", "log_level",         "shutdown_grace_s", "require_tokens",
-      "tls_cert",       "tls_key",  "quota_queued_jobs", "quota_beads",      "quota_steps",
-      "storage_retry_s"};
+  const std::set<std::string> known = {"listen",
+                                       "db",
+                                       "workers",
+                                       "threads_per_job",
+                                       "queue_limit",
+                                       "max_sweep_jobs",
+                                       "log_file",
+                                       "log_level",
+                                       "shutdown_grace_s",
+                                       "require_tokens",
+                                       "tls_cert",
+                                       "tls_key",
+                                       "quota_queued_jobs",
+                                       "quota_beads",
+                                       "quota_steps",
+                                       "storage_retry_s",
+                                       "quota_bead_steps",
+                                       "quota_samples",
+                                       "quota_memory_mb"};
   for (const auto& [key, value] : root.as_table())
     if (!known.count(key))
       throw ConfigError("configuration " + path + ": unknown setting \"" + key + "\"");
   auto get = [&](const char* key, auto& target) {
     if (!root.contains(key)) return;
+    using T = std::decay_t<decltype(target)>;
+    const toml::value& value = root.at(key);
+    // Limits are numbers: 1000000, 1e6 and 1_000_000 all say the same.
+    if constexpr (std::is_same_v<T, double>) {
+      if (value.is_integer()) {
+        target = static_cast<double>(value.as_integer());
+        return;
+      }
+    }
     try {
-      target = toml::find<std::decay_t<decltype(target)>>(root, key);
+      target = toml::get<T>(value);
     } catch (const std::exception&) {
       throw ConfigError("configuration " + path + ": " + key + " has the wrong type");
     }
@@ -76,6 +99,9 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
   get("quota_queued_jobs", config.quota_queued_jobs);
   get("quota_beads", config.quota_beads);
   get("quota_steps", config.quota_steps);
+  get("quota_bead_steps", config.quota_bead_steps);
+  get("quota_samples", config.quota_samples);
+  get("quota_memory_mb", config.quota_memory_mb);
 }
 
 void ValidateConfig(ServerConfig& config) {
@@ -101,8 +127,13 @@ void ValidateConfig(ServerConfig& config) {
   require(config.tls_cert.empty() == config.tls_key.empty(),
           "tls_cert and tls_key: give both (or neither)");
   require(config.quota_queued_jobs >= 0, "quota_queued_jobs: must be >= 0 (0: no limit)");
-  require(config.quota_beads >= 0, "quota_beads: must be >= 0 (0: no limit)");
-  require(config.quota_steps >= 0, "quota_steps: must be >= 0 (0: no limit)");
+  for (const auto& [name, value] : {std::pair{"quota_beads", config.quota_beads},
+                                    {"quota_steps", config.quota_steps},
+                                    {"quota_bead_steps", config.quota_bead_steps},
+                                    {"quota_samples", config.quota_samples},
+                                    {"quota_memory_mb", config.quota_memory_mb}})
+    require(value >= 0 && value <= 1e18,
+            std::string(name) + ": must be 0 (no limit) to 1e18, not " + std::to_string(value));
   if (config.threads_per_job == 0) {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     config.threads_per_job = std::max(1, cores / config.workers);

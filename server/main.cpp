@@ -164,12 +164,19 @@ int main(int argc, char** argv) {
   options.storage_retry = std::chrono::seconds(config.storage_retry_s);
   options.host = HostName();
   Scheduler scheduler(*store, options, log);
-  ServiceInfo info{config.db, options.host, UtcNow(), config.max_sweep_jobs};
+  ServiceInfo info;
+  info.database = config.db;
+  info.host = options.host;
+  info.started_at = UtcNow();
+  info.max_sweep_jobs = config.max_sweep_jobs;
   // Beyond loopback, every request must name its user.
   info.require_tokens = config.require_tokens || !IsLoopback(config.listen);
   info.quota_queued_jobs = config.quota_queued_jobs;
-  info.quota_beads = static_cast<double>(config.quota_beads);
-  info.quota_steps = static_cast<double>(config.quota_steps);
+  info.job_limits.beads = config.quota_beads;
+  info.job_limits.steps = config.quota_steps;
+  info.job_limits.bead_steps = config.quota_bead_steps;
+  info.job_limits.samples = config.quota_samples;
+  info.job_limits.memory_bytes = config.quota_memory_mb * 1e6;
   if (info.require_tokens && !store->AnyUsers())
     log->warn(
         "tokens are required but none exists: make one with dembufd --db {} token-create "

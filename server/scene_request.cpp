@@ -93,11 +93,6 @@ void CheckServerScene(const Scene& scene) {
   if (scene.output.snapshot_at_peak)
     throw SceneError("output.snapshot_at_peak",
                      "snapshots are written by local runs (dembuf run) only; set it to false");
-  const double duration = scene.time.end_s > 0 ? scene.time.end_s : scene.time.impact_window_s;
-  if (duration / scene.time.output_interval_s > kMaxSamplesPerJob)
-    throw SceneError("time.output_interval_s",
-                     "the run would write " + ExactText(duration / scene.time.output_interval_s) +
-                         " samples; a server job keeps at most 1e6 (raise the interval)");
 }
 
 }  // namespace dembuf::server

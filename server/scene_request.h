@@ -14,11 +14,9 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec);
 /// Applies the fields present in a proto Scene to `scene` (no validation).
 void ApplyProtoScene(const v1::Scene& fields, Scene& scene);
 
-/// The most samples one job may write (about 48 MB of series).
-inline constexpr double kMaxSamplesPerJob = 1e6;
-
-/// Refuses what a shared daemon does not run: beds read from files on the server, snapshots
-/// (written by local runs only) and series too long to keep. Throws SceneError.
+/// Refuses what a shared daemon does not run: beds read from files on the server and
+/// snapshots (written by local runs only). What a job costs is checked against the server's
+/// limits separately (ServiceInfo::job_limits). Throws SceneError.
 void CheckServerScene(const Scene& scene);
 
 }  // namespace dembuf::server

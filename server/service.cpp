@@ -168,28 +168,11 @@ Status DembufService::CheckAccess(const Caller& caller, const JobRecord& job) {
 }
 
 Status DembufService::CheckJobQuota(const Scene& scene) {
-  if (m_info.quota_beads > 0 && scene.bed.thickness_m > 0) {
-    // The prepared source bed, at a solid fraction of 0.6 (denser than any settled bed).
-    const double d = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
-    const double h = std::max(scene.bed.thickness_m, scene.bed.source_thickness_m);
-    const double beads =
-        0.6 * scene.cylinder.radius_m * scene.cylinder.radius_m * h / (d * d * d / 6.0);
-    if (beads > m_info.quota_beads)
-      return Status(StatusCode::RESOURCE_EXHAUSTED,
-                    "bed.thickness_m: about " + std::to_string(static_cast<long>(beads)) +
-                        " beads; this server's quota is " +
-                        std::to_string(static_cast<long>(m_info.quota_beads)) + " per job");
-  }
-  if (m_info.quota_steps > 0) {
-    const double duration = scene.time.end_s > 0 ? scene.time.end_s : scene.time.impact_window_s;
-    const double dt =
-        scene.time.alpha * MakeContactSetup(scene, 0.5 * scene.beads.diameter_min_m).critical_dt_s;
-    const double steps = duration / dt;
-    if (steps > m_info.quota_steps)
-      return Status(StatusCode::RESOURCE_EXHAUSTED,
-                    "time.end_s: about " + std::to_string(static_cast<long>(steps)) +
-                        " steps; this server's quota is " +
-                        std::to_string(static_cast<long>(m_info.quota_steps)) + " per job");
+  try {
+    CheckResources(EstimateResources(scene), m_info.job_limits, scene, "this server's");
+  } catch (const ResourceError& e) {
+    // The details name the field: the request must change, it is not worth retrying.
+    return Status(StatusCode::RESOURCE_EXHAUSTED, e.what(), "field=" + e.field());
   }
   return Status::OK;
 }

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "dembuf/engine/resource_estimate.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "scheduler.h"
 #include "store.h"
@@ -19,8 +20,7 @@ struct ServiceInfo {
   int max_sweep_jobs = 10000;
   bool require_tokens = false;
   int quota_queued_jobs = 0;
-  double quota_beads = 0;
-  double quota_steps = 0;
+  ResourceLimits job_limits;  ///< what one job may cost
 };
 
 /// Who is asking. Without a token (allowed on loopback unless tokens are required), the
@@ -61,7 +61,7 @@ class DembufService final : public v1::Dembuf::Service {
   grpc::Status CheckAccess(const Caller& caller, const JobRecord& job);
   /// The per-user quota of queued jobs.
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
-  /// The per-job quotas (estimated beads and steps).
+  /// The per-job limits, against the job's resource estimate.
   grpc::Status CheckJobQuota(const Scene& scene);
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);

@@ -69,13 +69,8 @@ std::string SourceKeyText(const Scene& scene, double source_thickness) {
   return key.str();
 }
 
-// Every H up to source_thickness_m - d_max is cut from the same source; a thicker bed gets a
-// source of its own, two bead diameters thicker than itself.
 double SourceThickness(const Scene& scene) {
-  const double d_max = scene.beads.diameter_max_m;
-  if (scene.bed.thickness_m + d_max <= scene.bed.source_thickness_m)
-    return scene.bed.source_thickness_m;
-  return scene.bed.thickness_m + 2.0 * d_max;
+  return PlanSourceBed(scene).thickness_m;
 }
 
 struct StageKeys {
@@ -97,10 +92,6 @@ StageKeys Keys(const Scene& scene) {
   return k;
 }
 
-bool NeedsFrictionStage(const Scene& scene) {
-  return scene.material.friction_bead_bead != scene.bed.prep_friction;
-}
-
 // ---- deterministic random numbers --------------------------------------------------------------
 
 // Uniform doubles from the raw 64-bit engine (std::uniform_real_distribution is not specified
@@ -119,25 +110,23 @@ class Uniform {
 // ---- insertion ---------------------------------------------------------------------------------
 
 // Beads at random positions in a loose column (solid fraction about 0.3) above the plate,
-// without overlaps, enough to settle into a bed of at least `thickness` (the count assumes a
-// packing no denser than 0.66).
-ParticleState InsertBeads(const Scene& scene, double thickness) {
+// without overlaps, as many as PlanSourceBed counts.
+ParticleState InsertBeads(const Scene& scene, const BedRequest& request) {
+  const SourcePlan plan = PlanSourceBed(scene);
+  if (plan.column_top_m > scene.cylinder.height_m)
+    throw SceneError("bed.source_thickness_m",
+                     "a bed this thick needs a loose column of " +
+                         std::to_string(plan.column_top_m) +
+                         " m to settle from, higher than cylinder.height_m");
   const double R = scene.cylinder.radius_m;
   const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
-  const double d_mean = 0.5 * (d_min + d_max);
-  // Mean volume of a sphere with d uniform in [d_min, d_max]: pi/6 <d^3>.
-  const double mean_d3 =
-      (std::pow(d_max, 4) - std::pow(d_min, 4)) / (4.0 * std::max(d_max - d_min, 1e-300));
-  const double v_mean =
-      std::numbers::pi / 6.0 * (d_max > d_min ? mean_d3 : d_mean * d_mean * d_mean);
-  const double area = std::numbers::pi * R * R;
-  const auto count =
-      static_cast<std::size_t>(std::ceil(0.66 * area * (thickness + d_max) / v_mean));
-  double column_top = count * v_mean / (0.30 * area) + d_max;
-  if (column_top > scene.cylinder.height_m)
-    throw SceneError("bed.source_thickness_m",
-                     "a bed this thick needs a loose column of " + std::to_string(column_top) +
-                         " m to settle from, higher than cylinder.height_m");
+  if (!(plan.beads <= kMaxBeads))
+    throw SceneError("beads.diameter_min_m",
+                     "the source bed would hold more than " + std::to_string(kMaxBeads) +
+                         " beads, more than a simulation can number; use larger beads or a "
+                         "thinner bed");
+  const auto count = static_cast<std::size_t>(plan.beads);
+  double column_top = plan.column_top_m;
 
   Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
   ParticleState beads;
@@ -149,6 +138,9 @@ ParticleState InsertBeads(const Scene& scene, double thickness) {
   auto cell_of = [&](double v) { return static_cast<int>(std::floor(v / cell)); };
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
   for (std::size_t n = 0; n < count; ++n) {
+    // A large bed takes a while to insert: look at the cancel flag now and then.
+    if (n % 4096 == 0 && request.cancel && request.cancel->load(std::memory_order_relaxed))
+      throw Cancelled();
     const double r = 0.5 * uniform(d_min, d_max);
     for (int attempt = 0;; ++attempt) {
       if (attempt == 2000) {  // crowded: give the column more room
@@ -508,8 +500,8 @@ Simulation BedSimulation(const Scene& scene, const PreparedBed* from, ParticleSt
 
 PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  Simulation sim = BedSimulation(scene, nullptr, InsertBeads(scene, SourceThickness(scene)),
-                                 scene.bed.prep_friction);
+  Simulation sim =
+      BedSimulation(scene, nullptr, InsertBeads(scene, request), scene.bed.prep_friction);
   const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s,
                                 scene.bed.settle_tolerance, {}, false, scene.bed.local_settling);
   PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
@@ -596,6 +588,31 @@ PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::stri
 
 }  // namespace
 
+SourcePlan PlanSourceBed(const Scene& scene) {
+  SourcePlan plan;
+  // Every H up to source_thickness_m - d_max is cut from the same source; a thicker bed gets
+  // a source of its own, two bead diameters thicker than itself.
+  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
+  plan.thickness_m = scene.bed.thickness_m + d_max <= scene.bed.source_thickness_m
+                         ? scene.bed.source_thickness_m
+                         : scene.bed.thickness_m + 2.0 * d_max;
+  // Enough beads to settle into a bed of at least that thickness at a packing no denser than
+  // 0.66. Mean volume of a sphere with d uniform in [d_min, d_max]: pi/6 <d^3>.
+  const double d_mean = 0.5 * (d_min + d_max);
+  const double mean_d3 =
+      (std::pow(d_max, 4) - std::pow(d_min, 4)) / (4.0 * std::max(d_max - d_min, 1e-300));
+  plan.mean_bead_volume_m3 =
+      std::numbers::pi / 6.0 * (d_max > d_min ? mean_d3 : d_mean * d_mean * d_mean);
+  const double area = std::numbers::pi * scene.cylinder.radius_m * scene.cylinder.radius_m;
+  plan.beads = std::ceil(0.66 * area * (plan.thickness_m + d_max) / plan.mean_bead_volume_m3);
+  plan.column_top_m = plan.beads * plan.mean_bead_volume_m3 / (0.30 * area) + d_max;
+  return plan;
+}
+
+bool NeedsFrictionStage(const Scene& scene) {
+  return scene.material.friction_bead_bead != scene.bed.prep_friction;
+}
+
 std::string BedSourceHash(const Scene& scene) {
   if (!scene.bed.import.empty() || scene.bed.thickness_m <= 0.0) return "";
   return Keys(scene).source;
@@ -605,6 +622,15 @@ std::string BedHash(const Scene& scene) {
   if (!scene.bed.import.empty()) return ImportHash(scene);
   const StageKeys k = Keys(scene);
   return NeedsFrictionStage(scene) ? k.friction : k.cut;
+}
+
+std::vector<BedStage> BedStagesOf(const Scene& scene) {
+  if (!scene.bed.import.empty()) return {{"import", ImportHash(scene)}};
+  if (scene.bed.thickness_m <= 0.0) return {};
+  const StageKeys k = Keys(scene);
+  std::vector<BedStage> stages = {{"source", k.source}, {"cut", k.cut}};
+  if (NeedsFrictionStage(scene)) stages.push_back({"friction", k.friction});
+  return stages;
 }
 
 BedNeeds BedNeedsOf(const Scene& scene) {

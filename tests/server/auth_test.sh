@@ -62,7 +62,7 @@ job2=$("$dembuf" --token "$bob" --owner alice submit "${scene[@]}" 2>/dev/null)
 "$dembuf" --token "$alice" submit "${scene[@]}" > /dev/null 2>&1 || fail "alice's 2nd job"
 "$dembuf" --token "$alice" submit "${scene[@]}" > /dev/null 2>&1 || true
 expect "quota of 2" --token "$alice" submit "${scene[@]}"
-expect "quota is 20000" --token "$bob" submit --preset e2 --set bed.thickness_m=0.08
+expect "limit is 2e+04 per run" --token "$bob" submit --preset e2 --set bed.thickness_m=0.08
 "$dembuf" --token "$root" cancel "$job" > /dev/null || fail "admin cancel"
 stop_daemon
 echo "auth test passed"

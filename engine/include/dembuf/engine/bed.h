@@ -147,6 +147,24 @@ struct BedRequest {
   const std::atomic<int>* threads = nullptr;
 };
 
+/// The most beads a simulation may hold: bead ids are 32-bit, with two values reserved.
+inline constexpr double kMaxBeads = 1e9;
+
+/// How a scene's source bed is made: its thickness, the beads inserted (exactly as many as its
+/// preparation inserts) and the height of the loose column they start in. Computed without
+/// allocating anything; `beads` is a double, so that an absurd scene
+/// can be refused before any count is taken.
+struct SourcePlan {
+  double thickness_m = 0.0;
+  double beads = 0.0;
+  double mean_bead_volume_m3 = 0.0;
+  double column_top_m = 0.0;
+};
+SourcePlan PlanSourceBed(const Scene& scene);
+
+/// Whether the bed needs the friction stage: mu_pp differs from bed.prep_friction.
+bool NeedsFrictionStage(const Scene& scene);
+
 /// The bed of a scene with bed.thickness_m > 0 or bed.import set: from the cache, or prepared
 /// (and stored). Throws SceneError, SimulationError (a bed that will not settle) or Cancelled.
 PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request = {});
@@ -157,6 +175,14 @@ std::string BedSourceHash(const Scene& scene);
 
 /// The content hash of the bed a scene asks for (16 hex digits, FNV-1a 64 of a canonical text).
 std::string BedHash(const Scene& scene);
+
+/// The stages a scene's bed is made in, in order, with their hashes: source, cut (and
+/// friction), or import; none without beads.
+struct BedStage {
+  std::string stage;
+  std::string hash;
+};
+std::vector<BedStage> BedStagesOf(const Scene& scene);
 
 /// The prepared beds a run needs: the settled source it is cut from and its own bed (each ""
 /// for none). Runs that share them share the settling.

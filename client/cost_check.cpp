@@ -1,0 +1,128 @@
+#include "cost_check.h"
+
+#include <sys/statvfs.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <sstream>
+
+namespace dembuf::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// A run predicted to compute longer than this asks for --yes.
+constexpr double kLongRun_s = 86400;
+
+// Free bytes on the file system that will hold `dir` (its nearest existing ancestor).
+double FreeBytes(fs::path dir) {
+  std::error_code error;
+  dir = fs::absolute(dir, error);
+  while (!dir.empty() && !fs::exists(dir, error) && dir != dir.parent_path())
+    dir = dir.parent_path();
+  struct statvfs info {};
+  if (statvfs(dir.c_str(), &info) != 0) return 0.0;  // unknown: no limit
+  return static_cast<double>(info.f_bavail) * static_cast<double>(info.f_frsize);
+}
+
+double PhysicalMemory() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+}
+
+}  // namespace
+
+std::vector<std::string> CachedBeds(const ResourceEstimate& estimate, BedCache& beds) {
+  std::vector<std::string> cached;
+  for (const StageEstimate& s : estimate.stages)
+    if (beds.Contains(s.hash)) cached.push_back(s.hash);
+  return cached;
+}
+
+void CheckLocalCost(const std::vector<Scene>& scenes, const std::vector<ResourceEstimate>& costs,
+                    const fs::path& out_dir, int runs_at_once, BedCache& beds, bool yes) {
+  // What no run can do: number more beads than a simulation holds.
+  ResourceLimits hard;
+  hard.beads = kMaxBeads;
+  for (std::size_t k = 0; k < costs.size(); ++k)
+    CheckResources(costs[k], hard, scenes[k], "a simulation's");
+  if (yes) return;
+  const std::string ask = " (pass --yes to run it anyway)";
+  // Memory: runs at once share the machine; files: all of them share the disk.
+  ResourceLimits limits;
+  limits.memory_bytes = 0.5 * PhysicalMemory() / std::max(1, runs_at_once);
+  double files = 0.0, seconds = 0.0;
+  for (std::size_t k = 0; k < costs.size(); ++k) {
+    try {
+      CheckResources(costs[k], limits, scenes[k], "this machine's");
+    } catch (const ResourceError& e) {
+      throw ResourceError(e.field(), std::string(e.what()).substr(e.field().size() + 2) +
+                                         " (half its memory" +
+                                         (runs_at_once > 1 ? ", shared by the runs at once" : "") +
+                                         "; pass --yes to run it anyway)");
+    }
+    files += costs[k].output_bytes_max;
+    seconds += costs[k].PredictedSeconds(1, CachedBeds(costs[k], beds));
+  }
+  const double free = FreeBytes(out_dir);
+  if (free > 0.0 && files > 0.9 * free)
+    throw ResourceError("time.output_interval_s",
+                        "the output would take up to " + HumanBytes(files) + ", and " +
+                            out_dir.string() + " has " + HumanBytes(free) + " free" + ask);
+  if (seconds > kLongRun_s)
+    throw ResourceError(costs.size() == 1 ? "time.alpha" : "--vary",
+                        "the computing would take about " + HumanSeconds(seconds) +
+                            " of one core (dembuf run --dry-run shows the estimate)" + ask);
+}
+
+std::string DescribeRun(const ResourceEstimate& estimate, BedCache& beds, int threads) {
+  return DescribeEstimate(estimate, CachedBeds(estimate, beds), threads);
+}
+
+std::string DescribeSweep(const std::vector<ResourceEstimate>& costs, BedCache& beds, int jobs,
+                          int cores) {
+  std::ostringstream out;
+  // Each bed once: the runs share it.
+  std::vector<std::string> counted;
+  std::map<std::string, int> to_prepare, ready;
+  double seconds = 0.0, steps = 0.0, bead_steps = 0.0, samples = 0.0, files = 0.0, memory = 0.0;
+  for (const ResourceEstimate& cost : costs) {
+    std::vector<std::string> skip = counted;
+    for (const StageEstimate& s : cost.stages) {
+      if (std::find(counted.begin(), counted.end(), s.hash) != counted.end()) continue;
+      counted.push_back(s.hash);
+      if (beds.Contains(s.hash)) {
+        ++ready[s.stage];
+        skip.push_back(s.hash);
+      } else {
+        ++to_prepare[s.stage];
+      }
+    }
+    seconds += cost.PredictedSeconds(1, skip);
+    steps += cost.StepsMax(skip);
+    bead_steps += cost.BeadStepsMax(skip);
+    samples += cost.samples_max;
+    files += cost.output_bytes_max;
+    memory = std::max(memory, cost.memory_bytes_max);
+  }
+  out << costs.size() << " runs\n";
+  for (const auto& [stage, n] : to_prepare) out << "beds to prepare: " << n << " " << stage << "\n";
+  for (const auto& [stage, n] : ready) out << "beds in the cache: " << n << " " << stage << "\n";
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "at most %.3g time steps, %.3g bead-steps, %.3g force samples, %s of files\n",
+                steps, bead_steps, samples, HumanBytes(files).c_str());
+  out << line;
+  out << "memory: at most " << HumanBytes(memory) << " per run, " << jobs << " at once\n";
+  // Runs at once share the cores; a run alone (a source bed the others wait for) gets them all.
+  const double parallel = std::max(1.0, 0.9 * std::min(std::max(jobs, 1), std::max(cores, 1)));
+  out << "predicted wall time: about " << HumanSeconds(seconds / parallel) << " with " << jobs
+      << (jobs == 1 ? " run" : " runs") << " at once on " << cores
+      << (cores == 1 ? " core" : " cores") << " (measured costs per bead-step, typical settling)\n";
+  return out.str();
+}
+
+}  // namespace dembuf::cli

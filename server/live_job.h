@@ -1,8 +1,10 @@
-// A job while a worker runs it: its samples so far, its state and progress, and its cancel
-// flag. Any number of watchers read it while the worker appends; a watcher that joins late
-// starts from index 0 and so receives what was computed before it came.
+// A job while a worker runs it: its samples not yet stored, its state and progress, and its
+// cancel flag. Any number of watchers read it while the worker appends; the worker stores the
+// samples in chunks as they come (Store::AppendSeries) and then drops them here, so a watcher
+// that joins late or falls behind reads the earlier ones from the store (LiveRead::stored).
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -29,7 +31,8 @@ struct LiveRead {
   std::vector<ImpactSample> samples;  ///< from the requested index on
   JobState state = JobState::kQueued;
   JobProgress progress;
-  bool ended = false;  ///< no more samples will come
+  bool ended = false;   ///< no more samples will come
+  bool stored = false;  ///< the requested samples are no longer here: read them from the store
 };
 
 class LiveJob {
@@ -45,6 +48,27 @@ class LiveJob {
       m_progress.peak_plate_force_N = std::max(m_progress.peak_plate_force_N, sample.plate_force_N);
     }
     m_changed.notify_all();
+  }
+
+  /// How many samples are held here, not yet stored.
+  std::size_t Unstored() const {
+    std::lock_guard lock(m_mutex);
+    return m_samples.size();
+  }
+
+  /// The samples not yet stored and the index of the first of them.
+  std::pair<std::int64_t, std::vector<ImpactSample>> UnstoredSamples() const {
+    std::lock_guard lock(m_mutex);
+    return {m_first, m_samples};
+  }
+
+  /// The samples before index `end` are in the store: drop them here.
+  void Stored(std::int64_t end) {
+    std::lock_guard lock(m_mutex);
+    const auto drop =
+        static_cast<std::size_t>(std::clamp<std::int64_t>(end - m_first, 0, m_samples.size()));
+    m_samples.erase(m_samples.begin(), m_samples.begin() + drop);
+    m_first += static_cast<std::int64_t>(drop);
   }
 
   void SetState(JobState state) {
@@ -78,19 +102,21 @@ class LiveJob {
   /// unless there are some already or the job has ended.
   LiveRead Read(std::size_t from, std::size_t max, std::chrono::milliseconds wait) {
     std::unique_lock lock(m_mutex);
-    m_changed.wait_for(lock, wait, [&] { return m_ended || m_samples.size() > from; });
+    const auto index = static_cast<std::int64_t>(from);
+    auto count = [&] { return m_first + static_cast<std::int64_t>(m_samples.size()); };
+    m_changed.wait_for(lock, wait, [&] { return m_ended || count() > index || index < m_first; });
     LiveRead read;
-    const std::size_t end = std::min(m_samples.size(), from + max);
-    if (from < end) read.samples.assign(m_samples.begin() + from, m_samples.begin() + end);
     read.state = m_state;
     read.progress = m_progress;
+    if (index < m_first) {
+      read.stored = true;
+      return read;
+    }
+    const auto begin = static_cast<std::size_t>(index - m_first);
+    const std::size_t end = std::min(m_samples.size(), begin + max);
+    if (begin < end) read.samples.assign(m_samples.begin() + begin, m_samples.begin() + end);
     read.ended = m_ended && end == m_samples.size();
     return read;
-  }
-
-  std::vector<ImpactSample> Samples() const {
-    std::lock_guard lock(m_mutex);
-    return m_samples;
   }
 
   JobProgress Progress() const {
@@ -109,7 +135,8 @@ class LiveJob {
   const std::int64_t m_id;
   mutable std::mutex m_mutex;
   std::condition_variable m_changed;
-  std::vector<ImpactSample> m_samples;
+  std::vector<ImpactSample> m_samples;  ///< from index m_first on; the earlier ones are stored
+  std::int64_t m_first = 0;
   JobState m_state = JobState::kQueued;
   JobProgress m_progress;
   bool m_ended = false;

@@ -10,6 +10,7 @@
 #include "dembuf/engine/scene_fields.h"
 #include "dembuf/engine/version.h"
 #include "dembuf/report/run_output.h"
+#include "fault_injection.h"
 
 namespace dembuf::server {
 
@@ -44,11 +45,16 @@ Scheduler::~Scheduler() {
 }
 
 void Scheduler::Start() {
-  const auto requeued = m_store.RequeueInterrupted(
+  const InterruptedJobs interrupted = m_store.RequeueInterrupted(
       "interrupted: the daemon stopped while this job ran; it runs again from the start");
-  for (const JobRecord& job : requeued)
+  for (const JobRecord& job : interrupted.requeued)
     m_log->warn("job {} was {} when the daemon stopped; queued to run again (attempt {})", job.id,
                 StateName(job.state), job.attempts + 1);
+  for (const JobRecord& job : interrupted.poisoned)
+    m_log->error(
+        "job {} was {} when the daemon stopped, for the second time: failed as a poison job, "
+        "not run again",
+        job.id, StateName(job.state));
   {
     std::lock_guard lock(m_mutex);
     for (const JobRecord& job : m_store.QueuedJobs())
@@ -185,10 +191,16 @@ void Scheduler::WorkerLoop(int worker) {
     std::shared_ptr<LiveJob> live = Live(*id);
     m_log->info("worker {}: job {} starts", worker, *id);
     t_current_job = *id;
+    // Nothing may leave a worker: an exception there would end the daemon (std::terminate),
+    // and the job with it at every start.
     try {
       Run(*id, live);
     } catch (const StorageFull& e) {
       RequeueForStorage(*id, live, e);
+    } catch (const std::exception& e) {
+      FailAfterError(*id, live, e.what());
+    } catch (...) {
+      FailAfterError(*id, live, "an unknown error");
     }
     t_current_job = 0;
     {
@@ -201,6 +213,30 @@ void Scheduler::WorkerLoop(int worker) {
   }
 }
 
+void Scheduler::FailAfterError(std::int64_t id, const std::shared_ptr<LiveJob>& live,
+                               const std::string& what) {
+  const std::string error = "the server failed while running this job: " + what;
+  m_log->error("job {}: {}", id, error);
+  try {
+    m_store.FinishJob(id, JobState::kFailed, error, {});
+  } catch (const std::exception& e) {
+    // The database says it still runs; the next start counts it as interrupted.
+    m_log->error("job {}: could not record the failure: {}", id, e.what());
+  }
+  live->End(JobState::kFailed);
+}
+
+void Scheduler::StoreSamples(std::int64_t id, LiveJob& live) {
+  auto [first, samples] = live.UnstoredSamples();
+  m_store.AppendSeries(id, first, samples);
+  live.Stored(first + static_cast<std::int64_t>(samples.size()));
+}
+
+JobResults Scheduler::Rest(const LiveJob& live, const std::string& summary_json) {
+  auto [first, samples] = live.UnstoredSamples();
+  return {summary_json, std::move(samples), first};
+}
+
 void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
   const std::optional<JobRecord> job = m_store.GetJob(id);
   if (!job) {
@@ -211,6 +247,7 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
   const bool needs_bed = !job->bed_hash.empty() && !m_beds.Contains(job->bed_hash);
   const JobState first_state = needs_bed ? JobState::kPreparingBed : JobState::kRunning;
   m_store.MarkStarted(id, first_state, m_options.host, kVersion);
+  FaultPoint("kill-at-job-start");  // a job that crashes the daemon (the poison-job test)
   live->SetState(first_state);
   try {
     const Scene scene = LoadSceneText(job->scene_toml, "job " + std::to_string(id));
@@ -226,7 +263,11 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
       live->SetState(JobState::kRunning);
     }
     RunControl control;
-    control.on_sample = [&](const ImpactSample& s) { live->Append(s); };
+    const auto chunk = static_cast<std::size_t>(m_store.options().chunk_samples);
+    control.on_sample = [&](const ImpactSample& s) {
+      live->Append(s);
+      if (live->Unstored() >= chunk) StoreSamples(id, *live);
+    };
     control.on_progress = [&](const ImpactProgress& p) {
       live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0, p.t_s,
                         p.steps);
@@ -238,7 +279,7 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
     control.bed_request = &bed_request;
     const ImpactSummary summary = RunImpact(std::move(world), scene, control);
     const std::string summary_json = report::SummaryToJson(summary, scene).dump(2) + "\n";
-    m_store.FinishJob(id, JobState::kDone, "", {summary_json, live->Samples()});
+    m_store.FinishJob(id, JobState::kDone, "", Rest(*live, summary_json));
     live->End(JobState::kDone);
     m_log->info("job {}: done in {:.1f} s: P = {:.5g} N, lambda = {:.3f}", id,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
@@ -253,14 +294,14 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
       live->End(JobState::kQueued);
       m_log->warn("job {}: {}", id, note);
     } else {
-      m_store.FinishJob(id, JobState::kCancelled, "cancelled while running", {"", live->Samples()});
+      m_store.FinishJob(id, JobState::kCancelled, "cancelled while running", Rest(*live, ""));
       live->End(JobState::kCancelled);
       m_log->info("job {}: cancelled while running", id);
     }
   } catch (const std::exception& e) {
     // A bad scene (it was checked at submission, so only a changed engine gets here), a run
     // that became unstable, or a bed that would not settle: the job fails with the reason.
-    m_store.FinishJob(id, JobState::kFailed, e.what(), {"", live->Samples()});
+    m_store.FinishJob(id, JobState::kFailed, e.what(), Rest(*live, ""));
     live->End(JobState::kFailed);
     m_log->error("job {}: failed: {}", id, e.what());
   }

@@ -78,6 +78,14 @@ class Scheduler {
   /// Splits the workers' cores among the running jobs (CoreShare).
   void ShareCoresLocked();
   void Run(std::int64_t id, const std::shared_ptr<LiveJob>& live);
+  /// Stores the samples the live job holds, and drops them from it.
+  void StoreSamples(std::int64_t id, LiveJob& live);
+  /// The results of a job that ends now: its summary and the samples not yet stored.
+  static JobResults Rest(const LiveJob& live, const std::string& summary_json);
+  /// Something outside the job's own run failed (the database, say): the job fails with the
+  /// reason, and the worker goes on.
+  void FailAfterError(std::int64_t id, const std::shared_ptr<LiveJob>& live,
+                      const std::string& what);
   /// The database's disk is full: puts the job back at the head of the queue and pauses the
   /// workers for storage_retry, so that nothing is lost and nothing spins.
   void RequeueForStorage(std::int64_t id, const std::shared_ptr<LiveJob>& live,

@@ -177,6 +177,19 @@ Status DembufService::CheckJobQuota(const Scene& scene) {
   return Status::OK;
 }
 
+template <class Handler>
+Status DembufService::Guard(const char* rpc, Handler&& handler) {
+  try {
+    return handler();
+  } catch (const StorageFull& e) {
+    m_log->error("{}: the disk is full: {}", rpc, e.what());
+    return DiskFull();
+  } catch (const std::exception& e) {
+    m_log->error("{}: {}", rpc, e.what());
+    return Status(StatusCode::INTERNAL, std::string("the server failed: ") + e.what());
+  }
+}
+
 DembufService::DembufService(Store& store, Scheduler& scheduler, ServiceInfo info,
                              std::shared_ptr<spdlog::logger> log)
     : m_store(store), m_scheduler(scheduler), m_info(std::move(info)), m_log(std::move(log)) {}
@@ -238,303 +251,329 @@ void DembufService::FillSweep(const SweepRecord& r, v1::Sweep* out) {
 
 Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                 v1::SubmitJobResponse* response) {
-  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-  Caller caller;
-  if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
-  if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
-  JobRecord job;
-  try {
-    const Scene scene = ResolveSceneSpec(request->scene());
-    CheckServerScene(scene);
-    if (Status s = CheckJobQuota(scene); !s.ok()) return s;
-    std::string name = request->name();
-    if (name.empty()) name = request->scene().preset().empty() ? "job" : request->scene().preset();
-    job = MakeJobRecord(scene, caller.name, name);
-  } catch (const SceneError& e) {
-    return FromSceneError(e);
-  }
-  if (Status s = CheckQueuedQuota(caller.name, 1); !s.ok()) return s;
-  try {
-    m_scheduler.Admit(1, [&] {
-      m_store.AddJob(job);
-      return std::vector<JobRecord>{job};
-    });
-  } catch (const QueueFull& e) {
-    return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
-  } catch (const StorageFull& e) {
-    m_log->error("a request found the disk full: {}", e.what());
-    return DiskFull();
-  }
-  m_log->info("job {} submitted by {}: {}", job.id, job.owner, job.name);
-  FillJob(job, false, response->mutable_job());
-  return Status::OK;
+  return Guard("SubmitJob", [&]() -> Status {
+    if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+    Caller caller;
+    if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
+    if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
+    JobRecord job;
+    try {
+      const Scene scene = ResolveSceneSpec(request->scene());
+      CheckServerScene(scene);
+      if (Status s = CheckJobQuota(scene); !s.ok()) return s;
+      std::string name = request->name();
+      if (name.empty())
+        name = request->scene().preset().empty() ? "job" : request->scene().preset();
+      job = MakeJobRecord(scene, caller.name, name);
+    } catch (const SceneError& e) {
+      return FromSceneError(e);
+    }
+    if (Status s = CheckQueuedQuota(caller.name, 1); !s.ok()) return s;
+    try {
+      m_scheduler.Admit(1, [&] {
+        m_store.AddJob(job);
+        return std::vector<JobRecord>{job};
+      });
+    } catch (const QueueFull& e) {
+      return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
+    } catch (const StorageFull& e) {
+      m_log->error("a request found the disk full: {}", e.what());
+      return DiskFull();
+    }
+    m_log->info("job {} submitted by {}: {}", job.id, job.owner, job.name);
+    FillJob(job, false, response->mutable_job());
+    return Status::OK;
+  });
 }
 
 Status DembufService::SubmitSweep(grpc::ServerContext* context,
                                   const v1::SubmitSweepRequest* request,
                                   v1::SubmitSweepResponse* response) {
-  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-  Caller caller;
-  if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
-  if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
-  if (request->axes().empty() && request->seeds() <= 1)
-    return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
-  if (request->seeds() < 0 || request->seeds() > 1000)
-    return Invalid("seeds", std::to_string(request->seeds()) + " is out of range: 1 to 1000");
-  SweepRecord sweep;
-  std::vector<JobRecord> jobs;
-  try {
-    const Scene base = ResolveSceneSpec(request->base());
-    std::vector<SweepAxis> axes;
-    for (const auto& axis : request->axes()) {
-      std::vector<std::string> values(axis.values().begin(), axis.values().end());
-      for (const auto& other : axes)
-        if (other.field == axis.field()) throw SceneError(axis.field(), "varied twice");
-      axes.push_back(MakeSweepAxis(axis.field(), values, axis.range()));
+  return Guard("SubmitSweep", [&]() -> Status {
+    if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+    Caller caller;
+    if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
+    if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
+    if (request->axes().empty() && request->seeds() <= 1)
+      return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
+    if (request->seeds() < 0 || request->seeds() > 1000)
+      return Invalid("seeds", std::to_string(request->seeds()) + " is out of range: 1 to 1000");
+    SweepRecord sweep;
+    std::vector<JobRecord> jobs;
+    try {
+      const Scene base = ResolveSceneSpec(request->base());
+      std::vector<SweepAxis> axes;
+      for (const auto& axis : request->axes()) {
+        std::vector<std::string> values(axis.values().begin(), axis.values().end());
+        for (const auto& other : axes)
+          if (other.field == axis.field()) throw SceneError(axis.field(), "varied twice");
+        axes.push_back(MakeSweepAxis(axis.field(), values, axis.range()));
+      }
+      axes = WithSeedAxis(axes, std::max(1, request->seeds()), base.bed.seed);
+      const std::vector<SweepRun> runs =
+          ExpandSweep(base, axes, static_cast<std::size_t>(m_info.max_sweep_jobs));
+      sweep.owner = caller.name;
+      sweep.name = request->name().empty() ? "sweep" : request->name();
+      sweep.axes = axes;
+      for (std::size_t k : InterleaveBySourceBed(runs)) {
+        CheckServerScene(runs[k].scene);
+        if (Status s = CheckJobQuota(runs[k].scene); !s.ok()) return s;
+        JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
+        job.sweep_index = static_cast<int>(runs[k].index);
+        job.sweep_values = runs[k].values;
+        jobs.push_back(std::move(job));
+      }
+    } catch (const SceneError& e) {
+      return FromSceneError(e);
     }
-    axes = WithSeedAxis(axes, std::max(1, request->seeds()), base.bed.seed);
-    const std::vector<SweepRun> runs =
-        ExpandSweep(base, axes, static_cast<std::size_t>(m_info.max_sweep_jobs));
-    sweep.owner = caller.name;
-    sweep.name = request->name().empty() ? "sweep" : request->name();
-    sweep.axes = axes;
-    for (std::size_t k : InterleaveBySourceBed(runs)) {
-      CheckServerScene(runs[k].scene);
-      if (Status s = CheckJobQuota(runs[k].scene); !s.ok()) return s;
-      JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
-      job.sweep_index = static_cast<int>(runs[k].index);
-      job.sweep_values = runs[k].values;
-      jobs.push_back(std::move(job));
+    if (Status s = CheckQueuedQuota(caller.name, jobs.size()); !s.ok()) return s;
+    try {
+      m_scheduler.Admit(jobs.size(), [&] {
+        m_store.AddSweep(sweep, jobs);
+        return jobs;
+      });
+    } catch (const QueueFull& e) {
+      return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
+    } catch (const StorageFull& e) {
+      m_log->error("a request found the disk full: {}", e.what());
+      return DiskFull();
     }
-  } catch (const SceneError& e) {
-    return FromSceneError(e);
-  }
-  if (Status s = CheckQueuedQuota(caller.name, jobs.size()); !s.ok()) return s;
-  try {
-    m_scheduler.Admit(jobs.size(), [&] {
-      m_store.AddSweep(sweep, jobs);
-      return jobs;
-    });
-  } catch (const QueueFull& e) {
-    return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
-  } catch (const StorageFull& e) {
-    m_log->error("a request found the disk full: {}", e.what());
-    return DiskFull();
-  }
-  m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, jobs.size());
-  FillSweep(sweep, response->mutable_sweep());
-  for (const JobRecord& job : jobs) response->add_job_ids(job.id);
-  return Status::OK;
+    m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, jobs.size());
+    FillSweep(sweep, response->mutable_sweep());
+    for (const JobRecord& job : jobs) response->add_job_ids(job.id);
+    return Status::OK;
+  });
 }
 
 Status DembufService::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
                              v1::Job* response) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  const auto job = m_store.GetJob(request->id());
-  if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-  if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
-  FillJob(*job, true, response);
-  return Status::OK;
+  return Guard("GetJob", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const auto job = m_store.GetJob(request->id());
+    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+    FillJob(*job, true, response);
+    return Status::OK;
+  });
 }
 
 Status DembufService::GetSweep(grpc::ServerContext* context, const v1::GetSweepRequest* request,
                                v1::Sweep* response) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  const auto sweep = m_store.GetSweep(request->id());
-  if (!sweep) return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
-  if (!caller.admin && sweep->owner != caller.name)
-    return Status(StatusCode::PERMISSION_DENIED,
-                  "id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
-  FillSweep(*sweep, response);
-  return Status::OK;
+  return Guard("GetSweep", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const auto sweep = m_store.GetSweep(request->id());
+    if (!sweep)
+      return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
+    if (!caller.admin && sweep->owner != caller.name)
+      return Status(StatusCode::PERMISSION_DENIED,
+                    "id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
+    FillSweep(*sweep, response);
+    return Status::OK;
+  });
 }
 
 Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
                                v1::ListJobsResponse* response) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  JobFilter filter;
-  if (request->state() != v1::JOB_STATE_UNSPECIFIED) {
-    filter.state = FromProto(request->state());
-    if (!filter.state) return Invalid("state", "unknown job state");
-  }
-  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-  if (request->limit() < 0 || request->limit() > 100000)
-    return Invalid("limit", "must be 0 (100) to 100000");
-  filter.owner = request->owner();
-  if (!caller.admin) {
-    // Everyone else sees their own jobs only.
-    if (!request->owner().empty() && request->owner() != caller.name)
-      return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own jobs");
-    filter.owner = caller.name;
-  }
-  filter.sweep_id = request->sweep_id();
-  filter.limit = request->limit() == 0 ? 100 : request->limit();
-  for (const JobRecord& job : m_store.ListJobs(filter)) FillJob(job, false, response->add_jobs());
-  return Status::OK;
+  return Guard("ListJobs", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    JobFilter filter;
+    if (request->state() != v1::JOB_STATE_UNSPECIFIED) {
+      filter.state = FromProto(request->state());
+      if (!filter.state) return Invalid("state", "unknown job state");
+    }
+    if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+    if (request->limit() < 0 || request->limit() > 100000)
+      return Invalid("limit", "must be 0 (100) to 100000");
+    filter.owner = request->owner();
+    if (!caller.admin) {
+      // Everyone else sees their own jobs only.
+      if (!request->owner().empty() && request->owner() != caller.name)
+        return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own jobs");
+      filter.owner = caller.name;
+    }
+    filter.sweep_id = request->sweep_id();
+    filter.limit = request->limit() == 0 ? 100 : request->limit();
+    for (const JobRecord& job : m_store.ListJobs(filter)) FillJob(job, false, response->add_jobs());
+    return Status::OK;
+  });
 }
 
 Status DembufService::ListSweeps(grpc::ServerContext* context, const v1::ListSweepsRequest* request,
                                  v1::ListSweepsResponse* response) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-  if (request->limit() < 0 || request->limit() > 100000)
-    return Invalid("limit", "must be 0 (100) to 100000");
-  std::string owner = request->owner();
-  if (!caller.admin) {
-    if (!owner.empty() && owner != caller.name)
-      return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own sweeps");
-    owner = caller.name;
-  }
-  for (const SweepRecord& sweep :
-       m_store.ListSweeps(owner, request->limit() == 0 ? 100 : request->limit()))
-    FillSweep(sweep, response->add_sweeps());
-  return Status::OK;
+  return Guard("ListSweeps", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
+    if (request->limit() < 0 || request->limit() > 100000)
+      return Invalid("limit", "must be 0 (100) to 100000");
+    std::string owner = request->owner();
+    if (!caller.admin) {
+      if (!owner.empty() && owner != caller.name)
+        return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own sweeps");
+      owner = caller.name;
+    }
+    for (const SweepRecord& sweep :
+         m_store.ListSweeps(owner, request->limit() == 0 ? 100 : request->limit()))
+      FillSweep(sweep, response->add_sweeps());
+    return Status::OK;
+  });
 }
 
 Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelRequest* request,
                              v1::CancelResponse* response) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  if ((request->job_id() != 0) == (request->sweep_id() != 0))
-    return Invalid("job_id", "give either job_id or sweep_id");
-  std::vector<JobRecord> targets;
-  if (request->job_id() != 0) {
-    const auto job = m_store.GetJob(request->job_id());
-    if (!job)
-      return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
-    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
-    targets.push_back(*job);
-  } else {
-    const auto sweep = m_store.GetSweep(request->sweep_id());
-    if (!sweep)
-      return Status(StatusCode::NOT_FOUND,
-                    "sweep_id: no sweep " + std::to_string(request->sweep_id()));
-    if (!caller.admin && sweep->owner != caller.name)
-      return Status(StatusCode::PERMISSION_DENIED,
-                    "sweep_id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
-    JobFilter filter;
-    filter.sweep_id = request->sweep_id();
-    filter.limit = 1000000;
-    targets = m_store.ListJobs(filter);
-  }
-  int cancelled = 0;
-  try {
-    for (const JobRecord& job : targets)
-      if (!IsFinal(job.state) && m_scheduler.Cancel(job.id)) ++cancelled;
-  } catch (const StorageFull& e) {
-    m_log->error("a request found the disk full: {}", e.what());
-    return DiskFull();
-  }
-  if (request->job_id() != 0 && cancelled == 0)
-    return Status(StatusCode::FAILED_PRECONDITION,
-                  "job_id: job " + std::to_string(request->job_id()) + " has already ended (" +
-                      StateName(targets.front().state) + ")");
-  response->set_cancelled(cancelled);
-  return Status::OK;
+  return Guard("Cancel", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    if ((request->job_id() != 0) == (request->sweep_id() != 0))
+      return Invalid("job_id", "give either job_id or sweep_id");
+    std::vector<JobRecord> targets;
+    if (request->job_id() != 0) {
+      const auto job = m_store.GetJob(request->job_id());
+      if (!job)
+        return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
+      if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+      targets.push_back(*job);
+    } else {
+      const auto sweep = m_store.GetSweep(request->sweep_id());
+      if (!sweep)
+        return Status(StatusCode::NOT_FOUND,
+                      "sweep_id: no sweep " + std::to_string(request->sweep_id()));
+      if (!caller.admin && sweep->owner != caller.name)
+        return Status(
+            StatusCode::PERMISSION_DENIED,
+            "sweep_id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
+      JobFilter filter;
+      filter.sweep_id = request->sweep_id();
+      filter.limit = 1000000;
+      targets = m_store.ListJobs(filter);
+    }
+    int cancelled = 0;
+    try {
+      for (const JobRecord& job : targets)
+        if (!IsFinal(job.state) && m_scheduler.Cancel(job.id)) ++cancelled;
+    } catch (const StorageFull& e) {
+      m_log->error("a request found the disk full: {}", e.what());
+      return DiskFull();
+    }
+    if (request->job_id() != 0 && cancelled == 0)
+      return Status(StatusCode::FAILED_PRECONDITION,
+                    "job_id: job " + std::to_string(request->job_id()) + " has already ended (" +
+                        StateName(targets.front().state) + ")");
+    response->set_cancelled(cancelled);
+    return Status::OK;
+  });
 }
 
 Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                grpc::ServerWriter<v1::WatchJobResponse>* writer) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
-  {
-    const auto job = m_store.GetJob(request->id());
-    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
-  }
-  auto next = static_cast<std::size_t>(request->from_index());
-  auto last_status = std::chrono::steady_clock::time_point{};
-  while (!context->IsCancelled()) {
-    // A running job is read live; else the store has the final word.
-    if (auto live = m_scheduler.Live(request->id())) {
-      const LiveRead read = live->Read(next, kSamplesPerMessage, std::chrono::milliseconds(500));
-      v1::WatchJobResponse message;
-      message.set_first_index(static_cast<std::int64_t>(next));
-      for (const ImpactSample& s : read.samples) FillSample(s, message.add_samples());
-      message.set_state(ToProto(read.state));
-      FillProgress(read.progress, message.mutable_progress());
-      next += read.samples.size();
-      if (!writer->Write(message)) return Status::OK;  // the watcher left
-      if (read.ended && IsFinal(read.state)) return Status::OK;
-      // Ended but not final: back to the queue (a shutdown); the worker lets go of it soon.
-      if (read.ended) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      continue;
+  return Guard("WatchJob", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
+    {
+      const auto job = m_store.GetJob(request->id());
+      if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+      if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
     }
-    const auto job = m_store.GetJob(request->id());
-    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-    if (IsFinal(job->state)) {
-      const auto results = m_store.GetResults(job->id);
-      const std::vector<ImpactSample> samples =
-          results ? results->samples : std::vector<ImpactSample>{};
-      JobProgress progress;
-      progress.stage = StateName(job->state);
-      progress.fraction = job->state == JobState::kDone ? 1.0 : 0.0;
-      for (const ImpactSample& s : samples)
-        progress.peak_plate_force_N = std::max(progress.peak_plate_force_N, s.plate_force_N);
-      do {
+    auto next = static_cast<std::size_t>(request->from_index());
+    auto last_status = std::chrono::steady_clock::time_point{};
+    while (!context->IsCancelled()) {
+      // A running job is read live; else the store has the final word.
+      if (auto live = m_scheduler.Live(request->id())) {
+        LiveRead read = live->Read(next, kSamplesPerMessage, std::chrono::milliseconds(500));
+        if (read.stored)  // already stored by the worker: a watcher that came late or fell behind
+          read.samples = m_store.ReadSeries(request->id(), static_cast<std::int64_t>(next),
+                                            kSamplesPerMessage);
         v1::WatchJobResponse message;
         message.set_first_index(static_cast<std::int64_t>(next));
-        const std::size_t end = std::min(samples.size(), next + kSamplesPerMessage);
-        for (std::size_t k = next; k < end; ++k) FillSample(samples[k], message.add_samples());
-        next = std::max(next, end);
+        for (const ImpactSample& s : read.samples) FillSample(s, message.add_samples());
+        message.set_state(ToProto(read.state));
+        FillProgress(read.progress, message.mutable_progress());
+        next += read.samples.size();
+        if (!writer->Write(message)) return Status::OK;  // the watcher left
+        if (read.ended && IsFinal(read.state)) return Status::OK;
+        // Ended but not final: back to the queue (a shutdown); the worker lets go of it soon.
+        if (read.ended) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        continue;
+      }
+      const auto job = m_store.GetJob(request->id());
+      if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+      if (IsFinal(job->state)) {
+        const auto results = m_store.GetResults(job->id);
+        const std::vector<ImpactSample> samples =
+            results ? results->samples : std::vector<ImpactSample>{};
+        JobProgress progress;
+        progress.stage = StateName(job->state);
+        progress.fraction = job->state == JobState::kDone ? 1.0 : 0.0;
+        for (const ImpactSample& s : samples)
+          progress.peak_plate_force_N = std::max(progress.peak_plate_force_N, s.plate_force_N);
+        do {
+          v1::WatchJobResponse message;
+          message.set_first_index(static_cast<std::int64_t>(next));
+          const std::size_t end = std::min(samples.size(), next + kSamplesPerMessage);
+          for (std::size_t k = next; k < end; ++k) FillSample(samples[k], message.add_samples());
+          next = std::max(next, end);
+          message.set_state(ToProto(job->state));
+          FillProgress(progress, message.mutable_progress());
+          if (!writer->Write(message)) return Status::OK;
+        } while (next < samples.size());
+        return Status::OK;
+      }
+      // Queued (or about to start): say so now and then, and wait for a worker.
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_status > std::chrono::seconds(2)) {
+        v1::WatchJobResponse message;
+        message.set_first_index(static_cast<std::int64_t>(next));
         message.set_state(ToProto(job->state));
-        FillProgress(progress, message.mutable_progress());
+        message.mutable_progress()->set_stage(StateName(job->state));
         if (!writer->Write(message)) return Status::OK;
-      } while (next < samples.size());
-      return Status::OK;
+        last_status = now;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
-    // Queued (or about to start): say so now and then, and wait for a worker.
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_status > std::chrono::seconds(2)) {
-      v1::WatchJobResponse message;
-      message.set_first_index(static_cast<std::int64_t>(next));
-      message.set_state(ToProto(job->state));
-      message.mutable_progress()->set_stage(StateName(job->state));
-      if (!writer->Write(message)) return Status::OK;
-      last_status = now;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  return Status::OK;
+    return Status::OK;
+  });
 }
 
 Status DembufService::FetchResults(grpc::ServerContext* context,
                                    const v1::FetchResultsRequest* request,
                                    v1::FetchResultsResponse* response) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  const auto job = m_store.GetJob(request->id());
-  if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-  if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
-  if (!IsFinal(job->state))
-    return Status(StatusCode::FAILED_PRECONDITION,
-                  "id: job " + std::to_string(job->id) + " is " + StateName(job->state) +
-                      "; results come when it ends (watch it meanwhile)");
-  FillJob(*job, true, response->mutable_job());
-  if (auto results = m_store.GetResults(job->id))
-    for (const ImpactSample& s : results->samples) FillSample(s, response->add_samples());
-  return Status::OK;
+  return Guard("FetchResults", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const auto job = m_store.GetJob(request->id());
+    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+    if (!IsFinal(job->state))
+      return Status(StatusCode::FAILED_PRECONDITION,
+                    "id: job " + std::to_string(job->id) + " is " + StateName(job->state) +
+                        "; results come when it ends (watch it meanwhile)");
+    FillJob(*job, true, response->mutable_job());
+    if (auto results = m_store.GetResults(job->id))
+      for (const ImpactSample& s : results->samples) FillSample(s, response->add_samples());
+    return Status::OK;
+  });
 }
 
 Status DembufService::ServerInfo(grpc::ServerContext* context, const v1::ServerInfoRequest*,
                                  v1::ServerInfoResponse* response) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-  response->set_version(kVersion);
-  response->set_workers(m_scheduler.options().workers);
-  response->set_threads_per_job(m_scheduler.options().threads_per_job);
-  response->set_queue_depth(m_scheduler.queued());
-  response->set_queue_limit(m_scheduler.options().queue_limit);
-  response->set_running(m_scheduler.running());
-  response->set_database(m_info.database);
-  response->set_host(m_info.host);
-  response->set_started_at(m_info.started_at);
-  return Status::OK;
+  return Guard("ServerInfo", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    response->set_version(kVersion);
+    response->set_workers(m_scheduler.options().workers);
+    response->set_threads_per_job(m_scheduler.options().threads_per_job);
+    response->set_queue_depth(m_scheduler.queued());
+    response->set_queue_limit(m_scheduler.options().queue_limit);
+    response->set_running(m_scheduler.running());
+    response->set_database(m_info.database);
+    response->set_host(m_info.host);
+    response->set_started_at(m_info.started_at);
+    return Status::OK;
+  });
 }
 
 }  // namespace dembuf::server

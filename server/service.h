@@ -63,6 +63,10 @@ class DembufService final : public v1::Dembuf::Service {
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
   /// The per-job limits, against the job's resource estimate.
   grpc::Status CheckJobQuota(const Scene& scene);
+  /// Runs a handler and turns any exception it lets out into a status with the reason (and
+  /// a log line), instead of an abort or a reasonless answer.
+  template <class Handler>
+  grpc::Status Guard(const char* rpc, Handler&& handler);
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);
 

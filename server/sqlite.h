@@ -92,6 +92,8 @@ class Database {
   /// Runs one or more statements without results.
   void Execute(const std::string& sql);
   std::int64_t LastInsertId() const { return sqlite3_last_insert_rowid(m_db); }
+  /// The longest string or blob this connection accepts.
+  void SetLengthLimit(int bytes) { sqlite3_limit(m_db, SQLITE_LIMIT_LENGTH, bytes); }
   int Changes() const { return sqlite3_changes(m_db); }
 
   static Statement::Bytes AsBlob(std::string_view data) { return {data}; }

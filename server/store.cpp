@@ -4,6 +4,7 @@
 #include <ctime>
 #include <nlohmann/json.hpp>
 
+#include "digest.h"
 #include "fault_injection.h"
 
 namespace dembuf::server {
@@ -79,6 +80,21 @@ CREATE TABLE users (
   admin       INTEGER NOT NULL DEFAULT 0,
   created_at  TEXT NOT NULL
 );
+)sql",
+    R"sql(
+-- A job's series in chunks, written while it runs, each with the SHA-256 of its bytes (rows
+-- of six little-endian doubles, as results.series). results.series stays empty for jobs
+-- stored this way; it holds the whole series of jobs finished before.
+CREATE TABLE series_chunks (
+  job_id        INTEGER NOT NULL REFERENCES jobs(id),
+  first_index   INTEGER NOT NULL,
+  sample_count  INTEGER NOT NULL,
+  data          BLOB NOT NULL,
+  sha256        TEXT NOT NULL,
+  PRIMARY KEY (job_id, first_index)
+);
+-- How often a daemon died while running the job (kill -9, power cut, or the job itself).
+ALTER TABLE jobs ADD COLUMN crashes INTEGER NOT NULL DEFAULT 0;
 )sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
@@ -167,9 +183,10 @@ std::string UtcNow() {
   return text;
 }
 
-Store::Store(const std::string& path) {
+Store::Store(const std::string& path, StoreOptions options) : m_options(options) {
   try {
     m_db = std::make_unique<Database>(path);
+    if (m_options.max_blob_bytes > 0) m_db->SetLengthLimit(m_options.max_blob_bytes);
     // Read-only checks first: a foreign or damaged file is reported, never modified.
     Statement& check = m_db->Prepare("PRAGMA quick_check");
     check.Bind();
@@ -357,11 +374,14 @@ std::vector<JobRecord> Store::QueuedJobs() {
 void Store::MarkStarted(std::int64_t id, JobState state, const std::string& host,
                         const std::string& code_version) {
   std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
   m_db->Prepare(
           "UPDATE jobs SET state = ?, started_at = ?, host = ?, code_version = ?, "
           "attempts = attempts + 1 WHERE id = ?")
       .Bind(StateName(state), UtcNow(), host, code_version, id)
       .Run();
+  m_db->Prepare("DELETE FROM series_chunks WHERE job_id = ?").Bind(id).Run();
+  t.Commit();
 }
 
 void Store::SetState(std::int64_t id, JobState state, const std::string& error) {
@@ -371,15 +391,80 @@ void Store::SetState(std::int64_t id, JobState state, const std::string& error) 
       .Run();
 }
 
-void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
-                      const JobResults& results) {
+void Store::AppendSeriesLocked(std::int64_t id, std::int64_t first,
+                               const std::vector<ImpactSample>& samples) {
+  const auto chunk = static_cast<std::size_t>(std::max<std::int64_t>(m_options.chunk_samples, 1));
+  for (std::size_t begin = 0; begin < samples.size(); begin += chunk) {
+    const std::size_t end = std::min(samples.size(), begin + chunk);
+    const std::string bytes = PackSamples({samples.begin() + begin, samples.begin() + end});
+    m_db->Prepare(
+            "INSERT OR REPLACE INTO series_chunks (job_id, first_index, sample_count, data, "
+            "sha256) VALUES (?, ?, ?, ?, ?)")
+        .Bind(id, first + static_cast<std::int64_t>(begin), static_cast<std::int64_t>(end - begin),
+              Statement::Bytes{bytes}, Sha256Hex(bytes))
+        .Run();
+  }
+}
+
+void Store::AppendSeries(std::int64_t id, std::int64_t first,
+                         const std::vector<ImpactSample>& samples) {
   std::lock_guard lock(m_mutex);
   Transaction t(*m_db);
+  AppendSeriesLocked(id, first, samples);
+  t.Commit();
+}
+
+std::vector<ImpactSample> Store::ReadSeriesLocked(std::int64_t id, std::int64_t from,
+                                                  std::int64_t max) {
+  Statement& s = m_db->Prepare(
+      "SELECT first_index, sample_count, data, sha256 FROM series_chunks "
+      "WHERE job_id = ? AND first_index + sample_count > ? ORDER BY first_index");
+  s.Bind(id, from);
+  std::vector<ImpactSample> out;
+  std::int64_t next = -1;  // where the next chunk must start
+  auto damaged = [&](const std::string& why) {
+    s.Bind();  // ends the statement before throwing
+    return StoreError("the series of job " + std::to_string(id) + " is damaged: " + why);
+  };
+  while (static_cast<std::int64_t>(out.size()) < max && s.Step()) {
+    const std::int64_t first = s.Int(0), count = s.Int(1);
+    const std::string bytes = s.Blob(2);
+    if (next >= 0 && first != next)
+      throw damaged("samples " + std::to_string(next) + " to " + std::to_string(first - 1) +
+                    " are missing");
+    if (first > from && next < 0)
+      throw damaged("samples " + std::to_string(from) + " to " + std::to_string(first - 1) +
+                    " are missing");
+    if (Sha256Hex(bytes) != s.Text(3) ||
+        bytes.size() != static_cast<std::size_t>(count) * kSampleColumns * sizeof(double))
+      throw damaged("the chunk from sample " + std::to_string(first) +
+                    " does not match its checksum");
+    const std::vector<ImpactSample> chunk = UnpackSamples(bytes);
+    for (std::int64_t k = std::max<std::int64_t>(from - first, 0);
+         k < count && static_cast<std::int64_t>(out.size()) < max; ++k)
+      out.push_back(chunk[k]);
+    next = first + count;
+  }
+  s.Bind();  // reset: the statement may have stopped early
+  return out;
+}
+
+std::vector<ImpactSample> Store::ReadSeries(std::int64_t id, std::int64_t from, std::int64_t max) {
+  std::lock_guard lock(m_mutex);
+  return ReadSeriesLocked(id, from, max);
+}
+
+void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
+                      const JobResults& results) {
+  FaultError("store-error-at-result-write");  // a failing database (the worker test)
+  std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
+  AppendSeriesLocked(id, results.first_index, results.samples);
   m_db->Prepare(
           "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series) "
-          "VALUES (?, ?, ?, ?)")
-      .Bind(id, results.summary_json, static_cast<std::int64_t>(results.samples.size()),
-            Statement::Bytes{PackSamples(results.samples)})
+          "VALUES (?, ?, ?, zeroblob(0))")
+      .Bind(id, results.summary_json,
+            results.first_index + static_cast<std::int64_t>(results.samples.size()))
       .Run();
   FaultPoint("kill-during-result-write");  // the series is written, the job not yet done
   m_db->Prepare("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?")
@@ -390,32 +475,62 @@ void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
 
 std::optional<JobResults> Store::GetResults(std::int64_t id) {
   std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare("SELECT summary_json, series FROM results WHERE job_id = ?");
+  Statement& s =
+      m_db->Prepare("SELECT summary_json, sample_count, series FROM results WHERE job_id = ?");
   s.Bind(id);
   if (!s.Step()) return std::nullopt;
-  JobResults results{s.Text(0), UnpackSamples(s.Blob(1))};
+  JobResults results{s.Text(0), {}, 0};
+  const std::int64_t count = s.Int(1);
+  const std::string legacy = s.Blob(2);  // a whole series, from before chunks
   s.Run();
+  if (!legacy.empty()) {
+    results.samples = UnpackSamples(legacy);
+    return results;
+  }
+  results.samples = ReadSeriesLocked(id, 0, count);
+  if (static_cast<std::int64_t>(results.samples.size()) != count)
+    throw StoreError("the series of job " + std::to_string(id) +
+                     " is damaged: " + std::to_string(results.samples.size()) + " of its " +
+                     std::to_string(count) + " samples are stored");
   return results;
 }
 
-std::vector<JobRecord> Store::RequeueInterrupted(const std::string& reason) {
+InterruptedJobs Store::RequeueInterrupted(const std::string& reason) {
   std::lock_guard lock(m_mutex);
   Transaction t(*m_db);
   Statement& s = m_db->Prepare(std::string("SELECT ") + kJobColumns +
-                               " FROM jobs WHERE state IN ('preparing_bed', 'running')");
+                               ", crashes FROM jobs WHERE state IN ('preparing_bed', 'running')");
   s.Bind();
-  std::vector<JobRecord> jobs;
-  while (s.Step()) jobs.push_back(ReadJob(s));
-  for (const JobRecord& job : jobs) {
-    m_db->Prepare("UPDATE jobs SET state = 'queued', error = ? WHERE id = ?")
-        .Bind(reason, job.id)
+  std::vector<std::pair<JobRecord, std::int64_t>> found;
+  while (s.Step()) found.push_back({ReadJob(s), s.Int(18)});
+  InterruptedJobs out;
+  for (const auto& [job, crashes] : found) {
+    // The second time: this job may be what brought the daemon down; running it again could
+    // bring it down at every start.
+    const bool poison = crashes + 1 >= 2;
+    const std::string note =
+        poison ? "poison job: the daemon stopped twice while running it (a crash, or killed); "
+                 "it is not run again (submit it again to retry)"
+               : reason;
+    m_db->Prepare("UPDATE jobs SET state = ?, error = ?, crashes = crashes + 1 WHERE id = ?")
+        .Bind(poison ? "failed" : "queued", note, job.id)
         .Run();
+    m_db->Prepare("DELETE FROM series_chunks WHERE job_id = ?").Bind(job.id).Run();
+    if (poison) {
+      m_db->Prepare("UPDATE jobs SET finished_at = ? WHERE id = ?").Bind(UtcNow(), job.id).Run();
+      m_db->Prepare(
+              "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series) "
+              "VALUES (?, '', 0, zeroblob(0))")
+          .Bind(job.id)
+          .Run();
+    }
     m_db->Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")
-        .Bind(job.id, UtcNow(), reason)
+        .Bind(job.id, UtcNow(), note)
         .Run();
+    (poison ? out.poisoned : out.requeued).push_back(job);
   }
   t.Commit();
-  return jobs;
+  return out;
 }
 
 void Store::RecordBedPreparation(const std::string& hash, const std::string& stage,

@@ -67,6 +67,22 @@ struct JobFilter {
 struct JobResults {
   std::string summary_json;  ///< "" when the job did not finish
   std::vector<ImpactSample> samples;
+  /// The index of samples[0] in the job's series: FinishJob stores the samples not yet
+  /// appended with AppendSeries (GetResults returns all of them, from 0).
+  std::int64_t first_index = 0;
+};
+
+/// Jobs a daemon found interrupted when it started.
+struct InterruptedJobs {
+  std::vector<JobRecord> requeued;  ///< queued to run again
+  std::vector<JobRecord> poisoned;  ///< interrupted twice: failed, not run again
+};
+
+struct StoreOptions {
+  /// Samples per stored chunk of a series (4096: 192 kB).
+  std::int64_t chunk_samples = 4096;
+  /// The longest blob SQLite accepts; 0 keeps SQLite's (1e9 bytes). Tests lower it.
+  int max_blob_bytes = 0;
 };
 
 /// A holder of an API token.
@@ -88,7 +104,7 @@ class Store {
   /// Opens or creates the database and brings its schema up to date. Throws StoreError with
   /// a clear message for a file that is not a dembuf database, is damaged, or is newer than
   /// this program; such a file is never modified.
-  explicit Store(const std::string& path);
+  explicit Store(const std::string& path, StoreOptions options = {});
 
   /// Adds a sweep and its jobs in one transaction; sets their ids.
   void AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs);
@@ -106,18 +122,25 @@ class Store {
   /// Queued jobs, oldest first.
   std::vector<JobRecord> QueuedJobs();
 
-  /// A worker took the job: state, start time, host and code version, one more attempt.
+  /// A worker took the job: state, start time, host and code version, one more attempt; the
+  /// samples of an earlier attempt are dropped.
   void MarkStarted(std::int64_t id, JobState state, const std::string& host,
                    const std::string& code_version);
   void SetState(std::int64_t id, JobState state, const std::string& error = "");
-  /// The end of a job, with its results, in one transaction.
+  /// Samples of a running job, from index `first` on, stored in chunks as they come: a series
+  /// of any length is stored, and only the unstored part is kept in memory.
+  void AppendSeries(std::int64_t id, std::int64_t first, const std::vector<ImpactSample>& samples);
+  /// Up to `max` stored samples of a job from index `from` on (fewer at the end).
+  std::vector<ImpactSample> ReadSeries(std::int64_t id, std::int64_t from, std::int64_t max);
+  /// The end of a job, with its results (the samples not yet appended), in one transaction.
   void FinishJob(std::int64_t id, JobState state, const std::string& error,
                  const JobResults& results);
+  /// A finished job's summary and whole series; throws StoreError for a damaged series.
   std::optional<JobResults> GetResults(std::int64_t id);
 
   /// At start: jobs left preparing or running by a daemon that died go back to the queue,
-  /// with a note. Returns them.
-  std::vector<JobRecord> RequeueInterrupted(const std::string& reason);
+  /// with a note, unless this is the second time (they may be what killed it): those fail.
+  InterruptedJobs RequeueInterrupted(const std::string& reason);
 
   /// Which job prepared a bed (for "this bed was prepared once").
   void RecordBedPreparation(const std::string& hash, const std::string& stage, std::int64_t job_id);
@@ -133,6 +156,8 @@ class Store {
 
   /// Appends to the provenance log.
   void LogEvent(std::int64_t job_id, const std::string& message);
+
+  const StoreOptions& options() const { return m_options; }
 
   /// The prepared beds, as a BedStore for the engine's BedCache.
   BedStore& beds() { return m_beds; }
@@ -151,7 +176,11 @@ class Store {
 
   JobRecord ReadJob(Statement& s);
   void InsertJobLocked(JobRecord& job);
+  void AppendSeriesLocked(std::int64_t id, std::int64_t first,
+                          const std::vector<ImpactSample>& samples);
+  std::vector<ImpactSample> ReadSeriesLocked(std::int64_t id, std::int64_t from, std::int64_t max);
 
+  StoreOptions m_options;
   std::mutex m_mutex;  // one connection, used by one thread at a time
   std::unique_ptr<Database> m_db;
   Beds m_beds{*this};

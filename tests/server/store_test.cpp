@@ -143,12 +143,118 @@ TEST_F(StoreTest, InterruptedJobsGoBackToTheQueue) {
   store.AddJob(a);
   store.AddJob(b);
   store.MarkStarted(a.id, JobState::kRunning, "h", "v");
-  const auto requeued = store.RequeueInterrupted("interrupted");
+  const auto requeued = store.RequeueInterrupted("interrupted").requeued;
   ASSERT_EQ(requeued.size(), 1u);
   EXPECT_EQ(requeued[0].id, a.id);
   EXPECT_EQ(store.GetJob(a.id)->state, JobState::kQueued);
   EXPECT_EQ(store.GetJob(a.id)->error, "interrupted");
   EXPECT_EQ(store.QueuedJobs().size(), 2u);
+}
+
+// n samples whose values say their index.
+std::vector<ImpactSample> Samples(std::int64_t first, std::int64_t n) {
+  std::vector<ImpactSample> samples;
+  for (std::int64_t k = first; k < first + n; ++k)
+    samples.push_back({k * 1e-6, k / 3.0, -k / 7.0, 0.1, -5.0, static_cast<double>(k)});
+  return samples;
+}
+
+void ExpectSamples(const std::vector<ImpactSample>& got, std::int64_t first, std::int64_t n) {
+  ASSERT_EQ(got.size(), static_cast<std::size_t>(n));
+  const auto want = Samples(first, n);
+  for (std::int64_t k = 0; k < n; ++k) {
+    ASSERT_EQ(got[k].t_s, want[k].t_s) << k;
+    ASSERT_EQ(got[k].plate_force_N, want[k].plate_force_N) << k;
+    ASSERT_EQ(got[k].wall_force_z_N, want[k].wall_force_z_N) << k;
+    ASSERT_EQ(got[k].projectile_force_z_N, want[k].projectile_force_z_N) << k;
+  }
+}
+
+TEST_F(StoreTest, ASeriesLongerThanABlobMayBeIsStoredInChunks) {
+  // SQLite refuses a blob longer than its length limit ("string or blob too big"), which once
+  // threw in the worker and killed the daemon, again at every restart. Here the limit is
+  // lowered to 10,000 bytes, and a series of 52,800 bytes is stored in chunks of 100 samples
+  // while the job runs, then the rest with the result.
+  std::int64_t id = 0;
+  StoreOptions small;
+  small.chunk_samples = 100;
+  small.max_blob_bytes = 10000;
+  {
+    Store store(path.string(), small);
+    JobRecord job;
+    job.scene_toml = "x";
+    store.AddJob(job);
+    id = job.id;
+    store.MarkStarted(id, JobState::kRunning, "h", "v");
+    store.AppendSeries(id, 0, Samples(0, 640));
+    store.AppendSeries(id, 640, Samples(640, 360));
+    ExpectSamples(store.ReadSeries(id, 150, 100), 150, 100);  // across two chunks
+    store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(1000, 100), 1000});
+  }
+  Store store(path.string(), small);
+  const auto results = store.GetResults(id);
+  ASSERT_TRUE(results);
+  ExpectSamples(results->samples, 0, 1100);
+  ExpectSamples(store.ReadSeries(id, 1050, 1000), 1050, 50);
+}
+
+TEST_F(StoreTest, ADamagedChunkIsReportedNotServed) {
+  std::int64_t id = 0;
+  {
+    Store store(path.string());
+    JobRecord job;
+    job.scene_toml = "x";
+    store.AddJob(job);
+    id = job.id;
+    store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(0, 10), 0});
+  }
+  {
+    Database db(path.string());
+    db.Execute("UPDATE series_chunks SET data = zeroblob(length(data))");
+  }
+  Store store(path.string());
+  try {
+    store.GetResults(id);
+    FAIL() << "served a damaged series";
+  } catch (const StoreError& e) {
+    EXPECT_NE(std::string(e.what()).find("damaged"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(StoreTest, AJobInterruptedTwiceIsFailedNotRunForEver) {
+  // A job that crashes the daemon would crash it again at every restart: the second time it
+  // is found interrupted, it fails ("poison job") and the daemon goes on with the others.
+  Store store(path.string());
+  JobRecord job;
+  job.scene_toml = "x";
+  store.AddJob(job);
+  store.MarkStarted(job.id, JobState::kRunning, "h", "v");
+  store.AppendSeries(job.id, 0, Samples(0, 10));
+  auto first = store.RequeueInterrupted("interrupted");
+  ASSERT_EQ(first.requeued.size(), 1u);
+  EXPECT_TRUE(first.poisoned.empty());
+  EXPECT_EQ(store.GetJob(job.id)->state, JobState::kQueued);
+  // The next attempt starts with no samples of the one before.
+  store.MarkStarted(job.id, JobState::kRunning, "h", "v");
+  EXPECT_TRUE(store.ReadSeries(job.id, 0, 100).empty());
+  store.AppendSeries(job.id, 0, Samples(0, 10));
+  auto second = store.RequeueInterrupted("interrupted");
+  EXPECT_TRUE(second.requeued.empty());
+  ASSERT_EQ(second.poisoned.size(), 1u);
+  const auto failed = store.GetJob(job.id);
+  EXPECT_EQ(failed->state, JobState::kFailed);
+  EXPECT_NE(failed->error.find("poison job"), std::string::npos) << failed->error;
+  EXPECT_TRUE(store.QueuedJobs().empty());
+  // A clean shutdown's requeue is no crash: a job requeued that way is not counted.
+  JobRecord other;
+  other.scene_toml = "y";
+  store.AddJob(other);
+  for (int k = 0; k < 3; ++k) {
+    store.MarkStarted(other.id, JobState::kRunning, "h", "v");
+    store.SetState(other.id, JobState::kQueued, "interrupted by a daemon shutdown");
+  }
+  store.MarkStarted(other.id, JobState::kRunning, "h", "v");
+  EXPECT_EQ(store.RequeueInterrupted("interrupted").requeued.size(), 1u);
 }
 
 std::string ReadAll(const fs::path& p) {

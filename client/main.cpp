@@ -13,6 +13,7 @@
 #include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <thread>
 
 #include "cost_check.h"
@@ -41,10 +42,29 @@ constexpr int kExitBadScene = 2;
 constexpr int kExitUnstable = 3;
 constexpr int kExitInterrupted = 130;
 
+// Set by SIGINT and SIGTERM; the engine looks at it every step and stops with Cancelled.
 std::atomic<bool> g_interrupted{false};
+std::atomic<int> g_signal{0};
 
-extern "C" void OnInterrupt(int) {
+extern "C" void OnInterrupt(int signal) {
+  g_signal.store(signal);
   g_interrupted.store(true);
+}
+
+void CatchInterrupts() {
+  std::signal(SIGINT, OnInterrupt);
+  std::signal(SIGTERM, OnInterrupt);
+}
+
+// 130 for SIGINT (Ctrl-C), 143 for SIGTERM: 128 + the signal, as a shell reports a program
+// the signal ended.
+int InterruptedExit() {
+  const int signal = g_signal.load();
+  return 128 + (signal ? signal : SIGINT);
+}
+
+const char* SignalName() {
+  return g_signal.load() == SIGTERM ? "SIGTERM" : "SIGINT";
 }
 
 fs::path DefaultOutputDir(const std::string& kind) {
@@ -153,51 +173,69 @@ int RunLocal(const RunOptions& opt) {
     return kExitUsage;
   }
   cli::CheckLocalCost({scene}, {cost}, dir, 1, beds, opt.yes);
-  BedRequest bed_request;
-  bed_request.cancel = &g_interrupted;
-  bed_request.on_progress = PrintBedProgress;
-  std::signal(SIGINT, OnInterrupt);
-  std::signal(SIGTERM, OnInterrupt);
-  World world = BuildWorld(scene, &beds, &bed_request);
-  for (const auto& [stage, count] : beds.prepared_counts())
-    std::fprintf(stderr, "%sprepared %d %s bed(s)\n", isatty(fileno(stderr)) ? "\n" : "", count,
-                 stage.c_str());
-
+  // The run before (replaced, or one that failed or was interrupted) goes first: whatever
+  // happens to this one, nothing of that one is left to be taken for its result.
+  if (opt.force || fs::exists(dir / "failure.json") || fs::exists(dir / "incomplete.json"))
+    report::RemoveRunOutputs(dir);
   fs::create_directories(dir);
+  CatchInterrupts();
 
-  report::SampleCsvWriter csv(dir / "plate_force.csv");
+  std::string phase = "bed preparation";
   cli::ProgressLine progress(stderr);
-  RunControl control;
-  control.on_sample = [&](const ImpactSample& s) { csv.Write(s); };
-  control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
-  control.cancel = &g_interrupted;
-  control.on_snapshot = [&](const ImpactSnapshot& snap) {
-    cli::WriteSnapshot(snap, dir, scene.cylinder.radius_m, scene.beads.diameter_max_m);
-  };
-
+  std::optional<report::SampleCsvWriter> csv;
+  auto partial = [&] { return csv ? csv->partial_path().string() : std::string("none"); };
   try {
+    BedRequest bed_request;
+    bed_request.cancel = &g_interrupted;
+    bed_request.on_progress = PrintBedProgress;
+    World world = BuildWorld(scene, &beds, &bed_request);
+    for (const auto& [stage, count] : beds.prepared_counts())
+      std::fprintf(stderr, "%sprepared %d %s bed(s)\n", isatty(fileno(stderr)) ? "\n" : "", count,
+                   stage.c_str());
+
+    phase = "impact";
+    csv.emplace(dir / "plate_force.csv");
+    RunControl control;
+    control.on_sample = [&](const ImpactSample& s) { csv->Write(s); };
+    control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
+    control.cancel = &g_interrupted;
+    control.on_snapshot = [&](const ImpactSnapshot& snap) {
+      cli::WriteSnapshot(snap, dir, scene.cylinder.radius_m, scene.beads.diameter_max_m);
+    };
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
     progress.Finish();
-    csv.Commit();
+    csv->Commit();
     report::WriteFileAtomically(dir / "summary.json",
                                 report::SummaryToJson(summary, scene).dump(2) + "\n");
     PrintSummary(summary, dir);
+    phase = "plots";
     cli::PlotIfPossible(dir);
+    if (g_interrupted) throw Cancelled();  // during the plots: the results are complete
     return 0;
   } catch (const SimulationError& e) {
     progress.Finish();
     nlohmann::json failure = {{"error", e.what()},
+                              {"phase", phase},
                               {"step", e.step()},
                               {"time_s", e.time_s()},
                               {"scene", report::SceneToJson(scene)}};
     report::WriteFileAtomically(dir / "failure.json", failure.dump(2) + "\n");
-    std::fprintf(stderr, "dembuf: run failed: %s\n  samples up to the failure: %s\n", e.what(),
-                 csv.partial_path().c_str());
+    std::fprintf(stderr, "dembuf: run failed in the %s: %s\n  samples up to the failure: %s\n",
+                 phase.c_str(), e.what(), partial().c_str());
     return kExitUnstable;
   } catch (const Cancelled&) {
     progress.Finish();
-    std::fprintf(stderr, "dembuf: interrupted; samples so far: %s\n", csv.partial_path().c_str());
-    return kExitInterrupted;
+    const nlohmann::json incomplete = {{"interrupted_by", SignalName()},
+                                       {"phase", phase},
+                                       {"complete", phase == "plots"},
+                                       {"samples_so_far", partial()}};
+    report::WriteFileAtomically(dir / "incomplete.json", incomplete.dump(2) + "\n");
+    std::fprintf(stderr, "dembuf: interrupted by %s in the %s; %s; samples so far: %s\n",
+                 SignalName(), phase.c_str(),
+                 phase == "bed preparation" ? "the bed stages done are cached"
+                                            : "written so far kept, marked in incomplete.json",
+                 partial().c_str());
+    return InterruptedExit();
   }
 }
 
@@ -226,7 +264,19 @@ int SweepCommand(const RunOptions& opt) {
   }
   cli::CheckLocalCost(scenes, costs, sweep.out_dir, opt.jobs, beds, opt.yes);
   // An existing folder is resumed: runs whose summary.json matches their scene are kept.
+  CatchInterrupts();
+  sweep.cancel = &g_interrupted;
   const int failed = cli::RunSweep(base, sweep, beds);
+  if (g_interrupted) {
+    const nlohmann::json incomplete = {{"interrupted_by", SignalName()}, {"complete", false}};
+    report::WriteFileAtomically(sweep.out_dir / "incomplete.json", incomplete.dump(2) + "\n");
+    std::fprintf(stderr,
+                 "dembuf: sweep interrupted by %s; the runs done are kept and resume when the "
+                 "same sweep is given this folder again\n",
+                 SignalName());
+    return InterruptedExit();
+  }
+  std::filesystem::remove(sweep.out_dir / "incomplete.json");
   cli::PlotIfPossible(sweep.out_dir);
   return failed == 0 ? 0 : kExitUnstable;
 }
@@ -335,6 +385,8 @@ int main(int argc, char** argv) {
   fetch->add_flag("--sweep", is_sweep, "the id is a sweep's");
   fetch->add_option("--out", fetch_dir, "output folder")->required();
   fetch->add_flag("--no-plots", no_plots, "do not draw plots");
+  bool fetch_force = false;
+  fetch->add_flag("--force", fetch_force, "replace what an earlier fetch wrote into the folder");
 
   CLI::App* cancel = app.add_subcommand("cancel", "cancel a queued or running job (or sweep)");
   cancel->add_option("id", id, "job id (or sweep id with --sweep)")->required();
@@ -375,7 +427,8 @@ int main(int argc, char** argv) {
     if (list->parsed()) return cli::RemoteList(remote, list_options);
     if (status->parsed()) return cli::RemoteStatus(remote, id, is_sweep);
     if (watch->parsed()) return cli::RemoteWatch(remote, id, watch_csv, watch_from);
-    if (fetch->parsed()) return cli::RemoteFetch(remote, id, is_sweep, fetch_dir, !no_plots);
+    if (fetch->parsed())
+      return cli::RemoteFetch(remote, id, is_sweep, fetch_dir, !no_plots, fetch_force);
     if (cancel->parsed()) return cli::RemoteCancel(remote, id, is_sweep);
     if (info->parsed()) return cli::RemoteServerInfo(remote);
     if (plot->parsed()) {

@@ -1,5 +1,9 @@
 #include "plots.h"
 
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -20,38 +24,85 @@ constexpr const char* kTerminal =
     "set datafile separator ','\nset key top right noenhanced\nset grid\nset termoption "
     "noenhanced\n";
 
-// Quotes a path for a gnuplot string.
-std::string Q(const fs::path& p) {
-  std::string s = p.string(), out = "'";
-  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+extern "C" char** environ;
+
+// Any text as a gnuplot string literal: every string that reaches a script (folder names,
+// CSV headers, labels from summary.json) goes through here, so that it is data, never code.
+// In single quotes gnuplot substitutes nothing (no backquotes, no macros) and a quote is
+// doubled; a control character (a newline would end the command) becomes '?'.
+std::string Literal(std::string_view text) {
+  std::string out = "'";
+  for (const char c : text) {
+    if (c == '\'')
+      out += "''";
+    else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+      out += '?';
+    else
+      out += c;
+  }
   return out + "'";
 }
 
-std::string ShellQuote(const fs::path& p) {
-  std::string out = "'";
-  for (char c : p.string()) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
+// A path as a gnuplot string literal.
+std::string Q(const fs::path& p) {
+  return Literal(p.string());
+}
+
+// Runs a program with these arguments, no shell between; returns its exit status and puts
+// what it printed (stdout and stderr) into `output`. Hand-written because the standard
+// library has no process API and popen would pass the path through a shell.
+int RunProgram(const std::vector<std::string>& args, std::string* output) {
+  int pipe_fds[2];
+  if (pipe(pipe_fds) != 0) throw std::runtime_error("cannot make a pipe for " + args[0]);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
+  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
+  std::vector<char*> argv;
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(pipe_fds[1]);
+  if (spawned != 0) {
+    close(pipe_fds[0]);
+    return 127;  // as a shell says of a program it cannot find
+  }
+  char buf[4096];
+  for (ssize_t n; (n = read(pipe_fds[0], buf, sizeof buf)) > 0;)
+    if (output) output->append(buf, static_cast<std::size_t>(n));
+  close(pipe_fds[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
 void RunGnuplot(const std::string& script, const fs::path& script_path) {
   std::ofstream(script_path) << script;
-  const std::string cmd = "gnuplot " + ShellQuote(script_path) + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) throw std::runtime_error("cannot run gnuplot");
   std::string output;
-  char buf[256];
-  while (std::fgets(buf, sizeof buf, pipe)) output += buf;
-  if (pclose(pipe) != 0)
+  if (RunProgram({"gnuplot", script_path.string()}, &output) != 0)
     throw std::runtime_error("gnuplot failed on " + script_path.string() + ": " + output);
+}
+
+// Whether a CSV file has a row after its header.
+bool HasRows(const fs::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  return std::getline(in, line) && std::getline(in, line) && !line.empty();
+}
+
+// A number from a JSON file for a script: finite, else the fallback.
+double Number(const nlohmann::json& j, const char* key, double fallback) {
+  const double v = j.contains(key) && j[key].is_number() ? j[key].get<double>() : fallback;
+  return std::isfinite(v) ? v : fallback;
 }
 
 nlohmann::json ReadJson(const fs::path& p) {
   std::ifstream in(p);
   return nlohmann::json::parse(in);
-}
-
-double Number(const nlohmann::json& j, const char* key, double fallback) {
-  return j.contains(key) && j[key].is_number() ? j[key].get<double>() : fallback;
 }
 
 // F(t) around the impact, in ms and kN, with the peaks marked.
@@ -67,10 +118,13 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
      << " cm, P = " << Number(s, "P_N", 0.0) / 1e3 << " kN)'\n"
      << "set xrange [" << (contact - 0.001) * 1e3 << ":" << end * 1e3 << "]\n";
   std::string labels;
-  for (const auto& p : s.value("peaks", nlohmann::json::array()))
-    gp << "set label '" << p["kind"].get<std::string>() << "' at "
-       << p["time_s"].get<double>() * 1e3 << "," << p["force_N"].get<double>() / 1e3
+  const nlohmann::json peaks = s.value("peaks", nlohmann::json::array());
+  for (const auto& p : peaks.is_array() ? peaks : nlohmann::json::array()) {
+    if (!p.is_object() || !p.contains("kind") || !p["kind"].is_string()) continue;
+    gp << "set label " << Literal(p["kind"].get<std::string>()) << " at "
+       << Number(p, "time_s", 0.0) * 1e3 << "," << Number(p, "force_N", 0.0) / 1e3
        << " offset 0.5,0.5 point pt 7 ps 1.2\n";
+  }
   gp << "plot " << Q(dir / "plate_force.csv")
      << " every ::1 using ($1*1e3):($2/1e3) with lines lw 1.5 title 'plate'\n";
   RunGnuplot(gp.str(), dir / "plate_force.gp");
@@ -100,33 +154,39 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
         ++n;
       }
       const double mean = n ? sum / n : 1.0;
+      const std::string name = snap.filename().string();
       std::ostringstream chains;
       chains << kTerminal << "set terminal pngcairo size 900,900\nset output "
              << Q(snap / "force_chains.png") << "\nset size ratio -1\nunset key\n"
              << "set xlabel 'x [cm]'\nset ylabel 'z [cm]'\n"
-             << "set title 'force chains " << snap.filename().string()
-             << " (contacts above the mean " << mean << " N)'\n"
+             << "set title " << Literal("force chains " + name) << " . ' (contacts above the mean "
+             << mean << " N)'\n"
              << "set cblabel 'normal force [N]'\nset palette defined (0 '#b0b0b0', 1 '#f0a000', 2 "
                 "'#d02000', 3 '#400000')\n"
              << "plot " << Q(snap / "contacts.csv") << " every ::1 using ($10*100):($12*100):"
              << "(($13-$10)*100):(($15-$12)*100):($9 > " << mean
              << " ? $9 : 1/0) with vectors nohead lw 1.5 lc palette\n";
-      RunGnuplot(chains.str(), snap / "force_chains.gp");
-      out.push_back(snap / "force_chains.png");
+      // Without bead contacts (a bare plate) there are no chains and no force statistics.
+      if (n > 0) {
+        RunGnuplot(chains.str(), snap / "force_chains.gp");
+        out.push_back(snap / "force_chains.png");
+      }
 
-      std::ostringstream pdf;
-      pdf << kTerminal << "set output " << Q(snap / "force_pdf.png") << "\n"
-          << "set xlabel 'f / <f>'\nset ylabel 'probability density'\nset logscale y\n"
-          << "set title 'contact-force PDF " << snap.filename().string() << "'\n"
-          << "plot " << Q(snap / "force_pdf.csv")
-          << " every ::1 using 1:($2 > 0 ? $2 : 1/0) with linespoints pt 7 title 'bead-bead'\n";
-      RunGnuplot(pdf.str(), snap / "force_pdf.gp");
-      out.push_back(snap / "force_pdf.png");
+      if (HasRows(snap / "force_pdf.csv")) {
+        std::ostringstream pdf;
+        pdf << kTerminal << "set output " << Q(snap / "force_pdf.png") << "\n"
+            << "set xlabel 'f / <f>'\nset ylabel 'probability density'\nset logscale y\n"
+            << "set title " << Literal("contact-force PDF " + name) << "\n"
+            << "plot " << Q(snap / "force_pdf.csv")
+            << " every ::1 using 1:($2 > 0 ? $2 : 1/0) with linespoints pt 7 title 'bead-bead'\n";
+        RunGnuplot(pdf.str(), snap / "force_pdf.gp");
+        out.push_back(snap / "force_pdf.png");
+      }
 
       std::ostringstream radial;
       radial << kTerminal << "set output " << Q(snap / "plate_radial.png") << "\n"
              << "set xlabel 'radius [cm]'\nset ylabel 'plate pressure [kPa]'\n"
-             << "set title 'plate load by ring " << snap.filename().string() << "'\n"
+             << "set title " << Literal("plate load by ring " + name) << "\n"
              << "plot " << Q(snap / "plate_radial.csv")
              << " every ::1 using (($1+$2)*50):($4/1e3) with histeps lw 2 title 'pressure'\n";
       RunGnuplot(radial.str(), snap / "plate_radial.gp");
@@ -171,11 +231,11 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   auto series = [&](const std::string& metric, double scale, const std::string& title) {
     std::ostringstream s;
     s << Q(data) << " every ::1 using " << x << ":($" << col(metric) << "*" << scale << "):($"
-      << col(metric + "_sd") << "*" << scale << ") with yerrorlines pt 7 title '" << title << "'";
+      << col(metric + "_sd") << "*" << scale << ") with yerrorlines pt 7 title " << Literal(title);
     return s.str();
   };
   std::ostringstream gp;
-  gp << kTerminal << "set xlabel '" << xlabel << "'\n"
+  gp << kTerminal << "set xlabel " << Literal(xlabel) << "\n"
      << "set output " << Q(dir / "sweep_peaks.png") << "\nset ylabel 'force [kN]'\n"
      << "set title 'peak plate force (mean +- sd over seeds)'\n"
      << "plot " << series("P_N", 1e-3, "P");
@@ -219,7 +279,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
     if (!seen.insert(point).second) continue;
     const double t0 = Number(s, "first_contact_time_s", 0.0);
     curves << (first ? "" : ", ") << Q(run / "plate_force.csv") << " every ::1 using (($1-" << t0
-           << ")*1e3):($2/1e3) with lines lw 1.5 title '" << point << "'";
+           << ")*1e3):($2/1e3) with lines lw 1.5 title " << Literal(point);
     first = false;
   }
   curves << "\n";
@@ -233,7 +293,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
 }  // namespace
 
 bool GnuplotAvailable() {
-  return std::system("gnuplot --version > /dev/null 2>&1") == 0;
+  return RunProgram({"gnuplot", "--version"}, nullptr) == 0;
 }
 
 std::vector<fs::path> PlotFolder(const fs::path& dir) {

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "dembuf/engine/errors.h"
 #include "dembuf/engine/sweep_plan.h"
 #include "dembuf/report/run_output.h"
 #include "dembuf/report/sweep_report.h"
@@ -445,9 +446,24 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
 }
 
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
-                bool plots) {
+                bool plots, bool force) {
   auto stub = Connect(remote);
   const fs::path dir = out_dir;
+  std::error_code error;
+  if (fs::exists(dir) && !fs::is_empty(dir, error)) {
+    if (!force) {
+      std::fprintf(stderr,
+                   "dembuf: %s already exists and is not empty; choose another --out, or pass "
+                   "--force to replace an earlier fetch's files\n",
+                   dir.c_str());
+      return kExitInvalid;
+    }
+    // Only what a fetch writes: a job's files, or a sweep's tables, plots and runs.
+    report::RemoveRunOutputs(dir);
+    for (const char* name : {"sweep.csv", "points.csv", "runs"}) fs::remove_all(dir / name, error);
+    for (const auto& entry : fs::directory_iterator(dir, error))
+      if (entry.path().filename().string().rfind("sweep", 0) == 0) fs::remove(entry.path(), error);
+  }
   auto fetch = [&](std::int64_t job_id, v1::FetchResultsResponse& result) {
     grpc::ClientContext context;
     Prepare(context, remote, 600);
@@ -484,9 +500,20 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     const grpc::Status status = stub->ListJobs(&context, request, &jobs);
     if (!status.ok()) return Report(remote, status);
   }
+  // The server's names become file contents and plot labels here: only scene fields (and the
+  // values are checked as numbers of the field) are taken.
   std::vector<SweepAxis> axes;
-  for (const auto& a : s.axes())
-    axes.push_back({a.field(), std::vector<std::string>(a.values().begin(), a.values().end())});
+  try {
+    for (const auto& a : s.axes())
+      axes.push_back(MakeSweepAxis(
+          a.field(), std::vector<std::string>(a.values().begin(), a.values().end()), ""));
+  } catch (const SceneError& e) {
+    std::fprintf(stderr,
+                 "dembuf: the server sent a sweep axis that is no scene field, or a value that "
+                 "is not one of it: %s\n",
+                 e.what());
+    return kExitError;
+  }
   std::vector<report::SweepRunReport> runs(static_cast<std::size_t>(s.jobs_total()));
   int pending = 0;
   for (const v1::Job& job : jobs.jobs()) {

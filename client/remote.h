@@ -41,9 +41,10 @@ int RemoteList(const Remote& remote, const ListOptions& options);
 int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep);
 /// Live view of a job; `csv` prints every sample as a CSV row instead.
 int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index);
-/// A job's files (or, with `sweep`, every job's and the sweep's tables) into `out_dir`.
+/// A job's files (or, with `sweep`, every job's and the sweep's tables) into `out_dir`, which
+/// must be new or empty unless `force` (then the files of an earlier fetch are replaced).
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
-                bool plots);
+                bool plots, bool force);
 int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep);
 int RemoteServerInfo(const Remote& remote);
 

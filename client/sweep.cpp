@@ -30,6 +30,7 @@ namespace {
 
 struct RunResult {
   bool ok = false;
+  bool interrupted = false;
   std::string error;
   nlohmann::json summary;
 };
@@ -43,8 +44,9 @@ struct RunResult {
 class RunQueue {
  public:
   RunQueue(const std::vector<SweepRun>& runs, const std::vector<std::size_t>& order, BedCache& beds,
-           int workers, int cores)
+           int workers, int cores, const std::atomic<bool>* cancel)
       : m_runs(runs),
+        m_cancel(cancel),
         m_pending(order.begin(), order.end()),
         m_beds(beds),
         m_cores(std::max(cores, workers)),
@@ -57,6 +59,7 @@ class RunQueue {
   std::optional<std::size_t> Next(int worker) {
     std::unique_lock lock(m_mutex);
     while (!m_pending.empty()) {
+      if (m_cancel && m_cancel->load()) return std::nullopt;
       std::vector<BedNeeds> busy;
       for (const auto& [other, needs] : m_running) busy.push_back(needs);
       for (auto it = m_pending.begin(); it != m_pending.end(); ++it) {
@@ -94,6 +97,7 @@ class RunQueue {
   }
 
   const std::vector<SweepRun>& m_runs;
+  const std::atomic<bool>* m_cancel;
   std::deque<std::size_t> m_pending;
   BedCache& m_beds;
   const int m_cores;
@@ -146,6 +150,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
     const auto job_start = last_report;
     BedRequest bed_request;
     bed_request.threads = threads;
+    bed_request.cancel = options.cancel;
     bed_request.on_progress = [&](const BedProgress& p) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last_report < std::chrono::seconds(30)) return;
@@ -165,16 +170,21 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
       control.beds = &beds;
       control.bed_request = &bed_request;
       control.threads = threads;
+      control.cancel = options.cancel;
       control.on_sample = [&](const ImpactSample& s) { csv.Write(s); };
       const ImpactSummary summary = RunImpact(job.scene, control);
       csv.Commit();
       result.summary = report::SummaryToJson(summary, job.scene);
       report::WriteFileAtomically(dir / "summary.json", result.summary.dump(2) + "\n");
       result.ok = true;
+    } catch (const Cancelled&) {
+      result.interrupted = true;
+      result.error = "interrupted";
     } catch (const std::exception& e) {
       result.error = e.what();
     }
     std::lock_guard lock(print_mutex);
+    if (result.interrupted) return;
     const int done = ++finished;
     std::printf("[%d/%zu] %s: ", done, runs.size(), job.name.c_str());
     if (result.ok) {
@@ -189,7 +199,8 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
     std::fflush(stdout);
   };
 
-  RunQueue queue(runs, InterleaveBySourceBed(runs), beds, options.jobs, omp_get_max_threads());
+  RunQueue queue(runs, InterleaveBySourceBed(runs), beds, options.jobs, omp_get_max_threads(),
+                 options.cancel);
   // Each worker's engine opens its own team of threads inside the workers' team.
   omp_set_max_active_levels(2);
 #pragma omp parallel num_threads(options.jobs)
@@ -213,7 +224,9 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
   };
   const nlohmann::json summary =
       report::WriteSweepReport(options.out_dir, axes, reports, extra, stdout);
-  const int failed = summary["failed"].get<int>();
+  int interrupted = 0;
+  for (const RunResult& r : results) interrupted += r.interrupted || (!r.ok && r.error.empty());
+  const int failed = summary["failed"].get<int>() - interrupted;
   std::printf("wrote %s and %s (%d failed) in %.0f s\n", (options.out_dir / "sweep.csv").c_str(),
               (options.out_dir / "summary.json").c_str(), failed,
               summary["wall_time_s"].get<double>());

@@ -113,6 +113,24 @@ void SampleCsvWriter::Commit() {
   std::filesystem::rename(m_partial, m_final);
 }
 
+const std::vector<std::string>& RunOutputNames() {
+  static const std::vector<std::string> names = {"summary.json",
+                                                 "failure.json",
+                                                 "incomplete.json",
+                                                 "plate_force.csv",
+                                                 "plate_force.csv.partial",
+                                                 "plate_force.png",
+                                                 "plate_force.gp",
+                                                 "snapshots",
+                                                 "scene.toml",
+                                                 "job.json"};
+  return names;
+}
+
+void RemoveRunOutputs(const std::filesystem::path& dir) {
+  for (const std::string& name : RunOutputNames()) std::filesystem::remove_all(dir / name);
+}
+
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text) {
   const std::filesystem::path tmp = path.string() + ".tmp";
   {

@@ -407,6 +407,8 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
     if (request.threads) sim.SetThreads(request.threads->load(std::memory_order_relaxed));
     double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
     for (int k = 0; k < kCheckEvery; ++k) {
+      // Every step: 200 steps of a large bed take seconds, a cancel must act within one.
+      if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
       if (before_step) before_step(sim, sim.time_s() - t0);
       sim.Step();
       if (!quenching) continue;

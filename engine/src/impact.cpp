@@ -275,9 +275,10 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot] <= t)
       snapshot(TakeSnapshot(sim, TimeLabel(snapshot_times[next_snapshot++])));
     if (sim.steps() == peak_step) snapshot(TakeSnapshot(sim, "peak"));
+    // Every step: a step of a large bed takes milliseconds, a cancel must act within a second.
+    if (control.cancel && control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
     if (sim.steps() >= next_progress) {
       next_progress += control.progress_every_steps;
-      if (control.cancel && control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
       if (control.on_progress) control.on_progress({t, t_end_estimate, sim.steps()});
     }
     if (!sim.projectile()) continue;

@@ -88,7 +88,7 @@ struct RunControl {
   std::function<void(const ImpactSample&)> on_sample;  ///< every time.output_interval_s
   std::function<void(const ImpactProgress&)> on_progress;
   std::int64_t progress_every_steps = 4096;
-  const std::atomic<bool>* cancel = nullptr;  ///< checked every progress interval; throws Cancelled
+  const std::atomic<bool>* cancel = nullptr;  ///< checked every step; throws Cancelled
   std::function<void(const ImpactSnapshot&)> on_snapshot;  ///< scene.output snapshots
   /// Run the same projectile on the bare plate to get Pa0 for the buffer ratio lambda.
   bool compute_reference = true;

@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene.h"
@@ -31,6 +33,14 @@ class SampleCsvWriter {
   std::filesystem::path m_partial;
   std::ofstream m_out;
 };
+
+/// The files and folders a run writes into its folder (results, failure or interruption
+/// reports, plots, snapshots), so that replacing a run removes all of the run before and
+/// nothing else.
+const std::vector<std::string>& RunOutputNames();
+
+/// Removes the outputs of a run (RunOutputNames) from `dir`; other files stay.
+void RemoveRunOutputs(const std::filesystem::path& dir);
 
 /// Writes text to path atomically (temporary file, then rename).
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text);

@@ -104,11 +104,29 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
   get("quota_memory_mb", config.quota_memory_mb);
 }
 
+int ListenPort(const std::string& listen) {
+  if (listen.rfind("unix:", 0) == 0 && listen.size() > 5) return -1;
+  const auto colon = listen.rfind(':');
+  const std::string port = colon == std::string::npos ? "" : listen.substr(colon + 1);
+  const bool digits = !port.empty() && port.size() <= 9 &&
+                      port.find_first_not_of("0123456789") == std::string::npos;
+  if (colon == 0 || colon == std::string::npos || !digits)
+    throw ConfigError("listen: \"" + listen +
+                      "\" must be HOST:PORT (such as 127.0.0.1:50051 or [::1]:50051) or "
+                      "unix:PATH");
+  const int value = std::stoi(port);
+  if (value > 65535)
+    throw ConfigError("listen: port " + port +
+                      " is out of range: must be 0 to 65535 (0: any free "
+                      "port)");
+  return value;
+}
+
 void ValidateConfig(ServerConfig& config) {
   auto require = [](bool ok, const std::string& what) {
     if (!ok) throw ConfigError(what);
   };
-  require(!config.listen.empty(), "listen: give an address such as 127.0.0.1:50051");
+  ListenPort(config.listen);
   require(!config.db.empty(), "db: give a database file");
   require(config.workers >= 1 && config.workers <= 256, "workers: must be 1 to 256");
   require(config.threads_per_job >= 0 && config.threads_per_job <= 256,

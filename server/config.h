@@ -46,6 +46,10 @@ void LoadConfigFile(const std::string& path, ServerConfig& config);
 /// The same for the file's text (`path` names it in messages).
 void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config);
 
+/// The port of a listen address "HOST:PORT" or "[IPv6]:PORT" (0: any free port); -1 for a
+/// "unix:PATH" socket. Throws ConfigError naming `listen` for anything else.
+int ListenPort(const std::string& listen);
+
 /// Checks ranges; throws ConfigError naming the setting.
 void ValidateConfig(ServerConfig& config);
 

@@ -22,6 +22,7 @@
 #include "auth.h"
 #include "config.h"
 #include "dembuf/engine/version.h"
+#include "instance.h"
 #include "scheduler.h"
 #include "service.h"
 #include "store.h"
@@ -149,8 +150,11 @@ int main(int argc, char** argv) {
     std::cerr << "dembufd: log_file: " << e.what() << "\n";
     return kExitRuntime;
   }
+  // One daemon per database: the lock first, so that a second daemon touches nothing.
+  std::unique_ptr<DatabaseLock> lock;
   std::unique_ptr<Store> store;
   try {
+    lock = std::make_unique<DatabaseLock>(config.db);
     store = std::make_unique<Store>(config.db);
   } catch (const std::exception& e) {
     log->critical("{}", e.what());
@@ -212,12 +216,24 @@ int main(int argc, char** argv) {
         config.listen);
   }
   builder.AddListeningPort(config.listen, credentials, &port);
+  // One daemon per port: gRPC would share it (SO_REUSEPORT) with a daemon already there.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
-    log->critical("cannot listen on {} (in use, or not a host:port address)", config.listen);
+    const int wanted = ListenPort(config.listen);
+    const std::string holder = wanted > 0 ? PortHolder(wanted) : "";
+    log->critical("cannot listen on {}: {}", config.listen,
+                  !holder.empty() ? config.listen + " is in use by " + holder
+                  : wanted > 0    ? "in use (ss -ltnp shows by what), or not an address of this "
+                                    "machine"
+                                  : "not an address this machine can listen on");
     return kExitRuntime;
   }
+  const std::string address =
+      config.listen.substr(0, config.listen.rfind(':') + 1) + std::to_string(port);
+  lock->Describe("process " + std::to_string(getpid()) + ", listening on " + address + ", since " +
+                 info.started_at);
   scheduler.Start();
   log->info("dembufd {} listening on {} (port {}), database {}{}{}", dembuf::kVersion,
             config.listen, port, config.db, config.tls_cert.empty() ? "" : ", TLS",

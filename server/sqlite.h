@@ -92,6 +92,8 @@ class Database {
   /// Runs one or more statements without results.
   void Execute(const std::string& sql);
   std::int64_t LastInsertId() const { return sqlite3_last_insert_rowid(m_db); }
+  /// Whether the database was opened read-only (SQLite falls back to it silently).
+  bool ReadOnly() const { return sqlite3_db_readonly(m_db, "main") == 1; }
   /// The longest string or blob this connection accepts.
   void SetLengthLimit(int bytes) { sqlite3_limit(m_db, SQLITE_LIMIT_LENGTH, bytes); }
   int Changes() const { return sqlite3_changes(m_db); }

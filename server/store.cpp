@@ -208,6 +208,15 @@ Store::Store(const std::string& path, StoreOptions options) : m_options(options)
       tables.Run();
       if (count != 0) throw StoreError("it holds tables but is not a dembuf database");
     }
+    // A database it cannot write (permissions, a read-only file system, a folder where its
+    // journal cannot be made) is refused now, not at the first job.
+    if (m_db->ReadOnly())
+      throw StoreError("it cannot be written (no write permission, or a read-only file system)");
+    try {
+      m_db->Execute("BEGIN IMMEDIATE; COMMIT");
+    } catch (const SqliteError& e) {
+      throw StoreError(std::string("it cannot be written: ") + e.what());
+    }
     m_db->Execute("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON");
     for (int v = have; v < kSchemaVersion; ++v) {
       Transaction t(*m_db);

@@ -1,0 +1,32 @@
+// One daemon per database and per port. A second dembufd on the same database would run the
+// same jobs twice; on the same port (gRPC lets sockets share a port) it would take half of
+// the requests. Both are refused at start, naming the daemon that is there.
+#pragma once
+
+#include <string>
+
+namespace dembuf::server {
+
+/// An exclusive lock on a database for this process's life: DB.lock, held with flock (the
+/// kernel drops it when the process ends, however it ends). Its text says who holds it.
+class DatabaseLock {
+ public:
+  /// Takes the lock; throws std::runtime_error naming the daemon that holds it.
+  explicit DatabaseLock(const std::string& db_path);
+  ~DatabaseLock();
+  DatabaseLock(const DatabaseLock&) = delete;
+  DatabaseLock& operator=(const DatabaseLock&) = delete;
+
+  /// Records who holds it, for a second daemon's message (e.g. the address it listens on).
+  void Describe(const std::string& holder);
+
+ private:
+  std::string m_path;
+  int m_fd = -1;
+};
+
+/// Who listens on a TCP port of this machine, e.g. "process 1234 (dembufd --db x.db)", from
+/// /proc; "" when that cannot be seen (another user's process, another system).
+std::string PortHolder(int port);
+
+}  // namespace dembuf::server

@@ -75,6 +75,14 @@ int Report(const Remote& remote, const grpc::Status& status) {
       std::fprintf(stderr, "dembuf: not yours: %s\n", status.error_message().c_str());
       return kExitError;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      // gRPC's own refusal of a request larger than the server reads.
+      if (status.error_message().find("larger than max") != std::string::npos) {
+        std::fprintf(stderr,
+                     "dembuf: the request is larger than this server accepts (max_request_kb): "
+                     "%s\n",
+                     status.error_message().c_str());
+        return kExitInvalid;
+      }
       // A job past the server's limits names the field to change (bad input); a full queue
       // or disk is worth trying again later.
       if (status.error_details().rfind("field=", 0) == 0) {

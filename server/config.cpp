@@ -2,11 +2,13 @@
 
 #include <spdlog/common.h>
 
-#include <set>
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <toml.hpp>
+#include <variant>
+#include <vector>
 
 #include "dembuf/engine/text_limits.h"
 
@@ -44,64 +46,55 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
   } catch (const std::exception& e) {
     throw ConfigError("configuration " + path + ": " + e.what());
   }
-  const std::set<std::string> known = {"listen",
-                                       "db",
-                                       "workers",
-                                       "threads_per_job",
-                                       "queue_limit",
-                                       "max_sweep_jobs",
-                                       "log_file",
-                                       "log_level",
-                                       "shutdown_grace_s",
-                                       "require_tokens",
-                                       "tls_cert",
-                                       "tls_key",
-                                       "quota_queued_jobs",
-                                       "quota_beads",
-                                       "quota_steps",
-                                       "storage_retry_s",
-                                       "quota_bead_steps",
-                                       "quota_samples",
-                                       "quota_memory_mb"};
-  for (const auto& [key, value] : root.as_table())
-    if (!known.count(key))
-      throw ConfigError("configuration " + path + ": unknown setting \"" + key + "\"");
-  auto get = [&](const char* key, auto& target) {
-    if (!root.contains(key)) return;
-    using T = std::decay_t<decltype(target)>;
-    const toml::value& value = root.at(key);
-    // Limits are numbers: 1000000, 1e6 and 1_000_000 all say the same.
-    if constexpr (std::is_same_v<T, double>) {
-      if (value.is_integer()) {
-        target = static_cast<double>(value.as_integer());
-        return;
-      }
-    }
-    try {
-      target = toml::get<T>(value);
-    } catch (const std::exception&) {
-      throw ConfigError("configuration " + path + ": " + key + " has the wrong type");
-    }
+  // Every setting once: its key and where it goes. A key not here is refused.
+  using Target = std::variant<std::string*, int*, bool*, double*>;
+  const std::vector<std::pair<std::string, Target>> settings = {
+      {"listen", &config.listen},
+      {"db", &config.db},
+      {"workers", &config.workers},
+      {"threads_per_job", &config.threads_per_job},
+      {"queue_limit", &config.queue_limit},
+      {"max_sweep_jobs", &config.max_sweep_jobs},
+      {"log_file", &config.log_file},
+      {"log_level", &config.log_level},
+      {"shutdown_grace_s", &config.shutdown_grace_s},
+      {"storage_retry_s", &config.storage_retry_s},
+      {"require_tokens", &config.require_tokens},
+      {"tls_cert", &config.tls_cert},
+      {"tls_key", &config.tls_key},
+      {"quota_queued_jobs", &config.quota_queued_jobs},
+      {"quota_beads", &config.quota_beads},
+      {"quota_steps", &config.quota_steps},
+      {"quota_bead_steps", &config.quota_bead_steps},
+      {"quota_samples", &config.quota_samples},
+      {"quota_memory_mb", &config.quota_memory_mb},
+      {"max_watch_streams_per_user", &config.max_watch_streams_per_user},
+      {"max_watch_streams", &config.max_watch_streams},
+      {"max_request_kb", &config.max_request_kb},
   };
-  get("listen", config.listen);
-  get("db", config.db);
-  get("workers", config.workers);
-  get("threads_per_job", config.threads_per_job);
-  get("queue_limit", config.queue_limit);
-  get("max_sweep_jobs", config.max_sweep_jobs);
-  get("log_file", config.log_file);
-  get("log_level", config.log_level);
-  get("shutdown_grace_s", config.shutdown_grace_s);
-  get("storage_retry_s", config.storage_retry_s);
-  get("require_tokens", config.require_tokens);
-  get("tls_cert", config.tls_cert);
-  get("tls_key", config.tls_key);
-  get("quota_queued_jobs", config.quota_queued_jobs);
-  get("quota_beads", config.quota_beads);
-  get("quota_steps", config.quota_steps);
-  get("quota_bead_steps", config.quota_bead_steps);
-  get("quota_samples", config.quota_samples);
-  get("quota_memory_mb", config.quota_memory_mb);
+  for (const auto& [key, value] : root.as_table()) {
+    const auto setting = std::find_if(settings.begin(), settings.end(),
+                                      [&](const auto& s) { return s.first == key; });
+    if (setting == settings.end())
+      throw ConfigError("configuration " + path + ": unknown setting \"" + key + "\"");
+    std::visit(
+        [&](auto* target) {
+          using T = std::remove_pointer_t<decltype(target)>;
+          // Limits are numbers: 1000000, 1e6 and 1_000_000 all say the same.
+          if constexpr (std::is_same_v<T, double>) {
+            if (value.is_integer()) {
+              *target = static_cast<double>(value.as_integer());
+              return;
+            }
+          }
+          try {
+            *target = toml::get<T>(value);
+          } catch (const std::exception&) {
+            throw ConfigError("configuration " + path + ": " + key + " has the wrong type");
+          }
+        },
+        setting->second);
+  }
 }
 
 int ListenPort(const std::string& listen) {
@@ -145,6 +138,14 @@ void ValidateConfig(ServerConfig& config) {
   require(config.tls_cert.empty() == config.tls_key.empty(),
           "tls_cert and tls_key: give both (or neither)");
   require(config.quota_queued_jobs >= 0, "quota_queued_jobs: must be >= 0 (0: no limit)");
+  require(config.max_watch_streams >= 1 && config.max_watch_streams <= 10000,
+          "max_watch_streams: must be 1 to 10000");
+  require(config.max_watch_streams_per_user >= 1 &&
+              config.max_watch_streams_per_user <= config.max_watch_streams,
+          "max_watch_streams_per_user: must be 1 to max_watch_streams (" +
+              std::to_string(config.max_watch_streams) + ")");
+  require(config.max_request_kb >= 16 && config.max_request_kb <= 1 << 20,
+          "max_request_kb: must be 16 to 1048576");
   for (const auto& [name, value] : {std::pair{"quota_beads", config.quota_beads},
                                     {"quota_steps", config.quota_steps},
                                     {"quota_bead_steps", config.quota_bead_steps},

@@ -23,6 +23,11 @@ struct ServerConfig {
   std::string tls_cert;       ///< PEM certificate chain; with tls_key, the daemon speaks TLS only
   std::string tls_key;        ///< PEM private key
   int quota_queued_jobs = 0;  ///< per user; 0: no limit beyond queue_limit
+  /// Watch streams open at once, per user and in all: each holds one of the server's threads,
+  /// and the thread pool is sized above the total so that other requests are still answered.
+  int max_watch_streams_per_user = 8;
+  int max_watch_streams = 128;
+  int max_request_kb = 1024;  ///< the largest request read (a scene file is a few kB)
   // Per job, against its resource estimate (dembuf/engine/resource_estimate.h) before it is
   // accepted; 0: no limit. The defaults pass the paper's experiments at the reference
   // accuracy with room to spare and refuse what would take the server for days.

@@ -6,6 +6,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/resource_quota.h>
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -181,6 +182,8 @@ int main(int argc, char** argv) {
   info.job_limits.bead_steps = config.quota_bead_steps;
   info.job_limits.samples = config.quota_samples;
   info.job_limits.memory_bytes = config.quota_memory_mb * 1e6;
+  info.max_watch_streams_per_user = config.max_watch_streams_per_user;
+  info.max_watch_streams = config.max_watch_streams;
   if (info.require_tokens && !store->AnyUsers())
     log->warn(
         "tokens are required but none exists: make one with dembufd --db {} token-create "
@@ -218,6 +221,12 @@ int main(int argc, char** argv) {
   builder.AddListeningPort(config.listen, credentials, &port);
   // One daemon per port: gRPC would share it (SO_REUSEPORT) with a daemon already there.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  // Requests larger than a page of scene text are not read; a watch stream holds a thread, so
+  // the pool is larger than the streams allowed, by enough for every other request.
+  builder.SetMaxReceiveMessageSize(config.max_request_kb * 1024);
+  grpc::ResourceQuota thread_pool("dembufd");
+  thread_pool.SetMaxThreads(config.max_watch_streams + 64);
+  builder.SetResourceQuota(thread_pool);
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {

@@ -69,6 +69,9 @@ void ApplyProtoScene(const v1::Scene& fields, Scene& scene) {
 }
 
 Scene ResolveSceneSpec(const v1::SceneSpec& spec) {
+  if (spec.set_size() > kMaxAssignments)
+    throw SceneError("set", std::to_string(spec.set_size()) + " assignments; at most " +
+                                std::to_string(kMaxAssignments));
   Scene scene;
   if (!spec.preset().empty()) scene = PresetScene(spec.preset());
   if (!spec.scene_toml().empty()) scene = LoadSceneText(spec.scene_toml(), "scene_toml", scene);
@@ -77,6 +80,17 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec) {
   for (const std::string& assignment : spec.set()) ApplyOverride(scene, assignment);
   ValidateScene(scene);
   return scene;
+}
+
+void CheckSweepAxes(const v1::SubmitSweepRequest& request) {
+  if (request.axes_size() > kMaxAxes)
+    throw SceneError(
+        "axes", std::to_string(request.axes_size()) + " axes; at most " + std::to_string(kMaxAxes));
+  for (const auto& axis : request.axes())
+    if (axis.values_size() > kMaxAxisValues)
+      throw SceneError(axis.field(), std::to_string(axis.values_size()) +
+                                         " values in the sweep axis; at most " +
+                                         std::to_string(kMaxAxisValues));
 }
 
 void CheckServerScene(const Scene& scene) {

@@ -6,6 +6,11 @@
 
 namespace dembuf::server {
 
+/// The most assignments (`set`) one scene may carry, axes one sweep, values one axis.
+inline constexpr int kMaxAssignments = 1000;
+inline constexpr int kMaxAxes = 16;
+inline constexpr int kMaxAxisValues = 10000;
+
 /// The default scene, then the preset, the scene file text, the accuracy level, the typed
 /// fields, and each `set` assignment, in that order; validated. Throws SceneError naming the field
 /// at fault.
@@ -13,6 +18,10 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec);
 
 /// Applies the fields present in a proto Scene to `scene` (no validation).
 void ApplyProtoScene(const v1::Scene& fields, Scene& scene);
+
+/// Refuses a sweep with more axes, or an axis with more values, than the limits above.
+/// Throws SceneError naming the axis.
+void CheckSweepAxes(const v1::SubmitSweepRequest& request);
 
 /// Refuses what a shared daemon does not run: beds read from files on the server and
 /// snapshots (written by local runs only). What a job costs is checked against the server's

@@ -147,7 +147,7 @@ Status DembufService::Authenticate(const grpc::ServerContext* context, const std
   const auto user = m_store.FindUserByTokenHash(HashToken(value.substr(prefix.size())));
   if (!user) return Status(StatusCode::UNAUTHENTICATED, "token: not known to this server");
   // An admin may act for another owner; anyone else is who the token says.
-  *caller = {user->admin && !owner.empty() ? owner : user->name, user->admin};
+  *caller = {user->admin && !owner.empty() ? owner : user->name, user->admin, true};
   return Status::OK;
 }
 
@@ -301,6 +301,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     SweepRecord sweep;
     std::vector<JobRecord> jobs;
     try {
+      CheckSweepAxes(*request);
       const Scene base = ResolveSceneSpec(request->base());
       std::vector<SweepAxis> axes;
       for (const auto& axis : request->axes()) {
@@ -467,11 +468,46 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
   });
 }
 
+bool DembufService::TakeWatch(const Caller& caller, std::string* why) {
+  std::lock_guard lock(m_watch_mutex);
+  const std::string& user = caller.name;
+  int& mine = m_watch_streams[user];
+  if (caller.token && mine >= m_info.max_watch_streams_per_user) {
+    *why = user + " has " + std::to_string(mine) + " watch streams open; at most " +
+           std::to_string(m_info.max_watch_streams_per_user) + " per user";
+  } else if (m_watch_total >= m_info.max_watch_streams) {
+    *why = "the server has " + std::to_string(m_watch_total) + " watch streams open; at most " +
+           std::to_string(m_info.max_watch_streams) + " (max_watch_streams)";
+  } else {
+    ++mine;
+    ++m_watch_total;
+    return true;
+  }
+  if (mine == 0) m_watch_streams.erase(user);
+  return false;
+}
+
+void DembufService::GiveBackWatch(const std::string& user) {
+  std::lock_guard lock(m_watch_mutex);
+  if (--m_watch_streams[user] <= 0) m_watch_streams.erase(user);
+  --m_watch_total;
+}
+
 Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                grpc::ServerWriter<v1::WatchJobResponse>* writer) {
   return Guard("WatchJob", [&]() -> Status {
     Caller caller;
     if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    // A stream holds a server thread while it lasts: a user may hold only a few of them.
+    std::string why;
+    if (!TakeWatch(caller, &why))
+      return Status(StatusCode::RESOURCE_EXHAUSTED,
+                    "watch streams: " + why + "; close one, or wait for the jobs to end");
+    struct Place {
+      DembufService& service;
+      std::string user;
+      ~Place() { service.GiveBackWatch(user); }
+    } place{*this, caller.name};
     if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
     {
       const auto job = m_store.GetJob(request->id());

@@ -3,7 +3,9 @@
 #pragma once
 
 #include <spdlog/logger.h>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "dembuf/engine/resource_estimate.h"
@@ -21,6 +23,8 @@ struct ServiceInfo {
   bool require_tokens = false;
   int quota_queued_jobs = 0;
   ResourceLimits job_limits;  ///< what one job may cost
+  int max_watch_streams_per_user = 8;
+  int max_watch_streams = 128;
 };
 
 /// Who is asking. Without a token (allowed on loopback unless tokens are required), the
@@ -28,6 +32,7 @@ struct ServiceInfo {
 struct Caller {
   std::string name;
   bool admin = false;
+  bool token = false;  ///< identified by a token (not a name the request gave)
 };
 
 class DembufService final : public v1::Dembuf::Service {
@@ -70,8 +75,17 @@ class DembufService final : public v1::Dembuf::Service {
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);
 
+  /// Takes a place for a watch stream of `caller` (false when a cap is reached: `why` says
+  /// which); GiveBackWatch returns it. Without a token there is no user to count per user:
+  /// only the total counts.
+  bool TakeWatch(const Caller& caller, std::string* why);
+  void GiveBackWatch(const std::string& user);
+
   Store& m_store;
   Scheduler& m_scheduler;
+  std::mutex m_watch_mutex;
+  std::map<std::string, int> m_watch_streams;  ///< open streams by user
+  int m_watch_total = 0;
   ServiceInfo m_info;
   std::shared_ptr<spdlog::logger> m_log;
 };

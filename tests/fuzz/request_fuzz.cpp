@@ -21,6 +21,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   dembuf::v1::SubmitSweepRequest request;
   if (!request.ParseFromArray(data, static_cast<int>(size))) return 0;
   try {
+    dembuf::server::CheckSweepAxes(request);
     const dembuf::Scene base = dembuf::server::ResolveSceneSpec(request.base());
     dembuf::server::CheckServerScene(base);
     std::vector<dembuf::SweepAxis> axes;

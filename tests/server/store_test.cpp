@@ -95,6 +95,31 @@ TEST(SceneRequest, BadValuesNameTheirField) {
   // its resource estimate (ResourceEstimate.*, tests/robustness/costs_test.sh).
 }
 
+TEST(SceneRequest, RepeatedFieldsAreBounded) {
+  v1::SceneSpec spec;
+  for (int k = 0; k <= kMaxAssignments; ++k) spec.add_set("projectile.speed_m_s=1");
+  try {
+    ResolveSceneSpec(spec);
+    FAIL() << "1001 assignments accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "set");
+    EXPECT_NE(std::string(e.what()).find("1001 assignments; at most 1000"), std::string::npos);
+  }
+  v1::SubmitSweepRequest sweep;
+  for (int k = 0; k <= kMaxAxes; ++k) sweep.add_axes()->set_field("projectile.speed_m_s");
+  EXPECT_THROW(CheckSweepAxes(sweep), SceneError);
+  sweep.clear_axes();
+  auto* axis = sweep.add_axes();
+  axis->set_field("projectile.speed_m_s");
+  for (int k = 0; k <= kMaxAxisValues; ++k) axis->add_values("1");
+  try {
+    CheckSweepAxes(sweep);
+    FAIL() << "10001 values accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "projectile.speed_m_s");
+  }
+}
+
 class StoreTest : public testing::Test {
  protected:
   fs::path path = fs::path(testing::TempDir()) /

@@ -192,6 +192,7 @@ int RunLocal(const RunOptions& opt) {
     for (const auto& [stage, count] : beds.prepared_counts())
       std::fprintf(stderr, "%sprepared %d %s bed(s)\n", isatty(fileno(stderr)) ? "\n" : "", count,
                    stage.c_str());
+    if (!world.bed.note.empty()) std::fprintf(stderr, "imported bed: %s\n", world.bed.note.c_str());
 
     phase = "impact";
     csv.emplace(dir / "plate_force.csv");

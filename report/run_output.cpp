@@ -74,6 +74,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
               {"rest_plate_force_N", s.bed.rest_plate_force_N},
               {"rest_wall_force_z_N", s.bed.rest_wall_force_z_N},
               {"weight_N", s.bed.weight_N}};
+  if (!s.bed.note.empty()) j["bed"]["imported"] = s.bed.note;
   nlohmann::json peaks = nlohmann::json::array();
   for (const ForcePeak& p : pk.peaks)
     peaks.push_back({{"force_N", p.force_N},

@@ -568,19 +568,27 @@ PreparedBed PrepareFriction(const Scene& scene, const PreparedBed& cut, const st
 
 PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  Simulation sim = BedSimulation(scene, nullptr, ImportTextBed(scene.bed.import, scene),
-                                 scene.material.friction_bead_bead);
+  ImportedBed imported = ReadTextBed(scene.bed.import, scene);
+  const std::string report = imported.Describe();
+  Simulation sim =
+      BedSimulation(scene, nullptr, std::move(imported.beads), scene.material.friction_bead_bead);
   const double t = SettleToRest(sim, scene, "relaxing the imported bed", request,
                                 scene.bed.max_settle_s, scene.bed.settle_tolerance);
-  return Finish(sim, scene, hash, "import", t, wall_start);
+  PreparedBed bed = Finish(sim, scene, hash, "import", t, wall_start);
+  bed.note = report;
+  return bed;
 }
 
 std::string ImportHash(const Scene& scene) {
   std::ifstream in(scene.bed.import, std::ios::binary);
   std::ostringstream content;
   content << in.rdbuf();
+  // Named only when set, so that beds imported as they were keep their hashes.
+  const std::string relax = scene.bed.import_overlaps == "relax"
+                                ? FieldText(scene, "bed.import_overlaps")
+                                : std::string();
   return ContentHash(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
-                     "import\n" + content.str());
+                     relax + "import\n" + content.str());
 }
 
 PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,

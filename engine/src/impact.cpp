@@ -64,7 +64,8 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
     world.history = std::move(bed.history);
     world.bed_surface_m = bed.surface_m;
     world.bed = BedSummary{bed.hash,          bed.surface_m,      bed.solid_fraction,
-                           bed.plate_force_N, bed.wall_force_z_N, bed.weight_N};
+                           bed.plate_force_N, bed.wall_force_z_N, bed.weight_N,
+                           bed.note};
   }
   double min_radius = 0.5 * scene.beads.diameter_min_m;
   for (double r : world.beads.radius) min_radius = std::min(min_radius, r);

@@ -138,9 +138,9 @@ ResourceEstimate EstimateResources(const Scene& scene) {
   double min_radius = 0.5 * scene.beads.diameter_min_m;
   const std::vector<BedStage> stages = BedStagesOf(scene);
   if (!scene.bed.import.empty()) {
-    const ParticleState imported = ImportTextBed(scene.bed.import, scene);
-    for (double r : imported.radius) min_radius = std::min(min_radius, r);
-    e.impact_beads = static_cast<double>(imported.size());
+    const ImportedBed imported = ReadTextBed(scene.bed.import, scene);
+    for (double r : imported.beads.radius) min_radius = std::min(min_radius, r);
+    e.impact_beads = static_cast<double>(imported.beads.size());
   }
   e.dt_s = scene.time.alpha * CriticalTimeStep(min_radius, scene.material.density_kg_m3,
                                                scene.material.youngs_modulus_Pa,

@@ -8,8 +8,8 @@ cd "$(dirname "$0")/../.."
 seconds=${1:-60}
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DDEMBUF_FUZZ=ON > /dev/null
-cmake --build build-fuzz --target scene_parser_fuzz request_fuzz config_fuzz
-for target in scene_parser request config; do
+cmake --build build-fuzz --target scene_parser_fuzz request_fuzz config_fuzz bed_import_fuzz
+for target in scene_parser request config bed_import; do
   work=build-fuzz/corpus-$target
   mkdir -p "$work"
   echo "fuzzing $target for $seconds s"

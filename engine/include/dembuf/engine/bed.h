@@ -54,6 +54,7 @@ struct PreparedBed {
   double settle_time_s = 0.0;   ///< simulated time of this stage
   std::int64_t settle_steps = 0;
   double wall_time_s = 0.0;  ///< computing time of this stage
+  std::string note;          ///< an imported bed's overlaps (ImportedBed::Describe)
 };
 
 struct BedProgress {

@@ -34,6 +34,7 @@ struct BedSummary {
   double rest_plate_force_N = 0.0;
   double rest_wall_force_z_N = 0.0;
   double weight_N = 0.0;
+  std::string note;  ///< an imported bed's overlaps, as read
 };
 
 /// Everything a Simulation needs, derived from a Scene.
@@ -88,7 +89,7 @@ struct RunControl {
   std::function<void(const ImpactSample&)> on_sample;  ///< every time.output_interval_s
   std::function<void(const ImpactProgress&)> on_progress;
   std::int64_t progress_every_steps = 4096;
-  const std::atomic<bool>* cancel = nullptr;  ///< checked every step; throws Cancelled
+  const std::atomic<bool>* cancel = nullptr;               ///< checked every step; throws Cancelled
   std::function<void(const ImpactSnapshot&)> on_snapshot;  ///< scene.output snapshots
   /// Run the same projectile on the bare plate to get Pa0 for the buffer ratio lambda.
   bool compute_reference = true;

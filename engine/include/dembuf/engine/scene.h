@@ -49,6 +49,9 @@ struct BedSpec {
   double prep_friction = 0.50;  ///< bead friction while settling; controls the packing C0
   std::int64_t seed = 1;        ///< random seed of the bead insertion
   std::string import;           ///< text file "x y z radius" per line; empty: prepare a bed
+  /// What to do with an imported bed whose beads overlap by more than a settled bed's resting
+  /// contacts (1% of a radius): "refuse" it, naming the worst bead, or "relax": separate them.
+  std::string import_overlaps = "refuse";
   /// Beds are cut from one settled bed of this thickness, so that every H of a study shares
   /// one settling (a bed thicker than this minus d_max gets a source of H + 2 d_max).
   double source_thickness_m = 0.09;

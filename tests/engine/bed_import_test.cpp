@@ -1,0 +1,154 @@
+// Beds from other codes: a bead outside the container is refused with its line (one at
+// z = 1e8 m crashed the neighbour list); a settled bed, whose beads rest on each other, on the
+// plate and on the wall with their small contact overlaps, is accepted with the overlaps
+// reported; larger overlaps are refused naming the worst bead, or separated on request.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "dembuf/engine/bed_io.h"
+#include "dembuf/engine/errors.h"
+#include "dembuf/engine/impact.h"
+#include "dembuf/engine/scene_fields.h"
+
+namespace dembuf {
+namespace {
+
+// A 2.5 cm cylinder importing `text` (one bead per line: x y z radius).
+Scene ImportScene(const std::string& text, const std::string& name) {
+  const std::string path = testing::TempDir() + name;
+  std::ofstream(path) << text;
+  Scene scene;
+  scene.cylinder.radius_m = 0.025;
+  scene.projectile.diameter_m = 0.01;
+  scene.bed.import = path;
+  return scene;
+}
+
+std::string Refusal(const Scene& scene) {
+  try {
+    ReadTextBed(scene.bed.import, scene);
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "bed.import");
+    return e.what();
+  }
+  return "";
+}
+
+// A square monolayer of 4 mm beads on the plate, `gap` apart (negative: overlapping), each
+// sunk `sink` into the plate: the resting contacts of a bed settled by another code.
+std::string Monolayer(double gap, double sink) {
+  const double r = 0.002, spacing = 2 * r + gap;
+  std::ostringstream out;
+  out.precision(17);
+  out << "# x y z radius (m)\n";
+  for (int i = -5; i <= 5; ++i)
+    for (int j = -5; j <= 5; ++j) {
+      const double x = spacing * i, y = spacing * j;
+      if (std::hypot(x, y) > 0.025 - 2 * r) continue;
+      out << x << " " << y << " " << r - sink << " " << r << "\n";
+    }
+  return out.str();
+}
+
+TEST(BedImport, ABeadOutsideTheContainerIsRefusedWithItsLine) {
+  EXPECT_NE(Refusal(ImportScene("0 0 0.002 0.002\n0 0 1e8 0.002\n", "far.txt"))
+                .find("far.txt:2: bead reaches above the side wall (cylinder.height_m = 0.3 m)"),
+            std::string::npos);
+  EXPECT_NE(Refusal(ImportScene("0 0 0.002 0.002\n0.1 0 0.01 0.002\n", "out.txt"))
+                .find("out.txt:2: bead reaches outside the cylinder"),
+            std::string::npos);
+  EXPECT_NE(Refusal(ImportScene("0 0 0.002 0.002\n0 0.01 -0.5 0.002\n", "below.txt"))
+                .find("below.txt:2: bead reaches below the plate"),
+            std::string::npos);
+  EXPECT_NE(Refusal(ImportScene("0 0 0.002 0.002\n0 0.01 0.002 0\n", "radius.txt"))
+                .find("radius.txt:2: radius 0 must be > 0"),
+            std::string::npos);
+  EXPECT_NE(Refusal(ImportScene("0 0 0.002 " + std::string(5000, '1') + "\n", "long.txt"))
+                .find("long.txt:1: a line longer than 4096 bytes"),
+            std::string::npos);
+}
+
+TEST(BedImport, ASettledBedsRestingContactsAreAccepted) {
+  // 0.3 um into the plate and 0.3 um into each neighbour: a bed as LAMMPS leaves it at rest.
+  // These were refused ("reaches below the plate"), so no settled bed could be brought in.
+  const Scene scene = ImportScene(Monolayer(-0.3e-6, 0.3e-6), "resting.txt");
+  const ImportedBed bed = ReadTextBed(scene.bed.import, scene);
+  EXPECT_GT(bed.beads.size(), 80u);
+  EXPECT_EQ(bed.plate.contacts, bed.beads.size());
+  EXPECT_NEAR(bed.plate.max_ratio, 0.3e-6 / 0.002, 1e-9);
+  EXPECT_GT(bed.pairs.contacts, bed.beads.size());
+  EXPECT_NEAR(bed.pairs.max_ratio, 0.3e-6 / 0.002, 1e-6);
+  EXPECT_EQ(bed.wall.contacts, 0u);
+  const std::string report = bed.Describe();
+  EXPECT_NE(report.find("resting on the plate: " + std::to_string(bed.beads.size()) +
+                        " beads, overlap at most 0.015% of a radius"),
+            std::string::npos)
+      << report;
+  // It comes to rest as it is, and the report reaches the run's summary.
+  const World world = BuildWorld(scene);
+  EXPECT_EQ(world.beads.size(), bed.beads.size());
+  EXPECT_NEAR(world.bed.rest_plate_force_N / world.bed.weight_N, 1.0, 0.01);
+  EXPECT_NE(world.bed.note.find("resting on the plate"), std::string::npos) << world.bed.note;
+}
+
+TEST(BedImport, LargerOverlapsAreRefusedNamingTheWorstBead) {
+  // A bead 5% of its radius into the plate, another 5% into the wall.
+  const double r = 0.002;
+  std::ostringstream plate, wall;
+  plate.precision(17);
+  wall.precision(17);
+  plate << "0 0 " << r << " " << r << "\n0.01 0 " << 0.95 * r << " " << r << "\n";
+  wall << "0 0 " << r << " " << r << "\n" << 0.025 - 0.95 * r << " 0 " << r << " " << r << "\n";
+  EXPECT_NE(Refusal(ImportScene(plate.str(), "plate.txt"))
+                .find("plate.txt:2: the bead sinks into the plate by 5% of its radius"),
+            std::string::npos)
+      << Refusal(ImportScene(plate.str(), "plate.txt"));
+  EXPECT_NE(Refusal(ImportScene(wall.str(), "wall.txt"))
+                .find("wall.txt:2: the bead sinks into the side wall by 5% of its radius"),
+            std::string::npos)
+      << Refusal(ImportScene(wall.str(), "wall.txt"));
+  const std::string pairs = Refusal(ImportScene(Monolayer(-0.0002, 0.0), "pairs.txt"));
+  EXPECT_NE(pairs.find("overlap by 10% of the smaller radius"), std::string::npos) << pairs;
+  EXPECT_NE(pairs.find("bed.import_overlaps = \"relax\""), std::string::npos) << pairs;
+}
+
+// Three layers of 4 mm beads on a square lattice `squeeze` (a fraction of the diameter)
+// tighter than touching: the hard case whose relaxation, at 5%, threw beads out.
+std::string SqueezedLayers(double squeeze) {
+  const double d = 0.004, spacing = (1.0 - squeeze) * d;
+  std::ostringstream out;
+  out.precision(17);
+  for (int layer = 0; layer < 3; ++layer)
+    for (int i = -5; i <= 5; ++i)
+      for (int j = -5; j <= 5; ++j) {
+        const double x = spacing * i, y = spacing * j;
+        if (std::hypot(x, y) > 0.025 - d) continue;
+        out << x << " " << y << " " << 0.5 * d + spacing * layer << " " << 0.5 * d << "\n";
+      }
+  return out.str();
+}
+
+TEST(BedImport, LargerOverlapsAreSeparatedOnRequestWithAReport) {
+  Scene scene = ImportScene(SqueezedLayers(0.05), "squeezed.txt");
+  EXPECT_NE(Refusal(scene).find("overlap by 10% of the smaller radius"), std::string::npos);
+  SetSceneField(scene, "bed.import_overlaps", "relax");
+  const ImportedBed bed = ReadTextBed(scene.bed.import, scene);
+  EXPECT_LE(bed.pairs.max_ratio, 0.01);
+  EXPECT_LE(bed.plate.max_ratio, 0.01);
+  EXPECT_GT(bed.moved, 0u);
+  EXPECT_NE(bed.Describe().find("separated: "), std::string::npos) << bed.Describe();
+  for (std::size_t i = 0; i < bed.beads.size(); ++i) {
+    const Vec3& x = bed.beads.position[i];
+    EXPECT_LE(std::hypot(x.x(), x.y()) + bed.beads.radius[i], 0.025 * (1 + 1e-9));
+    EXPECT_GE(x.z(), 0.99 * bed.beads.radius[i]);
+  }
+  const World world = BuildWorld(scene);
+  EXPECT_EQ(world.beads.size(), bed.beads.size());
+  EXPECT_NEAR(world.bed.rest_plate_force_N / world.bed.weight_N, 1.0, 0.01);
+}
+
+}  // namespace
+}  // namespace dembuf

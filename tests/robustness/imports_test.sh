@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Item 9 of the robustness suite (docs/robustness.md): imported beds through the CLI. A bead
+# at z = 1e8 m crashed the neighbour list: now refused with its line (exit 2, nothing
+# written). A settled bed whose beads rest on the plate and on each other with a 0.3 um
+# overlap (as LAMMPS leaves them) was refused: now accepted, its overlaps reported on the
+# terminal and in summary.json. Larger overlaps are refused naming the worst bead, or moved
+# apart with bed.import_overlaps = "relax".
+# Usage: imports_test.sh DEMBUF DEMBUFD
+. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+scene=(--set cylinder.radius_m=0.025 --set projectile.diameter_m=0.01 --set projectile.height_m=0.02)
+
+python3 - "$work" <<'PY'
+import math, sys
+work = sys.argv[1]
+r = 0.002
+def layer(gap, sink):
+    rows = []
+    s = 2 * r + gap
+    for i in range(-5, 6):
+        for j in range(-5, 6):
+            x, y = s * i, s * j
+            if math.hypot(x, y) <= 0.025 - 2 * r:
+                rows.append(f"{x!r} {y!r} {r - sink!r} {r!r}")
+    return rows
+with open(f"{work}/far.txt", "w") as f:
+    f.write("# x y z radius\n0 0 0.002 0.002\n0 0 1e8 0.002\n")
+with open(f"{work}/resting.txt", "w") as f:
+    f.write("\n".join(layer(-0.3e-6, 0.3e-6)) + "\n")
+with open(f"{work}/sunk.txt", "w") as f:
+    f.write("\n".join(layer(0.0, 0.0002)) + "\n")
+PY
+
+code=0
+timeout -s KILL 20 "$dembuf" run "${scene[@]}" --set bed.import="$work/far.txt" --out "$work/far" \
+  > /dev/null 2> "$work/err" || code=$?
+[ "$code" = 2 ] || fail "a bead at 1e8 m: exit $code: $(cat "$work/err")"
+grep -q "far.txt:3: bead reaches above the side wall" "$work/err" || fail "$(cat "$work/err")"
+[ ! -e "$work/far" ] || fail "a refused bed created the output folder"
+
+"$dembuf" run "${scene[@]}" --set bed.import="$work/resting.txt" --no-bed-cache --out "$work/resting" \
+  > /dev/null 2> "$work/err" || fail "the resting bed: $(cat "$work/err")"
+grep -q "imported bed: 89 beads; resting on the plate: 89 beads, overlap at most 0.015% of a radius" \
+  "$work/err" || fail "no overlap report: $(cat "$work/err")"
+grep -q '"imported": "89 beads; resting on the plate: 89 beads' "$work/resting/summary.json" ||
+  fail "no overlap report in summary.json"
+
+code=0
+"$dembuf" run "${scene[@]}" --set bed.import="$work/sunk.txt" --no-bed-cache --out "$work/sunk" \
+  > /dev/null 2> "$work/err" || code=$?
+[ "$code" = 2 ] || fail "a bed 10% into the plate: exit $code: $(cat "$work/err")"
+grep -q "sunk.txt:1: the bead sinks into the plate by 10% of its radius" "$work/err" || fail "$(cat "$work/err")"
+"$dembuf" run "${scene[@]}" --set bed.import="$work/sunk.txt" --set bed.import_overlaps=relax \
+  --no-bed-cache --out "$work/relaxed" > /dev/null 2> "$work/err" || fail "relax: $(cat "$work/err")"
+grep -q "separated: 89 beads moved" "$work/err" || fail "no separation report: $(cat "$work/err")"
+echo "imports test passed"

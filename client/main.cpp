@@ -412,7 +412,9 @@ int main(int argc, char** argv) {
   };
   from_env(remote.token, "DEMBUF_TOKEN");
   from_env(remote.tls_ca, "DEMBUF_TLS_CA");
-  if (remote.owner.empty()) {
+  // A token says who the user is; without one (a trusted loopback daemon) the owner is
+  // --owner, else $USER. An admin's token with --owner files the job under that owner.
+  if (remote.owner.empty() && remote.token.empty()) {
     const char* user = std::getenv("USER");
     remote.owner = user && *user ? user : "anonymous";
   }

@@ -1,5 +1,6 @@
 #include "auth.h"
 
+#include <cctype>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -24,6 +25,18 @@ std::string NewToken() {
 
 std::string HashToken(const std::string& token) {
   return Sha256Hex(token);
+}
+
+std::string UserNameProblem(const std::string& name) {
+  if (name.empty() || name.size() > 64)
+    return std::string("\"")
+        .append(name.substr(0, 80))
+        .append(name.size() > 80 ? "...\"" : "\"")
+        .append(" must be 1 to 64 characters (it has " + std::to_string(name.size()) + ")");
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-'))
+      return "\"" + name + "\" may hold only letters, digits, '.', '_' and '-'";
+  return "";
 }
 
 bool IsLoopback(const std::string& listen) {

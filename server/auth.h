@@ -11,6 +11,10 @@ std::string NewToken();
 /// SHA-256 of the token, hex.
 std::string HashToken(const std::string& token);
 
+/// Why `name` cannot be a user's name ("" when it can): 1 to 64 letters, digits, '.', '_'
+/// and '-' (names end up in logs, tables and folder names).
+std::string UserNameProblem(const std::string& name);
+
 /// Whether `listen` (host:port) is a loopback address, where tokens are optional.
 bool IsLoopback(const std::string& listen);
 

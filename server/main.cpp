@@ -112,9 +112,10 @@ int main(int argc, char** argv) {
     try {
       Store store(config.db);
       if (create->parsed()) {
-        for (char c : user)
-          if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-'))
-            throw std::runtime_error("name: use letters, digits, '.', '_' and '-'");
+        if (const std::string problem = UserNameProblem(user); !problem.empty()) {
+          std::cerr << "dembufd: name: " << problem << "\n";
+          return kExitBadInput;
+        }
         const std::string token = NewToken();
         store.SetUser(user, HashToken(token), admin);
         std::printf("%s\n", token.c_str());

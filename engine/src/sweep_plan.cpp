@@ -19,6 +19,18 @@ std::string NumberText(double v) {
   return buf;
 }
 
+// The value of a range point as text: the fewest digits that stay within a millionth of the
+// step of it, so that 3 * 0.005 reads 0.015 (not 0.015000000000000001) and points 1e-14
+// apart keep the digits that tell them apart (12 digits once made them one point).
+std::string RangeValueText(double v, double step) {
+  char buf[40];
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+    if (std::abs(std::strtod(buf, nullptr) - v) <= 1e-6 * step) break;
+  }
+  return buf;
+}
+
 double ParseNumber(const std::string& field, const std::string& text) {
   try {
     std::size_t used = 0;
@@ -42,7 +54,7 @@ std::vector<std::string> ExpandRange(const std::string& field, const std::string
   if (count > 10000) throw SceneError(field, "range " + range + " has over 10000 values");
   std::vector<std::string> values;
   for (long k = 0; k < static_cast<long>(count); ++k)
-    values.push_back(NumberText(start + k * step));
+    values.push_back(RangeValueText(start + k * step, step));
   return values;
 }
 
@@ -56,11 +68,18 @@ SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>
                      "a sweep axis needs either a list of values or a START:STOP:STEP "
                      "range");
   SweepAxis axis{field, range.empty() ? values : ExpandRange(field, range)};
-  // Every value must be valid for the field before anything runs.
+  // Every value must be valid for the field before anything runs, and say something the
+  // others do not (1 and 1.0 would run the same point twice, labelled as two).
   Scene probe;
+  std::map<std::string, std::string> seen;  // the field's value as the scene holds it
   for (const std::string& v : axis.values) {
     if (v.empty()) throw SceneError(field, "empty value in the sweep axis");
     SetSceneField(probe, field, v);
+    const auto [at, fresh] = seen.emplace(FormatSceneField(probe, RequireSceneField(field)), v);
+    if (!fresh)
+      throw SceneError(field, "the value " + v + " is given twice" +
+                                  (at->second == v ? "" : " (as " + at->second + " too)") +
+                                  " in the sweep axis");
   }
   return axis;
 }
@@ -109,6 +128,11 @@ std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
 
 std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
                                   std::size_t max_runs) {
+  // One axis per field: a field varied twice would label one axis's results with the other's
+  // values.
+  for (std::size_t a = 0; a < axes.size(); ++a)
+    for (std::size_t b = 0; b < a; ++b)
+      if (axes[a].field == axes[b].field) throw SceneError(axes[a].field, "varied twice");
   double count = 1;
   for (const SweepAxis& axis : axes) count *= static_cast<double>(axis.values.size());
   if (count > static_cast<double>(max_runs))

@@ -33,7 +33,8 @@ SweepSpec SplitSweepSpec(const std::string& spec);
 SweepAxis ParseSweepAxis(const std::string& spec);
 
 /// An axis from a field and either explicit values or a "START:STOP:STEP" range; every value
-/// is checked against the field. Throws SceneError naming the field.
+/// is checked against the field, and no two may be the same value. Range values keep the
+/// digits that tell them apart. Throws SceneError naming the field.
 SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>& values,
                         const std::string& range);
 
@@ -52,7 +53,8 @@ struct SweepRun {
 };
 
 /// The product of the axes on top of `base`, every scene validated. Throws SceneError naming
-/// the field, or when the product has more than max_runs runs.
+/// the field (a field varied twice among them), or when the product has more than max_runs
+/// runs.
 std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
                                   std::size_t max_runs = 100000);
 

@@ -3,8 +3,9 @@
 // server-info) talks to a dembufd. `sweep` goes to a daemon when --server or DEMBUF_SERVER
 // names one, unless --local is given.
 //
-// Exit codes: 0 success, 1 usage, I/O or server error, 2 invalid scene or request, 3 a
-// simulation failed (unstable) or a remote job failed, 130 interrupted.
+// Exit codes: 0 success; 1 a runtime failure (files, the server); 2 bad input (a scene, a
+// request, the arguments); 3 a simulation failed (unstable) or a remote job failed; 130 and
+// 143 interrupted by SIGINT and SIGTERM.
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 #include <atomic>
@@ -37,10 +38,10 @@ using namespace dembuf;
 
 namespace {
 
-constexpr int kExitUsage = 1;
-constexpr int kExitBadScene = 2;
+// The exit codes (the app's footer and README.md list them).
+constexpr int kExitRuntime = 1;
+constexpr int kExitBadInput = 2;
 constexpr int kExitUnstable = 3;
-constexpr int kExitInterrupted = 130;
 
 // Set by SIGINT and SIGTERM; the engine looks at it every step and stops with Cancelled.
 std::atomic<bool> g_interrupted{false};
@@ -112,6 +113,10 @@ fs::path BedCacheDir(const RunOptions& opt) {
   return {};
 }
 
+void PrintWarnings(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "dembuf: warning: %s\n", w.c_str());
+}
+
 void PrintBedProgress(const BedProgress& p) {
   if (!isatty(fileno(stderr))) return;
   std::fprintf(stderr, "\r%s: %zu beads, t = %.1f ms, kinetic %.2g m g d, balance %.2g%%   ",
@@ -158,6 +163,7 @@ int RunLocal(const RunOptions& opt) {
   // Everything about the scene, its cost and its folder is checked before anything is
   // prepared or written.
   Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
+  PrintWarnings(SceneWarnings(scene));
   BedCache beds(BedCacheDir(opt));
   const ResourceEstimate cost = EstimateResources(scene);
   if (opt.dry_run) {
@@ -170,7 +176,7 @@ int RunLocal(const RunOptions& opt) {
                  "dembuf: error: %s already holds a run (summary.json); choose another --out "
                  "or pass --force to replace it\n",
                  dir.c_str());
-    return kExitUsage;
+    return kExitRuntime;
   }
   cli::CheckLocalCost({scene}, {cost}, dir, 1, beds, opt.yes);
   // The run before (replaced, or one that failed or was interrupted) goes first: whatever
@@ -254,11 +260,15 @@ int SweepCommand(const RunOptions& opt) {
   BedCache beds(BedCacheDir(opt));
   std::vector<Scene> scenes;
   std::vector<ResourceEstimate> costs;
+  std::vector<std::string> warnings;
   for (const SweepRun& run :
        ExpandSweep(base, WithSeedAxis(sweep.axes, opt.seeds, base.bed.seed))) {
     scenes.push_back(run.scene);
     costs.push_back(EstimateResources(run.scene));
+    for (const std::string& w : SceneWarnings(run.scene))
+      if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
   }
+  PrintWarnings(warnings);
   if (opt.dry_run) {
     std::printf("%s", cli::DescribeSweep(costs, beds, opt.jobs, Cores()).c_str());
     return 0;
@@ -284,6 +294,7 @@ int SweepCommand(const RunOptions& opt) {
 
 int PrintSceneCommand(const RunOptions& opt) {
   Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
+  PrintWarnings(SceneWarnings(scene));
   PrintScene(scene, std::cout);
   return 0;
 }
@@ -404,7 +415,16 @@ int main(int argc, char** argv) {
   bool print_flag = false;
   scene_cmd->add_flag("--print", print_flag, "print the complete scene as TOML (the default)");
 
-  CLI11_PARSE(app, argc, argv);
+  app.footer(
+      "Exit codes: 0 done; 1 a runtime failure (files, the server); 2 bad input (a scene, a "
+      "request, the arguments); 3 a run became unstable or a remote job failed; 130 and 143 "
+      "interrupted by SIGINT (Ctrl-C) and SIGTERM.");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version end well; any other mistake in the arguments is bad input.
+    return app.exit(e) == 0 ? 0 : kExitBadInput;
+  }
 
   remote.address = cli::ServerAddress(server_flag);
   auto from_env = [](std::string& value, const char* name) {
@@ -441,13 +461,13 @@ int main(int argc, char** argv) {
     if (scene_cmd->parsed()) return PrintSceneCommand(opt);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "dembuf: invalid scene: %s\n", e.what());
-    return kExitBadScene;
+    return kExitBadInput;
   } catch (const ResourceError& e) {
     std::fprintf(stderr, "dembuf: too costly: %s\n", e.what());
-    return kExitBadScene;
+    return kExitBadInput;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dembuf: error: %s\n", e.what());
-    return kExitUsage;
+    return kExitRuntime;
   }
-  return kExitUsage;
+  return kExitRuntime;
 }

@@ -55,6 +55,23 @@ void Prepare(grpc::ClientContext& context, const Remote& remote, int seconds = 6
   if (!remote.token.empty()) context.AddMetadata("authorization", "Bearer " + remote.token);
 }
 
+const char* StatusName(grpc::StatusCode code) {
+  switch (code) {
+    case grpc::StatusCode::CANCELLED:
+      return "cancelled";
+    case grpc::StatusCode::UNIMPLEMENTED:
+      return "not implemented (is it a dembufd of another version?)";
+    case grpc::StatusCode::ABORTED:
+      return "aborted";
+    case grpc::StatusCode::OUT_OF_RANGE:
+      return "out of range";
+    case grpc::StatusCode::DATA_LOSS:
+      return "data loss";
+    default:
+      return "an unknown error";
+  }
+}
+
 // One line per failure, with the server's message (which names the field at fault).
 int Report(const Remote& remote, const grpc::Status& status) {
   switch (status.error_code()) {
@@ -92,8 +109,21 @@ int Report(const Remote& remote, const grpc::Status& status) {
       }
       std::fprintf(stderr, "dembuf: the server is full: %s\n", status.error_message().c_str());
       return kExitError;
+    case grpc::StatusCode::NOT_FOUND:
+      std::fprintf(stderr, "dembuf: not found: %s\n", status.error_message().c_str());
+      return kExitInvalid;
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      std::fprintf(stderr, "dembuf: not now: %s\n", status.error_message().c_str());
+      return kExitError;
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      std::fprintf(stderr, "dembuf: dembufd at %s did not answer in time (%s)\n",
+                   remote.address.c_str(), status.error_message().c_str());
+      return kExitError;
+    case grpc::StatusCode::INTERNAL:
+      std::fprintf(stderr, "dembuf: %s\n", status.error_message().c_str());
+      return kExitError;
     default:
-      std::fprintf(stderr, "dembuf: server error (%d): %s\n", status.error_code(),
+      std::fprintf(stderr, "dembuf: dembufd answered %s: %s\n", StatusName(status.error_code()),
                    status.error_message().c_str());
       return kExitError;
   }
@@ -111,6 +141,10 @@ std::string StateText(v1::JobState s) {
 
 bool Ended(v1::JobState s) {
   return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+}
+
+void PrintWarnings(const google::protobuf::RepeatedPtrField<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "dembuf: warning: %s\n", w.c_str());
 }
 
 v1::SceneSpec MakeSceneSpec(const RemoteScene& scene) {
@@ -237,6 +271,7 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::stri
   Prepare(context, remote);
   const grpc::Status status = Connect(remote)->SubmitJob(&context, request, &response);
   if (!status.ok()) return Report(remote, status);
+  PrintWarnings(response.warnings());
   std::printf("%lld\n", static_cast<long long>(response.job().id()));
   std::fprintf(stderr, "job %lld queued on %s; watch it with: dembuf watch %lld\n",
                static_cast<long long>(response.job().id()), remote.address.c_str(),
@@ -264,6 +299,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   const grpc::Status status = Connect(remote)->SubmitSweep(&context, request, &response);
   if (!status.ok()) return Report(remote, status);
   const v1::Sweep& sweep = response.sweep();
+  PrintWarnings(response.warnings());
   std::printf("%lld\n", static_cast<long long>(sweep.id()));
   std::fprintf(stderr, "sweep %lld: %d jobs queued on %s (jobs %lld to %lld)\n",
                static_cast<long long>(sweep.id()), sweep.jobs_total(), remote.address.c_str(),

@@ -51,6 +51,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
       {"end_time_s", s.end_time_s},
       {"end_reason", s.end_reason},
       {"scene", SceneToJson(scene)},
+      {"warnings", SceneWarnings(scene)},
   };
   // The paper's measurements (MODEL.md section 7).
   const PeakAnalysis& pk = s.peaks;

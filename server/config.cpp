@@ -72,7 +72,10 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"max_watch_streams", &config.max_watch_streams},
       {"max_request_kb", &config.max_request_kb},
   };
-  for (const auto& [key, value] : root.as_table()) {
+  for (const auto& entry : root.as_table()) {
+    // (Named references, not a structured binding: clang 14 cannot capture one.)
+    const std::string& key = entry.first;
+    const toml::value& value = entry.second;
     const auto setting = std::find_if(settings.begin(), settings.end(),
                                       [&](const auto& s) { return s.first == key; });
     if (setting == settings.end())

@@ -1,5 +1,6 @@
 #include "service.h"
 
+#include <algorithm>
 #include <chrono>
 #include <sstream>
 #include <thread>
@@ -256,8 +257,10 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
     JobRecord job;
+    std::vector<std::string> warnings;
     try {
       const Scene scene = ResolveSceneSpec(request->scene());
+      warnings = SceneWarnings(scene);
       CheckServerScene(scene);
       if (Status s = CheckJobQuota(scene); !s.ok()) return s;
       std::string name = request->name();
@@ -281,6 +284,7 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     }
     m_log->info("job {} submitted by {}: {}", job.id, job.owner, job.name);
     FillJob(job, false, response->mutable_job());
+    for (const std::string& w : warnings) response->add_warnings(w);
     return Status::OK;
   });
 }
@@ -299,6 +303,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
       return Invalid("seeds", std::to_string(request->seeds()) + " is out of range: 1 to 1000");
     SweepRecord sweep;
     std::vector<JobRecord> jobs;
+    std::vector<std::string> warnings;
     try {
       CheckSweepAxes(*request);
       const Scene base = ResolveSceneSpec(request->base());
@@ -314,6 +319,9 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
       sweep.name = request->name().empty() ? "sweep" : request->name();
       sweep.axes = axes;
       for (std::size_t k : InterleaveBySourceBed(runs)) {
+        for (const std::string& w : SceneWarnings(runs[k].scene))
+          if (std::find(warnings.begin(), warnings.end(), w) == warnings.end())
+            warnings.push_back(w);
         CheckServerScene(runs[k].scene);
         if (Status s = CheckJobQuota(runs[k].scene); !s.ok()) return s;
         JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
@@ -339,6 +347,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, jobs.size());
     FillSweep(sweep, response->mutable_sweep());
     for (const JobRecord& job : jobs) response->add_job_ids(job.id);
+    for (const std::string& w : warnings) response->add_warnings(w);
     return Status::OK;
   });
 }

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <ostream>
 #include <sstream>
 #include <toml.hpp>
@@ -510,6 +511,63 @@ void ValidateScene(const Scene& scene) {
   }
   if (!scene.bed.import.empty() && !IsRegularFile(scene.bed.import))
     fail("bed.import", "file \"" + scene.bed.import + "\" does not exist or is not a file");
+}
+
+std::vector<std::string> SceneWarnings(const Scene& scene) {
+  std::vector<std::string> warnings;
+  auto warn = [&](const char* field, const std::string& what) {
+    warnings.push_back(std::string(field) + ": " + what);
+  };
+  const MaterialSpec& m = scene.material;
+  if (m.restitution < 0.05)
+    warn("material.restitution",
+         FormatShort(m.restitution) +
+             " is below 0.05, the lowest restitution tested: the calibrated damping then "
+             "dominates every contact and the forces are not physical (1e-9 gave a 12.8 MN "
+             "peak on the bare plate)");
+  // No solid is lighter than cork or denser than osmium.
+  auto density = [&](const char* field, double rho, const std::string& of) {
+    if (rho < 100 || rho > 25000)
+      warn(field, of + " would be " + FormatShort(rho) +
+                      " kg/m^3; solids lie between 100 (cork) and 22,600 (osmium)");
+  };
+  density("material.density_kg_m3", m.density_kg_m3, "the beads' density");
+  const ProjectileSpec& p = scene.projectile;
+  if (p.enabled) {
+    density("projectile.mass_kg",
+            p.mass_kg / (std::numbers::pi / 6.0 * p.diameter_m * p.diameter_m * p.diameter_m),
+            "the projectile's density");
+    const double speed =
+        std::sqrt(p.speed_m_s * p.speed_m_s +
+                  2.0 * scene.gravity_m_s2 * std::max(p.height_m - 0.5 * p.diameter_m, 0.0));
+    if (speed > 50.0)
+      warn("projectile.speed_m_s",
+           "the projectile hits at " + FormatShort(speed) +
+               " m/s, above the 50 m/s tested; overlaps there reach 30% of a radius, far from "
+               "the small strains of Hertz's law (glass would break)");
+  }
+  if (m.youngs_modulus_Pa < 1e6 || m.youngs_modulus_Pa > 1.2e12)
+    warn("material.youngs_modulus_Pa",
+         FormatShort(m.youngs_modulus_Pa) +
+             " Pa: solids lie between 1e6 (soft rubber) and 1.2e12 (diamond); was it typed in "
+             "another unit?");
+  for (const auto& [field, mu] : {std::pair{"material.friction_bead_bead", m.friction_bead_bead},
+                                  {"material.friction_bead_wall", m.friction_bead_wall}})
+    if (mu > 2.0)
+      warn(field, FormatShort(mu) +
+                      " is above 2; dry solids have friction coefficients below about 1.5 "
+                      "(glass on glass: 0.5)");
+  if (scene.time.alpha > 0.6)
+    warn("time.alpha", FormatShort(scene.time.alpha) +
+                           " is above 0.6: the E2 impact on a dense bed became unstable at 0.8 "
+                           "(docs/accuracy-cost.md)");
+  if (scene.gravity_m_s2 == 0.0 && scene.bed.thickness_m > 0.0 && scene.bed.import.empty())
+    warn("gravity_m_s2",
+         "0 with a bed to prepare: without weight the inserted beads never settle, and the "
+         "bed stays the loose column they were inserted in");
+  if (scene.gravity_m_s2 > 100.0)
+    warn("gravity_m_s2", FormatShort(scene.gravity_m_s2) + " m/s^2 is over ten times the Earth's");
+  return warnings;
 }
 
 std::string FormatSceneField(const Scene& scene, const SceneField& field) {

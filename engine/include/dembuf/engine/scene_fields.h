@@ -57,6 +57,11 @@ Scene LoadSceneText(const std::string& text, const std::string& name, const Scen
 /// Checks every field's range and the relations between fields. Throws SceneError.
 void ValidateScene(const Scene& scene);
 
+/// Legal values that are physically absurd, or beyond what has been tested to give sound
+/// results, as "field: what is absurd and why" (empty for an ordinary scene). Such a scene
+/// runs; the callers show the warnings and keep them with the results.
+std::vector<std::string> SceneWarnings(const Scene& scene);
+
 /// Writes the complete scene as TOML, each field with its unit and help as a comment.
 void PrintScene(const Scene& scene, std::ostream& out);
 

@@ -183,6 +183,7 @@ int RunLocal(const RunOptions& opt) {
   // happens to this one, nothing of that one is left to be taken for its result.
   if (opt.force || fs::exists(dir / "failure.json") || fs::exists(dir / "incomplete.json"))
     report::RemoveRunOutputs(dir);
+  const bool new_folder = !fs::exists(dir);
   fs::create_directories(dir);
   CatchInterrupts();
 
@@ -232,17 +233,27 @@ int RunLocal(const RunOptions& opt) {
     return kExitUnstable;
   } catch (const Cancelled&) {
     progress.Finish();
+    const bool complete = phase == "plots";  // the results were written before the plots
     const nlohmann::json incomplete = {{"interrupted_by", SignalName()},
                                        {"phase", phase},
-                                       {"complete", phase == "plots"},
-                                       {"samples_so_far", partial()}};
+                                       {"complete", complete},
+                                       {"samples_so_far", complete ? "" : partial()}};
     report::WriteFileAtomically(dir / "incomplete.json", incomplete.dump(2) + "\n");
-    std::fprintf(stderr, "dembuf: interrupted by %s in the %s; %s; samples so far: %s\n",
-                 SignalName(), phase.c_str(),
-                 phase == "bed preparation" ? "the bed stages done are cached"
-                                            : "written so far kept, marked in incomplete.json",
-                 partial().c_str());
+    if (complete)
+      std::fprintf(stderr, "dembuf: interrupted by %s while plotting; the results are complete\n",
+                   SignalName());
+    else
+      std::fprintf(stderr, "dembuf: interrupted by %s in the %s; %s; samples so far: %s\n",
+                   SignalName(), phase.c_str(),
+                   phase == "bed preparation" ? "the bed stages done are cached"
+                                              : "marked in incomplete.json",
+                   partial().c_str());
     return InterruptedExit();
+  } catch (...) {
+    // Anything else (the disk, say) is reported by main; a folder made for nothing goes.
+    std::error_code error;
+    if (new_folder && fs::is_empty(dir, error)) fs::remove(dir, error);
+    throw;
   }
 }
 

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <toml.hpp>
 
+#include "dembuf/engine/bed.h"
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/text_limits.h"
@@ -508,6 +509,15 @@ void ValidateScene(const Scene& scene) {
     fail("time.end_s",
          "0 (automatic) needs a projectile: the automatic end waits for its impact; set "
          "time.end_s > 0 when projectile.enabled = false");
+  }
+  if (scene.bed.thickness_m > 0.0 && scene.bed.import.empty()) {
+    const SourcePlan plan = PlanSourceBed(scene);
+    if (plan.column_top_m > scene.cylinder.height_m)
+      fail("bed.source_thickness_m",
+           FormatShort(plan.thickness_m) + " m: its beads are inserted in a loose column " +
+               FormatShort(plan.column_top_m) +
+               " m high, above cylinder.height_m = " + FormatShort(scene.cylinder.height_m) +
+               " (raise the wall, or lower bed.source_thickness_m or bed.thickness_m)");
   }
   if (!scene.bed.import.empty() && !IsRegularFile(scene.bed.import))
     fail("bed.import", "file \"" + scene.bed.import + "\" does not exist or is not a file");

@@ -12,13 +12,14 @@
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
+#include "engine/temp_path.h"
 
 namespace dembuf {
 namespace {
 
 // A 2.5 cm cylinder importing `text` (one bead per line: x y z radius).
 Scene ImportScene(const std::string& text, const std::string& name) {
-  const std::string path = testing::TempDir() + name;
+  const std::string path = test::TempPath(name);
   std::ofstream(path) << text;
   Scene scene;
   scene.cylinder.radius_m = 0.025;

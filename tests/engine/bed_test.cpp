@@ -18,6 +18,7 @@
 #include "dembuf/engine/impact.h"
 
 #include "engine/small_bed.h"
+#include "engine/temp_path.h"
 
 namespace dembuf {
 namespace {
@@ -58,7 +59,7 @@ TEST(BedPreparation, EndsAtRestByTheStatedCriterion) {
 
 TEST(BedPreparation, SavingAndLoadingIsBitExact) {
   const PreparedBed& bed = SmallBed();
-  const auto path = std::filesystem::path(testing::TempDir()) / "small.bed";
+  const auto path = std::filesystem::path(test::TempPath("small.bed"));
   SaveBed(bed, path);
   const PreparedBed back = LoadBed(path);
   ASSERT_EQ(back.beads.size(), bed.beads.size());
@@ -80,7 +81,7 @@ TEST(BedPreparation, SavingAndLoadingIsBitExact) {
 }
 
 TEST(BedPreparation, DamagedFileIsRefused) {
-  const auto path = std::filesystem::path(testing::TempDir()) / "damaged.bed";
+  const auto path = std::filesystem::path(test::TempPath("damaged.bed"));
   SaveBed(SmallBed(), path);
   {
     std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
@@ -91,7 +92,7 @@ TEST(BedPreparation, DamagedFileIsRefused) {
 }
 
 TEST(BedPreparation, CachedBedIsReusedNotSettledAgain) {
-  const auto dir = std::filesystem::path(testing::TempDir()) / "bed-cache";
+  const auto dir = std::filesystem::path(test::TempPath("bed-cache"));
   std::filesystem::remove_all(dir);
   BedCache first(dir);
   const PreparedBed a = GetBed(SmallBedScene(), first);

@@ -14,6 +14,7 @@
 #include "dembuf/engine/scene_fields.h"
 #include "engine/impact_audit.h"
 #include "engine/small_bed.h"
+#include "engine/temp_path.h"
 #include "engine/two_body.h"
 
 namespace dembuf::test {
@@ -164,7 +165,7 @@ TEST(HardCase, StepBeyondTheStabilityLimitIsRefused) {
 // The bed file: three layers of 4 mm beads on a square lattice tighter than touching by
 // `squeeze` (a fraction of the diameter).
 std::string OverlappingBed(double squeeze, int* count) {
-  const std::string path = testing::TempDir() + "overlapping-bed.txt";
+  const std::string path = test::TempPath("overlapping-bed.txt");
   const double d = 0.004, spacing = (1.0 - squeeze) * d;
   *count = 0;
   std::ofstream out(path);

@@ -8,6 +8,7 @@
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
+#include "engine/temp_path.h"
 #include "engine/two_body.h"
 
 namespace dembuf {
@@ -204,7 +205,7 @@ TEST(Stability, OversizedStepStopsWithAClearReason) {
 TEST(BedImport, TextBedIsReadRelaxedAndMeasured) {
   // A square monolayer of 2 mm beads resting on the plate of a 2 cm cylinder: every surface
   // cell holds a bead top at 4 mm, so the measured surface is 4 mm.
-  const std::string path = testing::TempDir() + "bed.txt";
+  const std::string path = test::TempPath("bed.txt");
   int count = 0;
   {
     std::ofstream out(path);

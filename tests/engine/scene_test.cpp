@@ -7,12 +7,13 @@
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/presets.h"
 #include "dembuf/engine/scene_fields.h"
+#include "engine/temp_path.h"
 
 namespace dembuf {
 namespace {
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
-  const std::string path = testing::TempDir() + name;
+  const std::string path = test::TempPath(name);
   std::ofstream(path) << text;
   return path;
 }

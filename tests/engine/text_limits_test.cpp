@@ -11,6 +11,7 @@
 #include "dembuf/engine/presets.h"
 #include "dembuf/engine/scene_fields.h"
 #include "dembuf/engine/text_limits.h"
+#include "engine/temp_path.h"
 
 namespace dembuf {
 namespace {
@@ -112,7 +113,7 @@ TEST(TextLimits, OverridesAreBoundedToo) {
 }
 
 TEST(TextLimits, FilesAreReadOnlyUpToTheirLimit) {
-  const std::string path = testing::TempDir() + "big.toml";
+  const std::string path = test::TempPath("big.toml");
   std::ofstream(path) << std::string(2000, '#');
   EXPECT_EQ(ReadBoundedFile(path, 2000, "scene file").size(), 2000u);
   try {

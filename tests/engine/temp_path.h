@@ -1,0 +1,19 @@
+// Paths for the tests' scratch files.
+#pragma once
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <string>
+
+namespace dembuf::test {
+
+/// A path in the temporary folder that belongs to the running test and process alone, so that
+/// tests run at once (ctest --parallel, two checkouts on one machine) never share a file.
+inline std::string TempPath(const std::string& name) {
+  const testing::TestInfo* info = testing::UnitTest::GetInstance()->current_test_info();
+  return testing::TempDir() + "dembuf-" + info->test_suite_name() + "." + info->name() + "." +
+         std::to_string(getpid()) + "-" + name;
+}
+
+}  // namespace dembuf::test

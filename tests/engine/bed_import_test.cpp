@@ -12,6 +12,7 @@
 #include "dembuf/engine/errors.h"
 #include "dembuf/engine/impact.h"
 #include "dembuf/engine/scene_fields.h"
+#include "engine/squeezed_bed.h"
 #include "engine/temp_path.h"
 
 namespace dembuf {
@@ -116,24 +117,9 @@ TEST(BedImport, LargerOverlapsAreRefusedNamingTheWorstBead) {
   EXPECT_NE(pairs.find("bed.import_overlaps = \"relax\""), std::string::npos) << pairs;
 }
 
-// Three layers of 4 mm beads on a square lattice `squeeze` (a fraction of the diameter)
-// tighter than touching: the hard case whose relaxation, at 5%, threw beads out.
-std::string SqueezedLayers(double squeeze) {
-  const double d = 0.004, spacing = (1.0 - squeeze) * d;
-  std::ostringstream out;
-  out.precision(17);
-  for (int layer = 0; layer < 3; ++layer)
-    for (int i = -5; i <= 5; ++i)
-      for (int j = -5; j <= 5; ++j) {
-        const double x = spacing * i, y = spacing * j;
-        if (std::hypot(x, y) > 0.025 - d) continue;
-        out << x << " " << y << " " << 0.5 * d + spacing * layer << " " << 0.5 * d << "\n";
-      }
-  return out.str();
-}
-
+// The hard case whose relaxation threw beads out (a 5% squeeze: 10% of a radius), separated.
 TEST(BedImport, LargerOverlapsAreSeparatedOnRequestWithAReport) {
-  Scene scene = ImportScene(SqueezedLayers(0.05), "squeezed.txt");
+  Scene scene = ImportScene(test::SqueezedLayers(0.05, 0.025), "squeezed.txt");
   EXPECT_NE(Refusal(scene).find("overlap by 10% of the smaller radius"), std::string::npos);
   SetSceneField(scene, "bed.import_overlaps", "relax");
   const ImportedBed bed = ReadTextBed(scene.bed.import, scene);

@@ -14,6 +14,7 @@
 #include "dembuf/engine/scene_fields.h"
 #include "engine/impact_audit.h"
 #include "engine/small_bed.h"
+#include "engine/squeezed_bed.h"
 #include "engine/temp_path.h"
 #include "engine/two_body.h"
 
@@ -162,21 +163,11 @@ TEST(HardCase, StepBeyondTheStabilityLimitIsRefused) {
   }
 }
 
-// The bed file: three layers of 4 mm beads on a square lattice tighter than touching by
-// `squeeze` (a fraction of the diameter).
+// The bed file: three layers of 4 mm beads, `squeeze` (a fraction of the diameter) tighter
+// than touching, within 2 cm of the axis.
 std::string OverlappingBed(double squeeze, int* count) {
   const std::string path = test::TempPath("overlapping-bed.txt");
-  const double d = 0.004, spacing = (1.0 - squeeze) * d;
-  *count = 0;
-  std::ofstream out(path);
-  for (int layer = 0; layer < 3; ++layer)
-    for (int i = -4; i <= 4; ++i)
-      for (int j = -4; j <= 4; ++j) {
-        const double x = spacing * i, y = spacing * j;
-        if (std::hypot(x, y) > 0.02 - d) continue;
-        out << x << " " << y << " " << 0.5 * d + spacing * layer << " " << 0.5 * d << "\n";
-        ++*count;
-      }
+  std::ofstream(path) << test::SqueezedLayers(squeeze, 0.02, count);
   return path;
 }
 

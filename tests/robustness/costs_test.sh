@@ -10,16 +10,8 @@
 # - `--dry-run` prints the estimate and says which beds are cached; a run past this machine's
 #   limits asks for --yes.
 # Usage: costs_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 
-expect_exit() {  # expect_exit CODE PATTERN COMMAND...
-  local want=$1 pattern=$2
-  shift 2
-  local code=0
-  timeout -s KILL 20 "$@" > "$work/out" 2> "$work/err" || code=$?
-  [ "$code" = "$want" ] || fail "'$*' exited $code, not $want: $(head -c 400 "$work/err")"
-  grep -q -- "$pattern" "$work/err" || fail "'$*' did not say '$pattern': $(head -c 400 "$work/err")"
-}
 # Peak memory (kB) of a command, from the kernel's account of the finished child.
 peak_kb() {
   python3 -c 'import resource, subprocess, sys

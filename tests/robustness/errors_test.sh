@@ -7,46 +7,32 @@
 # - Legal but physically absurd input runs with a warning (restitution 1e-9 gave a 12.8 MN
 #   peak without a word): on the terminal and in summary.json, and from the daemon too.
 # Usage: errors_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 
-code_of() {  # code_of COMMAND...: its exit code
-  local code=0
-  "$@" > "$work/out" 2> "$work/err" || code=$?
-  echo "$code"
-}
-expect_code() {  # expect_code CODE PATTERN COMMAND...
-  local want=$1 pattern=$2
-  shift 2
-  local code
-  code=$(code_of "$@")
-  [ "$code" = "$want" ] || fail "'$*' exited $code, not $want: $(cat "$work/err")"
-  grep -q -- "$pattern" "$work/out" "$work/err" || fail "'$*': $(cat "$work/err")"
-}
-
-expect_code 2 "Could not convert" "$dembuf" sweep --seeds x
-expect_code 2 "not expected" "$dembuf" run --seeds 3
-expect_code 2 "unknown field" "$dembuf" run --set no.field=1 --out "$work/x"
-expect_code 0 "Usage" "$dembuf" --help
-expect_code 2 "Could not convert\|not a number\|Invalid" "$dembufd" --workers x
-expect_code 0 "Exit codes: 0" "$dembuf" --help
+expect_exit 2 "Could not convert" "$dembuf" sweep --seeds x
+expect_exit 2 "not expected" "$dembuf" run --seeds 3
+expect_exit 2 "unknown field" "$dembuf" run --set no.field=1 --out "$work/x"
+expect_exit 0 "Usage" "$dembuf" --help
+expect_exit 2 "Could not convert\|not a number\|Invalid" "$dembufd" --workers x
+expect_exit 0 "Exit codes: 0" "$dembuf" --help
 
 # Legal but absurd: a warning, and the run goes on.
-expect_code 0 "warning: material.restitution: 1e-09 is below 0.05" \
+expect_exit 0 "warning: material.restitution: 1e-09 is below 0.05" \
   "$dembuf" run --set material.restitution=1e-9 --out "$work/absurd"
 grep -q '"warnings": \[' "$work/absurd/summary.json" || fail "no warnings in summary.json"
 grep -q 'material.restitution: 1e-09 is below 0.05' "$work/absurd/summary.json" || fail "warning text"
-expect_code 0 "warning: projectile.mass_kg: the projectile's density would be 1.53e+06 kg/m" \
+expect_exit 0 "warning: projectile.mass_kg: the projectile's density would be 1.53e+06 kg/m" \
   "$dembuf" scene --print --set projectile.mass_kg=100
-expect_code 0 "warning: projectile.speed_m_s: the projectile hits at 100 m/s" \
+expect_exit 0 "warning: projectile.speed_m_s: the projectile hits at 100 m/s" \
   "$dembuf" scene --print --set projectile.speed_m_s=100
 # An ordinary scene says nothing.
 "$dembuf" scene --print --preset e2 > /dev/null 2> "$work/err"
 [ ! -s "$work/err" ] || fail "a warning for the paper's scene: $(cat "$work/err")"
 
 start_daemon "$work/dembuf.db" "$work/dembufd.log"
-expect_code 2 "not found: id: no job 999" "$dembuf" status 999
-expect_code 0 "warning: material.restitution: 1e-09 is below 0.05" \
+expect_exit 2 "not found: id: no job 999" "$dembuf" status 999
+expect_exit 0 "warning: material.restitution: 1e-09 is below 0.05" \
   "$dembuf" submit --set material.restitution=1e-9
 stop_daemon
-expect_code 1 "cannot reach dembufd" "$dembuf" server-info
+expect_exit 1 "cannot reach dembufd" "$dembuf" server-info
 echo "errors test passed"

@@ -6,7 +6,7 @@
 # terminal and in summary.json. Larger overlaps are refused naming the worst bead, or moved
 # apart with bed.import_overlaps = "relax".
 # Usage: imports_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 scene=(--set cylinder.radius_m=0.025 --set projectile.diameter_m=0.01 --set projectile.height_m=0.02)
 
 python3 - "$work" <<'PY'

@@ -7,22 +7,13 @@
 #   reason (a read-only tmpfs when run as root, else a file without write permission).
 # - A port of 99999 silently became another port: now refused with the allowed range.
 # Usage: instances_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
-
-refused() {  # refused CODE PATTERN DEMBUFD-ARGS...: dembufd exits with CODE saying PATTERN
-  local want=$1 pattern=$2
-  shift 2
-  local code=0
-  timeout -s KILL 20 "$dembufd" "$@" > "$work/second.log" 2>&1 || code=$?
-  [ "$code" = "$want" ] || fail "dembufd $* exited $code, not $want: $(tail -3 "$work/second.log")"
-  grep -q -- "$pattern" "$work/second.log" || fail "dembufd $*: $(tail -3 "$work/second.log")"
-}
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 
 start_daemon "$work/one.db" "$work/one.log"
 port=${DEMBUF_SERVER##*:}
-refused 1 "127.0.0.1:$port is in use by process $daemon_pid" --listen "127.0.0.1:$port" --db "$work/two.db"
-refused 1 "one.db is in use by another dembufd: process $daemon_pid, listening on 127.0.0.1:$port" \
-  --listen 127.0.0.1:0 --db "$work/one.db"
+expect_exit 1 "127.0.0.1:$port is in use by process $daemon_pid" "$dembufd" --listen "127.0.0.1:$port" --db "$work/two.db"
+expect_exit 1 "one.db is in use by another dembufd: process $daemon_pid, listening on 127.0.0.1:$port" \
+  "$dembufd" --listen 127.0.0.1:0 --db "$work/one.db"
 "$dembuf" server-info | grep -q "database $work/one.db" || fail "the first daemon stopped serving"
 job=$("$dembuf" submit 2>/dev/null)
 wait_state "$job" done 60
@@ -31,8 +22,8 @@ stop_daemon
 start_daemon "$work/one.db" "$work/one.log"
 stop_daemon
 
-refused 2 "listen: port 99999 is out of range: must be 0 to 65535" --listen 127.0.0.1:99999 --db "$work/p.db"
-refused 2 "listen: \"localhost\" must be HOST:PORT" --listen localhost --db "$work/p.db"
+expect_exit 2 "listen: port 99999 is out of range: must be 0 to 65535" "$dembufd" --listen 127.0.0.1:99999 --db "$work/p.db"
+expect_exit 2 "listen: \"localhost\" must be HOST:PORT" "$dembufd" --listen localhost --db "$work/p.db"
 
 # A database dembufd cannot write.
 if [ "$(id -u)" = 0 ] && mkdir "$work/ro" && mount -t tmpfs -o size=4m tmpfs "$work/ro" 2> /dev/null; then
@@ -40,11 +31,11 @@ if [ "$(id -u)" = 0 ] && mkdir "$work/ro" && mount -t tmpfs -o size=4m tmpfs "$w
         umount "$work/ro" 2>/dev/null || true; rm -rf "$work"; exit $rc' EXIT
   cp "$work/one.db" "$work/ro/ro.db"
   mount -o remount,ro "$work/ro"
-  refused 1 "ro.db cannot be used: it cannot be written" --listen 127.0.0.1:0 --db "$work/ro/ro.db"
+  expect_exit 1 "ro.db cannot be used: it cannot be written" "$dembufd" --listen 127.0.0.1:0 --db "$work/ro/ro.db"
   umount "$work/ro"
 else
   cp "$work/one.db" "$work/ro.db"
   chmod 444 "$work/ro.db"
-  refused 1 "ro.db cannot be used: it cannot be written" --listen 127.0.0.1:0 --db "$work/ro.db"
+  expect_exit 1 "ro.db cannot be used: it cannot be written" "$dembufd" --listen 127.0.0.1:0 --db "$work/ro.db"
 fi
 echo "instances test passed"

@@ -11,7 +11,7 @@
 #   at the next start instead of being run again for ever.
 # - Cancel works on queued jobs, on a job preparing its bed, and says so on an ended job.
 # Usage: jobs_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 small_scene "$work/small.toml"
 
 # --- the crash-loop job -------------------------------------------------------------------

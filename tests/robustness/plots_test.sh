@@ -8,7 +8,7 @@
 # - fetch does not overwrite a folder without --force; a failed `run --force` leaves no
 #   summary.json of the run before; a bare-plate run with snapshots plots without error.
 # Usage: plots_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 command -v gnuplot > /dev/null || { echo "plots test skipped: no gnuplot"; exit 0; }
 cd "$work"  # a command run by gnuplot would write PWNED here
 hostile="x'; system \"touch PWNED\"; set title 'y"

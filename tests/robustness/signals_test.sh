@@ -6,7 +6,7 @@
 # time: a 141 s fall runs in a moment). dembufd on SIGTERM stops accepting, puts its running
 # job back in the queue and exits cleanly; the job runs again at the next start.
 # Usage: signals_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 small_scene "$work/small.toml"
 # Long runs of the small bed splash beads 40 cm high: a 1 m wall keeps them in.
 sed -i 's/^radius_m = 0.02$/radius_m = 0.02\nheight_m = 1.0/' "$work/small.toml"

@@ -6,7 +6,7 @@
 # max_request_kb is refused before it is read. (Costs are bounded by the job limits of the
 # costs test.) Here with small caps: 3 per user, 5 in all, 64 kB requests.
 # Usage: streams_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 cat > "$work/dembufd.toml" <<'TOML'
 require_tokens = true
 max_watch_streams_per_user = 3

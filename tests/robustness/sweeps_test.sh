@@ -8,22 +8,13 @@
 # - An admin's jobs were filed under the $USER of the admin's machine: now under the token's
 #   user, unless the admin names another owner.
 # Usage: sweeps_test.sh DEMBUF DEMBUFD
-. "$(dirname "$0")/../server/lib.sh" "$1" "$2"
-
-refused() {  # refused CODE PATTERN COMMAND...
-  local want=$1 pattern=$2
-  shift 2
-  local code=0
-  "$@" > "$work/out" 2> "$work/err" || code=$?
-  [ "$code" = "$want" ] || fail "'$*' exited $code, not $want: $(cat "$work/err")"
-  grep -q -- "$pattern" "$work/err" || fail "'$*': $(cat "$work/err")"
-}
+. "$(dirname "$0")/lib.sh" "$1" "$2"
 
 bare=(--set bed.thickness_m=0)
-refused 2 "projectile.speed_m_s: varied twice" "$dembuf" sweep "${bare[@]}" \
+expect_exit 2 "projectile.speed_m_s: varied twice" "$dembuf" sweep "${bare[@]}" \
   --vary projectile.speed_m_s=1,2 --vary projectile.speed_m_s=3,4 --out "$work/twice"
 [ ! -e "$work/twice" ] || fail "a refused sweep created its folder"
-refused 2 "projectile.speed_m_s: the value 1.0 is given twice" "$dembuf" sweep "${bare[@]}" \
+expect_exit 2 "projectile.speed_m_s: the value 1.0 is given twice" "$dembuf" sweep "${bare[@]}" \
   --vary projectile.speed_m_s=1,1.0 --out "$work/same"
 
 # Masses 2e-14 kg apart: one point per run (12 digits made them all "1", one point).
@@ -40,16 +31,16 @@ points=$(tail -n +2 "$work/fine/points.csv" | cut -d, -f1 | sort -u | wc -l)
   fail "plain values: $(cut -d, -f1 "$work/plain/points.csv" | tr '\n' ' ')"
 
 # Tokens: names of 1 to 64 characters of [A-Za-z0-9._-].
-refused 2 "name: \"\" must be 1 to 64 characters" "$dembufd" --db "$work/dembuf.db" token-create ""
-refused 2 "must be 1 to 64 characters" "$dembufd" --db "$work/dembuf.db" token-create "$(printf 'a%.0s' $(seq 10000))"
-refused 2 "may hold only letters, digits" "$dembufd" --db "$work/dembuf.db" token-create "bad name"
+expect_exit 2 "name: \"\" must be 1 to 64 characters" "$dembufd" --db "$work/dembuf.db" token-create ""
+expect_exit 2 "must be 1 to 64 characters" "$dembufd" --db "$work/dembuf.db" token-create "$(printf 'a%.0s' $(seq 10000))"
+expect_exit 2 "may hold only letters, digits" "$dembufd" --db "$work/dembuf.db" token-create "bad name"
 "$dembufd" --db "$work/dembuf.db" token-create "$(printf 'a%.0s' $(seq 64))" > /dev/null 2>&1 ||
   fail "a 64-character name was refused"
 root=$("$dembufd" --db "$work/dembuf.db" token-create root --admin 2>/dev/null)
 
 # The daemon: the same sweep refusal; an admin's job is filed under the admin.
 start_daemon "$work/dembuf.db" "$work/dembufd.log"
-refused 2 "refused the request: projectile.speed_m_s: varied twice" "$dembuf" --token "$root" \
+expect_exit 2 "refused the request: projectile.speed_m_s: varied twice" "$dembuf" --token "$root" \
   sweep "${bare[@]}" --vary projectile.speed_m_s=1,2 --vary projectile.speed_m_s=3,4
 job=$(USER=alice "$dembuf" --token "$root" submit "${bare[@]}" 2>/dev/null)
 "$dembuf" --token "$root" status "$job" | grep -q "owner root," || fail "$("$dembuf" --token "$root" status "$job")"

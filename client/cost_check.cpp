@@ -33,6 +33,38 @@ double PhysicalMemory() {
   return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
 }
 
+// What a set of runs costs together, each bed once (the runs share it) and only if it is not
+// in the cache yet: predicted seconds of one core, and bounds.
+struct Totals {
+  double seconds = 0.0, steps = 0.0, bead_steps = 0.0, samples = 0.0, files = 0.0, memory = 0.0;
+  std::map<std::string, int> to_prepare, ready;  // beds by stage
+};
+
+Totals Total(const std::vector<ResourceEstimate>& costs, BedCache& beds) {
+  Totals t;
+  std::vector<std::string> counted;
+  for (const ResourceEstimate& cost : costs) {
+    std::vector<std::string> skip = counted;
+    for (const StageEstimate& s : cost.stages) {
+      if (std::find(counted.begin(), counted.end(), s.hash) != counted.end()) continue;
+      counted.push_back(s.hash);
+      if (beds.Contains(s.hash)) {
+        ++t.ready[s.stage];
+        skip.push_back(s.hash);
+      } else {
+        ++t.to_prepare[s.stage];
+      }
+    }
+    t.seconds += cost.PredictedSeconds(1, skip);
+    t.steps += cost.StepsMax(skip);
+    t.bead_steps += cost.BeadStepsMax(skip);
+    t.samples += cost.samples_max;
+    t.files += cost.output_bytes_max;
+    t.memory = std::max(t.memory, cost.memory_bytes_max);
+  }
+  return t;
+}
+
 }  // namespace
 
 std::vector<std::string> CachedBeds(const ResourceEstimate& estimate, BedCache& beds) {
@@ -54,7 +86,6 @@ void CheckLocalCost(const std::vector<Scene>& scenes, const std::vector<Resource
   // Memory: runs at once share the machine; files: all of them share the disk.
   ResourceLimits limits;
   limits.memory_bytes = 0.5 * PhysicalMemory() / std::max(1, runs_at_once);
-  double files = 0.0, seconds = 0.0;
   for (std::size_t k = 0; k < costs.size(); ++k) {
     try {
       CheckResources(costs[k], limits, scenes[k], "this machine's");
@@ -64,9 +95,9 @@ void CheckLocalCost(const std::vector<Scene>& scenes, const std::vector<Resource
                                          (runs_at_once > 1 ? ", shared by the runs at once" : "") +
                                          "; pass --yes to run it anyway)");
     }
-    files += costs[k].output_bytes_max;
-    seconds += costs[k].PredictedSeconds(1, CachedBeds(costs[k], beds));
   }
+  const Totals total = Total(costs, beds);
+  const double files = total.files, seconds = total.seconds;
   const double free = FreeBytes(out_dir);
   if (free > 0.0 && files > 0.9 * free)
     throw ResourceError("time.output_interval_s",
@@ -84,42 +115,21 @@ std::string DescribeRun(const ResourceEstimate& estimate, BedCache& beds, int th
 
 std::string DescribeSweep(const std::vector<ResourceEstimate>& costs, BedCache& beds, int jobs,
                           int cores) {
+  const Totals t = Total(costs, beds);
   std::ostringstream out;
-  // Each bed once: the runs share it.
-  std::vector<std::string> counted;
-  std::map<std::string, int> to_prepare, ready;
-  double seconds = 0.0, steps = 0.0, bead_steps = 0.0, samples = 0.0, files = 0.0, memory = 0.0;
-  for (const ResourceEstimate& cost : costs) {
-    std::vector<std::string> skip = counted;
-    for (const StageEstimate& s : cost.stages) {
-      if (std::find(counted.begin(), counted.end(), s.hash) != counted.end()) continue;
-      counted.push_back(s.hash);
-      if (beds.Contains(s.hash)) {
-        ++ready[s.stage];
-        skip.push_back(s.hash);
-      } else {
-        ++to_prepare[s.stage];
-      }
-    }
-    seconds += cost.PredictedSeconds(1, skip);
-    steps += cost.StepsMax(skip);
-    bead_steps += cost.BeadStepsMax(skip);
-    samples += cost.samples_max;
-    files += cost.output_bytes_max;
-    memory = std::max(memory, cost.memory_bytes_max);
-  }
   out << costs.size() << " runs\n";
-  for (const auto& [stage, n] : to_prepare) out << "beds to prepare: " << n << " " << stage << "\n";
-  for (const auto& [stage, n] : ready) out << "beds in the cache: " << n << " " << stage << "\n";
+  for (const auto& [stage, n] : t.to_prepare)
+    out << "beds to prepare: " << n << " " << stage << "\n";
+  for (const auto& [stage, n] : t.ready) out << "beds in the cache: " << n << " " << stage << "\n";
   char line[256];
   std::snprintf(line, sizeof line,
                 "at most %.3g time steps, %.3g bead-steps, %.3g force samples, %s of files\n",
-                steps, bead_steps, samples, HumanBytes(files).c_str());
+                t.steps, t.bead_steps, t.samples, HumanBytes(t.files).c_str());
   out << line;
-  out << "memory: at most " << HumanBytes(memory) << " per run, " << jobs << " at once\n";
+  out << "memory: at most " << HumanBytes(t.memory) << " per run, " << jobs << " at once\n";
   // Runs at once share the cores; a run alone (a source bed the others wait for) gets them all.
   const double parallel = std::max(1.0, 0.9 * std::min(std::max(jobs, 1), std::max(cores, 1)));
-  out << "predicted wall time: about " << HumanSeconds(seconds / parallel) << " with " << jobs
+  out << "predicted wall time: about " << HumanSeconds(t.seconds / parallel) << " with " << jobs
       << (jobs == 1 ? " run" : " runs") << " at once on " << cores
       << (cores == 1 ? " core" : " cores") << " (measured costs per bead-step, typical settling)\n";
   return out.str();

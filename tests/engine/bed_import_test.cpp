@@ -117,6 +117,30 @@ TEST(BedImport, LargerOverlapsAreRefusedNamingTheWorstBead) {
   EXPECT_NE(pairs.find("bed.import_overlaps = \"relax\""), std::string::npos) << pairs;
 }
 
+TEST(BedImport, ABedSettledByLammpsIsAccepted) {
+  // 690 beads of 4 mm poured and settled by LAMMPS's GRANULAR package in a 2.5 cm cylinder
+  // (tests/data/lammps/in.settle): they rest on the plate, the wall and each other with
+  // overlaps of 0.1 to 0.3 um, and the whole bed was refused for them.
+  Scene scene;
+  scene.cylinder.radius_m = 0.025;
+  scene.projectile.diameter_m = 0.01;
+  scene.bed.import = DEMBUF_TEST_DATA_DIR "/lammps_settled_bed.txt";
+  const ImportedBed bed = ReadTextBed(scene.bed.import, scene);
+  EXPECT_EQ(bed.beads.size(), 690u);
+  EXPECT_GT(bed.plate.contacts, 50u);
+  EXPECT_GT(bed.wall.contacts, 50u);
+  EXPECT_GT(bed.pairs.contacts, 1000u);
+  for (const OverlapStats* s : {&bed.plate, &bed.wall, &bed.pairs}) {
+    EXPECT_GT(s->max_ratio, 0.0);
+    EXPECT_LT(s->max_ratio, 2e-4);  // 0.4 um
+  }
+  EXPECT_EQ(bed.moved, 0u);
+  // At rest as LAMMPS left it: dembuf's own relaxation finds the plate and wall carrying it.
+  const World world = BuildWorld(scene);
+  EXPECT_NEAR((world.bed.rest_plate_force_N + world.bed.rest_wall_force_z_N) / world.bed.weight_N,
+              1.0, 0.01);
+}
+
 // The hard case whose relaxation threw beads out (a 5% squeeze: 10% of a radius), separated.
 TEST(BedImport, LargerOverlapsAreSeparatedOnRequestWithAReport) {
   Scene scene = ImportScene(test::SqueezedLayers(0.05, 0.025), "squeezed.txt");

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Item 9 of the robustness suite (docs/robustness.md): imported beds through the CLI. A bead
 # at z = 1e8 m crashed the neighbour list: now refused with its line (exit 2, nothing
-# written). A settled bed whose beads rest on the plate and on each other with a 0.3 um
-# overlap (as LAMMPS leaves them) was refused: now accepted, its overlaps reported on the
-# terminal and in summary.json. Larger overlaps are refused naming the worst bead, or moved
+# written). A bed settled by LAMMPS (tests/data/), whose beads rest on the plate, the wall and
+# each other with overlaps of 0.1 to 0.3 um, was refused: now accepted, its overlaps reported
+# on the terminal and in summary.json (also a lattice with exactly 0.3 um). Larger overlaps are refused naming the worst bead, or moved
 # apart with bed.import_overlaps = "relax".
 # Usage: imports_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
@@ -36,6 +36,13 @@ timeout -s KILL 20 "$dembuf" run "${scene[@]}" --set bed.import="$work/far.txt" 
 [ "$code" = 2 ] || fail "a bead at 1e8 m: exit $code: $(cat "$work/err")"
 grep -q "far.txt:3: bead reaches above the side wall" "$work/err" || fail "$(cat "$work/err")"
 [ ! -e "$work/far" ] || fail "a refused bed created the output folder"
+
+# A bed settled by LAMMPS (tests/data/lammps/in.settle).
+lammps_bed=$(cd "$(dirname "$0")/../data" && pwd)/lammps_settled_bed.txt
+"$dembuf" run "${scene[@]}" --set bed.import="$lammps_bed" --no-bed-cache --out "$work/lammps" \
+  > /dev/null 2> "$work/err" || fail "the bed settled by LAMMPS: $(cat "$work/err")"
+grep -q "imported bed: 690 beads; resting on the plate: [0-9]* beads, overlap at most 0.01" \
+  "$work/err" || fail "LAMMPS bed report: $(cat "$work/err")"
 
 "$dembuf" run "${scene[@]}" --set bed.import="$work/resting.txt" --no-bed-cache --out "$work/resting" \
   > /dev/null 2> "$work/err" || fail "the resting bed: $(cat "$work/err")"

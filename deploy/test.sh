@@ -23,7 +23,8 @@ if [ "${SANITIZE:-1}" != 0 ]; then
   # The GoogleTest suites only (the script tests need the other binaries), each binary in one
   # process. Tests that prepare beds or integrate long fine-step runs are left to the optimised
   # suite above: under the sanitizers each takes one to three minutes and adds no code path
-  # (bed files are also written and read by the store tests). Local settling's test stays
+  # (bed files are also written and read by the store tests, imported bed files parsed by their
+  # fuzzer below, with the sanitizers). Local settling's test stays
   # (about 3 minutes, with the whole-bed settling it compares with): it alone goes through the
   # settling regions' copying and renumbering.
   build-fuzz/tests/engine_tests --gtest_brief=1 \

@@ -53,7 +53,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
       {"scene", SceneToJson(scene)},
       {"warnings", SceneWarnings(scene)},
   };
-  // The paper's measurements (MODEL.md section 7).
+  // The paper's measurements (docs/model.md section 6).
   const PeakAnalysis& pk = s.peaks;
   auto optional = [](bool has, double v) { return has ? nlohmann::json(v) : nlohmann::json(); };
   j["P_N"] = pk.p_N;

@@ -34,7 +34,7 @@ ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
   const PairModuli pair_moduli = EffectiveModuli(bead_elastic, bead_elastic, shear);
   const PairModuli wall_moduli = EffectiveModuli(bead_elastic, wall_elastic, shear);
 
-  // Calibrate A on two beads of the mean diameter meeting head-on (MODEL.md section 2).
+  // Calibrate A on two beads of the mean diameter meeting head-on (docs/model.md section 2).
   const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
   const double bead_mass = mat.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);

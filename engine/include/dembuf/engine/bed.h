@@ -1,4 +1,4 @@
-// Bed preparation (MODEL.md section 4) and reuse.
+// Bed preparation (docs/model.md section 4) and reuse.
 //
 // A bed is made in up to three stages, each a cached artifact named by a content hash of
 // everything that determines it:

@@ -1,4 +1,4 @@
-// The contact law of MODEL.md section 2 (paper eqs. 1-5): Hertz normal force with
+// The contact law of docs/model.md section 2 (paper eqs. 1-5): Hertz normal force with
 // Kuwabara-Kono nonlinear damping, Mindlin tangential spring with history and a Coulomb cap.
 //
 //   Fn  = Kn xn^(3/2) + A Kn xn^(1/2) dxn/dt,  clamped at 0 (contacts never pull)

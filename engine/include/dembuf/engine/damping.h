@@ -1,4 +1,4 @@
-// Calibration of the damping constant A from a restitution coefficient (MODEL.md section 2).
+// Calibration of the damping constant A from a restitution coefficient (docs/model.md section 2).
 //
 // For the law m* x'' = -Kn x^(3/2) - A Kn x^(1/2) x' the scalings x = L X, t = (L/v) T with
 // L = (m* v^2 / Kn)^(2/5) turn every head-on collision into

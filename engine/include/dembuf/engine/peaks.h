@@ -1,4 +1,4 @@
-// The peaks of the bottom force (MODEL.md section 5, E2).
+// The peaks of the bottom force (docs/model.md sections 6 and 7, E2).
 //
 // The paper's bottom force has up to two kinds of peak: Pb, the stress wave sent through the
 // bed when the projectile strikes its surface, and Pa, the projectile pressing on the plate

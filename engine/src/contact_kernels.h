@@ -66,12 +66,4 @@ inline bool SideWallContact(const Container& box, const Vec3& x, double r, doubl
   return true;
 }
 
-/// Elastic energy stored in a contact: 2/5 Kn x^(5/2) + 1/2 Ks x^(1/2) |shear|^2.
-inline double ContactElasticEnergy(double overlap, double sqrt_r_star, const PairParams& p,
-                                   const Vec3& shear) {
-  const double sqrt_x = std::sqrt(overlap);
-  return 0.4 * p.kn_per_sqrt_r * sqrt_r_star * overlap * overlap * sqrt_x +
-         0.5 * p.ks_per_sqrt_r * sqrt_r_star * sqrt_x * shear.squaredNorm();
-}
-
 }  // namespace dembuf::detail

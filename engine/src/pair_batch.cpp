@@ -54,62 +54,47 @@ struct LaneGeometry {
   double sqrt_r_star, ai, aj;
 };
 
-// The law of contact c (one lane of a vectorized loop), component by component: each line
-// mirrors the Eigen expression of MakeGeometry, HertzMindlinForce or Resolve that it replaces
-// (same operation order, so the same bits). Its history before this step is
-// history[3 k .. 3 k + 2] (indexed here, not through a pointer to it: that form gathers).
+// Contact c (one lane of a vectorized loop): the slip from MakeGeometry's expression, the law
+// itself (ApplyContactLaw, the one copy of it), then forces and torques as Resolve makes them,
+// component by component in the same operation order, so the same bits. Its history before
+// this step is history[3 k .. 3 k + 2] (indexed here, not through a pointer to it: that form
+// gathers).
 template <bool kFriction, Partner kPartner>
 inline __attribute__((always_inline)) void ResolveLane(const LaneGeometry& g, const PairParams& p,
                                                        double dt, const double* history,
                                                        std::size_t k, const LawResults& out,
                                                        std::size_t c) {
-  const double nx = g.nx, ny = g.ny, nz = g.nz, overlap = g.overlap;
-  const double approach = -(g.vx * nx + g.vy * ny + g.vz * nz);
-  // Hertz normal force with nonlinear damping, clamped at 0.
-  const double sqrt_x = std::sqrt(overlap);
-  const double f = p.kn_per_sqrt_r * g.sqrt_r_star * sqrt_x * (overlap + p.damping_A_s * approach);
-  const double fn = f > 0.0 ? f : 0.0;
+  const double nx = g.nx, ny = g.ny, nz = g.nz;
+  ContactLawInput in;
+  in.nx = nx;
+  in.ny = ny;
+  in.nz = nz;
+  in.overlap = g.overlap;
+  in.approach_rate = -(g.vx * nx + g.vy * ny + g.vz * nz);
+  in.sqrt_r_star = g.sqrt_r_star;
+  if constexpr (kFriction) {
+    const double approach = in.approach_rate;
+    in.sx = (g.vx + approach * nx) - (g.wy * nz - g.wz * ny);
+    in.sy = (g.vy + approach * ny) - (g.wz * nx - g.wx * nz);
+    in.sz = (g.vz + approach * nz) - (g.wx * ny - g.wy * nx);
+    in.hx = history[3 * k];
+    in.hy = history[3 * k + 1];
+    in.hz = history[3 * k + 2];
+  } else {
+    in.sx = in.sy = in.sz = in.hx = in.hy = in.hz = 0.0;
+  }
+  const ContactLawOutput law = ApplyContactLaw<kFriction>(in, p, dt);
+  const double fn = law.normal;
   if constexpr (kPartner == Partner::kWall) out.normal_force[c] = fn;
   if constexpr (!kFriction) {
     out.fx[c] = fn * nx;
     out.fy[c] = fn * ny;
     out.fz[c] = fn * nz;
   } else {
-    // Slip at the contact point.
-    const double sx = (g.vx + approach * nx) - (g.wy * nz - g.wz * ny);
-    const double sy = (g.vy + approach * ny) - (g.wz * nx - g.wx * nz);
-    const double sz = (g.vz + approach * nz) - (g.wx * ny - g.wy * nx);
-    // The history, turned into the tangent plane with its length kept.
-    double hx = history[3 * k], hy = history[3 * k + 1], hz = history[3 * k + 2];
-    const double old_norm2 = hx * hx + hy * hy + hz * hz;
-    const double along = hx * nx + hy * ny + hz * nz;
-    const double px = hx - along * nx, py = hy - along * ny, pz = hz - along * nz;
-    const double new_norm2 = px * px + py * py + pz * pz;
-    // Computed in every lane and used where the scalar code would (selects, not branches).
-    const double rescale = std::sqrt(old_norm2 / new_norm2);
-    const bool turn = old_norm2 > 0.0;
-    const bool scale = new_norm2 > 0.0;
-    hx = turn ? (scale ? px * rescale : px) : hx;
-    hy = turn ? (scale ? py * rescale : py) : hy;
-    hz = turn ? (scale ? pz * rescale : pz) : hz;
-    hx = hx + sx * dt;
-    hy = hy + sy * dt;
-    hz = hz + sz * dt;
-    // Mindlin spring, capped at mu Fn; while sliding the spring shortens to the cap.
-    const double ks_x = p.ks_per_sqrt_r * g.sqrt_r_star * sqrt_x;
-    double tx = -ks_x * hx, ty = -ks_x * hy, tz = -ks_x * hz;
-    const double cap = p.friction * fn;
-    const double ft2 = tx * tx + ty * ty + tz * tz;
-    const bool slide = ft2 > cap * cap;
-    const double shorten = cap / std::sqrt(ft2);
-    tx = slide ? tx * shorten : tx;
-    ty = slide ? ty * shorten : ty;
-    tz = slide ? tz * shorten : tz;
-    const bool spring = ks_x > 0.0;
-    const double ux = -tx / ks_x, uy = -ty / ks_x, uz = -tz / ks_x;
-    out.hx[c] = slide ? (spring ? ux : 0.0) : hx;
-    out.hy[c] = slide ? (spring ? uy : 0.0) : hy;
-    out.hz[c] = slide ? (spring ? uz : 0.0) : hz;
+    const double tx = law.tx, ty = law.ty, tz = law.tz;
+    out.hx[c] = law.hx;
+    out.hy[c] = law.hy;
+    out.hz[c] = law.hz;
     out.fx[c] = fn * nx + tx;
     out.fy[c] = fn * ny + ty;
     out.fz[c] = fn * nz + tz;

@@ -1,10 +1,10 @@
 // The bead-pair contact law in batches. The pair loop finds the touching pairs of a stretch of
 // list entries first (without a branch per entry), then resolves all of them in one loop that
 // the compiler vectorizes (gathers, vector sqrt and division, masks for the two friction
-// branches), then adds the results to the beads in list order. The arithmetic of each contact
-// is exactly that of HertzMindlinForce and Resolve (same operations in the same order, no
-// fused multiply-add), and the sums are taken in the same order as a contact-by-contact loop,
-// so batching changes no bit of a result.
+// branches), then adds the results to the beads in list order. Each contact goes through
+// ApplyContactLaw, the law's one copy, and gets Resolve's forces and torques (same operations
+// in the same order, no fused multiply-add); the sums are taken in the same order as a
+// contact-by-contact loop, so batching changes no bit of a result.
 #pragma once
 
 #include <cstddef>

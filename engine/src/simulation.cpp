@@ -1100,9 +1100,8 @@ std::vector<ContactSnapshot> Simulation::Contacts() const {
       m_params, m_beads, m_projectile, *m_impl,
       [&](std::int64_t a, std::int64_t other, const Vec3& n, double overlap, const Vec3& v_rel,
           double ra, double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3& x_a) {
-        const double fn =
-            HertzNormalForce(overlap, -v_rel.dot(n), p.kn_per_sqrt_r * sqrt_r, p.damping_A_s);
-        const Vec3 ft = -p.ks_per_sqrt_r * sqrt_r * std::sqrt(overlap) * shear;
+        const double fn = HertzNormalForce(overlap, -v_rel.dot(n), sqrt_r, p);
+        const Vec3 ft = StoredSpringForce(overlap, sqrt_r, p, shear);
         out.push_back({a, other, x_a - detail::LeverArm(ra, overlap) * n, fn * n + ft, fn});
       });
   return out;
@@ -1126,7 +1125,7 @@ EnergyBreakdown Simulation::Energy() const {
   VisitContacts(m_params, m_beads, m_projectile, *m_impl,
                 [&](std::int64_t, std::int64_t, const Vec3&, double overlap, const Vec3&, double,
                     double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3&) {
-                  e.elastic_J += detail::ContactElasticEnergy(overlap, sqrt_r, p, shear);
+                  e.elastic_J += ContactElasticEnergy(overlap, sqrt_r, p, shear);
                 });
   return e;
 }

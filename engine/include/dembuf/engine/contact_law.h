@@ -5,10 +5,11 @@
 //   Fs* = -Ks xn^(1/2) xs,  |Fs| = min(|Fs*|, mu Fn)
 //   Kn  = 4/3 E* sqrt(R*),  Ks = 8 G* sqrt(R*),  R* = RA RB / (RA + RB)  (R* = R for a wall)
 //
-// How to add a law: write a Params struct of pair constants and a force function of the same
-// shape as HertzMindlinForce below; the kernels in contact_kernels.h call it per contact. Bead
-// pairs, the bulk of the work, use a vectorized copy of the law (engine/src/pair_batch.cpp);
-// tests/engine/pair_batch_test.cpp checks that the two give the same bits.
+// The law is written once, component by component (ApplyContactLaw), because that is the form
+// a vectorizing compiler needs: the batches of bead pairs and wall contacts
+// (engine/src/pair_batch.cpp) call it per vector lane, and every other contact (projectile,
+// snapshots) through the Vec3 form HertzMindlinForce, which unpacks into it. The elastic
+// energy and the force of a stored spring (for snapshots) are here too.
 #pragma once
 
 #include <algorithm>
@@ -58,9 +59,86 @@ inline PairParams MakePairParams(const PairModuli& m, double damping_A_s, double
   return {4.0 / 3.0 * m.e_star, 8.0 * m.g_star, damping_A_s, friction};
 }
 
-/// The geometry of one contact at this instant. `normal` points from the other body to this
-/// one; `overlap` > 0; `approach_rate` = d(overlap)/dt; `slip_velocity` is the tangential
-/// velocity of this body's surface relative to the other's at the contact point.
+/// Inlined even where the compiler would not: the vectorized batches need the law in the loop.
+#if defined(__GNUC__)
+#define DEMBUF_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define DEMBUF_ALWAYS_INLINE inline
+#endif
+
+/// One contact at this instant, component by component. n points from the other body to this
+/// one; `overlap` > 0; `approach_rate` = d(overlap)/dt; s is the tangential velocity of this
+/// body's surface relative to the other's at the contact point; h the tangential displacement
+/// accumulated so far (the contact's history). s and h are read only with friction.
+struct ContactLawInput {
+  double nx, ny, nz;
+  double overlap, approach_rate, sqrt_r_star;
+  double sx, sy, sz;
+  double hx, hy, hz;
+};
+
+/// What the law gives: the normal force magnitude (>= 0), the tangential force on this body
+/// and the advanced history (both zero without friction).
+struct ContactLawOutput {
+  double normal;
+  double tx, ty, tz;
+  double hx, hy, hz;
+};
+
+/// The law. The history is turned into the current tangent plane with its length kept,
+/// advanced by s dt, and shortened while sliding so that |Fs*| = mu Fn. Both sides of each of
+/// the law's choices are computed and one is selected, as in a vector lane (no branch).
+/// Cost: about 60 flops and three square roots per contact with friction, 6 and one without.
+template <bool kFriction>
+DEMBUF_ALWAYS_INLINE ContactLawOutput ApplyContactLaw(const ContactLawInput& c, const PairParams& p,
+                                                      double dt) {
+  ContactLawOutput out{};
+  const double sqrt_x = std::sqrt(c.overlap);
+  const double f =
+      p.kn_per_sqrt_r * c.sqrt_r_star * sqrt_x * (c.overlap + p.damping_A_s * c.approach_rate);
+  out.normal = f > 0.0 ? f : 0.0;  // contacts never pull
+  if constexpr (kFriction) {
+    const double nx = c.nx, ny = c.ny, nz = c.nz;
+    // Keep the history in the tangent plane as the contact rolls: drop its normal part and
+    // restore its length, so that rotating the pair does not create or destroy stored shear.
+    double hx = c.hx, hy = c.hy, hz = c.hz;
+    const double old_norm2 = hx * hx + hy * hy + hz * hz;
+    const double along = hx * nx + hy * ny + hz * nz;
+    const double px = hx - along * nx, py = hy - along * ny, pz = hz - along * nz;
+    const double new_norm2 = px * px + py * py + pz * pz;
+    const double rescale = std::sqrt(old_norm2 / new_norm2);
+    const bool turn = old_norm2 > 0.0;
+    const bool scale = new_norm2 > 0.0;
+    hx = turn ? (scale ? px * rescale : px) : hx;
+    hy = turn ? (scale ? py * rescale : py) : hy;
+    hz = turn ? (scale ? pz * rescale : pz) : hz;
+    hx = hx + c.sx * dt;
+    hy = hy + c.sy * dt;
+    hz = hz + c.sz * dt;
+    // Mindlin spring, capped at mu Fn; while sliding the spring shortens to the cap.
+    const double ks_x = p.ks_per_sqrt_r * c.sqrt_r_star * sqrt_x;
+    double tx = -ks_x * hx, ty = -ks_x * hy, tz = -ks_x * hz;
+    const double cap = p.friction * out.normal;
+    const double ft2 = tx * tx + ty * ty + tz * tz;
+    const bool slide = ft2 > cap * cap;
+    const double shorten = cap / std::sqrt(ft2);
+    tx = slide ? tx * shorten : tx;
+    ty = slide ? ty * shorten : ty;
+    tz = slide ? tz * shorten : tz;
+    const bool spring = ks_x > 0.0;
+    const double ux = -tx / ks_x, uy = -ty / ks_x, uz = -tz / ks_x;
+    out.hx = slide ? (spring ? ux : 0.0) : hx;
+    out.hy = slide ? (spring ? uy : 0.0) : hy;
+    out.hz = slide ? (spring ? uz : 0.0) : hz;
+    out.tx = tx;
+    out.ty = ty;
+    out.tz = tz;
+  }
+  return out;
+}
+
+/// The geometry of one contact, as vectors: `normal` points from the other body to this one;
+/// `slip_velocity` is ContactLawInput's s.
 struct ContactGeometry {
   Vec3 normal;
   double overlap;
@@ -75,45 +153,41 @@ struct ContactForce {
   Vec3 tangential;
 };
 
-/// Normal force magnitude (eq. 1 with the clamp).
-inline double HertzNormalForce(double overlap, double approach_rate, double kn, double damping) {
-  double sqrt_x = std::sqrt(overlap);
-  double f = kn * sqrt_x * (overlap + damping * approach_rate);
-  return f > 0.0 ? f : 0.0;
-}
-
-/// The complete law. `shear` is the accumulated tangential displacement (the contact's
-/// history); it is rotated into the current tangent plane, advanced by slip * dt and
-/// truncated while sliding so that |Fs*| = mu Fn.
-/// Cost: about 60 flops and one sqrt per contact with friction, 12 without.
+/// The law in vector form; `shear` is the contact's history, advanced in place.
 template <bool kFriction>
 inline ContactForce HertzMindlinForce(const ContactGeometry& c, const PairParams& p, double dt,
                                       Vec3& shear) {
-  const double fn =
-      HertzNormalForce(c.overlap, c.approach_rate, p.kn_per_sqrt_r * c.sqrt_r_star, p.damping_A_s);
-  if constexpr (!kFriction) {
-    return {fn, Vec3::Zero()};
-  } else {
-    // Keep the history in the tangent plane as the contact rolls: drop its normal part and
-    // restore its length, so that rotating the pair does not create or destroy stored shear.
-    const double old_norm2 = shear.squaredNorm();
-    if (old_norm2 > 0.0) {
-      shear -= shear.dot(c.normal) * c.normal;
-      const double new_norm2 = shear.squaredNorm();
-      if (new_norm2 > 0.0) shear *= std::sqrt(old_norm2 / new_norm2);
-    }
-    shear += c.slip_velocity * dt;
-    const double ks_x = p.ks_per_sqrt_r * c.sqrt_r_star * std::sqrt(c.overlap);
-    Vec3 ft = -ks_x * shear;
-    const double cap = p.friction * fn;
-    const double ft2 = ft.squaredNorm();
-    if (ft2 > cap * cap) {
-      ft *= cap / std::sqrt(ft2);
-      // Sliding: shorten the spring to what the Coulomb limit supports.
-      shear = ks_x > 0.0 ? Vec3(-ft / ks_x) : Vec3::Zero();
-    }
-    return {fn, ft};
-  }
+  const ContactLawInput in{c.normal.x(),        c.normal.y(),        c.normal.z(),
+                           c.overlap,           c.approach_rate,     c.sqrt_r_star,
+                           c.slip_velocity.x(), c.slip_velocity.y(), c.slip_velocity.z(),
+                           shear.x(),           shear.y(),           shear.z()};
+  const ContactLawOutput out = ApplyContactLaw<kFriction>(in, p, dt);
+  if constexpr (kFriction) shear = Vec3(out.hx, out.hy, out.hz);
+  return {out.normal, Vec3(out.tx, out.ty, out.tz)};
+}
+
+/// Normal force magnitude alone (eq. 1 with the clamp).
+inline double HertzNormalForce(double overlap, double approach_rate, double sqrt_r_star,
+                               const PairParams& p) {
+  ContactLawInput in{};
+  in.overlap = overlap;
+  in.approach_rate = approach_rate;
+  in.sqrt_r_star = sqrt_r_star;
+  return ApplyContactLaw<false>(in, p, 0.0).normal;
+}
+
+/// The force of a stored tangential spring, without advancing it (what a snapshot shows).
+inline Vec3 StoredSpringForce(double overlap, double sqrt_r_star, const PairParams& p,
+                              const Vec3& shear) {
+  return -(p.ks_per_sqrt_r * sqrt_r_star * std::sqrt(overlap)) * shear;
+}
+
+/// Elastic energy stored in a contact: 2/5 Kn x^(5/2) + 1/2 Ks x^(1/2) |shear|^2.
+inline double ContactElasticEnergy(double overlap, double sqrt_r_star, const PairParams& p,
+                                   const Vec3& shear) {
+  const double sqrt_x = std::sqrt(overlap);
+  return 0.4 * p.kn_per_sqrt_r * sqrt_r_star * overlap * overlap * sqrt_x +
+         0.5 * p.ks_per_sqrt_r * sqrt_r_star * sqrt_x * shear.squaredNorm();
 }
 
 }  // namespace dembuf

@@ -17,7 +17,7 @@ namespace dembuf {
 namespace {
 
 // Measured costs (tests/bench/dembuf_bench.cpp, one thread of the 2-core machine of the
-// README's Speed section): a bead-step of a bed at rest (settling: many contacts) and of an
+// figures of docs/performance.md): a bead-step of a bed at rest (settling: many contacts) and of an
 // impact, and a step's fixed cost (a lone projectile on the plate: 12.8 million steps in
 // 17.8 s). Two threads ran a 30,000-bead bed 1.8 to 2.0 times as fast as one.
 constexpr double kSettleSecondsPerBeadStep = 60e-9;

@@ -310,7 +310,7 @@ TEST(HardCase, BedImpactWithFrictionZeroOneAndFive) {
     SCOPED_TRACE("mu_pp = " + std::to_string(mu));
     Scene scene = AuditedBedScene(2.0);
     scene.material.friction_bead_bead = mu;
-    scene.bed.friction_settle_tolerance = 1e-3;  // without friction the bed creeps (README)
+    scene.bed.friction_settle_tolerance = 1e-3;  // without friction the bed creeps (scene.h)
     const ImpactAudit a = AuditImpact(scene, StepsFor(scene, AuditedDuration(0.008)));
     ExpectSoundRun(a);
   }

@@ -1,7 +1,7 @@
 // A scene: everything that defines one impact simulation, as plain data in SI units.
 //
 // Defaults are the paper's Table 1 (see docs/model.md section 3). Choices the paper leaves open are
-// marked [choice] and documented in README.md. Every field has a dotted name (for scene files,
+// marked [choice] and documented in docs/model.md. Every field has a dotted name (for scene files,
 // `--set` overrides and the service API) defined once, in scene_fields.cpp.
 #pragma once
 

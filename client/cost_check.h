@@ -1,4 +1,4 @@
-// The CLI's side of the resource estimate (dembuf/engine/resource_estimate.h): `--dry-run`
+// The CLI's side of the resource estimate (dembuf/study/resource_estimate.h): `--dry-run`
 // prints it, and a run or sweep past this machine's limits (half its memory, the free space
 // where it writes, a day of computing) stops before starting unless given `--yes`.
 #pragma once
@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/resource_estimate.h"
-#include "dembuf/engine/scene.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/resource_estimate.h"
+#include "dembuf/study/scene.h"
 
 namespace dembuf::cli {
 

@@ -18,17 +18,19 @@
 #include <thread>
 
 #include "cost_check.h"
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/resource_estimate.h"
-#include "dembuf/engine/scene_fields.h"
-#include "dembuf/engine/sweep_plan.h"
-#include "dembuf/engine/version.h"
-#include "dembuf/report/run_output.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/resource_estimate.h"
+#include "dembuf/study/run_output.h"
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/version.h"
 #include "plots.h"
 #include "progress.h"
+#if DEMBUF_SERVICE
 #include "remote.h"
+#endif
 #include "scene_input.h"
 #include "snapshot_output.h"
 #include "sweep.h"
@@ -362,6 +364,7 @@ int main(int argc, char** argv) {
   sweep->add_flag("--local", opt.local, "run here even when a server is configured");
   sweep->add_option("--name", opt.name, "a name for the sweep (remote)");
 
+#if DEMBUF_SERVICE
   // Remote mode.
   std::string server_flag;
   cli::Remote remote;
@@ -416,6 +419,7 @@ int main(int argc, char** argv) {
   cancel->add_flag("--sweep", is_sweep, "cancel every unfinished job of the sweep");
 
   CLI::App* info = app.add_subcommand("server-info", "the server's version, workers and queue");
+#endif
 
   CLI::App* plot = app.add_subcommand("plot", "draw PNG plots of a run or sweep folder (gnuplot)");
   std::string plot_dir;
@@ -426,6 +430,20 @@ int main(int argc, char** argv) {
   bool print_flag = false;
   scene_cmd->add_flag("--print", print_flag, "print the complete scene as TOML (the default)");
 
+#if !DEMBUF_SERVICE
+  // Without the service the remote commands do not exist: say why instead of CLI11's
+  // "a subcommand is required".
+  for (const char* remote :
+       {"submit", "list", "status", "watch", "fetch", "cancel", "server-info"}) {
+    if (argc > 1 && std::string(argv[1]) == remote) {
+      std::fprintf(stderr,
+                   "dembuf: %s talks to a dembufd, and this dembuf was built without the service "
+                   "(cmake -DDEMBUF_SERVICE=OFF); run and sweep work here\n",
+                   remote);
+      return kExitBadInput;
+    }
+  }
+#endif
   app.footer(
       "Exit codes: 0 done; 1 a runtime failure (files, the server); 2 bad input (a scene, a "
       "request, the arguments); 3 a run became unstable or a remote job failed; 130 and 143 "
@@ -437,6 +455,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : kExitBadInput;
   }
 
+#if DEMBUF_SERVICE
   remote.address = cli::ServerAddress(server_flag);
   auto from_env = [](std::string& value, const char* name) {
     if (const char* env = std::getenv(name); value.empty() && env && *env) value = env;
@@ -450,13 +469,17 @@ int main(int argc, char** argv) {
     remote.owner = user && *user ? user : "anonymous";
   }
   const cli::RemoteScene remote_scene{opt.scene_file, opt.preset, opt.accuracy, opt.overrides};
+#endif
   try {
     if (run->parsed()) return RunLocal(opt);
     if (sweep->parsed()) {
+#if DEMBUF_SERVICE
       if (!opt.local && cli::ServerGiven(server_flag))
         return cli::RemoteSweep(remote, remote_scene, opt.vary, opt.seeds, opt.name);
+#endif
       return SweepCommand(opt);
     }
+#if DEMBUF_SERVICE
     if (submit->parsed()) return cli::RemoteSubmit(remote, remote_scene, opt.name);
     if (list->parsed()) return cli::RemoteList(remote, list_options);
     if (status->parsed()) return cli::RemoteStatus(remote, id, is_sweep);
@@ -465,6 +488,7 @@ int main(int argc, char** argv) {
       return cli::RemoteFetch(remote, id, is_sweep, fetch_dir, !no_plots, fetch_force);
     if (cancel->parsed()) return cli::RemoteCancel(remote, id, is_sweep);
     if (info->parsed()) return cli::RemoteServerInfo(remote);
+#endif
     if (plot->parsed()) {
       for (const auto& file : cli::PlotFolder(plot_dir)) std::printf("%s\n", file.c_str());
       return 0;

@@ -4,7 +4,7 @@
 #include <chrono>
 #include <cstdio>
 
-#include "dembuf/engine/impact.h"
+#include "dembuf/study/impact.h"
 
 namespace dembuf::cli {
 

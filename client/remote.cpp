@@ -14,10 +14,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/sweep_plan.h"
-#include "dembuf/report/run_output.h"
-#include "dembuf/report/sweep_report.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/run_output.h"
+#include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/sweep_report.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "plots.h"
 

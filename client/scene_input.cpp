@@ -1,7 +1,7 @@
 #include "scene_input.h"
 
-#include "dembuf/engine/presets.h"
-#include "dembuf/engine/scene_fields.h"
+#include "dembuf/study/presets.h"
+#include "dembuf/study/scene_fields.h"
 
 namespace dembuf::cli {
 

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/engine/scene.h"
+#include "dembuf/study/scene.h"
 
 namespace dembuf::cli {
 

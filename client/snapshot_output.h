@@ -9,7 +9,7 @@
 
 #include <filesystem>
 
-#include "dembuf/engine/impact.h"
+#include "dembuf/study/impact.h"
 
 namespace dembuf::cli {
 

@@ -16,13 +16,13 @@
 #include <optional>
 #include <set>
 
-#include "dembuf/engine/core_share.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/scene_fields.h"
-#include "dembuf/engine/sweep_plan.h"
-#include "dembuf/report/run_output.h"
-#include "dembuf/report/sweep_report.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/core_share.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/run_output.h"
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/sweep_report.h"
 
 namespace dembuf::cli {
 

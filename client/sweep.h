@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/scene.h"
-#include "dembuf/engine/sweep_plan.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/scene.h"
+#include "dembuf/study/sweep_plan.h"
 
 namespace dembuf::cli {
 

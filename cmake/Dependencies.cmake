@@ -7,11 +7,13 @@ find_package(nlohmann_json 3.10 REQUIRED CONFIG)
 find_package(toml11 3.7 REQUIRED CONFIG)
 find_package(CLI11 2.1 REQUIRED CONFIG)
 # The service: gRPC and Protobuf for the API, SQLite for the store, spdlog for logs.
-find_package(Protobuf 3.12 REQUIRED)
-find_package(gRPC 1.30 REQUIRED CONFIG)
-find_package(SQLite3 REQUIRED)
-find_package(spdlog 1.8 REQUIRED CONFIG)
-find_package(OpenSSL REQUIRED)  # SHA-256 of API tokens
+if(DEMBUF_SERVICE)
+  find_package(Protobuf 3.12 REQUIRED)
+  find_package(gRPC 1.30 REQUIRED CONFIG)
+  find_package(SQLite3 REQUIRED)
+  find_package(spdlog 1.8 REQUIRED CONFIG)
+  find_package(OpenSSL REQUIRED)  # SHA-256 of API tokens
+endif()
 if(DEMBUF_BUILD_TESTS)
   find_package(GTest REQUIRED CONFIG)
 endif()

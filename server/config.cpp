@@ -10,7 +10,7 @@
 #include <variant>
 #include <vector>
 
-#include "dembuf/engine/text_limits.h"
+#include "dembuf/study/text_limits.h"
 
 namespace dembuf::server {
 

@@ -22,7 +22,7 @@
 
 #include "auth.h"
 #include "config.h"
-#include "dembuf/engine/version.h"
+#include "dembuf/study/version.h"
 #include "instance.h"
 #include "scheduler.h"
 #include "service.h"

@@ -3,9 +3,9 @@
 #include <charconv>
 #include <string>
 
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/presets.h"
-#include "dembuf/engine/scene_fields.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/presets.h"
+#include "dembuf/study/scene_fields.h"
 
 namespace dembuf::server {
 

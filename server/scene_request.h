@@ -1,7 +1,7 @@
 // From a request's SceneSpec to a validated Scene, and what the daemon refuses to run.
 #pragma once
 
-#include "dembuf/engine/scene.h"
+#include "dembuf/study/scene.h"
 #include "dembuf/v1/dembuf.pb.h"
 
 namespace dembuf::server {

@@ -4,12 +4,12 @@
 
 #include <algorithm>
 
-#include "dembuf/engine/core_share.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/scene_fields.h"
-#include "dembuf/engine/version.h"
-#include "dembuf/report/run_output.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/core_share.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/run_output.h"
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/version.h"
 #include "fault_injection.h"
 
 namespace dembuf::server {

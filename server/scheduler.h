@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "dembuf/engine/bed.h"
+#include "dembuf/study/bed.h"
 #include "live_job.h"
 #include "store.h"
 

@@ -6,13 +6,13 @@
 #include <thread>
 
 #include "auth.h"
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/content_hash.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/scene_fields.h"
-#include "dembuf/engine/sweep_plan.h"
-#include "dembuf/engine/version.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/content_hash.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/version.h"
 #include "scene_request.h"
 
 namespace dembuf::server {

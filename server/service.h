@@ -8,7 +8,7 @@
 #include <mutex>
 #include <string>
 
-#include "dembuf/engine/resource_estimate.h"
+#include "dembuf/study/resource_estimate.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "scheduler.h"
 #include "store.h"

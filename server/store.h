@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/sweep_plan.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/sweep_plan.h"
 #include "sqlite.h"
 
 namespace dembuf::server {

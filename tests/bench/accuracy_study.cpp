@@ -23,9 +23,9 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/presets.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/presets.h"
 
 using namespace dembuf;
 

@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 
-#include "dembuf/engine/damping.h"
-#include "dembuf/engine/impact.h"
+#include "dembuf/core/damping.h"
+#include "dembuf/study/impact.h"
 #include "engine/two_body.h"
 
 using namespace dembuf;

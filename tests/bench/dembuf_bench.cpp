@@ -36,11 +36,11 @@
 #include <string>
 #include <thread>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/presets.h"
-#include "dembuf/engine/scene_fields.h"
-#include "dembuf/engine/sweep_plan.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/presets.h"
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/sweep_plan.h"
 #include "sweep.h"
 
 using namespace dembuf;

@@ -8,10 +8,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/engine/bed_io.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/scene_fields.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/bed_io.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/scene_fields.h"
 #include "engine/squeezed_bed.h"
 #include "engine/temp_path.h"
 

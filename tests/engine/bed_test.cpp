@@ -12,10 +12,10 @@
 #include <set>
 #include <thread>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/core_share.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/core_share.h"
+#include "dembuf/study/impact.h"
 
 #include "engine/small_bed.h"
 #include "engine/temp_path.h"

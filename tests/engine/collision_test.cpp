@@ -4,7 +4,7 @@
 
 #include <numbers>
 
-#include "dembuf/engine/damping.h"
+#include "dembuf/core/damping.h"
 #include "engine/two_body.h"
 
 namespace dembuf::test {

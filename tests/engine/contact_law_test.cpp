@@ -6,7 +6,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "dembuf/engine/contact_law.h"
+#include "dembuf/core/contact_law.h"
 #include "engine/two_body.h"
 
 namespace dembuf::test {

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "dembuf/engine/damping.h"
+#include "dembuf/core/damping.h"
 
 namespace dembuf {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include "dembuf/engine/impact.h"
+#include "dembuf/study/impact.h"
 
 namespace dembuf {
 namespace {

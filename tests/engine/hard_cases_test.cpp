@@ -8,10 +8,10 @@
 #include <fstream>
 #include <numbers>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/scene_fields.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/scene_fields.h"
 #include "engine/impact_audit.h"
 #include "engine/small_bed.h"
 #include "engine/squeezed_bed.h"

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/engine/impact.h"
+#include "dembuf/study/impact.h"
 
 namespace dembuf::test {
 

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <fstream>
 
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/scene_fields.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/scene_fields.h"
 #include "engine/temp_path.h"
 #include "engine/two_body.h"
 

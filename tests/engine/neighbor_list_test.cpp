@@ -5,7 +5,7 @@
 #include <random>
 #include <set>
 
-#include "neighbor_list.h"
+#include "dembuf/core/neighbor_list.h"
 
 namespace dembuf::detail {
 namespace {

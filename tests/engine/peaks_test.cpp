@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "dembuf/engine/peaks.h"
+#include "dembuf/study/peaks.h"
 
 namespace dembuf {
 namespace {

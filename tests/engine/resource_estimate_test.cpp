@@ -5,11 +5,11 @@
 
 #include <cmath>
 
-#include "dembuf/engine/bed.h"
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/resource_estimate.h"
-#include "dembuf/engine/scene_fields.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/resource_estimate.h"
+#include "dembuf/study/scene_fields.h"
 #include "engine/small_bed.h"
 
 namespace dembuf {

@@ -4,9 +4,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/presets.h"
-#include "dembuf/engine/scene_fields.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/presets.h"
+#include "dembuf/study/scene_fields.h"
 #include "engine/temp_path.h"
 
 namespace dembuf {

@@ -7,10 +7,10 @@
 #include <sstream>
 #include <string>
 
-#include "dembuf/engine/errors.h"
-#include "dembuf/engine/presets.h"
-#include "dembuf/engine/scene_fields.h"
-#include "dembuf/engine/text_limits.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/presets.h"
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/text_limits.h"
 #include "engine/temp_path.h"
 
 namespace dembuf {

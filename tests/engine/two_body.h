@@ -5,8 +5,8 @@
 #include <cmath>
 #include <optional>
 
-#include "dembuf/engine/impact.h"
-#include "dembuf/engine/simulation.h"
+#include "dembuf/core/simulation.h"
+#include "dembuf/study/impact.h"
 
 namespace dembuf::test {
 

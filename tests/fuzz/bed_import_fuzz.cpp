@@ -7,8 +7,8 @@
 #include <sstream>
 #include <string>
 
-#include "dembuf/engine/bed_io.h"
-#include "dembuf/engine/errors.h"
+#include "dembuf/core/errors.h"
+#include "dembuf/study/bed_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

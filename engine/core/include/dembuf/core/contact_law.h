@@ -1,0 +1,193 @@
+// The contact law of docs/model.md section 2 (paper eqs. 1-5): Hertz normal force with
+// Kuwabara-Kono nonlinear damping, Mindlin tangential spring with history and a Coulomb cap.
+//
+//   Fn  = Kn xn^(3/2) + A Kn xn^(1/2) dxn/dt,  clamped at 0 (contacts never pull)
+//   Fs* = -Ks xn^(1/2) xs,  |Fs| = min(|Fs*|, mu Fn)
+//   Kn  = 4/3 E* sqrt(R*),  Ks = 8 G* sqrt(R*),  R* = RA RB / (RA + RB)  (R* = R for a wall)
+//
+// The law is written once, component by component (ApplyContactLaw), because that is the form
+// a vectorizing compiler needs: the batches of bead pairs and wall contacts
+// (engine/core/src/pair_batch.cpp) call it per vector lane, and every other contact (projectile,
+// snapshots) through the Vec3 form HertzMindlinForce, which unpacks into it. The elastic
+// energy and the force of a stored spring (for snapshots) are here too.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "dembuf/core/vec.h"
+
+namespace dembuf {
+
+/// Elastic constants of one material.
+struct Elastic {
+  double youngs_modulus_Pa;
+  double poisson_ratio;
+  double ShearModulus() const { return youngs_modulus_Pa / (2.0 * (1.0 + poisson_ratio)); }
+};
+
+/// Which effective shear modulus the tangential stiffness uses.
+enum class ShearStiffness {
+  kPaper,    ///< 1/G* = (1-nu1)/G1 + (1-nu2)/G2: G/(2(1-nu)) for a pair of one material
+  kMindlin,  ///< 1/G* = (2-nu1)/G1 + (2-nu2)/G2: G/(2(2-nu)), Mindlin's theory
+};
+
+/// Effective moduli of a pair of materials: 1/E* = (1-nu1^2)/E1 + (1-nu2^2)/E2.
+struct PairModuli {
+  double e_star;
+  double g_star;
+};
+
+inline PairModuli EffectiveModuli(const Elastic& a, const Elastic& b, ShearStiffness shear) {
+  double inv_e = (1.0 - a.poisson_ratio * a.poisson_ratio) / a.youngs_modulus_Pa +
+                 (1.0 - b.poisson_ratio * b.poisson_ratio) / b.youngs_modulus_Pa;
+  double shift = shear == ShearStiffness::kPaper ? 1.0 : 2.0;
+  double inv_g =
+      (shift - a.poisson_ratio) / a.ShearModulus() + (shift - b.poisson_ratio) / b.ShearModulus();
+  return {1.0 / inv_e, 1.0 / inv_g};
+}
+
+/// Constants of one kind of pair (bead-bead, bead-wall, ...): everything but the radii.
+struct PairParams {
+  double kn_per_sqrt_r;  ///< 4/3 E*: Kn = kn_per_sqrt_r * sqrt(R*)
+  double ks_per_sqrt_r;  ///< 8 G*:   Ks = ks_per_sqrt_r * sqrt(R*)
+  double damping_A_s;    ///< A
+  double friction;       ///< mu
+};
+
+inline PairParams MakePairParams(const PairModuli& m, double damping_A_s, double friction) {
+  return {4.0 / 3.0 * m.e_star, 8.0 * m.g_star, damping_A_s, friction};
+}
+
+/// Inlined even where the compiler would not: the vectorized batches need the law in the loop.
+#if defined(__GNUC__)
+#define DEMBUF_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define DEMBUF_ALWAYS_INLINE inline
+#endif
+
+/// One contact at this instant, component by component. n points from the other body to this
+/// one; `overlap` > 0; `approach_rate` = d(overlap)/dt; s is the tangential velocity of this
+/// body's surface relative to the other's at the contact point; h the tangential displacement
+/// accumulated so far (the contact's history). s and h are read only with friction.
+struct ContactLawInput {
+  double nx, ny, nz;
+  double overlap, approach_rate, sqrt_r_star;
+  double sx, sy, sz;
+  double hx, hy, hz;
+};
+
+/// What the law gives: the normal force magnitude (>= 0), the tangential force on this body
+/// and the advanced history (both zero without friction).
+struct ContactLawOutput {
+  double normal;
+  double tx, ty, tz;
+  double hx, hy, hz;
+};
+
+/// The law. The history is turned into the current tangent plane with its length kept,
+/// advanced by s dt, and shortened while sliding so that |Fs*| = mu Fn. Both sides of each of
+/// the law's choices are computed and one is selected, as in a vector lane (no branch).
+/// Cost: about 60 flops and three square roots per contact with friction, 6 and one without.
+template <bool kFriction>
+DEMBUF_ALWAYS_INLINE ContactLawOutput ApplyContactLaw(const ContactLawInput& c, const PairParams& p,
+                                                      double dt) {
+  ContactLawOutput out{};
+  const double sqrt_x = std::sqrt(c.overlap);
+  const double f =
+      p.kn_per_sqrt_r * c.sqrt_r_star * sqrt_x * (c.overlap + p.damping_A_s * c.approach_rate);
+  out.normal = f > 0.0 ? f : 0.0;  // contacts never pull
+  if constexpr (kFriction) {
+    const double nx = c.nx, ny = c.ny, nz = c.nz;
+    // Keep the history in the tangent plane as the contact rolls: drop its normal part and
+    // restore its length, so that rotating the pair does not create or destroy stored shear.
+    double hx = c.hx, hy = c.hy, hz = c.hz;
+    const double old_norm2 = hx * hx + hy * hy + hz * hz;
+    const double along = hx * nx + hy * ny + hz * nz;
+    const double px = hx - along * nx, py = hy - along * ny, pz = hz - along * nz;
+    const double new_norm2 = px * px + py * py + pz * pz;
+    const double rescale = std::sqrt(old_norm2 / new_norm2);
+    const bool turn = old_norm2 > 0.0;
+    const bool scale = new_norm2 > 0.0;
+    hx = turn ? (scale ? px * rescale : px) : hx;
+    hy = turn ? (scale ? py * rescale : py) : hy;
+    hz = turn ? (scale ? pz * rescale : pz) : hz;
+    hx = hx + c.sx * dt;
+    hy = hy + c.sy * dt;
+    hz = hz + c.sz * dt;
+    // Mindlin spring, capped at mu Fn; while sliding the spring shortens to the cap.
+    const double ks_x = p.ks_per_sqrt_r * c.sqrt_r_star * sqrt_x;
+    double tx = -ks_x * hx, ty = -ks_x * hy, tz = -ks_x * hz;
+    const double cap = p.friction * out.normal;
+    const double ft2 = tx * tx + ty * ty + tz * tz;
+    const bool slide = ft2 > cap * cap;
+    const double shorten = cap / std::sqrt(ft2);
+    tx = slide ? tx * shorten : tx;
+    ty = slide ? ty * shorten : ty;
+    tz = slide ? tz * shorten : tz;
+    const bool spring = ks_x > 0.0;
+    const double ux = -tx / ks_x, uy = -ty / ks_x, uz = -tz / ks_x;
+    out.hx = slide ? (spring ? ux : 0.0) : hx;
+    out.hy = slide ? (spring ? uy : 0.0) : hy;
+    out.hz = slide ? (spring ? uz : 0.0) : hz;
+    out.tx = tx;
+    out.ty = ty;
+    out.tz = tz;
+  }
+  return out;
+}
+
+/// The geometry of one contact, as vectors: `normal` points from the other body to this one;
+/// `slip_velocity` is ContactLawInput's s.
+struct ContactGeometry {
+  Vec3 normal;
+  double overlap;
+  double approach_rate;
+  Vec3 slip_velocity;
+  double sqrt_r_star;
+};
+
+/// Force on this body: the normal magnitude (>= 0) and the tangential vector.
+struct ContactForce {
+  double normal;
+  Vec3 tangential;
+};
+
+/// The law in vector form; `shear` is the contact's history, advanced in place.
+template <bool kFriction>
+inline ContactForce HertzMindlinForce(const ContactGeometry& c, const PairParams& p, double dt,
+                                      Vec3& shear) {
+  const ContactLawInput in{c.normal.x(),        c.normal.y(),        c.normal.z(),
+                           c.overlap,           c.approach_rate,     c.sqrt_r_star,
+                           c.slip_velocity.x(), c.slip_velocity.y(), c.slip_velocity.z(),
+                           shear.x(),           shear.y(),           shear.z()};
+  const ContactLawOutput out = ApplyContactLaw<kFriction>(in, p, dt);
+  if constexpr (kFriction) shear = Vec3(out.hx, out.hy, out.hz);
+  return {out.normal, Vec3(out.tx, out.ty, out.tz)};
+}
+
+/// Normal force magnitude alone (eq. 1 with the clamp).
+inline double HertzNormalForce(double overlap, double approach_rate, double sqrt_r_star,
+                               const PairParams& p) {
+  ContactLawInput in{};
+  in.overlap = overlap;
+  in.approach_rate = approach_rate;
+  in.sqrt_r_star = sqrt_r_star;
+  return ApplyContactLaw<false>(in, p, 0.0).normal;
+}
+
+/// The force of a stored tangential spring, without advancing it (what a snapshot shows).
+inline Vec3 StoredSpringForce(double overlap, double sqrt_r_star, const PairParams& p,
+                              const Vec3& shear) {
+  return -(p.ks_per_sqrt_r * sqrt_r_star * std::sqrt(overlap)) * shear;
+}
+
+/// Elastic energy stored in a contact: 2/5 Kn x^(5/2) + 1/2 Ks x^(1/2) |shear|^2.
+inline double ContactElasticEnergy(double overlap, double sqrt_r_star, const PairParams& p,
+                                   const Vec3& shear) {
+  const double sqrt_x = std::sqrt(overlap);
+  return 0.4 * p.kn_per_sqrt_r * sqrt_r_star * overlap * overlap * sqrt_x +
+         0.5 * p.ks_per_sqrt_r * sqrt_r_star * sqrt_x * shear.squaredNorm();
+}
+
+}  // namespace dembuf

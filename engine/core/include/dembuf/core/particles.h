@@ -1,0 +1,80 @@
+// Bead state as structure of arrays (one contiguous array per property), and the rigid bodies.
+#pragma once
+
+#include <cstddef>
+#include <numbers>
+#include <vector>
+
+#include "dembuf/core/vec.h"
+
+namespace dembuf {
+
+/// All beads. Indices are bead ids; every array has size().
+struct ParticleState {
+  std::vector<Vec3> position;
+  std::vector<Vec3> velocity;
+  std::vector<Vec3> angular_velocity;
+  std::vector<Vec3> force;   ///< contact force of the current step (gravity apart)
+  std::vector<Vec3> torque;  ///< contact torque of the current step
+  std::vector<double> radius;
+  std::vector<double> mass;
+  std::vector<double> inv_mass;     ///< 0 holds a bead in place (mass still enters its contacts)
+  std::vector<double> inv_inertia;  ///< 1 / (2/5 m r^2), solid spheres
+
+  std::size_t size() const { return position.size(); }
+
+  /// Appends a bead at rest.
+  void Add(const Vec3& x, double r, double density_kg_m3) {
+    double m = density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    position.push_back(x);
+    velocity.push_back(Vec3::Zero());
+    angular_velocity.push_back(Vec3::Zero());
+    force.push_back(Vec3::Zero());
+    torque.push_back(Vec3::Zero());
+    radius.push_back(r);
+    mass.push_back(m);
+    inv_mass.push_back(1.0 / m);
+    inv_inertia.push_back(1.0 / (0.4 * m * r * r));
+  }
+
+  /// Appends bead i of `from` with every property as it is.
+  void AddCopy(const ParticleState& from, std::size_t i) {
+    position.push_back(from.position[i]);
+    velocity.push_back(from.velocity[i]);
+    angular_velocity.push_back(from.angular_velocity[i]);
+    force.push_back(from.force[i]);
+    torque.push_back(from.torque[i]);
+    radius.push_back(from.radius[i]);
+    mass.push_back(from.mass[i]);
+    inv_mass.push_back(from.inv_mass[i]);
+    inv_inertia.push_back(from.inv_inertia[i]);
+  }
+
+  /// Kinetic energy of bead i, translation and rotation [J].
+  double KineticEnergy(std::size_t i) const {
+    return 0.5 * mass[i] * velocity[i].squaredNorm() +
+           0.5 / inv_inertia[i] * angular_velocity[i].squaredNorm();
+  }
+};
+
+/// A rigid sphere with its own mass (the projectile).
+struct RigidSphere {
+  Vec3 position = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();
+  Vec3 angular_velocity = Vec3::Zero();
+  Vec3 force = Vec3::Zero();
+  Vec3 torque = Vec3::Zero();
+  double radius = 0.0;
+  double mass = 0.0;
+
+  double Inertia() const { return 0.4 * mass * radius * radius; }
+};
+
+/// The container: bottom plate at z = 0 and a cylindrical side wall around the z axis that
+/// acts on bodies with 0 <= z <= height.
+struct Container {
+  double radius_m = 0.0;
+  double height_m = 0.0;
+};
+
+}  // namespace dembuf

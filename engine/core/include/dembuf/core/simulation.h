@@ -1,0 +1,161 @@
+// The DEM integrator: beads, an optional projectile and the container, advanced with velocity
+// Verlet. This is the engine's core; impact.h builds one from a Scene and runs an impact.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "dembuf/core/contact_law.h"
+#include "dembuf/core/particles.h"
+
+namespace dembuf {
+
+/// Constants of the world, fixed for a run.
+struct WorldParams {
+  Container container;
+  PairParams sphere_pair;  ///< bead-bead and projectile-bead
+  PairParams sphere_wall;  ///< bead and projectile against plate and side wall
+  double gravity_m_s2 = 9.81;
+  double dt_s = 1e-6;
+  /// Neighbor-list skin as a fraction of the smallest bead diameter.
+  double skin_fraction = 0.2;
+  /// Threads for the force and integration loops; 0: all the machine's cores. Results do not
+  /// depend on this number.
+  int threads = 0;
+};
+
+/// What the plate, the wall and the projectile felt in the last step.
+struct StepObservables {
+  double plate_force_N = 0.0;   ///< total normal force on the plate (beads + projectile)
+  double wall_force_z_N = 0.0;  ///< vertical force of the side wall on beads + projectile
+  Vec3 projectile_force_N = Vec3::Zero();  ///< contact force on the projectile
+  int projectile_contacts = 0;
+  int bead_contacts = 0;  ///< bead-bead contacts
+  /// Largest overlap / smaller radius of any contact in the step. Hertz theory assumes small
+  /// strains; values above 0.1 mean the scene is beyond what the model describes well.
+  double max_overlap_ratio = 0.0;
+};
+
+/// The tangential history of one contact, for saving a bed exactly. `other` is a bead id, or
+/// kPlate / kSideWall.
+struct ContactHistoryEntry {
+  static constexpr std::uint32_t kPlate = 0xFFFFFFFF;
+  static constexpr std::uint32_t kSideWall = 0xFFFFFFFE;
+  std::uint32_t bead;
+  std::uint32_t other;
+  Vec3 shear;
+};
+
+/// One contact at an instant (for force networks, plate maps and force statistics).
+struct ContactSnapshot {
+  static constexpr std::int64_t kPlate = -1;
+  static constexpr std::int64_t kSideWall = -2;
+  static constexpr std::int64_t kProjectile = -3;
+  std::int64_t a;  ///< bead id, or kProjectile
+  std::int64_t b;  ///< bead id, kPlate, kSideWall
+  Vec3 point;      ///< contact point (middle of the overlap)
+  Vec3 force;      ///< force on body a (normal + tangential)
+  double normal_N;
+};
+
+/// Energy bookkeeping (for tests and stability checks).
+struct EnergyBreakdown {
+  double kinetic_J = 0.0;    ///< translational + rotational
+  double potential_J = 0.0;  ///< m g z
+  double elastic_J = 0.0;    ///< stored in the normal and tangential springs
+  double Total() const { return kinetic_J + potential_J + elastic_J; }
+};
+
+class Simulation {
+ public:
+  /// `history` restores the tangential springs of a saved bed.
+  Simulation(const WorldParams& params, ParticleState beads, std::optional<RigidSphere> projectile,
+             const std::vector<ContactHistoryEntry>& history = {});
+  ~Simulation();
+  Simulation(Simulation&&) noexcept;
+  Simulation& operator=(Simulation&&) noexcept;
+
+  /// Advances one time step. Throws SimulationError when the state becomes unphysical
+  /// (non-finite values, overlaps beyond a third of a radius, a bead outside the container).
+  void Step();
+
+  double time_s() const { return m_time_s; }
+  std::int64_t steps() const { return m_steps; }
+  const WorldParams& params() const { return m_params; }
+  /// The beads at time_s() (completing the last step's closing half kick if it is pending).
+  const ParticleState& beads() const {
+    CompleteKick();
+    return m_beads;
+  }
+  const std::optional<RigidSphere>& projectile() const { return m_projectile; }
+  const StepObservables& observables() const { return m_observables; }
+
+  /// Computes the forces and observables of the current state without advancing (e.g. the
+  /// resting load of a bed on the plate).
+  void RefreshForces();
+
+  /// Moves the projectile (e.g. after an analytic free flight) and sets the clock.
+  void SetProjectile(const RigidSphere& projectile, double time_s);
+
+  EnergyBreakdown Energy() const;
+
+  /// Kinetic energy of the beads only (translation + rotation), cheap.
+  double BeadKineticEnergy() const;
+
+  /// Changes the friction coefficients (e.g. a slow ramp after settling).
+  void SetFriction(double sphere_pair, double sphere_wall);
+
+  /// Stops every bead (velocities and spins to zero), keeping positions and springs.
+  void ZeroBeadVelocities();
+
+  /// Threads of the next steps (0: omp_get_max_threads()). Results do not depend on it.
+  void SetThreads(int threads);
+
+  /// The tangential histories of all bead contacts in touch (pairs, plate, side wall).
+  std::vector<ContactHistoryEntry> ExportHistory() const;
+
+  /// For each bead of beads(), its index in the ParticleState the simulation was made with
+  /// (large beds are reordered in memory; RemoveBeads drops the indices of removed beads).
+  const std::vector<std::uint32_t>& BeadOrigins() const;
+
+  /// Sets the clock (e.g. to continue a run that went on in another simulation).
+  void SetClock(double time_s, std::int64_t steps);
+
+  /// All contacts of the current state with their forces (recomputed from the state).
+  std::vector<ContactSnapshot> Contacts() const;
+
+  /// Removes every bead for which keep(i) is false; their contacts go with them.
+  template <class Keep>
+  void RemoveBeads(Keep keep);
+
+  struct Impl;  ///< neighbor lists and contact histories (private to the engine)
+
+ private:
+  void RemoveBeadsMasked(const std::vector<bool>& keep);
+  void ComputeForces();
+  void CheckConditions();
+  void CompleteKick() const;
+
+  WorldParams m_params;
+  // Step leaves the beads' closing half kick pending: the next step fuses it with its opening
+  // half kick (one pass over the beads instead of two). Whoever reads the beads first completes
+  // it, so that they are seen at time_s(); hence mutable.
+  mutable ParticleState m_beads;
+  mutable bool m_kick_pending = false;
+  std::optional<RigidSphere> m_projectile;
+  StepObservables m_observables;
+  double m_time_s = 0.0;
+  std::int64_t m_steps = 0;
+  std::unique_ptr<Impl> m_impl;
+};
+
+template <class Keep>
+void Simulation::RemoveBeads(Keep keep) {
+  std::vector<bool> mask(m_beads.size());
+  for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = keep(i);
+  RemoveBeadsMasked(mask);
+}
+
+}  // namespace dembuf

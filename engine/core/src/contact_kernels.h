@@ -1,0 +1,69 @@
+// Per-contact kinematics shared by every pair type: from two bodies' states to the law's
+// ContactGeometry, and from the law's force to forces and torques on both bodies.
+#pragma once
+
+#include <cmath>
+
+#include "dembuf/core/contact_law.h"
+#include "dembuf/core/particles.h"
+
+namespace dembuf::detail {
+
+/// Forces and torques of one contact on body i (and the torque on body j; its force is -force).
+struct ContactOutcome {
+  Vec3 force;
+  Vec3 torque_i;
+  Vec3 torque_j;
+  double normal;  ///< normal force magnitude
+};
+
+/// Geometry of a contact with unit normal n (from j to i), given the relative velocity
+/// v_rel = v_i - v_j and w_arm = a_i w_i + a_j w_j, where a = r - overlap/2 are the lever arms
+/// to the contact point in the middle of the overlap (it moves with v_i - a_i w_i x n on i and
+/// v_j + a_j w_j x n on j). With these arms a pair conserves angular momentum exactly.
+inline ContactGeometry MakeGeometry(const Vec3& n, double overlap, const Vec3& v_rel,
+                                    const Vec3& w_arm, double sqrt_r_star) {
+  const double approach = -v_rel.dot(n);
+  return {n, overlap, approach, v_rel + approach * n - w_arm.cross(n), sqrt_r_star};
+}
+
+/// Lever arm from a sphere's centre to the contact point in the middle of the overlap.
+inline double LeverArm(double radius, double overlap) {
+  return radius - 0.5 * overlap;
+}
+
+/// Applies the law to a contact of geometry c between sphere i (lever arm ai) and body j
+/// (lever arm aj; a wall uses aj = 0, which gives it no torque).
+template <bool kFriction>
+inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, const PairParams& p,
+                              double dt, Vec3& shear) {
+  const ContactForce f = HertzMindlinForce<kFriction>(c, p, dt, shear);
+  ContactOutcome out;
+  out.normal = f.normal;
+  if constexpr (kFriction) {
+    out.force = f.normal * c.normal + f.tangential;
+    const Vec3 arm = c.normal.cross(f.tangential);  // both torques are -a (n x Ft)
+    out.torque_i = -ai * arm;
+    out.torque_j = -aj * arm;
+  } else {
+    out.force = f.normal * c.normal;
+    out.torque_i = out.torque_j = Vec3::Zero();
+  }
+  return out;
+}
+
+/// Side-wall contact of a sphere (centre x, radius r) inside the container: true when it
+/// touches, with the overlap and the normal pointing from the wall into the sphere. The wall
+/// acts on centres with 0 <= z <= height.
+inline bool SideWallContact(const Container& box, const Vec3& x, double r, double& overlap,
+                            Vec3& normal) {
+  const double rho2 = x.x() * x.x() + x.y() * x.y();
+  const double inner = box.radius_m - r;
+  if (!(rho2 > inner * inner && x.z() >= 0.0 && x.z() <= box.height_m)) return false;
+  const double rho = std::sqrt(rho2);
+  overlap = rho - inner;
+  normal = Vec3(-x.x() / rho, -x.y() / rho, 0.0);
+  return true;
+}
+
+}  // namespace dembuf::detail

@@ -1,0 +1,97 @@
+// The bead-pair contact law in batches. The pair loop finds the touching pairs of a stretch of
+// list entries first (without a branch per entry), then resolves all of them in one loop that
+// the compiler vectorizes (gathers, vector sqrt and division, masks for the two friction
+// branches), then adds the results to the beads in list order. Each contact goes through
+// ApplyContactLaw, the law's one copy, and gets Resolve's forces and torques (same operations
+// in the same order, no fused multiply-add); the sums are taken in the same order as a
+// contact-by-contact loop, so batching changes no bit of a result.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "dembuf/core/contact_law.h"
+
+namespace dembuf::detail {
+
+/// The touching pairs of one batch (inputs: bead, partner, list entry) and the law's result
+/// for each (force on the bead, torques on both, overlap, new history), as arrays of one
+/// component each. The new histories are copied back to the list afterwards: a vector
+/// scatter is not available on every CPU, and the gather-only loop vectorizes on all.
+struct PairBatch {
+  /// A batch covers at most this many list entries (its arrays then stay in L1).
+  static constexpr std::size_t kTarget = 256;
+
+  std::vector<std::uint32_t> bead, partner, entry;
+  std::vector<double> overlap;
+  std::vector<double> force[3], torque_bead[3], torque_partner[3], shear[3];
+  std::size_t size = 0;
+  /// The batch's list entries that are apart (their histories are cleared).
+  std::vector<std::uint32_t> apart;
+
+  /// Makes room for `n` contacts.
+  void Reserve(std::size_t n) {
+    if (bead.size() < n) Grow(n);
+  }
+
+ private:
+  void Grow(std::size_t n);
+};
+
+/// What the law reads: bead arrays (3 doubles per bead for vectors), the pair constants of the
+/// list entries, and their tangential histories.
+struct PairBatchInputs {
+  const double* position;
+  const double* velocity;
+  const double* angular_velocity;
+  const double* radius;
+  const double* sqrt_r_star;  ///< per list entry
+  const double* shear;        ///< per list entry, 3 doubles
+  PairParams params;
+  double dt;
+};
+
+/// Resolves the contacts of `batch`, filling its result arrays (the advanced histories too).
+/// Compiled for several instruction sets (the widest the CPU has is chosen at load time).
+void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch);
+
+/// Contacts of beads with the plate or the side wall, batched like the pairs: the beads that
+/// touch (picked out beforehand) and the law's result for each. The histories are the beads'
+/// own (one per bead and wall).
+struct WallBatch {
+  static constexpr std::size_t kTarget = PairBatch::kTarget;
+
+  std::vector<std::uint32_t> bead;
+  std::vector<double> overlap, normal_force;
+  std::vector<double> force[3], torque[3], shear[3];
+  std::size_t size = 0;
+  /// The beads of the batch's stretch that do not touch (their histories are cleared).
+  std::vector<std::uint32_t> apart;
+
+  void Reserve(std::size_t n) {
+    if (bead.size() < n) Grow(n);
+  }
+
+ private:
+  void Grow(std::size_t n);
+};
+
+struct WallBatchInputs {
+  const double* position;
+  const double* velocity;
+  const double* angular_velocity;
+  const double* radius;
+  const double* shear;  ///< per bead, 3 doubles: its history with this wall
+  PairParams params;
+  double dt;
+  double wall_radius;  ///< the side wall's (the container's inner radius)
+};
+
+enum class Wall { kPlate, kSide };
+
+/// Resolves the contacts of `batch` with the plate or the side wall (the same arithmetic as
+/// ContainerContacts, so the same bits), filling its result arrays.
+void ResolveWallBatch(bool friction, Wall wall, const WallBatchInputs& in, WallBatch& batch);
+
+}  // namespace dembuf::detail

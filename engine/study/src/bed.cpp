@@ -1,0 +1,714 @@
+#include "dembuf/study/bed.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <unordered_map>
+
+#include "dembuf/core/errors.h"
+#include "dembuf/core/neighbor_list.h"
+#include "dembuf/study/bed_io.h"
+#include "dembuf/study/content_hash.h"
+#include "dembuf/study/impact.h"
+#include "dembuf/study/scene_fields.h"
+
+namespace dembuf {
+
+namespace {
+
+// ---- hashing ---------------------------------------------------------------------------------
+
+std::string FieldText(const Scene& scene, const char* name) {
+  return std::string(name) + "=" + FormatSceneField(scene, *FindSceneField(name)) + "\n";
+}
+
+// The canonical text of the fields that determine the source bed: exact number texts, fixed
+// order. Anything that changes the settled packing belongs here, including the time step.
+std::string SourceKeyText(const Scene& scene, double source_thickness) {
+  static const char* kFields[] = {"gravity_m_s2",
+                                  "cylinder.radius_m",
+                                  "cylinder.height_m",
+                                  "material.density_kg_m3",
+                                  "material.youngs_modulus_Pa",
+                                  "material.poisson_ratio",
+                                  "material.restitution",
+                                  "material.restitution_ref_speed_m_s",
+                                  "material.friction_bead_wall",
+                                  "material.shear_stiffness",
+                                  "walls.material_from_beads",
+                                  "walls.youngs_modulus_Pa",
+                                  "walls.poisson_ratio",
+                                  "beads.diameter_min_m",
+                                  "beads.diameter_max_m",
+                                  "bed.prep_friction",
+                                  "bed.seed",
+                                  "bed.settle_tolerance",
+                                  "time.alpha"};
+  std::ostringstream key;
+  key << "dembuf bed v" << kBedPreparationVersion << "\n";
+  for (const char* name : kFields)
+    key << name << "=" << FormatSceneField(scene, *FindSceneField(name)) << "\n";
+  // Named only when set, so that the beds settled as a whole keep the hashes they had.
+  if (scene.bed.local_settling)
+    key << FieldText(scene, "bed.local_settling")
+        << "local_settling_version=" << kLocalSettlingVersion << "\n";
+  key << "source_thickness_m="
+      << FormatSceneField(
+             [&] {
+               Scene s;
+               s.bed.source_thickness_m = source_thickness;
+               return s;
+             }(),
+             *FindSceneField("bed.source_thickness_m"))
+      << "\n";
+  return key.str();
+}
+
+double SourceThickness(const Scene& scene) {
+  return PlanSourceBed(scene).thickness_m;
+}
+
+struct StageKeys {
+  std::string source, cut, friction;
+};
+
+StageKeys Keys(const Scene& scene) {
+  StageKeys k;
+  const std::string source_text = SourceKeyText(scene, SourceThickness(scene));
+  k.source = ContentHash(source_text);
+  // Named only when set, so that the beds relaxed freely keep the hashes they always had.
+  const std::string cut_text =
+      source_text + FieldText(scene, "bed.thickness_m") +
+      (scene.bed.quench_cut_relaxation ? FieldText(scene, "bed.quench_cut_relaxation") : "");
+  k.cut = ContentHash(cut_text);
+  k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
+                           FieldText(scene, "bed.friction_ramp_s") +
+                           FieldText(scene, "bed.friction_settle_tolerance"));
+  return k;
+}
+
+// ---- deterministic random numbers --------------------------------------------------------------
+
+// Uniform doubles from the raw 64-bit engine (std::uniform_real_distribution is not specified
+// bit-for-bit across standard libraries; beds must not depend on the library).
+class Uniform {
+ public:
+  explicit Uniform(std::uint64_t seed) : m_engine(seed) {}
+  double operator()(double lo, double hi) {
+    return lo + (hi - lo) * static_cast<double>(m_engine() >> 11) * 0x1.0p-53;
+  }
+
+ private:
+  std::mt19937_64 m_engine;
+};
+
+// ---- insertion ---------------------------------------------------------------------------------
+
+// Beads at random positions in a loose column (solid fraction about 0.3) above the plate,
+// without overlaps, as many as PlanSourceBed counts.
+ParticleState InsertBeads(const Scene& scene, const BedRequest& request) {
+  const SourcePlan plan = PlanSourceBed(scene);
+  if (plan.column_top_m > scene.cylinder.height_m)
+    throw SceneError("bed.source_thickness_m",
+                     "a bed this thick needs a loose column of " +
+                         std::to_string(plan.column_top_m) +
+                         " m to settle from, higher than cylinder.height_m");
+  const double R = scene.cylinder.radius_m;
+  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
+  if (!(plan.beads <= kMaxBeads))
+    throw SceneError("beads.diameter_min_m",
+                     "the source bed would hold more than " + std::to_string(kMaxBeads) +
+                         " beads, more than a simulation can number; use larger beads or a "
+                         "thinner bed");
+  const auto count = static_cast<std::size_t>(plan.beads);
+  double column_top = plan.column_top_m;
+
+  Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
+  ParticleState beads;
+  const double cell = d_max;
+  auto key = [&](int x, int y, int z) {
+    return (static_cast<std::int64_t>(z) << 32) ^ (static_cast<std::int64_t>(y + 32768) << 16) ^
+           (x + 32768);
+  };
+  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v / cell)); };
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
+  for (std::size_t n = 0; n < count; ++n) {
+    // A large bed takes a while to insert: look at the cancel flag now and then.
+    if (n % 4096 == 0 && request.cancel && request.cancel->load(std::memory_order_relaxed))
+      throw Cancelled();
+    const double r = 0.5 * uniform(d_min, d_max);
+    for (int attempt = 0;; ++attempt) {
+      if (attempt == 2000) {  // crowded: give the column more room
+        column_top *= 1.1;
+        if (column_top > scene.cylinder.height_m)
+          throw SceneError("bed.source_thickness_m",
+                           "cannot fit the beads for this thickness into the cylinder");
+        attempt = 0;
+      }
+      const double reach = R - r;
+      const double x = uniform(-reach, reach), y = uniform(-reach, reach);
+      if (x * x + y * y > reach * reach) continue;
+      const double z = uniform(r, column_top - r);
+      const Vec3 p(x, y, z);
+      const int cx = cell_of(x), cy = cell_of(y), cz = cell_of(z);
+      bool free = true;
+      for (int dz = -1; dz <= 1 && free; ++dz)
+        for (int dy = -1; dy <= 1 && free; ++dy)
+          for (int dx = -1; dx <= 1 && free; ++dx) {
+            auto it = grid.find(key(cx + dx, cy + dy, cz + dz));
+            if (it == grid.end()) continue;
+            for (std::uint32_t j : it->second) {
+              const double reach_j = r + beads.radius[j];
+              if ((beads.position[j] - p).squaredNorm() < reach_j * reach_j) {
+                free = false;
+                break;
+              }
+            }
+          }
+      if (!free) continue;
+      grid[key(cx, cy, cz)].push_back(static_cast<std::uint32_t>(beads.size()));
+      beads.Add(p, r, scene.material.density_kg_m3);
+      break;
+    }
+  }
+  return beads;
+}
+
+// ---- settling ----------------------------------------------------------------------------------
+
+struct RestState {
+  double kinetic_ratio;
+  double balance_error;
+  double weight;
+};
+
+RestState MeasureRest(const Simulation& sim, double energy_scale) {
+  const auto& b = sim.beads();
+  double weight = 0.0;
+  for (double m : b.mass) weight += m * sim.params().gravity_m_s2;
+  const double kinetic = sim.BeadKineticEnergy() / std::max<std::size_t>(b.size(), 1);
+  const auto& o = sim.observables();
+  return {kinetic / energy_scale,
+          weight > 0.0 ? std::abs(o.plate_force_N + o.wall_force_z_N - weight) / weight : 0.0,
+          weight};
+}
+
+// ---- local settling --------------------------------------------------------------------------
+//
+// Once the bulk of a settling bed carries its weight, nearly all of its kinetic energy sits in
+// a few beads near the surface that are still finding their place, while every bead is
+// stepped. Local settling steps only their neighbourhood: the beads within kRegionReach of a
+// moving bead are free, the beads a free bead can reach are held in place (inv_mass 0), and
+// all others are stopped and left out. When a free bead has drifted kMaxDrift, or half of
+// the moving beads have stopped, the region is chosen again around the beads moving then.
+// Rest is still judged on the whole bed, after an interval in which every bead moves. The
+// held and stopped beads are the approximation; its effect on the beds and on the outputs is
+// measured in docs/accuracy-cost.md.
+
+// Moving: a bead with more than this many times the rest tolerance's energy per bead. 1000
+// (local settling version 1) left the thinnest beds' C0 up to 0.005 lower than settling as
+// a whole; 300 up to 0.0012 lower, for 12% more time on the E2 sweep (docs/accuracy-cost.md).
+constexpr double kMovingEnergy = 300.0;
+// Local settling starts only when at most this share of the beads moves.
+constexpr double kMaxMovingShare = 0.1;
+// ...and goes on until the beads' kinetic energy is this fraction of the rest tolerance's.
+constexpr double kLocalEnergyTarget = 0.5;
+// Free: the beads whose centres lie within this many mean diameters of a moving bead.
+constexpr double kRegionReach = 2.0;
+// A region is chosen again when one of its free beads has moved this many mean diameters.
+constexpr double kMaxDrift = 0.5;
+
+double TotalKinetic(const ParticleState& b) {
+  double kinetic = 0.0;
+  for (std::size_t i = 0; i < b.size(); ++i) kinetic += b.KineticEnergy(i);
+  return kinetic;
+}
+
+// The beads within `reach` (centre to centre) of a marked bead, the marked ones included.
+std::vector<char> Near(const ParticleState& b, const std::vector<char>& marked, double reach) {
+  Vec3 lo = b.position.front(), hi = b.position.front();
+  for (const Vec3& x : b.position) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  detail::CellGrid grid;
+  grid.Build(b.position, reach, lo, hi);
+  std::vector<char> near = marked;
+  const Vec3 box = Vec3::Constant(reach);
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    if (!marked[i]) continue;
+    grid.ForEachInBox(b.position[i] - box, b.position[i] + box, [&](std::uint32_t j) {
+      if (!near[j] && (b.position[j] - b.position[i]).squaredNorm() <= reach * reach) near[j] = 1;
+    });
+  }
+  return near;
+}
+
+bool IsWall(std::uint32_t other) {
+  return other == ContactHistoryEntry::kPlate || other == ContactHistoryEntry::kSideWall;
+}
+
+// One region: steps the free beads around `moving`, with the beads they can reach held, until
+// a free bead has drifted kMaxDrift, half of the moving beads have stopped (kinetic energy
+// below moving_energy), or the region's kinetic energy is down to energy_limit.
+// Writes the free beads' state and springs back into `beads` and `history`, and stops every
+// other bead. Returns the steps taken. The region's clock starts at the bed's (`time_s`,
+// `step`), so that an error in it names the bed's step and time.
+std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
+                          std::vector<ContactHistoryEntry>& history,
+                          const std::vector<char>& moving, double moving_energy, double d_mean,
+                          double d_max, double energy_limit, std::int64_t max_steps, double time_s,
+                          std::int64_t step) {
+  const std::vector<char> free_bead = Near(beads, moving, kRegionReach * d_mean);
+  const auto moving_count = static_cast<std::size_t>(std::count(moving.begin(), moving.end(), 1));
+  const double drift = kMaxDrift * d_mean;
+  // A free bead stops within one step of moving `drift`, so it cannot touch a bead whose
+  // centre is farther than d_max + 1.5 drift from where it started.
+  const std::vector<char> in_region = Near(beads, free_bead, d_max + 1.5 * drift);
+
+  ParticleState region;
+  std::vector<std::uint32_t> region_id(beads.size(), 0);
+  std::vector<std::uint32_t> bed_id;
+  for (std::size_t i = 0; i < beads.size(); ++i) {
+    if (!in_region[i]) continue;
+    region_id[i] = static_cast<std::uint32_t>(region.size());
+    bed_id.push_back(static_cast<std::uint32_t>(i));
+    region.AddCopy(beads, i);
+    if (!free_bead[i]) {  // held: at rest, and neither contacts nor gravity move it
+      region.velocity.back().setZero();
+      region.angular_velocity.back().setZero();
+      region.inv_mass.back() = 0.0;
+    }
+  }
+  auto touches_free = [&](const ContactHistoryEntry& h) {
+    return free_bead[h.bead] || (!IsWall(h.other) && free_bead[h.other]);
+  };
+  std::vector<ContactHistoryEntry> region_history, kept_history;
+  for (const ContactHistoryEntry& h : history) {
+    if (in_region[h.bead] && (IsWall(h.other) || in_region[h.other]))
+      region_history.push_back(
+          {region_id[h.bead], IsWall(h.other) ? h.other : region_id[h.other], h.shear});
+    if (!touches_free(h)) kept_history.push_back(h);  // springs the region cannot change
+  }
+
+  const std::vector<Vec3> start = region.position;
+  Simulation sim(params, std::move(region), std::nullopt, region_history);
+  sim.SetClock(time_s, step);
+  // Large regions are reordered in memory at list builds; origin maps back to region order.
+  const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
+  std::int64_t steps = 0;
+  try {
+    while (steps < max_steps) {
+      sim.Step();
+      ++steps;
+      const ParticleState& b = sim.beads();
+      bool drifted = false;
+      for (std::size_t k = 0; k < b.size() && !drifted; ++k)
+        drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
+      if (drifted) break;
+      if (steps % 50 == 0) {
+        if (sim.BeadKineticEnergy() <= energy_limit) break;
+        std::size_t still = 0;
+        for (std::size_t k = 0; k < b.size(); ++k) still += b.KineticEnergy(k) > moving_energy;
+        if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
+      }
+    }
+  } catch (const SimulationError& e) {
+    throw SimulationError(
+        std::string("in local settling (bead numbers count the settling region's beads): ") +
+            e.what(),
+        e.step(), e.time_s());
+  }
+
+  const ParticleState& b = sim.beads();
+  for (std::size_t i = 0; i < beads.size(); ++i) {
+    beads.velocity[i].setZero();
+    beads.angular_velocity[i].setZero();
+  }
+  for (std::size_t k = 0; k < b.size(); ++k) {
+    const std::uint32_t i = bed_id[origin[k]];
+    if (!free_bead[i]) continue;
+    beads.position[i] = b.position[k];
+    beads.velocity[i] = b.velocity[k];
+    beads.angular_velocity[i] = b.angular_velocity[k];
+  }
+  for (ContactHistoryEntry h : sim.ExportHistory()) {
+    h.bead = bed_id[origin[h.bead]];
+    if (!IsWall(h.other)) h.other = bed_id[origin[h.other]];
+    if (touches_free(h)) kept_history.push_back(h);
+  }
+  history = std::move(kept_history);
+  return steps;
+}
+
+// Local settling of `sim` when at most kMaxMovingShare of its beads move, until the beads'
+// kinetic energy is down to kLocalEnergyTarget of the rest tolerance (`tolerance_energy` per
+// bead). Returns the bed as a new simulation, its clock advanced by the steps taken, or
+// nothing when too many beads move for it to pay. report(steps, kinetic energy) follows it.
+std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d_max,
+                                        double tolerance_energy, std::int64_t max_steps,
+                                        const std::function<void(std::int64_t, double)>& report) {
+  ParticleState beads = sim.beads();
+  const std::size_t n = beads.size();
+  const double moving_energy = kMovingEnergy * tolerance_energy;  // per bead
+  std::vector<char> moving(n);
+  auto count_moving = [&] {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < n; ++i) count += moving[i] = beads.KineticEnergy(i) > moving_energy;
+    return count;
+  };
+  std::size_t count = count_moving();
+  if (count == 0 || count > kMaxMovingShare * static_cast<double>(n)) return std::nullopt;
+  const double energy_limit = kLocalEnergyTarget * tolerance_energy * static_cast<double>(n);
+  std::vector<ContactHistoryEntry> history = sim.ExportHistory();
+  WorldParams params = sim.params();
+  std::int64_t steps = 0, reported = 0;
+  while (count > 0 && steps < max_steps && TotalKinetic(beads) > energy_limit) {
+    steps +=
+        SettleRegion(params, beads, history, moving, moving_energy, d_mean, d_max, energy_limit,
+                     max_steps - steps, sim.time_s() + static_cast<double>(steps) * params.dt_s,
+                     sim.steps() + steps);
+    count = count_moving();
+    if (steps - reported >= 1000) {
+      report(steps, TotalKinetic(beads));
+      reported = steps;
+    }
+  }
+  Simulation settled(params, std::move(beads), std::nullopt, history);
+  settled.SetClock(sim.time_s() + static_cast<double>(steps) * params.dt_s, sim.steps() + steps);
+  return settled;
+}
+
+// Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
+// With `quench`, kinetic damping first: whenever the beads' kinetic energy has passed a
+// maximum, every bead is stopped, until the maxima of a whole check interval stay below the
+// tolerance. Rest is judged only on intervals without quenching, so the criterion is the same.
+// With `local`, local settling (above) whenever the bulk carries its weight but the bed is not
+// yet at rest; rest is judged on the whole bed, after an interval in which every bead moves.
+double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stage,
+                    const BedRequest& request, double max_time, double tolerance,
+                    const std::function<void(Simulation&, double)>& before_step = {},
+                    bool quench = false, bool local = false) {
+  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double m_mean =
+      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
+  const double t0 = sim.time_s();
+  constexpr int kCheckEvery = 200;
+  bool quenching = quench;
+  double last_energy = sim.BeadKineticEnergy();
+  bool rising = false;
+  while (true) {
+    if (request.threads) sim.SetThreads(request.threads->load(std::memory_order_relaxed));
+    double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
+    for (int k = 0; k < kCheckEvery; ++k) {
+      // Every step: 200 steps of a large bed take seconds, a cancel must act within one.
+      if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+      if (before_step) before_step(sim, sim.time_s() - t0);
+      sim.Step();
+      if (!quenching) continue;
+      double energy = sim.BeadKineticEnergy();
+      interval_max = std::max(interval_max, energy);
+      if (rising && energy < last_energy) {
+        sim.ZeroBeadVelocities();
+        energy = 0.0;
+      }
+      rising = energy > last_energy;
+      last_energy = energy;
+    }
+    const double t = sim.time_s() - t0;
+    const RestState rest = MeasureRest(sim, energy_scale);
+    if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+    if (request.on_progress)
+      request.on_progress(
+          {stage, t, max_time, sim.beads().size(), rest.kinetic_ratio, rest.balance_error});
+    const bool ramp_done = !before_step || t >= scene.bed.friction_ramp_s;
+    if (quenching) {
+      const double beads = static_cast<double>(std::max<std::size_t>(sim.beads().size(), 1));
+      quenching = interval_max / beads / energy_scale >= tolerance;
+    } else if (ramp_done && rest.kinetic_ratio < tolerance && rest.balance_error < 0.01) {
+      return t;
+    } else if (local && !before_step && rest.balance_error < 0.01) {
+      const auto max_steps = static_cast<std::int64_t>((max_time - t) / sim.params().dt_s) + 1;
+      auto report = [&](std::int64_t steps, double kinetic) {
+        if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+        if (request.on_progress)
+          request.on_progress({stage + " (locally)", t + steps * sim.params().dt_s, max_time,
+                               sim.beads().size(),
+                               kinetic / static_cast<double>(sim.beads().size()) / energy_scale,
+                               rest.balance_error});
+      };
+      if (auto settled = SettleLocally(sim, d_mean, scene.beads.diameter_max_m,
+                                       tolerance * energy_scale, max_steps, report))
+        sim = std::move(*settled);
+    }
+    if (t > max_time) {
+      std::ostringstream what;
+      what << "the bed did not come to rest within bed.max_settle_s = " << max_time << " s ("
+           << stage << " stage): kinetic energy per bead " << rest.kinetic_ratio
+           << " m g d (tolerance " << tolerance << "), force balance error "
+           << rest.balance_error * 100 << "% (tolerance 1%)";
+      throw SimulationError(what.str(), sim.steps(), sim.time_s());
+    }
+  }
+}
+
+PreparedBed Finish(Simulation& sim, const Scene& scene, const std::string& hash,
+                   const std::string& stage, double settle_time,
+                   std::chrono::steady_clock::time_point wall_start) {
+  PreparedBed bed;
+  bed.beads = sim.beads();
+  // A bed at rest: keep positions and springs, drop the residual jitter of the velocities so
+  // that the resting state is exactly reproducible and the free flight sees a still bed.
+  std::fill(bed.beads.velocity.begin(), bed.beads.velocity.end(), Vec3::Zero());
+  std::fill(bed.beads.angular_velocity.begin(), bed.beads.angular_velocity.end(), Vec3::Zero());
+  std::fill(bed.beads.force.begin(), bed.beads.force.end(), Vec3::Zero());
+  std::fill(bed.beads.torque.begin(), bed.beads.torque.end(), Vec3::Zero());
+  bed.history = sim.ExportHistory();
+  bed.hash = hash;
+  bed.stage = stage;
+  bed.surface_m = MeasureSurface(bed.beads, scene.cylinder.radius_m);
+  bed.solid_fraction = SolidFraction(bed.beads, scene.cylinder.radius_m, bed.surface_m);
+  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double m_mean =
+      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const RestState rest = MeasureRest(sim, m_mean * scene.gravity_m_s2 * d_mean);
+  bed.weight_N = rest.weight;
+  bed.kinetic_ratio = rest.kinetic_ratio;
+  bed.plate_force_N = sim.observables().plate_force_N;
+  bed.wall_force_z_N = sim.observables().wall_force_z_N;
+  bed.settle_time_s = settle_time;
+  bed.settle_steps = sim.steps();
+  bed.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return bed;
+}
+
+// A simulation of a bed with the scene's contact law and bead friction `friction`.
+Simulation BedSimulation(const Scene& scene, const PreparedBed* from, ParticleState beads,
+                         double friction) {
+  double min_radius = 0.5 * scene.beads.diameter_min_m;
+  for (double r : beads.radius) min_radius = std::min(min_radius, r);
+  ContactSetup setup = MakeContactSetup(scene, min_radius);
+  setup.params.sphere_pair.friction = friction;
+  return Simulation(setup.params, std::move(beads), std::nullopt,
+                    from ? from->history : std::vector<ContactHistoryEntry>{});
+}
+
+PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation sim =
+      BedSimulation(scene, nullptr, InsertBeads(scene, request), scene.bed.prep_friction);
+  const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s,
+                                scene.bed.settle_tolerance, {}, false, scene.bed.local_settling);
+  PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
+  if (bed.surface_m < scene.bed.thickness_m)
+    throw SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
+                              " m thick, less than bed.thickness_m",
+                          sim.steps(), sim.time_s());
+  return bed;
+}
+
+// Keeps the beads whose centre lies below the height that puts the measured surface at H.
+std::vector<bool> CutMask(const ParticleState& beads, double cylinder_radius, double thickness) {
+  double mean_r = 0.0;
+  for (double r : beads.radius) mean_r += r / beads.size();
+  double cut = thickness - mean_r;
+  std::vector<bool> keep(beads.size());
+  for (int iteration = 0; iteration < 12; ++iteration) {
+    ParticleState kept;
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      keep[i] = beads.position[i].z() < cut;
+      if (keep[i]) kept.Add(beads.position[i], beads.radius[i], 1.0);
+    }
+    const double surface = MeasureSurface(kept, cylinder_radius);
+    if (std::abs(surface - thickness) < 1e-3 * mean_r) break;
+    cut += thickness - surface;
+  }
+  return keep;
+}
+
+PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std::string& hash,
+                       const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation sim = BedSimulation(scene, &source, source.beads, scene.bed.prep_friction);
+  const std::vector<bool> keep =
+      CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m);
+  sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
+  const double t = SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s,
+                                scene.bed.settle_tolerance, {}, scene.bed.quench_cut_relaxation,
+                                scene.bed.local_settling);
+  return Finish(sim, scene, hash, "cut", t, wall_start);
+}
+
+PreparedBed PrepareFriction(const Scene& scene, const PreparedBed& cut, const std::string& hash,
+                            const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation sim = BedSimulation(scene, &cut, cut.beads, scene.bed.prep_friction);
+  const double mu0 = scene.bed.prep_friction, mu1 = scene.material.friction_bead_bead;
+  const double ramp = scene.bed.friction_ramp_s;
+  const double wall_mu = scene.material.friction_bead_wall;
+  // Linear in time from the preparation friction to the study's, then relax.
+  auto before_step = [&](Simulation& s, double t) {
+    const double f = ramp > 0.0 ? std::min(t / ramp, 1.0) : 1.0;
+    s.SetFriction(mu0 + f * (mu1 - mu0), wall_mu);
+  };
+  const double tolerance = scene.bed.friction_settle_tolerance > 0.0
+                               ? scene.bed.friction_settle_tolerance
+                               : scene.bed.settle_tolerance;
+  const double t = SettleToRest(sim, scene, "changing friction", request,
+                                ramp + scene.bed.max_settle_s, tolerance, before_step);
+  return Finish(sim, scene, hash, "friction", t, wall_start);
+}
+
+PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  ImportedBed imported = ReadTextBed(scene.bed.import, scene);
+  const std::string report = imported.Describe();
+  Simulation sim =
+      BedSimulation(scene, nullptr, std::move(imported.beads), scene.material.friction_bead_bead);
+  const double t = SettleToRest(sim, scene, "relaxing the imported bed", request,
+                                scene.bed.max_settle_s, scene.bed.settle_tolerance);
+  PreparedBed bed = Finish(sim, scene, hash, "import", t, wall_start);
+  bed.note = report;
+  return bed;
+}
+
+std::string ImportHash(const Scene& scene) {
+  std::ifstream in(scene.bed.import, std::ios::binary);
+  std::ostringstream content;
+  content << in.rdbuf();
+  // Named only when set, so that beds imported as they were keep their hashes.
+  const std::string relax = scene.bed.import_overlaps == "relax"
+                                ? FieldText(scene, "bed.import_overlaps")
+                                : std::string();
+  return ContentHash(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
+                     relax + "import\n" + content.str());
+}
+
+PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,
+                       const std::function<PreparedBed()>& make) {
+  return cache.FindOrMake(hash, stage, make);
+}
+
+}  // namespace
+
+SourcePlan PlanSourceBed(const Scene& scene) {
+  SourcePlan plan;
+  // Every H up to source_thickness_m - d_max is cut from the same source; a thicker bed gets
+  // a source of its own, two bead diameters thicker than itself.
+  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
+  plan.thickness_m = scene.bed.thickness_m + d_max <= scene.bed.source_thickness_m
+                         ? scene.bed.source_thickness_m
+                         : scene.bed.thickness_m + 2.0 * d_max;
+  // Enough beads to settle into a bed of at least that thickness at a packing no denser than
+  // 0.66. Mean volume of a sphere with d uniform in [d_min, d_max]: pi/6 <d^3>.
+  const double d_mean = 0.5 * (d_min + d_max);
+  const double mean_d3 =
+      (std::pow(d_max, 4) - std::pow(d_min, 4)) / (4.0 * std::max(d_max - d_min, 1e-300));
+  plan.mean_bead_volume_m3 =
+      std::numbers::pi / 6.0 * (d_max > d_min ? mean_d3 : d_mean * d_mean * d_mean);
+  const double area = std::numbers::pi * scene.cylinder.radius_m * scene.cylinder.radius_m;
+  plan.beads = std::ceil(0.66 * area * (plan.thickness_m + d_max) / plan.mean_bead_volume_m3);
+  plan.column_top_m = plan.beads * plan.mean_bead_volume_m3 / (0.30 * area) + d_max;
+  return plan;
+}
+
+bool NeedsFrictionStage(const Scene& scene) {
+  return scene.material.friction_bead_bead != scene.bed.prep_friction;
+}
+
+std::string BedSourceHash(const Scene& scene) {
+  if (!scene.bed.import.empty() || scene.bed.thickness_m <= 0.0) return "";
+  return Keys(scene).source;
+}
+
+std::string BedHash(const Scene& scene) {
+  if (!scene.bed.import.empty()) return ImportHash(scene);
+  const StageKeys k = Keys(scene);
+  return NeedsFrictionStage(scene) ? k.friction : k.cut;
+}
+
+std::vector<BedStage> BedStagesOf(const Scene& scene) {
+  if (!scene.bed.import.empty()) return {{"import", ImportHash(scene)}};
+  if (scene.bed.thickness_m <= 0.0) return {};
+  const StageKeys k = Keys(scene);
+  std::vector<BedStage> stages = {{"source", k.source}, {"cut", k.cut}};
+  if (NeedsFrictionStage(scene)) stages.push_back({"friction", k.friction});
+  return stages;
+}
+
+BedNeeds BedNeedsOf(const Scene& scene) {
+  const bool has_bed = scene.bed.thickness_m > 0.0 || !scene.bed.import.empty();
+  return {BedSourceHash(scene), has_bed ? BedHash(scene) : ""};
+}
+
+bool WaitsForBed(const BedNeeds& needs, const std::vector<BedNeeds>& running, BedCache& beds) {
+  for (const BedNeeds& other : running) {
+    if (!needs.source_hash.empty() && other.source_hash == needs.source_hash &&
+        !beds.Contains(needs.source_hash))
+      return true;
+    if (!needs.bed_hash.empty() && other.bed_hash == needs.bed_hash &&
+        !beds.Contains(needs.bed_hash))
+      return true;
+  }
+  return false;
+}
+
+PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request) {
+  ValidateScene(scene);
+  if (!scene.bed.import.empty())
+    return FindOrMake(cache, ImportHash(scene), "import",
+                      [&] { return PrepareImport(scene, ImportHash(scene), request); });
+  const StageKeys k = Keys(scene);
+  auto cut = [&] {
+    return FindOrMake(cache, k.cut, "cut", [&] {
+      const PreparedBed source = FindOrMake(
+          cache, k.source, "source", [&] { return PrepareSource(scene, k.source, request); });
+      return PrepareCut(scene, source, k.cut, request);
+    });
+  };
+  if (!NeedsFrictionStage(scene)) return cut();
+  return FindOrMake(cache, k.friction, "friction",
+                    [&] { return PrepareFriction(scene, cut(), k.friction, request); });
+}
+
+double MeasureSurface(const ParticleState& beads, double cylinder_radius_m) {
+  if (beads.size() == 0) return 0.0;
+  const double d_max = 2.0 * *std::max_element(beads.radius.begin(), beads.radius.end());
+  const double cell = 2.0 * d_max;
+  const double inner = std::max(cylinder_radius_m - d_max, 0.5 * cell);
+  const int n = static_cast<int>(std::ceil(cylinder_radius_m / cell));
+  std::vector<double> top((2 * n) * (2 * n), -1.0);
+  for (std::size_t i = 0; i < beads.size(); ++i) {
+    const Vec3& x = beads.position[i];
+    const int cx = std::clamp(static_cast<int>(std::floor(x.x() / cell)) + n, 0, 2 * n - 1);
+    const int cy = std::clamp(static_cast<int>(std::floor(x.y() / cell)) + n, 0, 2 * n - 1);
+    double& t = top[cy * 2 * n + cx];
+    t = std::max(t, x.z() + beads.radius[i]);
+  }
+  double sum = 0.0;
+  int cells = 0;
+  for (int cy = 0; cy < 2 * n; ++cy)
+    for (int cx = 0; cx < 2 * n; ++cx) {
+      const double x = (cx - n + 0.5) * cell, y = (cy - n + 0.5) * cell;
+      if (x * x + y * y > inner * inner) continue;
+      sum += std::max(top[cy * 2 * n + cx], 0.0);  // an empty cell is bare plate
+      ++cells;
+    }
+  return cells ? sum / cells : 0.0;
+}
+
+double SolidFraction(const ParticleState& beads, double cylinder_radius_m, double thickness_m) {
+  if (thickness_m <= 0.0) return 0.0;
+  double volume = 0.0;
+  for (double r : beads.radius) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  return volume / (std::numbers::pi * cylinder_radius_m * cylinder_radius_m * thickness_m);
+}
+
+}  // namespace dembuf

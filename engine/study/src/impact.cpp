@@ -1,0 +1,372 @@
+#include "dembuf/study/impact.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "dembuf/core/errors.h"
+#include "dembuf/core/time_step.h"
+#include "dembuf/study/bed.h"
+#include "dembuf/study/bed_io.h"
+#include "dembuf/study/scene_fields.h"
+
+namespace dembuf {
+
+double FallTime(double z0, double vz0, double z1, double gravity_m_s2) {
+  const double drop = z0 - z1;
+  if (drop <= 0.0) return 0.0;
+  if (gravity_m_s2 == 0.0) return vz0 < 0.0 ? drop / -vz0 : -1.0;
+  // z0 + vz0 t - g t^2 / 2 = z1, the later root (the body may first rise).
+  return (vz0 + std::sqrt(vz0 * vz0 + 2.0 * gravity_m_s2 * drop)) / gravity_m_s2;
+}
+
+ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
+  ContactSetup setup;
+  const MaterialSpec& mat = scene.material;
+  const ShearStiffness shear =
+      mat.shear_stiffness == "mindlin" ? ShearStiffness::kMindlin : ShearStiffness::kPaper;
+  const Elastic bead_elastic{mat.youngs_modulus_Pa, mat.poisson_ratio};
+  const Elastic wall_elastic =
+      scene.walls.material_from_beads
+          ? bead_elastic
+          : Elastic{scene.walls.youngs_modulus_Pa, scene.walls.poisson_ratio};
+  const PairModuli pair_moduli = EffectiveModuli(bead_elastic, bead_elastic, shear);
+  const PairModuli wall_moduli = EffectiveModuli(bead_elastic, wall_elastic, shear);
+
+  // Calibrate A on two beads of the mean diameter meeting head-on (docs/model.md section 2).
+  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double bead_mass = mat.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);
+  setup.damping =
+      CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref, 0.5 * bead_mass);
+  const double A = setup.damping.damping_A_s;
+
+  WorldParams& wp = setup.params;
+  wp.container = {scene.cylinder.radius_m, scene.cylinder.height_m};
+  wp.sphere_pair = MakePairParams(pair_moduli, A, mat.friction_bead_bead);
+  wp.sphere_wall = MakePairParams(wall_moduli, A, mat.friction_bead_wall);
+  wp.gravity_m_s2 = scene.gravity_m_s2;
+  setup.critical_dt_s =
+      CriticalTimeStep(min_radius_m, mat.density_kg_m3, mat.youngs_modulus_Pa, mat.poisson_ratio);
+  wp.dt_s = scene.time.alpha * setup.critical_dt_s;
+  return setup;
+}
+
+World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request) {
+  ValidateScene(scene);
+  World world;
+  if (!scene.bed.import.empty() || scene.bed.thickness_m > 0.0) {
+    BedCache private_cache;
+    PreparedBed bed =
+        GetBed(scene, cache ? *cache : private_cache, request ? *request : BedRequest{});
+    world.beads = std::move(bed.beads);
+    world.history = std::move(bed.history);
+    world.bed_surface_m = bed.surface_m;
+    world.bed = BedSummary{bed.hash,          bed.surface_m,      bed.solid_fraction,
+                           bed.plate_force_N, bed.wall_force_z_N, bed.weight_N,
+                           bed.note};
+  }
+  double min_radius = 0.5 * scene.beads.diameter_min_m;
+  for (double r : world.beads.radius) min_radius = std::min(min_radius, r);
+  ContactSetup setup = MakeContactSetup(scene, min_radius);
+  world.params = setup.params;
+  world.damping = setup.damping;
+  world.critical_dt_s = setup.critical_dt_s;
+
+  if (scene.projectile.enabled) {
+    RigidSphere p;
+    p.radius = 0.5 * scene.projectile.diameter_m;
+    p.mass = scene.projectile.mass_kg;
+    p.position =
+        Vec3(scene.projectile.offset_m, 0.0, world.bed_surface_m + scene.projectile.height_m);
+    p.velocity = Vec3(0.0, 0.0, -scene.projectile.speed_m_s);
+    world.projectile = p;
+  }
+  return world;
+}
+
+namespace {
+
+// Emits samples on the global grid t = k * interval, so that runs line up sample by sample.
+// At most one sample a step: an interval below the step samples every step.
+class SampleClock {
+ public:
+  explicit SampleClock(double interval) : m_interval(interval) {}
+  bool Due(double t) const { return t >= m_next * m_interval * (1.0 - 1e-12); }
+  /// Moves past every grid time up to t. The index is computed, not counted: a long flight
+  /// at a tiny interval passes more grid times than any loop could count, and k is a double
+  /// because it can pass 2^63 (it stays exact below 2^53).
+  void Advance(double t) {
+    if (!Due(t)) return;
+    m_next = std::max(m_next, std::floor(t / (m_interval * (1.0 - 1e-12))));
+    while (Due(t)) m_next = std::max(m_next + 1.0, std::nextafter(m_next, HUGE_VAL));
+  }
+
+ private:
+  double m_interval;
+  double m_next = 0.0;  ///< k of the next grid time
+};
+
+ImpactSample MakeSample(const Simulation& sim) {
+  const StepObservables& o = sim.observables();
+  ImpactSample s{sim.time_s(),
+                 o.plate_force_N,
+                 o.wall_force_z_N,
+                 std::numeric_limits<double>::quiet_NaN(),
+                 0.0,
+                 0.0};
+  if (sim.projectile()) {
+    s.projectile_z_m = sim.projectile()->position.z();
+    s.projectile_vz_m_s = sim.projectile()->velocity.z();
+    s.projectile_force_z_N = o.projectile_force_N.z();
+  }
+  return s;
+}
+
+}  // namespace
+
+ImpactSummary RunImpact(const Scene& scene, const RunControl& control) {
+  return RunImpact(BuildWorld(scene, control.beds, control.bed_request), scene, control);
+}
+
+namespace {
+
+ImpactSnapshot TakeSnapshot(const Simulation& sim, const std::string& label) {
+  ImpactSnapshot snap;
+  snap.label = label;
+  snap.t_s = sim.time_s();
+  snap.positions = sim.beads().position;
+  snap.radii = sim.beads().radius;
+  snap.projectile = sim.projectile();
+  snap.contacts = sim.Contacts();
+  return snap;
+}
+
+std::string TimeLabel(double t) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "t=%.6g", t);
+  return buf;
+}
+
+// One pass of the impact. `peak_step` >= 0 asks for a "peak" snapshot at that step (known from
+// an earlier pass of the same deterministic run).
+ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control,
+                      std::int64_t peak_step, std::int64_t* found_peak_step) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  ImpactSummary summary;
+  summary.beads = world.beads.size();
+  summary.dt_s = world.params.dt_s;
+  summary.critical_dt_s = world.critical_dt_s;
+  summary.damping = world.damping;
+  summary.bed_surface_m = world.bed_surface_m;
+  summary.bed = world.bed;
+
+  Simulation sim(world.params, std::move(world.beads), world.projectile, world.history);
+  sim.RefreshForces();  // the resting load of the bed, felt during the free flight
+  const double rest_force = sim.observables().plate_force_N;
+  SampleClock clock(scene.time.output_interval_s);
+  auto emit = [&](const ImpactSample& s) {
+    if (control.on_sample) control.on_sample(s);
+  };
+  std::vector<double> snapshot_times = scene.output.snapshot_times_s;
+  std::sort(snapshot_times.begin(), snapshot_times.end());
+  std::size_t next_snapshot = 0;
+  auto snapshot = [&](const ImpactSnapshot& snap) {
+    if (control.on_snapshot) control.on_snapshot(snap);
+  };
+
+  const double g = scene.gravity_m_s2;
+  const double t_limit =
+      scene.time.end_s > 0.0 ? scene.time.end_s : std::numeric_limits<double>::infinity();
+  double t_end_estimate = t_limit;
+
+  // Free flight: nothing but gravity acts on the projectile until it reaches the first bead
+  // below it (or the plate), and the resting bed does not change meanwhile. Jump there
+  // analytically, stopping a few steps short so that the first contact is integrated whole.
+  if (sim.projectile()) {
+    RigidSphere p = *sim.projectile();
+    // The centre height at first contact: touching bead i at horizontal distance rho needs
+    // z_c = z_i + sqrt((R + r_i)^2 - rho^2); the plate needs z_c = R.
+    double contact_z = p.radius;
+    const ParticleState& beads = sim.beads();
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      const double reach = p.radius + beads.radius[i];
+      const double dx = beads.position[i].x() - p.position.x();
+      const double dy = beads.position[i].y() - p.position.y();
+      const double rho2 = dx * dx + dy * dy;
+      if (rho2 < reach * reach)
+        contact_z = std::max(contact_z, beads.position[i].z() + std::sqrt(reach * reach - rho2));
+    }
+    const double speed_bound = std::abs(p.velocity.z()) + std::sqrt(2.0 * g * p.position.z());
+    const double margin = 4.0 * speed_bound * world.params.dt_s;
+    double t_fly = FallTime(p.position.z(), p.velocity.z(), contact_z + margin, g);
+    if (t_fly < 0.0) t_fly = std::isfinite(t_limit) ? t_limit : 0.0;
+    t_fly = std::min(t_fly, t_limit);
+    if (t_fly > 0.0) {
+      const double z0 = p.position.z(), vz0 = p.velocity.z();
+      const ImpactSnapshot at_rest =
+          snapshot_times.empty() ? ImpactSnapshot{} : TakeSnapshot(sim, "");
+      while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot] <= t_fly) {
+        const double t = snapshot_times[next_snapshot++];
+        ImpactSnapshot snap = at_rest;
+        snap.label = TimeLabel(t);
+        snap.t_s = t;
+        snap.projectile->position.z() = z0 + vz0 * t - 0.5 * g * t * t;
+        snap.projectile->velocity.z() = vz0 - g * t;
+        snapshot(snap);
+      }
+      // The record starts after the flight: a resting bed under a falling sphere has nothing
+      // to show, and its samples would cost up to a gigabyte (summary.free_flight_s says how
+      // long it fell).
+      clock.Advance(t_fly);
+      p.position.z() = z0 + vz0 * t_fly - 0.5 * g * t_fly * t_fly;
+      p.velocity.z() = vz0 - g * t_fly;
+      sim.SetProjectile(p, t_fly);
+      sim.RefreshForces();
+      summary.free_flight_s = t_fly;
+    }
+    summary.impact_speed_m_s = sim.projectile()->velocity.norm();
+    if (scene.time.end_s == 0.0) t_end_estimate = t_fly + scene.time.impact_window_s;
+  }
+
+  // The impact, step by step. The steps of the impact window (time.impact_window_s from the
+  // first contact, or from the start without one) go into the series the peaks are found in,
+  // so that its memory is bounded however long the run goes on (time.end_s).
+  ImpactSeries series;
+  const double series_start = sim.time_s();
+  double peak = sim.observables().plate_force_N;
+  double peak_time = sim.time_s();
+  std::int64_t peak_at_step = 0;
+  double crater = -std::numeric_limits<double>::infinity();
+  double rest_since = -1.0;  // when the projectile last became slow
+  const double slow_speed = 0.01 * std::max(summary.impact_speed_m_s, 1e-3);
+  std::int64_t next_progress = control.progress_every_steps;
+  while (true) {
+    if (sim.time_s() >= t_limit) {
+      summary.end_reason = "reached time.end_s";
+      break;
+    }
+    if (control.threads) sim.SetThreads(control.threads->load(std::memory_order_relaxed));
+    sim.Step();
+    const StepObservables& o = sim.observables();
+    const double t = sim.time_s();
+    summary.max_overlap_ratio = std::max(summary.max_overlap_ratio, o.max_overlap_ratio);
+    if (o.plate_force_N > peak) {
+      peak = o.plate_force_N;
+      peak_time = t;
+      peak_at_step = sim.steps();
+    }
+    const double window_start =
+        summary.first_contact_time_s >= 0.0 ? summary.first_contact_time_s : series_start;
+    const bool in_window = t <= window_start + scene.time.impact_window_s;
+    if (in_window) {
+      series.t_s.push_back(t);
+      series.plate_force_N.push_back(o.plate_force_N);
+    }
+    if (sim.projectile()) {
+      const RigidSphere& p = *sim.projectile();
+      if (in_window) series.projectile_z_m.push_back(p.position.z());
+      crater = std::max(crater, world.bed_surface_m - (p.position.z() - p.radius));
+    }
+    if (clock.Due(t)) {
+      emit(MakeSample(sim));
+      clock.Advance(t);
+    }
+    while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot] <= t)
+      snapshot(TakeSnapshot(sim, TimeLabel(snapshot_times[next_snapshot++])));
+    if (sim.steps() == peak_step) snapshot(TakeSnapshot(sim, "peak"));
+    // Every step: a step of a large bed takes milliseconds, a cancel must act within a second.
+    if (control.cancel && control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+    if (sim.steps() >= next_progress) {
+      next_progress += control.progress_every_steps;
+      if (control.on_progress) control.on_progress({t, t_end_estimate, sim.steps()});
+    }
+    if (!sim.projectile()) continue;
+
+    const RigidSphere& p = *sim.projectile();
+    if (summary.first_contact_time_s < 0.0) {
+      if (o.projectile_contacts > 0) {
+        summary.first_contact_time_s = t;
+        // Snapshots counted from first contact join the schedule now that it is known.
+        for (double after : scene.output.snapshot_after_contact_s)
+          snapshot_times.push_back(t + after);
+        std::sort(snapshot_times.begin() + next_snapshot, snapshot_times.end());
+      }
+      continue;
+    }
+    if (scene.time.end_s > 0.0) continue;
+    // Automatic end (time.end_s = 0): the projectile has bounced clear of the bed (rising,
+    // touching nothing, its lowest point above the bed's original surface), or has been at
+    // rest for a millisecond, or the impact window has passed. Rising inside its own crater
+    // does not count: beads can still catch it there and load the plate again.
+    const bool clear_of_bed = p.position.z() - p.radius > world.bed_surface_m;
+    if (o.projectile_contacts == 0 && p.velocity.z() > 0.0 && clear_of_bed) {
+      summary.end_reason = "projectile rebounded clear";
+      break;
+    }
+    if (p.velocity.norm() < slow_speed) {
+      if (rest_since < 0.0) rest_since = t;
+      if (t - rest_since >= 1e-3) {
+        summary.end_reason = "projectile at rest";
+        break;
+      }
+    } else {
+      rest_since = -1.0;
+    }
+    if (t >= summary.first_contact_time_s + scene.time.impact_window_s) {
+      summary.end_reason = "time.impact_window_s elapsed";
+      break;
+    }
+  }
+  if (control.on_progress) control.on_progress({sim.time_s(), sim.time_s(), sim.steps()});
+  if (found_peak_step) *found_peak_step = peak_at_step;
+
+  summary.peak_plate_force_N = peak;
+  summary.peak_plate_force_time_s = peak_time;
+  summary.peaks = AnalyzePeaks(
+      series,
+      {rest_force, world.bed_surface_m, sim.projectile() ? sim.projectile()->radius : 0.0,
+       summary.beads > 0 ? 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m) : 0.0});
+  summary.crater_depth_m = std::isfinite(crater) ? crater : 0.0;
+  summary.steps = sim.steps();
+  summary.end_time_s = sim.time_s();
+  summary.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return summary;
+}
+
+}  // namespace
+
+ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& control) {
+  ImpactSummary summary;
+  if (scene.output.snapshot_at_peak) {
+    // The run is deterministic: a first pass finds the step of the peak, the second takes the
+    // snapshot there.
+    RunControl quiet;
+    quiet.cancel = control.cancel;
+    std::int64_t peak_step = -1;
+    RunPass(world, scene, quiet, -1, &peak_step);
+    summary = RunPass(std::move(world), scene, control, peak_step, nullptr);
+  } else {
+    summary = RunPass(std::move(world), scene, control, -1, nullptr);
+  }
+  // The buffer ratio needs the same impact on the bare plate (a few hundred steps).
+  if (summary.beads == 0 || !scene.projectile.enabled) {
+    summary.reference_peak_N = summary.peaks.p_N;
+  } else if (control.compute_reference) {
+    Scene bare = scene;
+    bare.bed.thickness_m = 0.0;
+    bare.bed.import.clear();
+    bare.output = OutputSpec{};
+    RunControl quiet;
+    quiet.cancel = control.cancel;
+    quiet.compute_reference = false;
+    summary.reference_peak_N = RunImpact(bare, quiet).peaks.p_N;
+  }
+  if (summary.reference_peak_N > 0.0)
+    summary.lambda = (summary.reference_peak_N - summary.peaks.p_N) / summary.reference_peak_N;
+  return summary;
+}
+
+}  // namespace dembuf

@@ -1,0 +1,147 @@
+#include "dembuf/study/run_output.h"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/version.h"
+
+namespace dembuf::report {
+
+nlohmann::json SceneToJson(const Scene& scene) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const SceneField& f : SceneFields()) {
+    // The field table's own text form is TOML, which JSON parses for numbers, booleans and
+    // the quoted strings it writes.
+    nlohmann::json value = nlohmann::json::parse(FormatSceneField(scene, f));
+    auto dot = f.name.find('.');
+    if (dot == std::string_view::npos) {
+      out[std::string(f.name)] = value;
+    } else {
+      out[std::string(f.name.substr(0, dot))][std::string(f.name.substr(dot + 1))] = value;
+    }
+  }
+  return out;
+}
+
+nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
+  nlohmann::json curve = nlohmann::json::array();
+  for (const auto& point : s.damping.restitution_curve)
+    curve.push_back({{"speed_m_s", point.speed_m_s}, {"restitution", point.restitution}});
+  nlohmann::json j = {
+      {"dembuf_version", kVersion},
+      {"peak_plate_force_N", s.peak_plate_force_N},
+      {"peak_plate_force_time_s", s.peak_plate_force_time_s},
+      {"beads", s.beads},
+      {"dt_s", s.dt_s},
+      {"critical_dt_s", s.critical_dt_s},
+      {"alpha", scene.time.alpha},
+      {"steps", s.steps},
+      {"wall_time_s", s.wall_time_s},
+      {"damping",
+       {{"A_s", s.damping.damping_A_s},
+        {"target_restitution", s.damping.target_restitution},
+        {"v_ref_m_s", s.damping.ref_speed_m_s},
+        {"e_at_vref", s.damping.restitution_at_ref},
+        {"restitution_vs_speed", curve}}},
+      {"bed_surface_m", s.bed_surface_m},
+      {"free_flight_s", s.free_flight_s},
+      {"impact_speed_m_s", s.impact_speed_m_s},
+      {"end_time_s", s.end_time_s},
+      {"end_reason", s.end_reason},
+      {"scene", SceneToJson(scene)},
+      {"warnings", SceneWarnings(scene)},
+  };
+  // The paper's measurements (docs/model.md section 6).
+  const PeakAnalysis& pk = s.peaks;
+  auto optional = [](bool has, double v) { return has ? nlohmann::json(v) : nlohmann::json(); };
+  j["P_N"] = pk.p_N;
+  j["P_time_s"] = pk.p_time_s;
+  j["Pa_N"] = optional(pk.has_pa, pk.pa.force_N);
+  j["Pa_time_s"] = optional(pk.has_pa, pk.pa.time_s);
+  j["Pb_N"] = optional(pk.has_pb, pk.pb.force_N);
+  j["Pb_time_s"] = optional(pk.has_pb, pk.pb.time_s);
+  j["dS_m"] = optional(pk.has_pa && pk.has_pb, pk.ds_m);
+  j["dt_peaks_s"] = optional(pk.has_pa && pk.has_pb, pk.dt_peaks_s);
+  j["load_duration_s"] = pk.load_duration_s;
+  j["lambda"] = s.lambda;
+  j["reference_peak_N"] = s.reference_peak_N;
+  j["crater_depth_m"] = s.crater_depth_m;
+  j["max_overlap_ratio"] = s.max_overlap_ratio;
+  j["bed_thickness_m"] = s.bed.thickness_m;
+  j["C0"] = s.bed.solid_fraction;
+  j["bed"] = {{"hash", s.bed.hash},
+              {"rest_plate_force_N", s.bed.rest_plate_force_N},
+              {"rest_wall_force_z_N", s.bed.rest_wall_force_z_N},
+              {"weight_N", s.bed.weight_N}};
+  if (!s.bed.note.empty()) j["bed"]["imported"] = s.bed.note;
+  nlohmann::json peaks = nlohmann::json::array();
+  for (const ForcePeak& p : pk.peaks)
+    peaks.push_back({{"force_N", p.force_N},
+                     {"time_s", p.time_s},
+                     {"kind", p.is_push ? "Pa" : "Pb"},
+                     {"projectile_z_m", p.projectile_z_m}});
+  j["peaks"] = peaks;
+  j["first_contact_time_s"] =
+      s.first_contact_time_s >= 0.0 ? nlohmann::json(s.first_contact_time_s) : nlohmann::json();
+  return j;
+}
+
+SampleCsvWriter::SampleCsvWriter(std::filesystem::path path)
+    : m_final(std::move(path)), m_partial(m_final.string() + ".partial") {
+  m_out.open(m_partial);
+  if (!m_out) throw std::runtime_error("cannot write " + m_partial.string());
+  m_out << "t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N\n";
+}
+
+void SampleCsvWriter::Write(const ImpactSample& s) {
+  char line[256];
+  int n =
+      std::snprintf(line, sizeof line, "%.9g,%.9g,%.9g", s.t_s, s.plate_force_N, s.wall_force_z_N);
+  // Scenes without a projectile leave its columns empty.
+  if (std::isfinite(s.projectile_z_m)) {
+    n += std::snprintf(line + n, sizeof line - n, ",%.9g,%.9g,%.9g\n", s.projectile_z_m,
+                       s.projectile_vz_m_s, s.projectile_force_z_N);
+  } else {
+    n += std::snprintf(line + n, sizeof line - n, ",,,\n");
+  }
+  m_out.write(line, n);
+}
+
+void SampleCsvWriter::Commit() {
+  m_out.close();
+  if (!m_out) throw std::runtime_error("error writing " + m_partial.string());
+  std::filesystem::rename(m_partial, m_final);
+}
+
+const std::vector<std::string>& RunOutputNames() {
+  static const std::vector<std::string> names = {"summary.json",
+                                                 "failure.json",
+                                                 "incomplete.json",
+                                                 "plate_force.csv",
+                                                 "plate_force.csv.partial",
+                                                 "plate_force.png",
+                                                 "plate_force.gp",
+                                                 "snapshots",
+                                                 "scene.toml",
+                                                 "job.json"};
+  return names;
+}
+
+void RemoveRunOutputs(const std::filesystem::path& dir) {
+  for (const std::string& name : RunOutputNames()) std::filesystem::remove_all(dir / name);
+}
+
+void WriteFileAtomically(const std::filesystem::path& path, const std::string& text) {
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    out.close();
+    if (!out) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace dembuf::report

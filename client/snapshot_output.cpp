@@ -17,7 +17,7 @@ std::string SafeLabel(const std::string& label) {
 }
 
 bool IsBodyPair(const ContactSnapshot& c) {
-  return c.b >= 0;
+  return IsBead(c.b);
 }
 
 void WriteVtk(const ImpactSnapshot& s, const std::filesystem::path& path) {
@@ -36,7 +36,7 @@ void WriteVtk(const ImpactSnapshot& s, const std::filesystem::path& path) {
   out << "LINES " << lines << " " << 3 * lines << "\n";
   for (const auto& c : s.contacts) {
     if (!IsBodyPair(c)) continue;
-    const std::size_t a = c.a == ContactSnapshot::kProjectile ? n : static_cast<std::size_t>(c.a);
+    const std::size_t a = c.a == kProjectile ? n : static_cast<std::size_t>(c.a);
     out << "2 " << a << " " << c.b << "\n";
   }
   out << "CELL_DATA " << lines << "\nSCALARS normal_force_N double 1\nLOOKUP_TABLE default\n";
@@ -51,18 +51,18 @@ void WriteContacts(const ImpactSnapshot& s, const std::filesystem::path& path) {
   std::ofstream out(path);
   out.precision(9);
   out << "a,b,x_m,y_m,z_m,fx_N,fy_N,fz_N,normal_N,ax_m,ay_m,az_m,bx_m,by_m,bz_m\n";
-  auto centre = [&](std::int64_t id, const Vec3& point) -> Vec3 {
-    if (id >= 0) return s.positions[id];
-    if (id == ContactSnapshot::kProjectile && s.projectile) return s.projectile->position;
+  auto centre = [&](BodyId id, const Vec3& point) -> Vec3 {
+    if (IsBead(id)) return s.positions[id];
+    if (id == kProjectile && s.projectile) return s.projectile->position;
     return point;  // a wall: its contact point
   };
-  auto name = [](std::int64_t id) -> std::string {
+  auto name = [](BodyId id) -> std::string {
     switch (id) {
-      case ContactSnapshot::kPlate:
+      case kPlate:
         return "plate";
-      case ContactSnapshot::kSideWall:
+      case kSideWall:
         return "wall";
-      case ContactSnapshot::kProjectile:
+      case kProjectile:
         return "projectile";
       default:
         return std::to_string(id);
@@ -85,7 +85,7 @@ void WritePlateLoad(const ImpactSnapshot& s, const std::filesystem::path& dir, d
   const int cells = static_cast<int>(std::ceil(2.0 * R / kCell));
   std::vector<double> map(cells * cells, 0.0);
   for (const auto& c : s.contacts) {
-    if (c.b != ContactSnapshot::kPlate) continue;
+    if (c.b != kPlate) continue;
     const double rho = std::hypot(c.point.x(), c.point.y());
     ring_force[std::min(rings - 1, static_cast<int>(rho / ring_width))] += c.normal_N;
     const int cx = std::clamp(static_cast<int>((c.point.x() + R) / kCell), 0, cells - 1);
@@ -110,7 +110,7 @@ void WritePlateLoad(const ImpactSnapshot& s, const std::filesystem::path& dir, d
 void WriteForcePdf(const ImpactSnapshot& s, const std::filesystem::path& path) {
   std::vector<double> forces;
   for (const auto& c : s.contacts)
-    if (c.a >= 0 && c.b >= 0 && c.normal_N > 0.0) forces.push_back(c.normal_N);
+    if (IsBead(c.a) && IsBead(c.b) && c.normal_N > 0.0) forces.push_back(c.normal_N);
   std::ofstream out(path);
   out << "f_over_mean,pdf,count\n";
   if (forces.empty()) return;

@@ -188,7 +188,7 @@ void WriteLammpsData(const World& world, const Scene& scene, const fs::path& pat
 double RunLammps(const fs::path& input, const fs::path& data, const World& world,
                  const Scene& scene, int steps, const fs::path& log) {
   const double e_star = 0.75 * world.params.sphere_pair.kn_per_sqrt_r;
-  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double d_mean = scene.beads.MeanDiameter();
   const double m_mean =
       scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   // LAMMPS's viscoelastic damping force is eta0 * a * m_eff * (approach rate), a = sqrt(R d);
@@ -285,10 +285,10 @@ World TiledWorld(const World& base, std::size_t count) {
   }
   for (std::uint32_t tile = 0; tile < tiles; ++tile)
     for (const ContactHistoryEntry& h : base.history) {
-      if (core_id[h.bead] < 0 || h.other == ContactHistoryEntry::kSideWall) continue;
+      if (core_id[h.bead] < 0 || h.other == kSideWall) continue;
       const std::int64_t bead = new_id[tile * core.size() + core_id[h.bead]];
-      std::int64_t other = ContactHistoryEntry::kPlate;
-      if (h.other != ContactHistoryEntry::kPlate) {
+      std::int64_t other = kPlate;
+      if (h.other != kPlate) {
         if (core_id[h.other] < 0) continue;
         other = new_id[tile * core.size() + core_id[h.other]];
       }

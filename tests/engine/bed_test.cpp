@@ -487,7 +487,7 @@ TEST(SmallBedImpact, SnapshotsAreTakenWhenAskedAndBalance) {
   // damping term with full-step velocities, the step with half-step ones: 2% covers that.
   double plate = 0.0;
   for (const auto& c : peak->contacts)
-    if (c.b == ContactSnapshot::kPlate) plate += c.normal_N;
+    if (c.b == kPlate) plate += c.normal_N;
   EXPECT_NEAR(plate / summary.peak_plate_force_N, 1.0, 0.02);
   // The flight-time snapshot shows the bed at rest: its plate load is the resting load (as
   // recorded before the residual jitter, below the rest tolerance, was zeroed: within 0.1%).
@@ -495,7 +495,7 @@ TEST(SmallBedImpact, SnapshotsAreTakenWhenAskedAndBalance) {
   EXPECT_EQ(rest.label, "t=0.001");
   double rest_plate = 0.0;
   for (const auto& c : rest.contacts)
-    if (c.b == ContactSnapshot::kPlate) rest_plate += c.normal_N;
+    if (c.b == kPlate) rest_plate += c.normal_N;
   EXPECT_NEAR(rest_plate / summary.bed.rest_plate_force_N, 1.0, 1e-3);
   EXPECT_NEAR(snaps[1].t_s, summary.first_contact_time_s + 0.0002, 2 * summary.dt_s);
 }

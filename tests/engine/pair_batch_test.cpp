@@ -187,8 +187,8 @@ void CompareWallsWithScalarLaw(bool friction) {
                                box.radius_m};
 
   int clamped = 0, sliding = 0;
-  for (const Wall wall : {Wall::kPlate, Wall::kSide}) {
-    const int parity = wall == Wall::kPlate ? 0 : 1;
+  for (const BodyId wall : {kPlate, kSideWall}) {
+    const int parity = wall == kPlate ? 0 : 1;
     WallBatch batch;
     batch.Reserve(kCount);
     batch.size = 0;
@@ -200,7 +200,7 @@ void CompareWallsWithScalarLaw(bool friction) {
       const double r = radius[k];
       double overlap = r - position[k].z();
       Vec3 normal = Vec3::UnitZ();
-      if (wall == Wall::kSide) {
+      if (wall == kSideWall) {
         ASSERT_TRUE(SideWallContact(box, position[k], r, overlap, normal));
       }
       const double arm = LeverArm(r, overlap);

@@ -176,9 +176,9 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
   }
 }
 
-// Beads against the plate (kPlate) or the side wall, one contact per loop iteration, as
+// Beads against the plate (kOnPlate) or the side wall, one contact per loop iteration, as
 // ContainerContacts resolves them: the wall does not move and takes no torque (aj = 0).
-template <bool kFriction, bool kPlate>
+template <bool kFriction, bool kOnPlate>
 inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs& in,
                                                            WallBatch& batch) {
   const std::uint32_t* bead = batch.bead.data();
@@ -212,7 +212,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
     const std::size_t i = bead[c];
     const double r = radius[i];
     LaneGeometry g;
-    if constexpr (kPlate) {
+    if constexpr (kOnPlate) {
       g.overlap = r - x[3 * i + 2];
       g.nx = 0.0;
       g.ny = 0.0;
@@ -275,8 +275,8 @@ DEMBUF_VECTOR_CLONES void ResolveSideWallWithoutFriction(const WallBatchInputs& 
 
 }  // namespace
 
-void ResolveWallBatch(bool friction, Wall wall, const WallBatchInputs& in, WallBatch& batch) {
-  if (wall == Wall::kPlate) {
+void ResolveWallBatch(bool friction, BodyId wall, const WallBatchInputs& in, WallBatch& batch) {
+  if (wall == kPlate) {
     if (friction)
       ResolvePlateWithFriction(in, batch);
     else

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "dembuf/core/contact_law.h"
+#include "dembuf/core/particles.h"
 
 namespace dembuf::detail {
 
@@ -88,10 +89,8 @@ struct WallBatchInputs {
   double wall_radius;  ///< the side wall's (the container's inner radius)
 };
 
-enum class Wall { kPlate, kSide };
-
 /// Resolves the contacts of `batch` with the plate or the side wall (the same arithmetic as
 /// ContainerContacts, so the same bits), filling its result arrays.
-void ResolveWallBatch(bool friction, Wall wall, const WallBatchInputs& in, WallBatch& batch);
+void ResolveWallBatch(bool friction, BodyId wall, const WallBatchInputs& in, WallBatch& batch);
 
 }  // namespace dembuf::detail

@@ -316,8 +316,8 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
   batch.Reserve(detail::WallBatch::kTarget);
   for (std::uint32_t first = begin; first < end;) {
     const std::uint32_t last = std::min<std::uint32_t>(end, first + detail::WallBatch::kTarget);
-    for (const detail::Wall wall : {detail::Wall::kPlate, detail::Wall::kSide}) {
-      const bool plate = wall == detail::Wall::kPlate;
+    for (const BodyId wall : {kPlate, kSideWall}) {
+      const bool plate = wall == kPlate;
       std::vector<Vec3>& history = plate ? s.plate_shear : s.wall_shear;
       // Pick out the beads touching this wall (the tests of ContainerContacts), without a branch.
       std::size_t n = 0, m = 0;
@@ -634,9 +634,9 @@ void KickAndDrift(const Kinematics& k, long first, long last, bool closing, doub
 // that were just reordered). A pair's shear belongs to its lower id; swapping flips its sign.
 void ApplyHistory(Simulation::Impl& s) {
   for (ContactHistoryEntry h : s.pending_history) {
-    if (h.other == ContactHistoryEntry::kPlate) {
+    if (h.other == kPlate) {
       s.plate_shear[h.bead] = h.shear;
-    } else if (h.other == ContactHistoryEntry::kSideWall) {
+    } else if (h.other == kSideWall) {
       s.wall_shear[h.bead] = h.shear;
     } else {
       if (h.other < h.bead) {
@@ -989,10 +989,8 @@ std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
   std::vector<ContactHistoryEntry> out;
   out.insert(out.end(), s.pending_history.begin(), s.pending_history.end());
   for (std::uint32_t i = 0; i < m_beads.size(); ++i) {
-    if (s.plate_shear[i] != Vec3::Zero())
-      out.push_back({i, ContactHistoryEntry::kPlate, s.plate_shear[i]});
-    if (s.wall_shear[i] != Vec3::Zero())
-      out.push_back({i, ContactHistoryEntry::kSideWall, s.wall_shear[i]});
+    if (s.plate_shear[i] != Vec3::Zero()) out.push_back({i, kPlate, s.plate_shear[i]});
+    if (s.wall_shear[i] != Vec3::Zero()) out.push_back({i, kSideWall, s.wall_shear[i]});
   }
   if (s.pairs.offsets.size() == m_beads.size() + 1) {
     for (std::uint32_t i = 0; i < m_beads.size(); ++i)
@@ -1007,7 +1005,7 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   CompleteKick();
   Impl& s = *m_impl;
   std::vector<ContactHistoryEntry> history = ExportHistory();
-  std::vector<std::uint32_t> new_id(m_beads.size(), ContactHistoryEntry::kPlate);
+  std::vector<std::uint32_t> new_id(m_beads.size(), kPlate);
   ParticleState kept;
   std::vector<Vec3> plate_shear, wall_shear;
   std::vector<std::uint32_t> origin;
@@ -1022,8 +1020,7 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   s.pending_history.clear();
   for (ContactHistoryEntry h : history) {
     if (!keep[h.bead]) continue;
-    const bool wall =
-        h.other == ContactHistoryEntry::kPlate || h.other == ContactHistoryEntry::kSideWall;
+    const bool wall = h.other == kPlate || h.other == kSideWall;
     if (!wall && !keep[h.other]) continue;
     h.bead = new_id[h.bead];
     if (!wall) h.other = new_id[h.other];
@@ -1060,31 +1057,30 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
               b.position[i]);
       }
   }
-  auto walls = [&](std::int64_t id, const Vec3& x, const Vec3& v, double r, const Vec3& plate,
+  auto walls = [&](BodyId id, const Vec3& x, const Vec3& v, double r, const Vec3& plate,
                    const Vec3& wall) {
     if (r - x.z() > 0.0)
-      visit(id, ContactSnapshot::kPlate, Vec3(Vec3::UnitZ()), r - x.z(), v, r, std::sqrt(r),
-            params.sphere_wall, plate, x);
+      visit(id, kPlate, Vec3(Vec3::UnitZ()), r - x.z(), v, r, std::sqrt(r), params.sphere_wall,
+            plate, x);
     double overlap;
     Vec3 n;
     if (detail::SideWallContact(params.container, x, r, overlap, n))
-      visit(id, ContactSnapshot::kSideWall, n, overlap, v, r, std::sqrt(r), params.sphere_wall,
-            wall, x);
+      visit(id, kSideWall, n, overlap, v, r, std::sqrt(r), params.sphere_wall, wall, x);
   };
   for (std::uint32_t i = 0; i < b.size(); ++i)
     walls(i, b.position[i], b.velocity[i], b.radius[i], s.plate_shear[i], s.wall_shear[i]);
   if (projectile) {
     const RigidSphere& p = *projectile;
-    walls(ContactSnapshot::kProjectile, p.position, p.velocity, p.radius, s.projectile_plate_shear,
+    walls(kProjectile, p.position, p.velocity, p.radius, s.projectile_plate_shear,
           s.projectile_wall_shear);
     for (std::size_t k = 0; k < s.near_projectile.beads.size(); ++k) {
       const std::uint32_t j = s.near_projectile.beads[k];
       const Vec3 d = p.position - b.position[j];
       const double rsum = p.radius + b.radius[j], dist = d.norm();
       if (dist >= rsum) continue;
-      visit(ContactSnapshot::kProjectile, j, Vec3(d / dist), rsum - dist,
-            Vec3(p.velocity - b.velocity[j]), p.radius, std::sqrt(p.radius * b.radius[j] / rsum),
-            params.sphere_pair, s.near_projectile.shear[k], p.position);
+      visit(kProjectile, j, Vec3(d / dist), rsum - dist, Vec3(p.velocity - b.velocity[j]), p.radius,
+            std::sqrt(p.radius * b.radius[j] / rsum), params.sphere_pair,
+            s.near_projectile.shear[k], p.position);
     }
   }
 }
@@ -1098,8 +1094,8 @@ std::vector<ContactSnapshot> Simulation::Contacts() const {
   // (already capped by Coulomb in the last step).
   VisitContacts(
       m_params, m_beads, m_projectile, *m_impl,
-      [&](std::int64_t a, std::int64_t other, const Vec3& n, double overlap, const Vec3& v_rel,
-          double ra, double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3& x_a) {
+      [&](BodyId a, BodyId other, const Vec3& n, double overlap, const Vec3& v_rel, double ra,
+          double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3& x_a) {
         const double fn = HertzNormalForce(overlap, -v_rel.dot(n), sqrt_r, p);
         const Vec3 ft = StoredSpringForce(overlap, sqrt_r, p, shear);
         out.push_back({a, other, x_a - detail::LeverArm(ra, overlap) * n, fn * n + ft, fn});

@@ -250,7 +250,7 @@ std::vector<char> Near(const ParticleState& b, const std::vector<char>& marked, 
 }
 
 bool IsWall(std::uint32_t other) {
-  return other == ContactHistoryEntry::kPlate || other == ContactHistoryEntry::kSideWall;
+  return other == kPlate || other == kSideWall;
 }
 
 // One region: steps the free beads around `moving`, with the beads they can reach held, until
@@ -394,7 +394,7 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
                     const BedRequest& request, double max_time, double tolerance,
                     const std::function<void(Simulation&, double)>& before_step = {},
                     bool quench = false, bool local = false) {
-  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double d_mean = scene.beads.MeanDiameter();
   const double m_mean =
       scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
@@ -474,7 +474,7 @@ PreparedBed Finish(Simulation& sim, const Scene& scene, const std::string& hash,
   bed.stage = stage;
   bed.surface_m = MeasureSurface(bed.beads, scene.cylinder.radius_m);
   bed.solid_fraction = SolidFraction(bed.beads, scene.cylinder.radius_m, bed.surface_m);
-  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double d_mean = scene.beads.MeanDiameter();
   const double m_mean =
       scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const RestState rest = MeasureRest(sim, m_mean * scene.gravity_m_s2 * d_mean);

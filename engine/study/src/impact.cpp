@@ -35,7 +35,7 @@ ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
   const PairModuli wall_moduli = EffectiveModuli(bead_elastic, wall_elastic, shear);
 
   // Calibrate A on two beads of the mean diameter meeting head-on (docs/model.md section 2).
-  const double d_mean = 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const double d_mean = scene.beads.MeanDiameter();
   const double bead_mass = mat.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);
   setup.damping =
@@ -325,9 +325,8 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
   summary.peak_plate_force_N = peak;
   summary.peak_plate_force_time_s = peak_time;
   summary.peaks = AnalyzePeaks(
-      series,
-      {rest_force, world.bed_surface_m, sim.projectile() ? sim.projectile()->radius : 0.0,
-       summary.beads > 0 ? 0.5 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m) : 0.0});
+      series, {rest_force, world.bed_surface_m, sim.projectile() ? sim.projectile()->radius : 0.0,
+               summary.beads > 0 ? scene.beads.MeanDiameter() : 0.0});
   summary.crater_depth_m = std::isfinite(crater) ? crater : 0.0;
   summary.steps = sim.steps();
   summary.end_time_s = sim.time_s();

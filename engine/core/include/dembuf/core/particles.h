@@ -2,12 +2,24 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <numbers>
 #include <vector>
 
 #include "dembuf/core/vec.h"
 
 namespace dembuf {
+
+/// Who a contact joins: beads are numbered 0 .. n - 1, and the plate, the side wall and the
+/// projectile have the top ids. One encoding for contact histories, snapshots and the kernels.
+using BodyId = std::uint32_t;
+inline constexpr BodyId kPlate = 0xFFFFFFFF;
+inline constexpr BodyId kSideWall = 0xFFFFFFFE;
+inline constexpr BodyId kProjectile = 0xFFFFFFFD;
+/// True for a bead's id.
+inline constexpr bool IsBead(BodyId id) {
+  return id < kProjectile;
+}
 
 /// All beads. Indices are bead ids; every array has size().
 struct ParticleState {

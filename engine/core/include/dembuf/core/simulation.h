@@ -38,25 +38,20 @@ struct StepObservables {
   double max_overlap_ratio = 0.0;
 };
 
-/// The tangential history of one contact, for saving a bed exactly. `other` is a bead id, or
-/// kPlate / kSideWall.
+/// The tangential history of one contact, for saving a bed exactly. `other` is a bead, the
+/// plate or the side wall.
 struct ContactHistoryEntry {
-  static constexpr std::uint32_t kPlate = 0xFFFFFFFF;
-  static constexpr std::uint32_t kSideWall = 0xFFFFFFFE;
-  std::uint32_t bead;
-  std::uint32_t other;
+  BodyId bead;
+  BodyId other;
   Vec3 shear;
 };
 
 /// One contact at an instant (for force networks, plate maps and force statistics).
 struct ContactSnapshot {
-  static constexpr std::int64_t kPlate = -1;
-  static constexpr std::int64_t kSideWall = -2;
-  static constexpr std::int64_t kProjectile = -3;
-  std::int64_t a;  ///< bead id, or kProjectile
-  std::int64_t b;  ///< bead id, kPlate, kSideWall
-  Vec3 point;      ///< contact point (middle of the overlap)
-  Vec3 force;      ///< force on body a (normal + tangential)
+  BodyId a;    ///< a bead, or the projectile
+  BodyId b;    ///< a bead, the plate or the side wall
+  Vec3 point;  ///< contact point (middle of the overlap)
+  Vec3 force;  ///< force on body a (normal + tangential)
   double normal_N;
 };
 

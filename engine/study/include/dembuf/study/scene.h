@@ -41,6 +41,9 @@ struct WallSpec {
 struct BeadSpec {
   double diameter_min_m = 0.004;
   double diameter_max_m = 0.005;
+  /// The mean diameter d of the uniform distribution: the calibration's and the rest
+  /// criterion's bead, the peak rule's unit of depth.
+  double MeanDiameter() const { return 0.5 * (diameter_min_m + diameter_max_m); }
 };
 
 /// The granular bed. Thickness 0 means no beads: the projectile hits the bare plate.

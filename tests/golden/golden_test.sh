@@ -9,11 +9,15 @@
 # (one after contact and one at the peak).
 # Only the computing time and the version are left out of the comparison.
 #
-# Usage: golden_test.sh DEMBUF_BINARY GOLDEN_DIR
-# With DEMBUF_UPDATE_GOLDEN=1 it writes GOLDEN_DIR instead; say why in the commit.
+# Usage: golden_test.sh DEMBUF_BINARY GOLDEN_DIR [THREADS...]   (THREADS default: 1 2)
+# With DEMBUF_UPDATE_GOLDEN=1 it writes GOLDEN_DIR (from the 1-thread runs) instead; say why
+# in the commit.
 set -eu
 dembuf=$1
 golden=$2
+shift 2
+thread_counts=("$@")
+[ ${#thread_counts[@]} -gt 0 ] || thread_counts=(1 2)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
@@ -45,7 +49,7 @@ json.dump(summary, sys.stdout, indent=1, sort_keys=True)
 print()' "$1"
 }
 
-for threads in 1 2; do
+for threads in "${thread_counts[@]}"; do
   cache="$work/beds-$threads"  # each thread count prepares its own beds
   for preset in e1 e2 e3 e4 e5; do
     out="$work/$threads/$preset"

@@ -57,11 +57,9 @@ inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, co
 /// acts on centres with 0 <= z <= height.
 inline bool SideWallContact(const Container& box, const Vec3& x, double r, double& overlap,
                             Vec3& normal) {
-  const double rho2 = x.x() * x.x() + x.y() * x.y();
-  const double inner = box.radius_m - r;
-  if (!(rho2 > inner * inner && x.z() >= 0.0 && x.z() <= box.height_m)) return false;
-  const double rho = std::sqrt(rho2);
-  overlap = rho - inner;
+  if (!box.TouchesSideWall(x.x(), x.y(), x.z(), r)) return false;
+  const double rho = std::sqrt(x.x() * x.x() + x.y() * x.y());
+  overlap = box.SideWallOverlap(rho, r);
   normal = Vec3(-x.x() / rho, -x.y() / rho, 0.0);
   return true;
 }

@@ -177,7 +177,8 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
 }
 
 // Beads against the plate (kOnPlate) or the side wall, one contact per loop iteration, as
-// ContainerContacts resolves them: the wall does not move and takes no torque (aj = 0).
+// the projectile's contacts with them are resolved: the wall does not move and takes no torque (aj
+// = 0).
 template <bool kFriction, bool kOnPlate>
 inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs& in,
                                                            WallBatch& batch) {
@@ -204,7 +205,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
   // Copies: the stores to the result arrays could otherwise alias them.
   const PairParams params = in.params;
   const double dt = in.dt;
-  const double wall_radius = in.wall_radius;
+  const Container box = in.box;
   const std::size_t n = batch.size;
 
 #pragma omp simd
@@ -213,7 +214,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
     const double r = radius[i];
     LaneGeometry g;
     if constexpr (kOnPlate) {
-      g.overlap = r - x[3 * i + 2];
+      g.overlap = Container::PlateOverlap(x[3 * i + 2], r);
       g.nx = 0.0;
       g.ny = 0.0;
       g.nz = 1.0;
@@ -221,7 +222,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
       // Normal from the wall towards the axis (SideWallContact).
       const double px = x[3 * i], py = x[3 * i + 1];
       const double rho = std::sqrt(px * px + py * py);
-      g.overlap = rho - (wall_radius - r);
+      g.overlap = box.SideWallOverlap(rho, r);
       g.nx = -px / rho;
       g.ny = -py / rho;
       g.nz = 0.0;

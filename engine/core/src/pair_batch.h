@@ -86,11 +86,11 @@ struct WallBatchInputs {
   const double* shear;  ///< per bead, 3 doubles: its history with this wall
   PairParams params;
   double dt;
-  double wall_radius;  ///< the side wall's (the container's inner radius)
+  Container box;
 };
 
 /// Resolves the contacts of `batch` with the plate or the side wall (the same arithmetic as
-/// ContainerContacts, so the same bits), filling its result arrays.
+/// the projectile's contacts with them, so the same bits), filling its result arrays.
 void ResolveWallBatch(bool friction, BodyId wall, const WallBatchInputs& in, WallBatch& batch);
 
 }  // namespace dembuf::detail

@@ -166,6 +166,21 @@ inline ContactForce HertzMindlinForce(const ContactGeometry& c, const PairParams
   return {out.normal, Vec3(out.tx, out.ty, out.tz)};
 }
 
+/// Rolling resistance (docs/model.md section 2; off unless mu_r > 0), as a constant directional
+/// torque: mu_r R* Fn against the relative rolling of the two bodies, that is w_rel = w_this -
+/// w_other less its spin about n (twisting is not rolling). A torque that would reverse the
+/// rolling within one step of dt stops it instead, so that a body at rest stays at rest
+/// instead of rocking; `inertia` is the pair's 1 / (1/I_this + 1/I_other) (I_this for a wall).
+/// Returns the torque on this body; the other body gets its opposite.
+inline Vec3 RollingResistanceTorque(const Vec3& n, const Vec3& w_rel, double normal, double r_star,
+                                    double mu_r, double inertia, double dt) {
+  const Vec3 rolling = w_rel - w_rel.dot(n) * n;
+  const double rate = rolling.norm();
+  if (!(rate > 0.0)) return Vec3::Zero();
+  const double torque = std::min(mu_r * r_star * normal, inertia * rate / dt);
+  return (-torque / rate) * rolling;
+}
+
 /// Normal force magnitude alone (eq. 1 with the clamp).
 inline double HertzNormalForce(double overlap, double approach_rate, double sqrt_r_star,
                                const PairParams& p) {

@@ -83,10 +83,30 @@ struct RigidSphere {
 };
 
 /// The container: bottom plate at z = 0 and a cylindrical side wall around the z axis that
-/// acts on bodies with 0 <= z <= height.
+/// acts on bodies with 0 <= z <= height. Its geometry is written here once, in components and
+/// without branches (& rather than &&), so that the vectorized contact batches use it too.
 struct Container {
   double radius_m = 0.0;
   double height_m = 0.0;
+
+  /// Overlap of a sphere of radius r whose centre is at height z with the plate (> 0: touching).
+  static double PlateOverlap(double z, double r) { return r - z; }
+
+  /// Whether a sphere (centre x, y, z, radius r) touches the side wall: its centre is farther
+  /// from the axis than radius - r, at a height where the wall acts.
+  bool TouchesSideWall(double x, double y, double z, double r) const {
+    const double inner = radius_m - r;
+    return (x * x + y * y > inner * inner) & (z >= 0.0) & (z <= height_m);
+  }
+
+  /// Overlap with the side wall of a sphere of radius r whose centre is `rho` from the axis.
+  double SideWallOverlap(double rho, double r) const { return rho - (radius_m - r); }
+
+  /// The container leaked: a centre outside the side wall below its top, or a sphere wholly
+  /// through the plate.
+  bool Escaped(double x, double y, double z, double r) const {
+    return ((z < height_m) & (x * x + y * y > radius_m * radius_m)) | (z < -r);
+  }
 };
 
 }  // namespace dembuf

@@ -17,6 +17,9 @@ struct WorldParams {
   Container container;
   PairParams sphere_pair;  ///< bead-bead and projectile-bead
   PairParams sphere_wall;  ///< bead and projectile against plate and side wall
+  /// Rolling resistance mu_r of every contact (RollingResistanceTorque); 0: none, and then the
+  /// kernels are compiled without it.
+  double rolling_friction = 0.0;
   double gravity_m_s2 = 9.81;
   double dt_s = 1e-6;
   /// Neighbor-list skin as a fraction of the smallest bead diameter.
@@ -125,7 +128,7 @@ class Simulation {
   template <class Keep>
   void RemoveBeads(Keep keep);
 
-  struct Impl;  ///< neighbor lists and contact histories (private to the engine)
+  struct Impl;  ///< neighbour lists, contact histories, blocks (src/simulation_state.h)
 
  private:
   void RemoveBeadsMasked(const std::vector<bool>& keep);

@@ -1,0 +1,347 @@
+#include "force_pass.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "block_schedule.h"
+#include "contact_kernels.h"
+#include "effects.h"
+
+namespace dembuf::detail {
+
+namespace {
+
+// Rolling resistance of a contact between a bead (or the projectile) and the plate or the
+// side wall, whose normal into the sphere is n.
+inline Vec3 WallRolling(const WorldParams& params, const Vec3& n, const Vec3& w, double normal,
+                        double r, double inertia) {
+  return RollingResistanceTorque(n, w, normal, r, params.rolling_friction, inertia, params.dt_s);
+}
+
+// Pair forces of the beads of block [begin, end), in batches of the list's entries
+// (pair_batch.h): the touching pairs are picked out, the law resolves them in one vectorized
+// loop, and the results go to the beads in list order. Entries apart lose their history.
+template <class E>
+void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, PairBatch& batch,
+                std::uint32_t begin, std::uint32_t end, StepObservables& obs,
+                StepConditions& cond) {
+  if (begin == end) return;  // (a system without beads may have no list at all)
+  const std::uint32_t* owner = pairs.owner.data();
+  const std::uint32_t* partners = pairs.partners.data();
+  const PairBatchInputs inputs{Components(b.position),
+                               Components(b.velocity),
+                               Components(b.angular_velocity),
+                               b.radius.data(),
+                               pairs.sqrt_r_star.data(),
+                               Components(pairs.shear),
+                               params.sphere_pair,
+                               params.dt_s};
+  batch.Reserve(PairBatch::kTarget);
+  // One flat loop over the entries (not beads, then their entries): no loop exit per bead to
+  // mispredict.
+  const std::uint32_t stop = pairs.offsets[end];
+  for (std::uint32_t first = pairs.offsets[begin]; first < stop;) {
+    const std::uint32_t last = std::min<std::uint32_t>(stop, first + PairBatch::kTarget);
+
+    // 1. Pick out the touching pairs, and the entries apart. Every entry is written and the
+    // counts advance by a comparison's result: no branch to mispredict.
+    std::uint32_t* bead = batch.bead.data();
+    std::uint32_t* partner = batch.partner.data();
+    std::uint32_t* entry = batch.entry.data();
+    std::uint32_t* apart = batch.apart.data();
+    std::size_t n = 0, m = 0;
+    for (std::uint32_t k = first; k < last; ++k) {
+      const std::uint32_t i = owner[k], j = partners[k];
+      const double rsum = b.radius[i] + b.radius[j];
+      const bool touching = (b.position[i] - b.position[j]).squaredNorm() < rsum * rsum;
+      bead[n] = i;
+      partner[n] = j;
+      entry[n] = k;
+      n += touching;
+      if constexpr (E::kFriction) {
+        apart[m] = k;
+        m += !touching;
+      }
+    }
+    batch.size = n;
+
+    // 2. The contact law, vectorized.
+    ResolvePairBatch(E::kFriction, inputs, batch);
+
+    // 3. Forces and torques to both beads, in list order; the histories back to the list.
+    for (std::size_t c = 0; c < n; ++c) {
+      const std::uint32_t i = bead[c], j = partner[c];
+      const Vec3 f(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
+      b.force[i] += f;
+      b.force[j] -= f;
+      if constexpr (E::kFriction) {
+        b.torque[i] +=
+            Vec3(batch.torque_bead[0][c], batch.torque_bead[1][c], batch.torque_bead[2][c]);
+        b.torque[j] += Vec3(batch.torque_partner[0][c], batch.torque_partner[1][c],
+                            batch.torque_partner[2][c]);
+        pairs.shear[entry[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+      }
+      if constexpr (E::kRolling) {
+        const Vec3 normal = (b.position[i] - b.position[j]).normalized();
+        const double sqrt_r = pairs.sqrt_r_star[entry[c]];
+        const Vec3 rolling = RollingResistanceTorque(
+            normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), sqrt_r * sqrt_r,
+            params.rolling_friction, 1.0 / (b.inv_inertia[i] + b.inv_inertia[j]), params.dt_s);
+        b.torque[i] += rolling;
+        b.torque[j] -= rolling;
+      }
+      cond.NoteOverlap(batch.overlap[c], std::min(b.radius[i], b.radius[j]), i, j);
+    }
+    obs.bead_contacts += static_cast<int>(n);
+
+    // 4. A contact that has opened forgets its history.
+    if constexpr (E::kFriction)
+      for (std::size_t a = 0; a < m; ++a) pairs.shear[apart[a]].setZero();
+    first = last;
+  }
+}
+
+// Plate and side-wall contacts of the beads near_container[begin, end), in batches like the
+// pairs: the beads touching the plate are picked out and resolved in one vectorized loop, then
+// those touching the side wall. Each bead gets its plate force before its wall force, as the
+// projectile does (ProjectileContainerForces). Beads apart from a wall lose their history with it.
+template <class E>
+void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Impl& s,
+                     WallBatch& batch, std::uint32_t begin, std::uint32_t end, StepObservables& obs,
+                     StepConditions& cond) {
+  const Container& box = params.container;
+  batch.Reserve(WallBatch::kTarget);
+  for (std::uint32_t first = begin; first < end;) {
+    const std::uint32_t last = std::min<std::uint32_t>(end, first + WallBatch::kTarget);
+    for (const BodyId wall : {kPlate, kSideWall}) {
+      const bool plate = wall == kPlate;
+      std::vector<Vec3>& history = plate ? s.plate_shear : s.wall_shear;
+      // Pick out the beads touching this wall, without a branch.
+      std::size_t n = 0, m = 0;
+      for (std::uint32_t c = first; c < last; ++c) {
+        const std::uint32_t i = s.near_container[c];
+        const double x = b.position[i].x(), y = b.position[i].y(), z = b.position[i].z();
+        const double r = b.radius[i];
+        const bool touching =
+            plate ? Container::PlateOverlap(z, r) > 0.0 : box.TouchesSideWall(x, y, z, r);
+        batch.bead[n] = i;
+        n += touching;
+        batch.apart[m] = i;
+        m += !touching;
+      }
+      batch.size = n;
+      const WallBatchInputs inputs{Components(b.position),
+                                   Components(b.velocity),
+                                   Components(b.angular_velocity),
+                                   b.radius.data(),
+                                   Components(history),
+                                   params.sphere_wall,
+                                   params.dt_s,
+                                   box};
+      ResolveWallBatch(E::kFriction, wall, inputs, batch);
+      for (std::size_t c = 0; c < n; ++c) {
+        const std::uint32_t i = batch.bead[c];
+        b.force[i] += Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
+        if constexpr (E::kFriction) {
+          b.torque[i] += Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]);
+          history[i] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+        }
+        if constexpr (E::kRolling) {
+          const Vec3& x = b.position[i];
+          const Vec3 normal = plate ? Vec3(Vec3::UnitZ()) : Vec3(-x.x(), -x.y(), 0.0).normalized();
+          b.torque[i] += WallRolling(params, normal, b.angular_velocity[i], batch.normal_force[c],
+                                     b.radius[i], 1.0 / b.inv_inertia[i]);
+        }
+        if (plate)
+          obs.plate_force_N += batch.normal_force[c];
+        else
+          obs.wall_force_z_N += batch.force[2][c];
+        cond.NoteOverlap(batch.overlap[c], b.radius[i], i, wall);
+      }
+      if constexpr (E::kFriction)
+        for (std::size_t a = 0; a < m; ++a) history[batch.apart[a]].setZero();
+    }
+    first = last;
+  }
+}
+
+// Plate and side-wall contacts of the projectile, with the same law and geometry as the
+// beads' batches; adds to its force and torque and to the observables and returns how many of
+// the two it touches.
+template <class E>
+int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulation::Impl& s,
+                              StepObservables& obs, StepConditions& cond) {
+  const Container& box = params.container;
+  const Vec3& x = p.position;
+  const double r = p.radius;
+  auto resolve = [&](const Vec3& normal, double overlap, Vec3& shear) {
+    const double arm = LeverArm(r, overlap);
+    const ContactGeometry c =
+        MakeGeometry(normal, overlap, p.velocity, arm * p.angular_velocity, std::sqrt(r));
+    const auto out = Resolve<E::kFriction>(c, arm, 0.0, params.sphere_wall, params.dt_s, shear);
+    p.force += out.force;
+    p.torque += out.torque_i;
+    if constexpr (E::kRolling)
+      p.torque += WallRolling(params, normal, p.angular_velocity, out.normal, r, p.Inertia());
+    return out;
+  };
+  int touching = 0;
+  const double plate_overlap = Container::PlateOverlap(x.z(), r);
+  if (plate_overlap > 0.0) {
+    obs.plate_force_N += resolve(Vec3::UnitZ(), plate_overlap, s.projectile_plate_shear).normal;
+    cond.NoteOverlap(plate_overlap, r, kProjectile, kPlate);
+    ++touching;
+  } else if constexpr (E::kFriction) {
+    s.projectile_plate_shear.setZero();
+  }
+  double overlap;
+  Vec3 n;
+  if (SideWallContact(box, x, r, overlap, n)) {
+    obs.wall_force_z_N += resolve(n, overlap, s.projectile_wall_shear).force.z();
+    cond.NoteOverlap(overlap, r, kProjectile, kSideWall);
+    ++touching;
+  } else if constexpr (E::kFriction) {
+    s.projectile_wall_shear.setZero();
+  }
+  return touching;
+}
+
+// The projectile against its candidate beads (Impl::near_projectile); returns the contacts.
+template <class E>
+int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleState& b,
+                         Simulation::Impl& s, StepConditions& cond) {
+  int contacts = 0;
+  CandidateList& near = s.near_projectile;
+  for (std::size_t k = 0; k < near.beads.size(); ++k) {
+    const std::uint32_t j = near.beads[k];
+    const Vec3 d = p.position - b.position[j];
+    const double rj = b.radius[j];
+    const double rsum = p.radius + rj;
+    const double dist2 = d.squaredNorm();
+    Vec3& h = near.shear[k];
+    if (dist2 >= rsum * rsum) {
+      if constexpr (E::kFriction) h.setZero();
+      continue;
+    }
+    const double dist = std::sqrt(dist2);
+    const double overlap = rsum - dist;
+    const Vec3 normal = d * (1.0 / dist);
+    const double ap = LeverArm(p.radius, overlap), aj = LeverArm(rj, overlap);
+    const Vec3 w_arm =
+        E::kFriction ? Vec3(ap * p.angular_velocity + aj * b.angular_velocity[j]) : Vec3::Zero();
+    const double r_star = p.radius * rj / rsum;
+    const ContactGeometry c =
+        MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, std::sqrt(r_star));
+    const auto out = Resolve<E::kFriction>(c, ap, aj, params.sphere_pair, params.dt_s, h);
+    p.force += out.force;
+    p.torque += out.torque_i;
+    b.force[j] -= out.force;
+    if constexpr (E::kFriction) b.torque[j] += out.torque_j;
+    if constexpr (E::kRolling) {
+      const Vec3 rolling = RollingResistanceTorque(
+          normal, p.angular_velocity - b.angular_velocity[j], out.normal, r_star,
+          params.rolling_friction, 1.0 / (1.0 / p.Inertia() + b.inv_inertia[j]), params.dt_s);
+      p.torque += rolling;
+      b.torque[j] -= rolling;
+    }
+    ++contacts;
+    cond.NoteOverlap(overlap, rj, kProjectile, j);
+  }
+  return contacts;
+}
+
+// The force pass for one set of effects: bead pairs (blocks of layers, swept as
+// block_schedule.h says), container contacts of the beads near the walls (each thread a run of
+// blocks), then the projectile (one body, serial). Observables and conditions are summed per
+// block and merged in block order, so the result does not depend on the thread count.
+template <class E>
+void ForcePass(const WorldParams& params, ParticleState& b, std::optional<RigidSphere>& projectile,
+               Simulation::Impl& s, StepObservables& obs) {
+  const int blocks = static_cast<int>(s.block_start.size()) - 1;
+  // Weigh the blocks by the last pass's contacts (not needed by one thread, nor before they
+  // are counted; a pass on other weights is not timed for the shares).
+  const bool weighed = s.block_contacts.size() == static_cast<std::size_t>(blocks);
+  if (s.threads > 1 && weighed) WeighBlocks(s);
+  s.block_observables.assign(blocks, StepObservables{});
+  s.block_conditions.assign(blocks, StepConditions{});
+  const std::uint32_t* start = s.block_start.data();
+  if (s.batches.size() < static_cast<std::size_t>(s.threads)) {
+    s.batches.resize(s.threads);
+    s.wall_batches.resize(s.threads);
+  }
+  s.shares.Prepare(s.threads);
+  int team_size = 1;
+  if (s.block_done.size() != static_cast<std::size_t>(blocks)) {
+    s.block_done = std::vector<std::atomic<std::uint64_t>>(blocks);  // all 0
+    s.force_pass = 0;
+  }
+  const std::uint64_t pass = ++s.force_pass;
+
+#pragma omp parallel num_threads(s.threads) if (s.parallel)
+  {
+    const int thread = omp_get_thread_num(), team = omp_get_num_threads();
+    // Each thread clears the forces of the beads it integrates (the same part of them).
+    const long n = static_cast<long>(b.size());
+    const auto [first_bead, last_bead] = s.shares.Part(n, thread, team);
+    for (long i = first_bead; i < last_bead; ++i) {
+      b.force[i].setZero();
+      if constexpr (E::kRotate) b.torque[i].setZero();
+    }
+#pragma omp barrier
+    if (thread == 0) team_size = team;
+    // This thread's blocks [first, last), in the order of Impl::block_start.
+    const long first = ShareStart(s.block_work, s.shares.Start(thread, team));
+    const long last = ShareStart(s.block_work, s.shares.Start(thread + 1, team));
+    const double began = omp_get_wtime();
+    SweepBlocks(first, last, blocks, s.block_done.data(), pass, [&](long k) {
+      PairForces<E>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
+                    s.block_observables[k], s.block_conditions[k]);
+    });
+    const double busy = omp_get_wtime() - began;  // this thread's time in its blocks
+    const std::uint64_t done = s.block_work[last] - s.block_work[first];
+#pragma omp barrier
+    if (team > 1 && weighed) s.shares.Record(thread, static_cast<double>(done), busy);
+    // Container contacts of the beads near the plate or the wall: each thread takes
+    // consecutive blocks holding about its share of those beads.
+    const std::vector<std::uint32_t>& near_start = s.block_near_container;
+    const long first_block = ShareStart(near_start, s.shares.Start(thread, team));
+    const long last_block = ShareStart(near_start, s.shares.Start(thread + 1, team));
+    for (long k = first_block; k < last_block; ++k)
+      ContainerForces<E>(params, b, s, s.wall_batches[thread], near_start[k], near_start[k + 1],
+                         s.block_observables[k], s.block_conditions[k]);
+  }
+  s.shares.Update(team_size);
+  obs = StepObservables{};
+  StepConditions& cond = s.conditions;
+  s.block_contacts.resize(blocks);
+  for (int k = 0; k < blocks; ++k) {
+    const StepObservables& o = s.block_observables[k];
+    s.block_contacts[k] = static_cast<std::uint32_t>(o.bead_contacts);
+    obs.plate_force_N += o.plate_force_N;
+    obs.wall_force_z_N += o.wall_force_z_N;
+    obs.bead_contacts += o.bead_contacts;
+    cond.Merge(s.block_conditions[k]);
+  }
+
+  if (projectile) {
+    RigidSphere& p = *projectile;
+    p.force.setZero();
+    p.torque.setZero();
+    obs.projectile_contacts = ProjectileContainerForces<E>(params, p, s, obs, cond);
+    obs.projectile_contacts += ProjectileBeadForces<E>(params, p, b, s, cond);
+    obs.projectile_force_N = p.force;
+  }
+}
+
+}  // namespace
+
+void ComputeForcePass(const WorldParams& params, ParticleState& beads,
+                      std::optional<RigidSphere>& projectile, Simulation::Impl& s,
+                      StepObservables& obs) {
+  WithEffects(s.friction, s.rolling,
+              [&]<class E>(E) { ForcePass<E>(params, beads, projectile, s, obs); });
+}
+
+}  // namespace dembuf::detail

@@ -1,0 +1,128 @@
+// What a Simulation keeps besides the beads (Simulation::Impl): neighbour lists, contact
+// histories, the blocks of the parallel force pass, and what went wrong in the last pass. The
+// stages of a step (integrator.h, bead_lists.h, force_pass.h) work on it.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "dembuf/core/neighbor_list.h"
+#include "dembuf/core/simulation.h"
+#include "pair_batch.h"
+#include "thread_shares.h"
+
+namespace dembuf {
+
+namespace detail {
+
+// Beds of at least this many beads are kept in cell order and processed in parallel blocks;
+// smaller systems (two-body tests, a few hundred beads) keep their order and run serially.
+inline constexpr std::size_t kParallelMinBeads = 1024;
+
+// What went wrong in a pass, recorded inside the loops and acted on after them (no throwing
+// inside the hot loops). Bodies are BodyIds; kNoBody: none.
+inline constexpr BodyId kNoBody = kProjectile - 1;
+struct StepConditions {
+  double max_overlap_ratio = 0.0;
+  BodyId overlap_a = kNoBody, overlap_b = kNoBody;
+  long nonfinite_bead = -1;
+  long escaped_bead = -1;
+  bool projectile_bad = false;
+  // Keeps the largest overlap of the pass; the common case costs one multiply and compare.
+  void NoteOverlap(double overlap, double radius, BodyId a, BodyId b) {
+    if (overlap > max_overlap_ratio * radius) {
+      max_overlap_ratio = overlap / radius;
+      overlap_a = a;
+      overlap_b = b;
+    }
+  }
+  // Combines the record of another block (blocks are merged in a fixed order).
+  void Merge(const StepConditions& o) {
+    if (o.max_overlap_ratio > max_overlap_ratio) {
+      max_overlap_ratio = o.max_overlap_ratio;
+      overlap_a = o.overlap_a;
+      overlap_b = o.overlap_b;
+    }
+    nonfinite_bead = std::max(nonfinite_bead, o.nonfinite_bead);
+    escaped_bead = std::max(escaped_bead, o.escaped_bead);
+    projectile_bad = projectile_bad || o.projectile_bad;
+  }
+};
+
+// The components of an array of vectors, x y z x y z ...
+template <class V>
+auto Components(V& vectors) -> decltype(vectors.front().data()) {
+  return vectors.empty() ? nullptr : vectors.front().data();
+}
+
+}  // namespace detail
+
+struct Simulation::Impl {
+  detail::CellGrid grid;
+  detail::PairList pairs;
+  detail::CandidateList near_projectile;
+  std::vector<Vec3> plate_shear;  // history of each bead's plate contact
+  std::vector<Vec3> wall_shear;   // history of each bead's side-wall contact
+  Vec3 projectile_plate_shear = Vec3::Zero();
+  Vec3 projectile_wall_shear = Vec3::Zero();
+
+  std::vector<Vec3> reference_position;  // bead positions at the last list build
+  Vec3 projectile_reference = Vec3::Zero();
+  double max_bead_displacement = 0.0;  // since the last list build
+  // max_bead_displacement when the projectile's list was last built (0: with the bead lists).
+  double projectile_list_displacement = 0.0;
+  bool lists_valid = false;
+  bool forces_valid = false;
+
+  std::vector<ContactHistoryEntry> pending_history;  // applied at the next list build
+  std::vector<std::uint32_t> origin;                 // Simulation::BeadOrigins
+
+  double skin = 0.0;
+  double max_radius = 0.0;
+  double min_radius = 0.0;
+  // The effects of this world (effects.h): each kernel is compiled once per set of them.
+  bool friction = false;
+  bool rolling = false;
+  // Beads turn when something gives them a torque.
+  bool Rotating() const { return friction || rolling; }
+  detail::StepConditions conditions;
+
+  // Parallel force computation. Beads are kept in cell order (layers of cells across the
+  // grid's longest axis, CellGrid::SpaceAxis; in a layer, rows of cells), and each layer of
+  // cells is a block (k numbers both). A pair (i, j > i) found in the 27 cells around i joins
+  // a bead of layer k to one of layer k or k + 1, so only neighbouring blocks touch the same
+  // beads, and the rule "of two neighbouring blocks, the even one first" fixes the order of
+  // every bead's sum (block_schedule.h). The blocks depend on the beads, not on the thread
+  // count, and every sum is taken in the same order: results are bit-identical for any
+  // number of threads.
+  std::vector<std::uint32_t> block_start{0, 0};
+  // The work (list entries + beads) of the blocks before each block, and the total last: each
+  // thread takes consecutive blocks of about equal work, which keeps both the balance and the
+  // memory locality of a contiguous share.
+  std::vector<std::uint64_t> block_work{0, 1};
+  // The force pass (force_pass) in which each block was done last.
+  std::vector<std::atomic<std::uint64_t>> block_done;
+  std::uint64_t force_pass = 0;
+  // The touching pairs of each block in the last force pass, which weigh the blocks' work
+  // (empty after a list build, until a pass has counted them).
+  std::vector<std::uint32_t> block_contacts;
+  // The beads that can touch the plate or the side wall before the next list build (closer to
+  // one than a skin, or holding a history with one), in id order, and where each block's
+  // beads start in that list. The others' container contacts are skipped: the walls stand
+  // still and no bead moves half a skin within a list's life, so skipping them is exact.
+  std::vector<std::uint32_t> near_container;
+  std::vector<std::uint32_t> block_near_container{0, 0};
+  std::vector<StepObservables> block_observables;
+  std::vector<detail::StepConditions> block_conditions;
+  std::vector<detail::PairBatch> batches;       // one per thread
+  std::vector<detail::WallBatch> wall_batches;  // one per thread
+  // Each thread's share of the force and integration passes, following its measured speed.
+  detail::ThreadShares shares;
+  int threads = 1;
+  bool parallel = false;
+};
+
+}  // namespace dembuf

@@ -496,6 +496,9 @@ Simulation BedSimulation(const Scene& scene, const PreparedBed* from, ParticleSt
   for (double r : beads.radius) min_radius = std::min(min_radius, r);
   ContactSetup setup = MakeContactSetup(scene, min_radius);
   setup.params.sphere_pair.friction = friction;
+  // Beds settle without rolling resistance, so that it leaves their cache keys alone: it only
+  // dissipates, and a bed at rest stays at rest when the impact switches it on.
+  setup.params.rolling_friction = 0.0;
   return Simulation(setup.params, std::move(beads), std::nullopt,
                     from ? from->history : std::vector<ContactHistoryEntry>{});
 }

@@ -26,6 +26,9 @@ struct MaterialSpec {
   double restitution_ref_speed_m_s = 1.0;  ///< [choice] calibration speed v_ref
   double friction_bead_bead = 0.50;        ///< mu_pp (also projectile-bead)
   double friction_bead_wall = 0.15;        ///< mu_pw (also projectile-plate and -wall)
+  /// mu_r, rolling resistance of every contact in the impact; 0: none, as in the paper. Beds
+  /// are prepared without it (it only dissipates, so a bed at rest stays at rest).
+  double rolling_friction = 0.0;
   /// [choice] "paper": G* = G/(2(1-nu)) as the paper; "mindlin": G* = G/(2(2-nu)).
   std::string shear_stiffness = "paper";
 };

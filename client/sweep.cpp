@@ -6,20 +6,17 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
-#include <deque>
 #include <fstream>
-#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
 #include "dembuf/core/errors.h"
-#include "dembuf/study/core_share.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/run_output.h"
+#include "dembuf/study/run_queue.h"
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/sweep_report.h"
@@ -33,78 +30,6 @@ struct RunResult {
   bool interrupted = false;
   std::string error;
   nlohmann::json summary;
-};
-
-// Hands a sweep's runs to its workers in plan order, passing over runs that would only wait
-// for a bed another worker is preparing (WaitsForBed, the daemon's rule); when every run left
-// waits, the worker sleeps until a bed is ready or a run ends.
-//
-// The machine's cores are shared among the running workers (CoreShare): when every run left
-// waits for one source bed, the worker settling it gets all the cores instead of one.
-class RunQueue {
- public:
-  RunQueue(const std::vector<SweepRun>& runs, const std::vector<std::size_t>& order, BedCache& beds,
-           int workers, int cores, const std::atomic<bool>* cancel)
-      : m_runs(runs),
-        m_cancel(cancel),
-        m_pending(order.begin(), order.end()),
-        m_beds(beds),
-        m_cores(std::max(cores, workers)),
-        m_threads(workers) {
-    for (std::atomic<int>& t : m_threads) t = 1;
-    m_beds.OnPrepared([this](const PreparedBed&) { m_changed.notify_all(); });
-  }
-  ~RunQueue() { m_beds.OnPrepared({}); }
-
-  std::optional<std::size_t> Next(int worker) {
-    std::unique_lock lock(m_mutex);
-    while (!m_pending.empty()) {
-      if (m_cancel && m_cancel->load()) return std::nullopt;
-      std::vector<BedNeeds> busy;
-      for (const auto& [other, needs] : m_running) busy.push_back(needs);
-      for (auto it = m_pending.begin(); it != m_pending.end(); ++it) {
-        if (WaitsForBed(m_runs[*it].beds, busy, m_beds)) continue;
-        const std::size_t run = *it;
-        m_pending.erase(it);
-        m_running[worker] = m_runs[run].beds;
-        ShareCores();
-        return run;
-      }
-      // The timeout only guards against a missed wake-up.
-      m_changed.wait_for(lock, std::chrono::seconds(1));
-    }
-    return std::nullopt;
-  }
-
-  void Done(int worker) {
-    {
-      std::lock_guard lock(m_mutex);
-      m_running.erase(worker);
-      ShareCores();
-    }
-    m_changed.notify_all();
-  }
-
-  /// The engine threads the run of `worker` may use now.
-  const std::atomic<int>* Threads(int worker) const { return &m_threads[worker]; }
-
- private:
-  void ShareCores() {
-    const int running = static_cast<int>(m_running.size());
-    int rank = 0;
-    for (const auto& [worker, needs] : m_running)
-      m_threads[worker] = CoreShare(m_cores, running, rank++);
-  }
-
-  const std::vector<SweepRun>& m_runs;
-  const std::atomic<bool>* m_cancel;
-  std::deque<std::size_t> m_pending;
-  BedCache& m_beds;
-  const int m_cores;
-  std::vector<std::atomic<int>> m_threads;  // by worker
-  std::mutex m_mutex;
-  std::condition_variable m_changed;
-  std::map<int, BedNeeds> m_running;  // by worker
 };
 
 }  // namespace
@@ -199,19 +124,29 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
     std::fflush(stdout);
   };
 
-  RunQueue queue(runs, InterleaveBySourceBed(runs), beds, options.jobs, omp_get_max_threads(),
-                 options.cancel);
+  // The daemon's queue and rule: runs in plan order (interleaved by source bed), a run that
+  // would only wait for a bed another worker prepares passed over, the cores shared.
+  RunQueue queue(beds, std::max(omp_get_max_threads(), options.jobs), options.cancel);
+  beds.OnPrepared([&](const PreparedBed&) { queue.Wake(); });
+  for (const std::size_t k : InterleaveBySourceBed(runs))
+    queue.Push(static_cast<RunQueue::Id>(k), runs[k].beds);
+  queue.Close();
+  std::vector<std::atomic<int>> worker_threads(options.jobs);
+  for (std::atomic<int>& t : worker_threads) t = 1;
   // Each worker's engine opens its own team of threads inside the workers' team.
   omp_set_max_active_levels(2);
 #pragma omp parallel num_threads(options.jobs)
   {
     const int worker = omp_get_thread_num();
+    std::atomic<int>* threads = &worker_threads[worker];
     omp_set_num_threads(1);  // engine parts that are not lent cores (the bare-plate run) use one
-    while (const std::optional<std::size_t> next = queue.Next(worker)) {
-      run_one(runs[*next], queue.Threads(worker));
-      queue.Done(worker);
+    while (const std::optional<RunQueue::Id> next =
+               queue.Next([&](RunQueue::Id) { return threads; })) {
+      run_one(runs[static_cast<std::size_t>(*next)], threads);
+      queue.Done(*next);
     }
   }
+  beds.OnPrepared({});
 
   std::vector<report::SweepRunReport> reports;
   for (std::size_t k = 0; k < runs.size(); ++k)

@@ -43,12 +43,12 @@ if [ "${SANITIZE:-1}" != 0 ]; then
   export OMP_TOOL_LIBRARIES
   export TSAN_OPTIONS="halt_on_error=1 ignore_noninstrumented_modules=1 second_deadlock_stack=1"
   # The engine's parallel force and integration loops (1, 2 and changing threads, and nested
-  # in a team of workers; bit-identical), the pair list built in parallel chunks, the
-  # bed cache shared by threads, a local sweep running two jobs at once on one bed, and the
-  # daemon end to end: its scheduler, worker pool, live streaming and cancellation (the
+  # in a team of workers; bit-identical), the pair list built in parallel chunks, the bed cache
+  # shared by threads, the run queue, a local sweep running two jobs at once on one bed, and
+  # the daemon end to end: its scheduler, worker pool, live streaming and cancellation (the
   # service test with both binaries built for TSan).
   build-tsan/tests/engine_tests --gtest_brief=1 \
-    --gtest_filter='Determinism.*:BedCacheThreads.*:PairList.*'
+    --gtest_filter='Determinism.*:BedCacheThreads.*:PairList.*:RunQueue.*'
   tsan_sweep=$(mktemp -d)
   build-tsan/client/dembuf sweep --set cylinder.radius_m=0.015 --set bed.thickness_m=0.008 \
     --set bed.source_thickness_m=0.012 --set projectile.diameter_m=0.01 \

@@ -5,7 +5,6 @@
 #include <algorithm>
 
 #include "dembuf/core/errors.h"
-#include "dembuf/study/core_share.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/run_output.h"
 #include "dembuf/study/scene_fields.h"
@@ -30,13 +29,14 @@ Scheduler::Scheduler(Store& store, SchedulerOptions options, std::shared_ptr<spd
     : m_store(store),
       m_options(std::move(options)),
       m_log(std::move(log)),
-      m_beds(std::shared_ptr<BedStore>(&store.beds(), [](BedStore*) {}), 4) {
+      m_beds(std::shared_ptr<BedStore>(&store.beds(), [](BedStore*) {}), 4),
+      m_queue(m_beds, m_options.workers * m_options.threads_per_job) {
   m_beds.OnPrepared([this](const PreparedBed& bed) {
     if (t_current_job != 0) m_store.RecordBedPreparation(bed.hash, bed.stage, t_current_job);
     m_log->info("job {}: prepared the {} bed {} ({} beads, H = {:.4f} m, C0 = {:.3f})",
                 t_current_job, bed.stage, bed.hash, bed.beads.size(), bed.surface_m,
                 bed.solid_fraction);
-    m_wake.notify_all();  // jobs waiting for this bed may go
+    m_queue.Wake();  // jobs waiting for this bed may go
   });
 }
 
@@ -55,12 +55,9 @@ void Scheduler::Start() {
         "job {} was {} when the daemon stopped, for the second time: failed as a poison job, "
         "not run again",
         job.id, StateName(job.state));
-  {
-    std::lock_guard lock(m_mutex);
-    for (const JobRecord& job : m_store.QueuedJobs())
-      m_queue.push_back({job.id, {job.source_hash, job.bed_hash}});
-  }
-  m_log->info("{} jobs queued; starting {} workers with {} threads each", m_queue.size(),
+  for (const JobRecord& job : m_store.QueuedJobs())
+    m_queue.Push(job.id, {job.source_hash, job.bed_hash});
+  m_log->info("{} jobs queued; starting {} workers with {} threads each", m_queue.queued(),
               m_options.workers, m_options.threads_per_job);
   for (int w = 0; w < m_options.workers; ++w) m_workers.emplace_back([this, w] { WorkerLoop(w); });
 }
@@ -70,37 +67,28 @@ void Scheduler::Admit(std::size_t count, const std::function<std::vector<JobReco
   {
     std::lock_guard lock(m_mutex);
     if (m_stopping) throw QueueFull("the daemon is shutting down");
-    if (m_queue.size() + count > static_cast<std::size_t>(m_options.queue_limit))
-      throw QueueFull("the queue holds " + std::to_string(m_queue.size()) + " jobs; " +
-                      std::to_string(count) + " more would pass its limit of " +
-                      std::to_string(m_options.queue_limit));
   }
-  const std::vector<JobRecord> jobs = add();
-  {
-    std::lock_guard lock(m_mutex);
-    for (const JobRecord& job : jobs) m_queue.push_back({job.id, {job.source_hash, job.bed_hash}});
-  }
-  m_wake.notify_all();
+  const std::size_t queued = m_queue.queued();
+  if (queued + count > static_cast<std::size_t>(m_options.queue_limit))
+    throw QueueFull("the queue holds " + std::to_string(queued) + " jobs; " +
+                    std::to_string(count) + " more would pass its limit of " +
+                    std::to_string(m_options.queue_limit));
+  for (const JobRecord& job : add()) m_queue.Push(job.id, {job.source_hash, job.bed_hash});
 }
 
 bool Scheduler::Cancel(std::int64_t id) {
-  std::unique_lock lock(m_mutex);
-  auto queued =
-      std::find_if(m_queue.begin(), m_queue.end(), [&](const Queued& q) { return q.id == id; });
-  if (queued != m_queue.end()) {
-    const Queued job = *queued;
-    m_queue.erase(queued);
-    lock.unlock();
+  if (const std::optional<BedNeeds> needs = m_queue.Remove(id)) {
     try {
       m_store.FinishJob(id, JobState::kCancelled, "cancelled while queued", {});
     } catch (const StorageFull&) {
-      lock.lock();  // not cancelled after all: it keeps its turn
-      m_queue.push_front(job);
+      m_queue.PushFront(id, *needs);  // not cancelled after all: it keeps its turn
       throw;
     }
     m_log->info("job {}: cancelled while queued", id);
     return true;
   }
+  // Not queued: running (a job leaves the queue and enters m_running in one step), or ended.
+  std::lock_guard lock(m_mutex);
   if (auto running = m_running.find(id); running != m_running.end()) {
     running->second->cancel = true;
     m_log->info("job {}: cancel requested", id);
@@ -115,11 +103,6 @@ std::shared_ptr<LiveJob> Scheduler::Live(std::int64_t id) {
   return it == m_running.end() ? nullptr : it->second;
 }
 
-int Scheduler::queued() const {
-  std::lock_guard lock(m_mutex);
-  return static_cast<int>(m_queue.size());
-}
-
 int Scheduler::running() const {
   std::lock_guard lock(m_mutex);
   return static_cast<int>(m_running.size());
@@ -131,13 +114,13 @@ void Scheduler::Shutdown(std::chrono::seconds grace) {
     if (m_stopping && m_workers.empty()) return;
     m_stopping = true;
   }
-  m_wake.notify_all();
+  m_queue.Stop();
   const auto deadline = std::chrono::steady_clock::now() + grace;
   {
     std::unique_lock lock(m_mutex);
     if (!m_running.empty())
       m_log->info("waiting up to {} s for {} running jobs", grace.count(), m_running.size());
-    m_wake.wait_until(lock, deadline, [&] { return m_running.empty(); });
+    m_ended.wait_until(lock, deadline, [&] { return m_running.empty(); });
     for (auto& [id, live] : m_running) {
       live->cancel_for_shutdown = true;
       live->cancel = true;
@@ -146,70 +129,42 @@ void Scheduler::Shutdown(std::chrono::seconds grace) {
   m_workers.clear();  // joins
 }
 
-bool Scheduler::BlockedLocked(const Queued& job) {
-  // A bed another worker is preparing will be ready soon; preparing it twice would waste a
-  // worker, and waiting for it would idle one.
-  std::vector<BedNeeds> running;
-  for (const auto& [id, other] : m_running_beds) running.push_back(other.beds);
-  return WaitsForBed(job.beds, running, m_beds);
-}
-
-void Scheduler::ShareCoresLocked() {
-  const int cores = m_options.workers * m_options.threads_per_job;
-  const int running = static_cast<int>(m_running.size());
-  int rank = 0;
-  for (auto& [id, live] : m_running) live->threads = CoreShare(cores, running, rank++);
-}
-
-std::optional<std::int64_t> Scheduler::Next() {
-  std::unique_lock lock(m_mutex);
-  while (true) {
-    if (m_stopping) return std::nullopt;
-    if (std::chrono::steady_clock::now() < m_paused_until) {
-      m_wake.wait_until(lock, m_paused_until);
-      continue;
-    }
-    for (auto it = m_queue.begin(); it != m_queue.end(); ++it) {
-      if (BlockedLocked(*it)) continue;
-      const Queued job = *it;
-      m_queue.erase(it);
-      m_running[job.id] = std::make_shared<LiveJob>(job.id);
-      m_running_beds[job.id] = job;
-      ShareCoresLocked();
-      return job.id;
-    }
-    // Nothing runnable: wait for a new job, a finished job or a prepared bed. The timeout
-    // covers a bed stored by another process sharing the database.
-    m_wake.wait_for(lock, std::chrono::seconds(5));
-  }
+std::atomic<int>* Scheduler::StartLive(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  std::shared_ptr<LiveJob>& live = m_running[id];
+  live = std::make_shared<LiveJob>(id);
+  return &live->threads;
 }
 
 void Scheduler::WorkerLoop(int worker) {
   // Each job's engine uses this many OpenMP threads (a per-thread setting).
   omp_set_num_threads(m_options.threads_per_job);
-  while (auto id = Next()) {
+  while (auto id = m_queue.Next([this](std::int64_t job) { return StartLive(job); })) {
     std::shared_ptr<LiveJob> live = Live(*id);
     m_log->info("worker {}: job {} starts", worker, *id);
     t_current_job = *id;
     // Nothing may leave a worker: an exception there would end the daemon (std::terminate),
     // and the job with it at every start.
+    bool requeued = false;
     try {
       Run(*id, live);
     } catch (const StorageFull& e) {
       RequeueForStorage(*id, live, e);
+      requeued = true;
     } catch (const std::exception& e) {
       FailAfterError(*id, live, e.what());
     } catch (...) {
       FailAfterError(*id, live, "an unknown error");
     }
     t_current_job = 0;
+    if (!requeued) m_queue.Done(*id);  // its cores go to the others
     {
       std::lock_guard lock(m_mutex);
-      m_running.erase(*id);
-      m_running_beds.erase(*id);
-      ShareCoresLocked();
+      // (a requeued job may have been handed to another worker already, with a new LiveJob)
+      if (auto it = m_running.find(*id); it != m_running.end() && it->second == live)
+        m_running.erase(it);
     }
-    m_wake.notify_all();
+    m_ended.notify_all();
   }
 }
 
@@ -319,9 +274,8 @@ void Scheduler::RequeueForStorage(std::int64_t id, const std::shared_ptr<LiveJob
     m_log->error("job {}: could not record the requeue: {}", id, e.what());
   }
   live->End(JobState::kQueued);
-  std::lock_guard lock(m_mutex);
-  m_queue.push_front(m_running_beds.at(id));
-  m_paused_until = std::chrono::steady_clock::now() + m_options.storage_retry;
+  m_queue.PauseUntil(std::chrono::steady_clock::now() + m_options.storage_retry);
+  m_queue.Requeue(id);
 }
 
 }  // namespace dembuf::server

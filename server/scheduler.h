@@ -1,13 +1,13 @@
-// The job queue and the workers that run it. Jobs run oldest first, except that a job whose
-// bed is being prepared by a running job waits for that bed (its completion wakes the queue)
-// while the workers take other jobs: a bed is prepared once, by one worker.
+// The job queue and the workers that run it. The queue is the one a local sweep uses
+// (RunQueue): jobs run oldest first, except that a job whose bed is being prepared by a running
+// job waits for that bed (its completion wakes the queue) while the workers take other jobs, so
+// a bed is prepared once, by one worker; the workers' cores are shared among the running jobs.
 #pragma once
 
 #include <spdlog/logger.h>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "dembuf/study/bed.h"
+#include "dembuf/study/run_queue.h"
 #include "live_job.h"
 #include "store.h"
 
@@ -57,7 +58,7 @@ class Scheduler {
   /// The job while it runs (null when queued or ended).
   std::shared_ptr<LiveJob> Live(std::int64_t id);
 
-  int queued() const;
+  int queued() const { return static_cast<int>(m_queue.queued()); }
   int running() const;
   const SchedulerOptions& options() const { return m_options; }
 
@@ -66,17 +67,9 @@ class Scheduler {
   void Shutdown(std::chrono::seconds grace);
 
  private:
-  struct Queued {
-    std::int64_t id;
-    BedNeeds beds;
-  };
-
   void WorkerLoop(int worker);
-  /// Blocks until a runnable job is there (or shutdown: nullopt).
-  std::optional<std::int64_t> Next();
-  bool BlockedLocked(const Queued& job);
-  /// Splits the workers' cores among the running jobs (CoreShare).
-  void ShareCoresLocked();
+  /// The job's live state, made as the queue hands the job to a worker.
+  std::atomic<int>* StartLive(std::int64_t id);
   void Run(std::int64_t id, const std::shared_ptr<LiveJob>& live);
   /// Stores the samples the live job holds, and drops them from it.
   void StoreSamples(std::int64_t id, LiveJob& live);
@@ -95,14 +88,13 @@ class Scheduler {
   SchedulerOptions m_options;
   std::shared_ptr<spdlog::logger> m_log;
   BedCache m_beds;
+  RunQueue m_queue;
 
+  // Never held while calling m_queue (the queue calls StartLive under its own lock).
   mutable std::mutex m_mutex;
-  std::condition_variable m_wake;
-  std::deque<Queued> m_queue;
+  std::condition_variable m_ended;  ///< a running job has ended
   std::map<std::int64_t, std::shared_ptr<LiveJob>> m_running;
-  std::map<std::int64_t, Queued> m_running_beds;
   bool m_stopping = false;
-  std::chrono::steady_clock::time_point m_paused_until{};  ///< no new job before this
   std::mutex m_admit_mutex;
   std::vector<std::jthread> m_workers;
 };

@@ -1,0 +1,96 @@
+// The run queue a local sweep's workers and the daemon's share: order, the bed rule, the
+// sharing of cores, and the ways a run leaves or re-enters the queue.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include "dembuf/study/run_queue.h"
+
+namespace dembuf::test {
+namespace {
+
+// A start callback that hands every run the same counter of threads.
+auto Into(std::atomic<int>& threads) {
+  return [&threads](RunQueue::Id) { return &threads; };
+}
+
+TEST(RunQueue, RunsGoInOrderAndAClosedQueueEndsWhenEmpty) {
+  BedCache beds;
+  RunQueue queue(beds, 2);
+  queue.Push(1, {});
+  queue.Push(2, {});
+  queue.PushFront(3, {});
+  queue.Close();
+  std::atomic<int> threads{0};
+  EXPECT_EQ(queue.Next(Into(threads)), 3);
+  EXPECT_EQ(threads, 2);  // alone: both cores
+  EXPECT_EQ(queue.Next(Into(threads)), 1);
+  EXPECT_EQ(threads, 1);  // two running: one core each
+  queue.Done(3);
+  queue.Done(1);
+  EXPECT_EQ(queue.Next(Into(threads)), 2);
+  queue.Done(2);
+  EXPECT_EQ(queue.Next(Into(threads)), std::nullopt);
+}
+
+TEST(RunQueue, ARunWaitingForABedBeingPreparedIsPassedOver) {
+  BedCache beds;  // empty: no bed is ready
+  RunQueue queue(beds, 2);
+  queue.Push(1, {"source-a", "bed-a1"});
+  queue.Push(2, {"source-a", "bed-a2"});  // same source bed as run 1
+  queue.Push(3, {"source-b", "bed-b1"});
+  queue.Close();
+  std::atomic<int> first{0}, second{0};
+  EXPECT_EQ(queue.Next(Into(first)), 1);
+  // Run 2 would only wait for the source bed run 1 prepares: run 3 goes first.
+  EXPECT_EQ(queue.Next(Into(second)), 3);
+  queue.Done(3);
+  EXPECT_EQ(first, 2);  // the worker preparing the bed gets the idle worker's core
+  // Now every run left waits: Next blocks until run 1 ends.
+  std::atomic<bool> started{false};
+  std::jthread worker([&] {
+    std::atomic<int> threads{0};
+    EXPECT_EQ(queue.Next(Into(threads)), 2);
+    started = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_FALSE(started);
+  queue.Done(1);
+  worker.join();
+  EXPECT_TRUE(started);
+}
+
+TEST(RunQueue, RemovedRequeuedAndStopped) {
+  BedCache beds;
+  RunQueue queue(beds, 1);
+  queue.Push(1, {"s", "b"});
+  queue.Push(2, {});
+  const std::optional<BedNeeds> removed = queue.Remove(1);
+  ASSERT_TRUE(removed);
+  EXPECT_EQ(removed->bed_hash, "b");
+  EXPECT_FALSE(queue.Remove(1));
+  std::atomic<int> threads{0};
+  EXPECT_EQ(queue.Next(Into(threads)), 2);
+  EXPECT_FALSE(queue.Remove(2));  // running, not queued
+  queue.Requeue(2);               // back at the front, no longer running
+  EXPECT_EQ(queue.queued(), 1u);
+  EXPECT_EQ(queue.running(), 0u);
+  queue.Stop();
+  EXPECT_EQ(queue.Next(Into(threads)), std::nullopt);  // stopped, although a run is queued
+}
+
+TEST(RunQueue, ACancelFlagEndsAWaitingWorker) {
+  BedCache beds;
+  std::atomic<bool> cancel{false};
+  RunQueue queue(beds, 1, &cancel);  // never closed: Next would wait for more runs
+  std::jthread worker([&] {
+    std::atomic<int> threads{0};
+    EXPECT_EQ(queue.Next(Into(threads)), std::nullopt);
+  });
+  cancel = true;  // as a signal handler sets it: no wake-up, the queue looks within a second
+}
+
+}  // namespace
+}  // namespace dembuf::test

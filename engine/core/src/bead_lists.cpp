@@ -15,18 +15,19 @@ namespace {
 void ApplyHistory(Simulation::Impl& s) {
   for (ContactHistoryEntry h : s.pending_history) {
     if (h.other == kPlate) {
-      s.plate_shear[h.bead] = h.shear;
+      s.walls.plate[h.bead] = h.shear;
     } else if (h.other == kSideWall) {
-      s.wall_shear[h.bead] = h.shear;
+      s.walls.side[h.bead] = h.shear;
     } else {
       if (h.other < h.bead) {
         std::swap(h.bead, h.other);
         h.shear = -h.shear;
       }
-      const auto first = s.pairs.partners.begin() + s.pairs.offsets[h.bead];
-      const auto last = s.pairs.partners.begin() + s.pairs.offsets[h.bead + 1];
+      const auto first = s.lists.pairs.partners.begin() + s.lists.pairs.offsets[h.bead];
+      const auto last = s.lists.pairs.partners.begin() + s.lists.pairs.offsets[h.bead + 1];
       const auto it = std::lower_bound(first, last, h.other);
-      if (it != last && *it == h.other) s.pairs.shear[it - s.pairs.partners.begin()] = h.shear;
+      if (it != last && *it == h.other)
+        s.lists.pairs.shear[it - s.lists.pairs.partners.begin()] = h.shear;
     }
   }
   s.pending_history.clear();
@@ -44,25 +45,26 @@ void Permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
 void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::uint32_t>& order) {
   std::vector<std::uint32_t> new_id(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) new_id[order[k]] = static_cast<std::uint32_t>(k);
-  if (s.pairs.offsets.size() == b.size() + 1) {
+  if (s.lists.pairs.offsets.size() == b.size() + 1) {
     for (std::uint32_t i = 0; i < b.size(); ++i)
-      for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k)
-        if (s.pairs.shear[k] != Vec3::Zero())
-          s.pending_history.push_back({new_id[i], new_id[s.pairs.partners[k]], s.pairs.shear[k]});
+      for (std::uint32_t k = s.lists.pairs.offsets[i]; k < s.lists.pairs.offsets[i + 1]; ++k)
+        if (s.lists.pairs.shear[k] != Vec3::Zero())
+          s.pending_history.push_back(
+              {new_id[i], new_id[s.lists.pairs.partners[k]], s.lists.pairs.shear[k]});
   }
-  s.pairs = PairList{};
-  for (std::uint32_t& j : s.near_projectile.beads) j = new_id[j];
-  std::vector<std::size_t> by_id(s.near_projectile.beads.size());
+  s.lists.pairs = PairList{};
+  for (std::uint32_t& j : s.lists.near_projectile.beads) j = new_id[j];
+  std::vector<std::size_t> by_id(s.lists.near_projectile.beads.size());
   for (std::size_t k = 0; k < by_id.size(); ++k) by_id[k] = k;
   std::sort(by_id.begin(), by_id.end(), [&](std::size_t a, std::size_t c) {
-    return s.near_projectile.beads[a] < s.near_projectile.beads[c];
+    return s.lists.near_projectile.beads[a] < s.lists.near_projectile.beads[c];
   });
   CandidateList sorted;
   for (std::size_t k : by_id) {
-    sorted.beads.push_back(s.near_projectile.beads[k]);
-    sorted.shear.push_back(s.near_projectile.shear[k]);
+    sorted.beads.push_back(s.lists.near_projectile.beads[k]);
+    sorted.shear.push_back(s.lists.near_projectile.shear[k]);
   }
-  s.near_projectile = std::move(sorted);
+  s.lists.near_projectile = std::move(sorted);
   Permute(b.position, order);
   Permute(b.velocity, order);
   Permute(b.angular_velocity, order);
@@ -72,76 +74,76 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(b.mass, order);
   Permute(b.inv_mass, order);
   Permute(b.inv_inertia, order);
-  Permute(s.plate_shear, order);
-  Permute(s.wall_shear, order);
+  Permute(s.walls.plate, order);
+  Permute(s.walls.side, order);
   Permute(s.origin, order);
 }
 
-// Splits the beads (in cell order) into the blocks described at Impl::block_start: one a layer.
+// Splits the beads (in cell order) into the blocks described at ForcePassBlocks: one a layer.
 void PlanBlocks(Simulation::Impl& s) {
-  const int layers = s.grid.Dim(2);
-  s.block_start.clear();
-  for (int z = 0; z <= layers; ++z) s.block_start.push_back(s.grid.RowStart(0, z));
+  const int layers = s.lists.grid.Dim(2);
+  s.blocks.start.clear();
+  for (int z = 0; z <= layers; ++z) s.blocks.start.push_back(s.lists.grid.RowStart(0, z));
 }
 
-// The beads near the plate or the side wall (Impl::near_container), after the blocks are
+// The beads near the plate or the side wall (NeighbourLists::near_container), after the blocks are
 // planned and the histories applied.
 void ListNearContainer(const ParticleState& b, const Container& box, Simulation::Impl& s) {
-  s.near_container.clear();
+  s.lists.near_container.clear();
   for (std::uint32_t i = 0; i < b.size(); ++i) {
     const Vec3& x = b.position[i];
     const double r = b.radius[i];
-    const double inner = box.radius_m - r - s.skin;
-    const bool near_plate = x.z() - r < s.skin;
+    const double inner = box.radius_m - r - s.lists.skin;
+    const bool near_plate = x.z() - r < s.lists.skin;
     const bool near_wall = inner <= 0.0 || x.x() * x.x() + x.y() * x.y() > inner * inner;
-    const bool history = s.plate_shear[i] != Vec3::Zero() || s.wall_shear[i] != Vec3::Zero();
-    if (near_plate || near_wall || history) s.near_container.push_back(i);
+    const bool history = s.walls.plate[i] != Vec3::Zero() || s.walls.side[i] != Vec3::Zero();
+    if (near_plate || near_wall || history) s.lists.near_container.push_back(i);
   }
-  s.block_near_container.clear();
-  for (const std::uint32_t first : s.block_start)
-    s.block_near_container.push_back(static_cast<std::uint32_t>(
-        std::lower_bound(s.near_container.begin(), s.near_container.end(), first) -
-        s.near_container.begin()));
+  s.blocks.near_container_start.clear();
+  for (const std::uint32_t first : s.blocks.start)
+    s.blocks.near_container_start.push_back(static_cast<std::uint32_t>(
+        std::lower_bound(s.lists.near_container.begin(), s.lists.near_container.end(), first) -
+        s.lists.near_container.begin()));
 }
 
 void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
-  s.block_start = {0, static_cast<std::uint32_t>(b.size())};
-  s.block_contacts.clear();
+  s.blocks.start = {0, static_cast<std::uint32_t>(b.size())};
+  s.blocks.contacts.clear();
   if (b.size() > 0) {
     // The grid spans the container; beads above the wall top or outside it are clamped into
     // the border cells. Its height follows the beads, so a shallow bed has few cells.
     double z_top = 0.0;
     for (const Vec3& x : b.position) z_top = std::max(z_top, x.z());
     z_top = std::min(z_top, params.container.height_m + 0.5);
-    const double cell = 2.0 * s.max_radius + s.skin;
-    const double margin = 2.0 * s.max_radius;
+    const double cell = 2.0 * s.lists.max_radius + s.lists.skin;
+    const double margin = 2.0 * s.lists.max_radius;
     const Vec3 lo(-params.container.radius_m - margin, -params.container.radius_m - margin,
                   -margin);
     const Vec3 hi(params.container.radius_m + margin, params.container.radius_m + margin,
                   z_top + margin);
-    s.grid.Build(b.position, cell, lo, hi);
+    s.lists.grid.Build(b.position, cell, lo, hi);
     s.parallel = b.size() >= kParallelMinBeads;
     if (s.parallel) {
-      if (!s.grid.InCellOrder()) {
-        ReorderBeads(b, s, std::vector<std::uint32_t>(s.grid.CellOrder()));
-        s.grid.Build(b.position, cell, lo, hi);
+      if (!s.lists.grid.InCellOrder()) {
+        ReorderBeads(b, s, std::vector<std::uint32_t>(s.lists.grid.CellOrder()));
+        s.lists.grid.Build(b.position, cell, lo, hi);
       }
       PlanBlocks(s);
     }
-    RebuildPairList(b, s.grid, s.skin, s.pairs, s.parallel ? s.threads : 1);
+    RebuildPairList(b, s.lists.grid, s.lists.skin, s.lists.pairs, s.parallel ? s.threads : 1);
     ApplyHistory(s);
-    s.reference_position = b.position;
+    s.lists.reference_position = b.position;
     if (projectile)
-      RebuildCandidateList(b, s.grid, projectile->position, projectile->radius, s.max_radius,
-                           s.skin, s.near_projectile);
+      RebuildCandidateList(b, s.lists.grid, projectile->position, projectile->radius,
+                           s.lists.max_radius, s.lists.skin, s.lists.near_projectile);
   }
   WeighBlocks(s);
   ListNearContainer(b, params.container, s);
-  if (projectile) s.projectile_reference = projectile->position;
-  s.max_bead_displacement = 0.0;
-  s.projectile_list_displacement = 0.0;
-  s.lists_valid = true;
+  if (projectile) s.lists.projectile_reference = projectile->position;
+  s.lists.max_bead_displacement = 0.0;
+  s.lists.projectile_list_displacement = 0.0;
+  s.lists.valid = true;
 }
 
 // A fast projectile outruns its list long before the beads outrun theirs: rebuild only its
@@ -150,24 +152,26 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
 void RebuildProjectileList(const ParticleState& b, const RigidSphere& projectile,
                            Simulation::Impl& s) {
   if (b.size() > 0)
-    RebuildCandidateList(b, s.grid, projectile.position, projectile.radius, s.max_radius, s.skin,
-                         s.near_projectile, s.max_bead_displacement);
-  s.projectile_reference = projectile.position;
-  s.projectile_list_displacement = s.max_bead_displacement;
+    RebuildCandidateList(b, s.lists.grid, projectile.position, projectile.radius,
+                         s.lists.max_radius, s.lists.skin, s.lists.near_projectile,
+                         s.lists.max_bead_displacement);
+  s.lists.projectile_reference = projectile.position;
+  s.lists.projectile_list_displacement = s.lists.max_bead_displacement;
 }
 
 // The bead lists stay valid while no pair can have closed the skin: two beads moving towards
 // each other by at most d each.
 bool BeadListsValid(const Simulation::Impl& s) {
-  return s.lists_valid && 2.0 * s.max_bead_displacement < s.skin;
+  return s.lists.valid && 2.0 * s.lists.max_bead_displacement < s.lists.skin;
 }
 
 // The projectile's list stays valid while its own displacement plus a bead's since the list
 // was built stays below the skin. A bead's displacement since then is at most its present
 // displacement from the bead reference plus what it had when the list was built.
 bool ProjectileListValid(const RigidSphere& projectile, const Simulation::Impl& s) {
-  const double moved = (projectile.position - s.projectile_reference).norm();
-  return moved + s.max_bead_displacement + s.projectile_list_displacement < s.skin;
+  const double moved = (projectile.position - s.lists.projectile_reference).norm();
+  return moved + s.lists.max_bead_displacement + s.lists.projectile_list_displacement <
+         s.lists.skin;
 }
 
 }  // namespace

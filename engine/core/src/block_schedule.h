@@ -1,5 +1,5 @@
 // Which thread resolves which blocks of beads in the force pass, in which order, and who waits
-// for whom. Blocks are layers of cells (Simulation::Impl::block_start); a pair joins beads of
+// for whom. Blocks are layers of cells (ForcePassBlocks::start); a pair joins beads of
 // one layer or of two neighbouring ones, and "of two neighbouring layers, the even one first"
 // fixes the order of every bead's sum. Each thread sweeps its consecutive blocks once in that
 // order (0, 2, 1, 4, 3, ...: a bead's data is still in cache when its forces are complete); an
@@ -16,7 +16,7 @@
 
 namespace dembuf::detail {
 
-/// Weighs the blocks (Impl::block_work): a block's list entries and beads, and its touching
+/// Weighs the blocks (ForcePassBlocks::work): a block's list entries and beads, and its touching
 /// pairs once a pass has counted them. Only the split between threads depends on it.
 void WeighBlocks(Simulation::Impl& s);
 

@@ -14,14 +14,14 @@ std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
   std::vector<ContactHistoryEntry> out;
   out.insert(out.end(), s.pending_history.begin(), s.pending_history.end());
   for (std::uint32_t i = 0; i < m_beads.size(); ++i) {
-    if (s.plate_shear[i] != Vec3::Zero()) out.push_back({i, kPlate, s.plate_shear[i]});
-    if (s.wall_shear[i] != Vec3::Zero()) out.push_back({i, kSideWall, s.wall_shear[i]});
+    if (s.walls.plate[i] != Vec3::Zero()) out.push_back({i, kPlate, s.walls.plate[i]});
+    if (s.walls.side[i] != Vec3::Zero()) out.push_back({i, kSideWall, s.walls.side[i]});
   }
-  if (s.pairs.offsets.size() == m_beads.size() + 1) {
+  if (s.lists.pairs.offsets.size() == m_beads.size() + 1) {
     for (std::uint32_t i = 0; i < m_beads.size(); ++i)
-      for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k)
-        if (s.pairs.shear[k] != Vec3::Zero())
-          out.push_back({i, s.pairs.partners[k], s.pairs.shear[k]});
+      for (std::uint32_t k = s.lists.pairs.offsets[i]; k < s.lists.pairs.offsets[i + 1]; ++k)
+        if (s.lists.pairs.shear[k] != Vec3::Zero())
+          out.push_back({i, s.lists.pairs.partners[k], s.lists.pairs.shear[k]});
   }
   return out;
 }
@@ -35,16 +35,16 @@ template <class Visit>
 void VisitContacts(const WorldParams& params, const ParticleState& b,
                    const std::optional<RigidSphere>& projectile, const Simulation::Impl& s,
                    Visit&& visit) {
-  if (s.pairs.offsets.size() == b.size() + 1) {
+  if (s.lists.pairs.offsets.size() == b.size() + 1) {
     for (std::uint32_t i = 0; i < b.size(); ++i)
-      for (std::uint32_t k = s.pairs.offsets[i]; k < s.pairs.offsets[i + 1]; ++k) {
-        const std::uint32_t j = s.pairs.partners[k];
+      for (std::uint32_t k = s.lists.pairs.offsets[i]; k < s.lists.pairs.offsets[i + 1]; ++k) {
+        const std::uint32_t j = s.lists.pairs.partners[k];
         const Vec3 d = b.position[i] - b.position[j];
         const double rsum = b.radius[i] + b.radius[j], dist = d.norm();
         if (dist >= rsum) continue;
         visit(i, j, Vec3(d / dist), rsum - dist, Vec3(b.velocity[i] - b.velocity[j]), b.radius[i],
-              std::sqrt(b.radius[i] * b.radius[j] / rsum), params.sphere_pair, s.pairs.shear[k],
-              b.position[i]);
+              std::sqrt(b.radius[i] * b.radius[j] / rsum), params.sphere_pair,
+              s.lists.pairs.shear[k], b.position[i]);
       }
   }
   auto walls = [&](BodyId id, const Vec3& x, const Vec3& v, double r, const Vec3& plate,
@@ -58,19 +58,19 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
       visit(id, kSideWall, n, overlap, v, r, std::sqrt(r), params.sphere_wall, wall, x);
   };
   for (std::uint32_t i = 0; i < b.size(); ++i)
-    walls(i, b.position[i], b.velocity[i], b.radius[i], s.plate_shear[i], s.wall_shear[i]);
+    walls(i, b.position[i], b.velocity[i], b.radius[i], s.walls.plate[i], s.walls.side[i]);
   if (projectile) {
     const RigidSphere& p = *projectile;
-    walls(kProjectile, p.position, p.velocity, p.radius, s.projectile_plate_shear,
-          s.projectile_wall_shear);
-    for (std::size_t k = 0; k < s.near_projectile.beads.size(); ++k) {
-      const std::uint32_t j = s.near_projectile.beads[k];
+    walls(kProjectile, p.position, p.velocity, p.radius, s.walls.projectile_plate,
+          s.walls.projectile_side);
+    for (std::size_t k = 0; k < s.lists.near_projectile.beads.size(); ++k) {
+      const std::uint32_t j = s.lists.near_projectile.beads[k];
       const Vec3 d = p.position - b.position[j];
       const double rsum = p.radius + b.radius[j], dist = d.norm();
       if (dist >= rsum) continue;
       visit(kProjectile, j, Vec3(d / dist), rsum - dist, Vec3(p.velocity - b.velocity[j]), p.radius,
             std::sqrt(p.radius * b.radius[j] / rsum), params.sphere_pair,
-            s.near_projectile.shear[k], p.position);
+            s.lists.near_projectile.shear[k], p.position);
     }
   }
 }

@@ -103,7 +103,7 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
   }
 }
 
-// Plate and side-wall contacts of the beads near_container[begin, end), in batches like the
+// Plate and side-wall contacts of the beads lists.near_container[begin, end), in batches like the
 // pairs: the beads touching the plate are picked out and resolved in one vectorized loop, then
 // those touching the side wall. Each bead gets its plate force before its wall force, as the
 // projectile does (ProjectileContainerForces). Beads apart from a wall lose their history with it.
@@ -117,11 +117,11 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
     const std::uint32_t last = std::min<std::uint32_t>(end, first + WallBatch::kTarget);
     for (const BodyId wall : {kPlate, kSideWall}) {
       const bool plate = wall == kPlate;
-      std::vector<Vec3>& history = plate ? s.plate_shear : s.wall_shear;
+      std::vector<Vec3>& history = plate ? s.walls.plate : s.walls.side;
       // Pick out the beads touching this wall, without a branch.
       std::size_t n = 0, m = 0;
       for (std::uint32_t c = first; c < last; ++c) {
-        const std::uint32_t i = s.near_container[c];
+        const std::uint32_t i = s.lists.near_container[c];
         const double x = b.position[i].x(), y = b.position[i].y(), z = b.position[i].z();
         const double r = b.radius[i];
         const bool touching =
@@ -190,30 +190,31 @@ int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulat
   int touching = 0;
   const double plate_overlap = Container::PlateOverlap(x.z(), r);
   if (plate_overlap > 0.0) {
-    obs.plate_force_N += resolve(Vec3::UnitZ(), plate_overlap, s.projectile_plate_shear).normal;
+    obs.plate_force_N += resolve(Vec3::UnitZ(), plate_overlap, s.walls.projectile_plate).normal;
     cond.NoteOverlap(plate_overlap, r, kProjectile, kPlate);
     ++touching;
   } else if constexpr (E::kFriction) {
-    s.projectile_plate_shear.setZero();
+    s.walls.projectile_plate.setZero();
   }
   double overlap;
   Vec3 n;
   if (SideWallContact(box, x, r, overlap, n)) {
-    obs.wall_force_z_N += resolve(n, overlap, s.projectile_wall_shear).force.z();
+    obs.wall_force_z_N += resolve(n, overlap, s.walls.projectile_side).force.z();
     cond.NoteOverlap(overlap, r, kProjectile, kSideWall);
     ++touching;
   } else if constexpr (E::kFriction) {
-    s.projectile_wall_shear.setZero();
+    s.walls.projectile_side.setZero();
   }
   return touching;
 }
 
-// The projectile against its candidate beads (Impl::near_projectile); returns the contacts.
+// The projectile against its candidate beads (NeighbourLists::near_projectile); returns the
+// contacts.
 template <class E>
 int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleState& b,
                          Simulation::Impl& s, StepConditions& cond) {
   int contacts = 0;
-  CandidateList& near = s.near_projectile;
+  CandidateList& near = s.lists.near_projectile;
   for (std::size_t k = 0; k < near.beads.size(); ++k) {
     const std::uint32_t j = near.beads[k];
     const Vec3 d = p.position - b.position[j];
@@ -259,70 +260,70 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
 template <class E>
 void ForcePass(const WorldParams& params, ParticleState& b, std::optional<RigidSphere>& projectile,
                Simulation::Impl& s, StepObservables& obs) {
-  const int blocks = static_cast<int>(s.block_start.size()) - 1;
+  const int blocks = static_cast<int>(s.blocks.start.size()) - 1;
   // Weigh the blocks by the last pass's contacts (not needed by one thread, nor before they
   // are counted; a pass on other weights is not timed for the shares).
-  const bool weighed = s.block_contacts.size() == static_cast<std::size_t>(blocks);
+  const bool weighed = s.blocks.contacts.size() == static_cast<std::size_t>(blocks);
   if (s.threads > 1 && weighed) WeighBlocks(s);
-  s.block_observables.assign(blocks, StepObservables{});
-  s.block_conditions.assign(blocks, StepConditions{});
-  const std::uint32_t* start = s.block_start.data();
-  if (s.batches.size() < static_cast<std::size_t>(s.threads)) {
-    s.batches.resize(s.threads);
-    s.wall_batches.resize(s.threads);
+  s.blocks.observables.assign(blocks, StepObservables{});
+  s.blocks.conditions.assign(blocks, StepConditions{});
+  const std::uint32_t* start = s.blocks.start.data();
+  if (s.blocks.pair_batches.size() < static_cast<std::size_t>(s.threads)) {
+    s.blocks.pair_batches.resize(s.threads);
+    s.blocks.wall_batches.resize(s.threads);
   }
-  s.shares.Prepare(s.threads);
+  s.blocks.shares.Prepare(s.threads);
   int team_size = 1;
-  if (s.block_done.size() != static_cast<std::size_t>(blocks)) {
-    s.block_done = std::vector<std::atomic<std::uint64_t>>(blocks);  // all 0
-    s.force_pass = 0;
+  if (s.blocks.done.size() != static_cast<std::size_t>(blocks)) {
+    s.blocks.done = std::vector<std::atomic<std::uint64_t>>(blocks);  // all 0
+    s.blocks.pass = 0;
   }
-  const std::uint64_t pass = ++s.force_pass;
+  const std::uint64_t pass = ++s.blocks.pass;
 
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int thread = omp_get_thread_num(), team = omp_get_num_threads();
     // Each thread clears the forces of the beads it integrates (the same part of them).
     const long n = static_cast<long>(b.size());
-    const auto [first_bead, last_bead] = s.shares.Part(n, thread, team);
+    const auto [first_bead, last_bead] = s.blocks.shares.Part(n, thread, team);
     for (long i = first_bead; i < last_bead; ++i) {
       b.force[i].setZero();
       if constexpr (E::kRotate) b.torque[i].setZero();
     }
 #pragma omp barrier
     if (thread == 0) team_size = team;
-    // This thread's blocks [first, last), in the order of Impl::block_start.
-    const long first = ShareStart(s.block_work, s.shares.Start(thread, team));
-    const long last = ShareStart(s.block_work, s.shares.Start(thread + 1, team));
+    // This thread's blocks [first, last), in the order of ForcePassBlocks::start.
+    const long first = ShareStart(s.blocks.work, s.blocks.shares.Start(thread, team));
+    const long last = ShareStart(s.blocks.work, s.blocks.shares.Start(thread + 1, team));
     const double began = omp_get_wtime();
-    SweepBlocks(first, last, blocks, s.block_done.data(), pass, [&](long k) {
-      PairForces<E>(params, b, s.pairs, s.batches[thread], start[k], start[k + 1],
-                    s.block_observables[k], s.block_conditions[k]);
+    SweepBlocks(first, last, blocks, s.blocks.done.data(), pass, [&](long k) {
+      PairForces<E>(params, b, s.lists.pairs, s.blocks.pair_batches[thread], start[k], start[k + 1],
+                    s.blocks.observables[k], s.blocks.conditions[k]);
     });
     const double busy = omp_get_wtime() - began;  // this thread's time in its blocks
-    const std::uint64_t done = s.block_work[last] - s.block_work[first];
+    const std::uint64_t done = s.blocks.work[last] - s.blocks.work[first];
 #pragma omp barrier
-    if (team > 1 && weighed) s.shares.Record(thread, static_cast<double>(done), busy);
+    if (team > 1 && weighed) s.blocks.shares.Record(thread, static_cast<double>(done), busy);
     // Container contacts of the beads near the plate or the wall: each thread takes
     // consecutive blocks holding about its share of those beads.
-    const std::vector<std::uint32_t>& near_start = s.block_near_container;
-    const long first_block = ShareStart(near_start, s.shares.Start(thread, team));
-    const long last_block = ShareStart(near_start, s.shares.Start(thread + 1, team));
+    const std::vector<std::uint32_t>& near_start = s.blocks.near_container_start;
+    const long first_block = ShareStart(near_start, s.blocks.shares.Start(thread, team));
+    const long last_block = ShareStart(near_start, s.blocks.shares.Start(thread + 1, team));
     for (long k = first_block; k < last_block; ++k)
-      ContainerForces<E>(params, b, s, s.wall_batches[thread], near_start[k], near_start[k + 1],
-                         s.block_observables[k], s.block_conditions[k]);
+      ContainerForces<E>(params, b, s, s.blocks.wall_batches[thread], near_start[k],
+                         near_start[k + 1], s.blocks.observables[k], s.blocks.conditions[k]);
   }
-  s.shares.Update(team_size);
+  s.blocks.shares.Update(team_size);
   obs = StepObservables{};
   StepConditions& cond = s.conditions;
-  s.block_contacts.resize(blocks);
+  s.blocks.contacts.resize(blocks);
   for (int k = 0; k < blocks; ++k) {
-    const StepObservables& o = s.block_observables[k];
-    s.block_contacts[k] = static_cast<std::uint32_t>(o.bead_contacts);
+    const StepObservables& o = s.blocks.observables[k];
+    s.blocks.contacts[k] = static_cast<std::uint32_t>(o.bead_contacts);
     obs.plate_force_N += o.plate_force_N;
     obs.wall_force_z_N += o.wall_force_z_N;
     obs.bead_contacts += o.bead_contacts;
-    cond.Merge(s.block_conditions[k]);
+    cond.Merge(s.blocks.conditions[k]);
   }
 
   if (projectile) {

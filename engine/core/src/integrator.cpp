@@ -108,7 +108,7 @@ DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleS
   const Container box = params.container;
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
-  const double* reference = Components(s.reference_position);
+  const double* reference = Components(s.lists.reference_position);
   const bool rotate = s.Rotating();
   double max_disp2 = 0.0;
   long suspects = 0;  // beads that may be non-finite or outside the container
@@ -117,7 +117,7 @@ DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleS
     double thread_disp2 = 0.0;
     long thread_suspects = 0;
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const auto [first, last] = s.shares.Part(n, thread, team);
+    const auto [first, last] = s.blocks.shares.Part(n, thread, team);
     if (rotate)
       KickAndDrift<true>(k, first, last, closing, half, dt, g, reference, box, thread_disp2,
                          thread_suspects);
@@ -151,7 +151,7 @@ void HalfKickBeads(const WorldParams& params, ParticleState& b, const Simulation
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const auto [first, last] = s.shares.Part(n, thread, team);
+    const auto [first, last] = s.blocks.shares.Part(n, thread, team);
     if (rotate)
       Kick<true>(k, first, last, half, g);
     else

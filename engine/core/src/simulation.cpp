@@ -23,21 +23,21 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
       m_projectile(std::move(projectile)),
       m_impl(std::make_unique<Impl>()) {
   Impl& s = *m_impl;
-  s.plate_shear.assign(m_beads.size(), Vec3::Zero());
-  s.wall_shear.assign(m_beads.size(), Vec3::Zero());
+  s.walls.plate.assign(m_beads.size(), Vec3::Zero());
+  s.walls.side.assign(m_beads.size(), Vec3::Zero());
   if (m_beads.size() > 0) {
     auto [lo, hi] = std::minmax_element(m_beads.radius.begin(), m_beads.radius.end());
-    s.min_radius = *lo;
-    s.max_radius = *hi;
+    s.lists.min_radius = *lo;
+    s.lists.max_radius = *hi;
   }
-  s.skin = params.skin_fraction * 2.0 * s.min_radius;
+  s.lists.skin = params.skin_fraction * 2.0 * s.lists.min_radius;
   // Friction needs the tangential history and rotation; a frictionless scene skips both.
   s.friction = params.sphere_pair.friction > 0.0 || params.sphere_wall.friction > 0.0;
   s.rolling = params.rolling_friction > 0.0;
   s.pending_history = history;
   s.parallel = m_beads.size() >= detail::kParallelMinBeads;
   s.threads = params.threads > 0 ? params.threads : omp_get_max_threads();
-  s.block_start = {0, static_cast<std::uint32_t>(m_beads.size())};
+  s.blocks.start = {0, static_cast<std::uint32_t>(m_beads.size())};
   s.origin.resize(m_beads.size());
   for (std::size_t i = 0; i < s.origin.size(); ++i) s.origin[i] = static_cast<std::uint32_t>(i);
 }
@@ -55,7 +55,7 @@ void Simulation::Step() {
   const bool closing = m_kick_pending;
   m_kick_pending = false;
   const detail::DriftReport drift = detail::KickAndDriftBeads(m_params, closing, m_beads, s);
-  s.max_bead_displacement = drift.max_displacement;
+  s.lists.max_bead_displacement = drift.max_displacement;
   s.conditions.nonfinite_bead = drift.nonfinite_bead;
   s.conditions.escaped_bead = drift.escaped_bead;
   if (m_projectile) {
@@ -102,7 +102,7 @@ void Simulation::CompleteKick() const {
 void Simulation::SetProjectile(const RigidSphere& projectile, double time_s) {
   m_projectile = projectile;
   m_time_s = time_s;
-  m_impl->lists_valid = false;
+  m_impl->lists.valid = false;
   m_impl->forces_valid = false;
 }
 
@@ -169,12 +169,12 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
     s.pending_history.push_back(h);
   }
   m_beads = std::move(kept);
-  s.plate_shear = std::move(plate_shear);
-  s.wall_shear = std::move(wall_shear);
+  s.walls.plate = std::move(plate_shear);
+  s.walls.side = std::move(wall_shear);
   s.origin = std::move(origin);
-  s.pairs = detail::PairList{};
-  s.near_projectile = detail::CandidateList{};
-  s.lists_valid = false;
+  s.lists.pairs = detail::PairList{};
+  s.lists.near_projectile = detail::CandidateList{};
+  s.lists.valid = false;
   s.forces_valid = false;
 }
 

@@ -60,69 +60,86 @@ auto Components(V& vectors) -> decltype(vectors.front().data()) {
 
 }  // namespace detail
 
-struct Simulation::Impl {
-  detail::CellGrid grid;
-  detail::PairList pairs;
-  detail::CandidateList near_projectile;
-  std::vector<Vec3> plate_shear;  // history of each bead's plate contact
-  std::vector<Vec3> wall_shear;   // history of each bead's side-wall contact
-  Vec3 projectile_plate_shear = Vec3::Zero();
-  Vec3 projectile_wall_shear = Vec3::Zero();
+namespace detail {
 
+// The neighbour lists and what decides when they are stale (bead_lists.h).
+struct NeighbourLists {
+  CellGrid grid;
+  PairList pairs;                 // bead pairs within the skin, with their histories
+  CandidateList near_projectile;  // beads the projectile may touch, with their histories
+  // The beads that can touch the plate or the side wall before the next list build (closer to
+  // one than a skin, or holding a history with one), in id order. The others' container
+  // contacts are skipped: the walls stand still and no bead moves half a skin within a list's
+  // life, so skipping them is exact.
+  std::vector<std::uint32_t> near_container;
+  double skin = 0.0;
+  double max_radius = 0.0;
+  double min_radius = 0.0;
   std::vector<Vec3> reference_position;  // bead positions at the last list build
   Vec3 projectile_reference = Vec3::Zero();
   double max_bead_displacement = 0.0;  // since the last list build
   // max_bead_displacement when the projectile's list was last built (0: with the bead lists).
   double projectile_list_displacement = 0.0;
-  bool lists_valid = false;
-  bool forces_valid = false;
+  bool valid = false;
+};
 
-  std::vector<ContactHistoryEntry> pending_history;  // applied at the next list build
-  std::vector<std::uint32_t> origin;                 // Simulation::BeadOrigins
+// The tangential histories of contacts with the plate and the side wall (those of bead pairs
+// and of the projectile with beads are in the lists).
+struct WallHistories {
+  std::vector<Vec3> plate;  // one per bead
+  std::vector<Vec3> side;   // one per bead
+  Vec3 projectile_plate = Vec3::Zero();
+  Vec3 projectile_side = Vec3::Zero();
+};
 
-  double skin = 0.0;
-  double max_radius = 0.0;
-  double min_radius = 0.0;
+// The blocks the parallel force pass is cut into and the threads' shares of the work.
+// Beads are kept in cell order (layers of cells across the grid's longest axis,
+// CellGrid::SpaceAxis; in a layer, rows of cells), and each layer of cells is a block (k
+// numbers both). A pair (i, j > i) found in the 27 cells around i joins a bead of layer k to
+// one of layer k or k + 1, so only neighbouring blocks touch the same beads, and the rule "of
+// two neighbouring blocks, the even one first" fixes the order of every bead's sum
+// (block_schedule.h). The blocks depend on the beads, not on the thread count, and every sum
+// is taken in the same order: results are bit-identical for any number of threads.
+struct ForcePassBlocks {
+  std::vector<std::uint32_t> start{0, 0};  // first bead of each block, and the bead count last
+  // The work (list entries + beads) of the blocks before each block, and the total last: each
+  // thread takes consecutive blocks of about equal work, which keeps both the balance and the
+  // memory locality of a contiguous share.
+  std::vector<std::uint64_t> work{0, 1};
+  // The force pass (pass) in which each block was done last.
+  std::vector<std::atomic<std::uint64_t>> done;
+  std::uint64_t pass = 0;
+  // The touching pairs of each block in the last force pass, which weigh the blocks' work
+  // (empty after a list build, until a pass has counted them).
+  std::vector<std::uint32_t> contacts;
+  // Where each block's beads start in NeighbourLists::near_container.
+  std::vector<std::uint32_t> near_container_start{0, 0};
+  std::vector<StepObservables> observables;
+  std::vector<StepConditions> conditions;
+  std::vector<PairBatch> pair_batches;  // one per thread
+  std::vector<WallBatch> wall_batches;  // one per thread
+  // Each thread's share of the force and integration passes, following its measured speed.
+  ThreadShares shares;
+};
+
+}  // namespace detail
+
+struct Simulation::Impl {
+  detail::NeighbourLists lists;
+  detail::WallHistories walls;
+  detail::ForcePassBlocks blocks;
+  // Saved histories (a loaded bed, reordered or removed beads), applied at the next list build.
+  std::vector<ContactHistoryEntry> pending_history;
+  std::vector<std::uint32_t> origin;  // Simulation::BeadOrigins
   // The effects of this world (effects.h): each kernel is compiled once per set of them.
   bool friction = false;
   bool rolling = false;
   // Beads turn when something gives them a torque.
   bool Rotating() const { return friction || rolling; }
-  detail::StepConditions conditions;
-
-  // Parallel force computation. Beads are kept in cell order (layers of cells across the
-  // grid's longest axis, CellGrid::SpaceAxis; in a layer, rows of cells), and each layer of
-  // cells is a block (k numbers both). A pair (i, j > i) found in the 27 cells around i joins
-  // a bead of layer k to one of layer k or k + 1, so only neighbouring blocks touch the same
-  // beads, and the rule "of two neighbouring blocks, the even one first" fixes the order of
-  // every bead's sum (block_schedule.h). The blocks depend on the beads, not on the thread
-  // count, and every sum is taken in the same order: results are bit-identical for any
-  // number of threads.
-  std::vector<std::uint32_t> block_start{0, 0};
-  // The work (list entries + beads) of the blocks before each block, and the total last: each
-  // thread takes consecutive blocks of about equal work, which keeps both the balance and the
-  // memory locality of a contiguous share.
-  std::vector<std::uint64_t> block_work{0, 1};
-  // The force pass (force_pass) in which each block was done last.
-  std::vector<std::atomic<std::uint64_t>> block_done;
-  std::uint64_t force_pass = 0;
-  // The touching pairs of each block in the last force pass, which weigh the blocks' work
-  // (empty after a list build, until a pass has counted them).
-  std::vector<std::uint32_t> block_contacts;
-  // The beads that can touch the plate or the side wall before the next list build (closer to
-  // one than a skin, or holding a history with one), in id order, and where each block's
-  // beads start in that list. The others' container contacts are skipped: the walls stand
-  // still and no bead moves half a skin within a list's life, so skipping them is exact.
-  std::vector<std::uint32_t> near_container;
-  std::vector<std::uint32_t> block_near_container{0, 0};
-  std::vector<StepObservables> block_observables;
-  std::vector<detail::StepConditions> block_conditions;
-  std::vector<detail::PairBatch> batches;       // one per thread
-  std::vector<detail::WallBatch> wall_batches;  // one per thread
-  // Each thread's share of the force and integration passes, following its measured speed.
-  detail::ThreadShares shares;
+  detail::StepConditions conditions;  // what went wrong in the last pass
+  bool forces_valid = false;
   int threads = 1;
-  bool parallel = false;
+  bool parallel = false;  // beds of kParallelMinBeads or more: blocks, threads
 };
 
 }  // namespace dembuf

@@ -18,8 +18,8 @@
 #include <thread>
 
 #include "cost_check.h"
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/study/run_output.h"
@@ -222,7 +222,7 @@ int RunLocal(const RunOptions& opt) {
     cli::PlotIfPossible(dir);
     if (g_interrupted) throw Cancelled();  // during the plots: the results are complete
     return 0;
-  } catch (const SimulationError& e) {
+  } catch (const dem::SimulationError& e) {
     progress.Finish();
     nlohmann::json failure = {{"error", e.what()},
                               {"phase", phase},

@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/run_output.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/sweep_report.h"

@@ -16,8 +16,8 @@ std::string SafeLabel(const std::string& label) {
   return out.empty() ? "snapshot" : out;
 }
 
-bool IsBodyPair(const ContactSnapshot& c) {
-  return IsBead(c.b);
+bool IsBodyPair(const dem::ContactSnapshot& c) {
+  return dem::IsBead(c.b);
 }
 
 void WriteVtk(const ImpactSnapshot& s, const std::filesystem::path& path) {
@@ -27,7 +27,7 @@ void WriteVtk(const ImpactSnapshot& s, const std::filesystem::path& path) {
   const std::size_t points = n + (s.projectile ? 1 : 0);
   out << "# vtk DataFile Version 3.0\ndembuf force network " << s.label << "\nASCII\n"
       << "DATASET POLYDATA\nPOINTS " << points << " double\n";
-  for (const Vec3& x : s.positions) out << x.x() << " " << x.y() << " " << x.z() << "\n";
+  for (const dem::Vec3& x : s.positions) out << x.x() << " " << x.y() << " " << x.z() << "\n";
   if (s.projectile)
     out << s.projectile->position.x() << " " << s.projectile->position.y() << " "
         << s.projectile->position.z() << "\n";
@@ -36,7 +36,7 @@ void WriteVtk(const ImpactSnapshot& s, const std::filesystem::path& path) {
   out << "LINES " << lines << " " << 3 * lines << "\n";
   for (const auto& c : s.contacts) {
     if (!IsBodyPair(c)) continue;
-    const std::size_t a = c.a == kProjectile ? n : static_cast<std::size_t>(c.a);
+    const std::size_t a = c.a == dem::kProjectile ? n : static_cast<std::size_t>(c.a);
     out << "2 " << a << " " << c.b << "\n";
   }
   out << "CELL_DATA " << lines << "\nSCALARS normal_force_N double 1\nLOOKUP_TABLE default\n";
@@ -51,25 +51,25 @@ void WriteContacts(const ImpactSnapshot& s, const std::filesystem::path& path) {
   std::ofstream out(path);
   out.precision(9);
   out << "a,b,x_m,y_m,z_m,fx_N,fy_N,fz_N,normal_N,ax_m,ay_m,az_m,bx_m,by_m,bz_m\n";
-  auto centre = [&](BodyId id, const Vec3& point) -> Vec3 {
-    if (IsBead(id)) return s.positions[id];
-    if (id == kProjectile && s.projectile) return s.projectile->position;
+  auto centre = [&](dem::BodyId id, const dem::Vec3& point) -> dem::Vec3 {
+    if (dem::IsBead(id)) return s.positions[id];
+    if (id == dem::kProjectile && s.projectile) return s.projectile->position;
     return point;  // a wall: its contact point
   };
-  auto name = [](BodyId id) -> std::string {
+  auto name = [](dem::BodyId id) -> std::string {
     switch (id) {
-      case kPlate:
+      case dem::kPlate:
         return "plate";
-      case kSideWall:
+      case dem::kSideWall:
         return "wall";
-      case kProjectile:
+      case dem::kProjectile:
         return "projectile";
       default:
         return std::to_string(id);
     }
   };
   for (const auto& c : s.contacts) {
-    const Vec3 a = centre(c.a, c.point), b = centre(c.b, c.point);
+    const dem::Vec3 a = centre(c.a, c.point), b = centre(c.b, c.point);
     out << name(c.a) << "," << name(c.b) << "," << c.point.x() << "," << c.point.y() << ","
         << c.point.z() << "," << c.force.x() << "," << c.force.y() << "," << c.force.z() << ","
         << c.normal_N << "," << a.x() << "," << a.y() << "," << a.z() << "," << b.x() << ","
@@ -85,7 +85,7 @@ void WritePlateLoad(const ImpactSnapshot& s, const std::filesystem::path& dir, d
   const int cells = static_cast<int>(std::ceil(2.0 * R / kCell));
   std::vector<double> map(cells * cells, 0.0);
   for (const auto& c : s.contacts) {
-    if (c.b != kPlate) continue;
+    if (c.b != dem::kPlate) continue;
     const double rho = std::hypot(c.point.x(), c.point.y());
     ring_force[std::min(rings - 1, static_cast<int>(rho / ring_width))] += c.normal_N;
     const int cx = std::clamp(static_cast<int>((c.point.x() + R) / kCell), 0, cells - 1);
@@ -110,7 +110,7 @@ void WritePlateLoad(const ImpactSnapshot& s, const std::filesystem::path& dir, d
 void WriteForcePdf(const ImpactSnapshot& s, const std::filesystem::path& path) {
   std::vector<double> forces;
   for (const auto& c : s.contacts)
-    if (IsBead(c.a) && IsBead(c.b) && c.normal_N > 0.0) forces.push_back(c.normal_N);
+    if (dem::IsBead(c.a) && dem::IsBead(c.b) && c.normal_N > 0.0) forces.push_back(c.normal_N);
   std::ofstream out(path);
   out << "f_over_mean,pdf,count\n";
   if (forces.empty()) return;

@@ -13,7 +13,7 @@
 #include <optional>
 #include <set>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/run_output.h"
 #include "dembuf/study/run_queue.h"

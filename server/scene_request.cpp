@@ -3,7 +3,7 @@
 #include <charconv>
 #include <string>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/presets.h"
 #include "dembuf/study/scene_fields.h"
 

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/run_output.h"
 #include "dembuf/study/scene_fields.h"

@@ -6,9 +6,9 @@
 #include <thread>
 
 #include "auth.h"
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/content_hash.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/sweep_plan.h"

@@ -30,6 +30,16 @@ forbidden engine/core "($own)\"" "includes a header of server/ or client/"
 forbidden engine/study "$service" "needs the service's libraries"
 forbidden engine/study "($own)\"" "includes a header of server/ or client/"
 
+# The core's names live in dembuf::dem (and its detail), so that code above says where they
+# come from; anonymous namespaces apart.
+hits=$(grep -rnE --include='*.h' --include='*.cpp' '^[[:space:]]*namespace[[:space:]]+[A-Za-z_:]+[[:space:]]*\{' \
+         "$root/engine/core" | grep -vE 'namespace (dembuf::dem(::detail)?|detail) \{' || true)
+if [ -n "$hits" ]; then
+  echo "FAIL: engine/core declares names outside dembuf::dem:"
+  echo "$hits" | sed "s|$root/||"
+  status=1
+fi
+
 # The libraries' link lines say the same.
 if grep -qE 'dembuf::study|dembuf_study|toml11|gRPC|SQLite' "$root/engine/core/CMakeLists.txt"; then
   echo "FAIL: engine/core/CMakeLists.txt links something above the core"

@@ -26,17 +26,17 @@ struct PairRun {
 };
 
 PairRun HeadOn(const Scene& scene, double alpha, double v) {
-  const WorldParams p = test::IsolatedWorld(scene, alpha);
-  ParticleState beads;
-  beads.Add(Vec3(-kRadius - 1e-9, 0, 1), kRadius, kDensity);
-  beads.Add(Vec3(kRadius + 1e-9, 0, 1), kRadius, kDensity);
-  beads.velocity[0] = Vec3(0.5 * v, 0, 0);
-  beads.velocity[1] = Vec3(-0.5 * v, 0, 0);
-  Simulation sim(p, std::move(beads), std::nullopt);
-  auto overlap = [](const Simulation& s) {
+  const dem::WorldParams p = test::IsolatedWorld(scene, alpha);
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(-kRadius - 1e-9, 0, 1), kRadius, kDensity);
+  beads.Add(dem::Vec3(kRadius + 1e-9, 0, 1), kRadius, kDensity);
+  beads.velocity[0] = dem::Vec3(0.5 * v, 0, 0);
+  beads.velocity[1] = dem::Vec3(-0.5 * v, 0, 0);
+  dem::Simulation sim(p, std::move(beads), std::nullopt);
+  auto overlap = [](const dem::Simulation& s) {
     return 2 * kRadius - (s.beads().position[0] - s.beads().position[1]).norm();
   };
-  auto force = [](const Simulation& s) { return s.beads().force[0].norm(); };
+  auto force = [](const dem::Simulation& s) { return s.beads().force[0].norm(); };
   const test::ContactRecord rec = test::RecordContact(sim, overlap, force, 10'000'000);
   const auto& b = sim.beads();
   return {(b.velocity[1].x() - b.velocity[0].x()) / v, rec.max_force, rec.Duration(),
@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
     double e_err[3];
     int k = 0;
     for (double v : {0.1, 1.0, 10.0}) {
-      const double exact = RestitutionAtSpeed(A, kn, 0.5 * mass, v);
+      const double exact = dem::RestitutionAtSpeed(A, kn, 0.5 * mass, v);
       e_err[k++] = 100.0 * (HeadOn(damped, alpha, v).restitution / exact - 1.0);
     }
     const PairRun el = HeadOn(elastic, alpha, 1.0);

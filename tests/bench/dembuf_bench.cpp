@@ -84,7 +84,7 @@ Scene BenchScene() {
 // impact pipeline leaves it after the analytic free flight.
 World ImpactWorld(const Scene& scene, BedCache& cache) {
   World world = BuildWorld(scene, &cache);
-  RigidSphere& p = *world.projectile;
+  dem::RigidSphere& p = *world.projectile;
   const double drop = p.position.z() - (world.bed_surface_m + p.radius + 1e-4);
   const double v = std::sqrt(scene.projectile.speed_m_s * scene.projectile.speed_m_s +
                              2.0 * scene.gravity_m_s2 * drop);
@@ -130,10 +130,10 @@ struct Timing {
 Timing TimeSteps(const World& world, int steps, int threads, bool with_projectile = true) {
   // Several threads start unpinned, so OpenMP's workers may use every core.
   const PinnedTo pin(threads == 1 ? g_single_thread_core : -1);
-  WorldParams params = world.params;
+  dem::WorldParams params = world.params;
   params.threads = threads;
-  Simulation sim(params, world.beads, with_projectile ? world.projectile : std::nullopt,
-                 world.history);
+  dem::Simulation sim(params, world.beads, with_projectile ? world.projectile : std::nullopt,
+                      world.history);
   sim.RefreshForces();
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < steps; ++k) sim.Step();
@@ -161,13 +161,13 @@ void WriteLammpsData(const World& world, const Scene& scene, const fs::path& pat
   std::ofstream out(path);
   out.precision(17);
   const double r = scene.cylinder.radius_m + 0.005;
-  const RigidSphere& p = *world.projectile;
+  const dem::RigidSphere& p = *world.projectile;
   out << "dembuf benchmark bed\n\n"
       << world.beads.size() + 1 << " atoms\n2 atom types\n\n"
       << -r << " " << r << " xlo xhi\n"
       << -r << " " << r << " ylo yhi\n"
       << -0.001 << " " << p.position.z() + p.radius + 0.01 << " zlo zhi\n\nAtoms # sphere\n\n";
-  const ParticleState& b = world.beads;
+  const dem::ParticleState& b = world.beads;
   for (std::size_t i = 0; i < b.size(); ++i) {
     const double d = 2.0 * b.radius[i];
     const double density = b.mass[i] / (std::numbers::pi / 6.0 * d * d * d);
@@ -231,7 +231,7 @@ double RunLammps(const fs::path& input, const fs::path& data, const World& world
 // unload within a few hundred steps, so 100,000 beads timed over 50 steps held 2.1 contacts
 // per bead and 1,000 timed over 2,000 steps about 1.3: the size fit compared unlike beds.)
 World TiledWorld(const World& base, std::size_t count) {
-  const ParticleState& b = base.beads;
+  const dem::ParticleState& b = base.beads;
   const double r_max = *std::max_element(b.radius.begin(), b.radius.end());
   const double half = (base.params.container.radius_m - 2.0 * r_max) / std::numbers::sqrt2;
   std::vector<std::uint32_t> core;                  // base ids of the core's beads
@@ -249,16 +249,16 @@ World TiledWorld(const World& base, std::size_t count) {
   struct Candidate {
     double rho2;
     std::uint32_t bead;  // base id
-    Vec3 shift;
+    dem::Vec3 shift;
     std::uint32_t tile;
   };
   std::vector<Candidate> candidates;
   std::uint32_t tiles = 0;
   for (int tx = -reach; tx <= reach; ++tx)
     for (int ty = -reach; ty <= reach; ++ty, ++tiles) {
-      const Vec3 shift(tx * period, ty * period, 0.0);
+      const dem::Vec3 shift(tx * period, ty * period, 0.0);
       for (std::uint32_t i : core) {
-        const Vec3 x = b.position[i] + shift;
+        const dem::Vec3 x = b.position[i] + shift;
         candidates.push_back({x.x() * x.x() + x.y() * x.y(), i, shift, tiles});
       }
     }
@@ -270,7 +270,7 @@ World TiledWorld(const World& base, std::size_t count) {
   World world = base;
   world.projectile.reset();
   world.history.clear();
-  ParticleState beads;
+  dem::ParticleState beads;
   // new id of (tile, core index), for carrying the tangential springs over
   std::vector<std::int64_t> new_id(static_cast<std::size_t>(tiles) * core.size(), -1);
   double rho_max = 0.0;
@@ -284,11 +284,11 @@ World TiledWorld(const World& base, std::size_t count) {
     rho_max = std::max(rho_max, std::sqrt(c.rho2));
   }
   for (std::uint32_t tile = 0; tile < tiles; ++tile)
-    for (const ContactHistoryEntry& h : base.history) {
-      if (core_id[h.bead] < 0 || h.other == kSideWall) continue;
+    for (const dem::ContactHistoryEntry& h : base.history) {
+      if (core_id[h.bead] < 0 || h.other == dem::kSideWall) continue;
       const std::int64_t bead = new_id[tile * core.size() + core_id[h.bead]];
-      std::int64_t other = kPlate;
-      if (h.other != kPlate) {
+      std::int64_t other = dem::kPlate;
+      if (h.other != dem::kPlate) {
         if (core_id[h.other] < 0) continue;
         other = new_id[tile * core.size() + core_id[h.other]];
       }
@@ -490,7 +490,7 @@ int main(int argc, char** argv) {
     sizes.push_back({{"beads", n}, {"us_per_step", us_per_step}, {"timing", TimingJson(t)}});
     if (n == counts.back()) {
       // Memory: a simulation of this size, alive, against the process before it.
-      Simulation sim(w.params, w.beads, std::nullopt);
+      dem::Simulation sim(w.params, w.beads, std::nullopt);
       for (int k = 0; k < 10; ++k) sim.Step();
       bytes_per_bead = (ResidentBytes() - rss_before) / static_cast<double>(n);
     }

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed_io.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/scene_fields.h"
 #include "engine/squeezed_bed.h"
@@ -152,7 +152,7 @@ TEST(BedImport, LargerOverlapsAreSeparatedOnRequestWithAReport) {
   EXPECT_GT(bed.moved, 0u);
   EXPECT_NE(bed.Describe().find("separated: "), std::string::npos) << bed.Describe();
   for (std::size_t i = 0; i < bed.beads.size(); ++i) {
-    const Vec3& x = bed.beads.position[i];
+    const dem::Vec3& x = bed.beads.position[i];
     EXPECT_LE(std::hypot(x.x(), x.y()) + bed.beads.radius[i], 0.025 * (1 + 1e-9));
     EXPECT_GE(x.z(), 0.99 * bed.beads.radius[i]);
   }

@@ -12,9 +12,9 @@
 #include <set>
 #include <thread>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/core_share.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 
 #include "engine/small_bed.h"
@@ -51,7 +51,7 @@ TEST(BedPreparation, EndsAtRestByTheStatedCriterion) {
   EXPECT_LT(bed.solid_fraction, 0.66);
   // Nothing outside the container, nothing through the plate.
   for (std::size_t i = 0; i < bed.beads.size(); ++i) {
-    const Vec3& x = bed.beads.position[i];
+    const dem::Vec3& x = bed.beads.position[i];
     EXPECT_LE(std::hypot(x.x(), x.y()) + bed.beads.radius[i], 0.02 * 1.001);
     EXPECT_GE(x.z() - bed.beads.radius[i], -1e-4 * bed.beads.radius[i]);
   }
@@ -64,7 +64,7 @@ TEST(BedPreparation, SavingAndLoadingIsBitExact) {
   const PreparedBed back = LoadBed(path);
   ASSERT_EQ(back.beads.size(), bed.beads.size());
   EXPECT_EQ(std::memcmp(back.beads.position.data(), bed.beads.position.data(),
-                        bed.beads.size() * sizeof(Vec3)),
+                        bed.beads.size() * sizeof(dem::Vec3)),
             0);
   EXPECT_EQ(std::memcmp(back.beads.radius.data(), bed.beads.radius.data(),
                         bed.beads.size() * sizeof(double)),
@@ -108,9 +108,9 @@ TEST(BedPreparation, CachedBedIsReusedNotSettledAgain) {
   BedCache second(dir);
   const PreparedBed b = GetBed(SmallBedScene(), second);
   EXPECT_TRUE(second.prepared_counts().empty());
-  EXPECT_EQ(
-      std::memcmp(a.beads.position.data(), b.beads.position.data(), a.beads.size() * sizeof(Vec3)),
-      0);
+  EXPECT_EQ(std::memcmp(a.beads.position.data(), b.beads.position.data(),
+                        a.beads.size() * sizeof(dem::Vec3)),
+            0);
 }
 
 TEST(BedPreparation, KineticDampingReachesTheSameRest) {
@@ -173,13 +173,14 @@ TEST(Simulation, BeadOriginsFollowTheReorderAndRemovals) {
   Scene scene = SmallBedScene();
   scene.cylinder.radius_m = 0.1;
   const double r = 0.5 * scene.beads.diameter_min_m;
-  ParticleState given;  // a lattice of 1,440 beads, numbered from the top down, far from cell order
+  dem::ParticleState
+      given;  // a lattice of 1,440 beads, numbered from the top down, far from cell order
   for (int z = 9; z >= 0; --z)
     for (int y = 11; y >= 0; --y)
       for (int x = 11; x >= 0; --x)
-        given.Add(Vec3((x - 6) * 2.2 * r, (y - 6) * 2.2 * r, (z + 1) * 2.2 * r), r,
+        given.Add(dem::Vec3((x - 6) * 2.2 * r, (y - 6) * 2.2 * r, (z + 1) * 2.2 * r), r,
                   scene.material.density_kg_m3);
-  Simulation sim(MakeContactSetup(scene, r).params, given, std::nullopt);
+  dem::Simulation sim(MakeContactSetup(scene, r).params, given, std::nullopt);
   sim.RefreshForces();
   auto expect_origins = [&](const char* when) {
     const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
@@ -205,7 +206,7 @@ TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
   BedCache cache;
   auto three_beads = [](const std::string& hash) {
     PreparedBed bed;
-    for (int i = 0; i < 3; ++i) bed.beads.Add(Vec3(0.005 * i, 0, 0.00225), 0.00225, 2650.0);
+    for (int i = 0; i < 3; ++i) bed.beads.Add(dem::Vec3(0.005 * i, 0, 0.00225), 0.00225, 2650.0);
     bed.hash = hash;
     bed.stage = "cut";
     return bed;
@@ -319,35 +320,35 @@ TEST(CoreShare, IdleRunnersLendTheirCores) {
 
 // 1500 beads (enough for the parallel blocks, >= 1024) in a 3 cm cylinder, thrown in random
 // directions: they fall and collide with friction.
-ParticleState FallingBeads() {
+dem::ParticleState FallingBeads() {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  ParticleState beads;
+  dem::ParticleState beads;
   for (int iz = 0; beads.size() < 1500; ++iz)
     for (int iy = -5; iy <= 5; ++iy)
       for (int ix = -5; ix <= 5; ++ix) {
         const double x = ix * 0.0048, y = iy * 0.0048;
         if (std::hypot(x, y) > 0.026) continue;
-        beads.Add(Vec3(x, y, 0.0025 + iz * 0.0048), 0.00225 + 0.0001 * u(rng), 2650.0);
-        beads.velocity.back() = Vec3(u(rng), u(rng), u(rng));
+        beads.Add(dem::Vec3(x, y, 0.0025 + iz * 0.0048), 0.00225 + 0.0001 * u(rng), 2650.0);
+        beads.velocity.back() = dem::Vec3(u(rng), u(rng), u(rng));
       }
   return beads;
 }
 
-bool SameBits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+bool SameBits(const std::vector<dem::Vec3>& a, const std::vector<dem::Vec3>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(dem::Vec3)) == 0;
 }
 
 TEST(Determinism, SameResultWhateverTheThreadCount) {
   Scene scene;
   scene.cylinder.radius_m = 0.03;
   World world = BuildWorld(scene);
-  const ParticleState beads = FallingBeads();
+  const dem::ParticleState beads = FallingBeads();
   // threads < 0: changed during the run (1, 2, 3, ...), as a sweep lending cores does.
   auto run = [&](int threads) {
-    WorldParams p = world.params;
+    dem::WorldParams p = world.params;
     p.threads = std::max(threads, 1);
-    Simulation sim(p, beads, std::nullopt);
+    dem::Simulation sim(p, beads, std::nullopt);
     long contacts = 0;
     for (int k = 0; k < 2000; ++k) {
       if (threads < 0 && k % 100 == 0) sim.SetThreads(1 + (k / 100) % 3);
@@ -366,13 +367,13 @@ TEST(Determinism, SameResultWhateverTheThreadCount) {
 
   // Two workers of a local sweep, each running the simulation on two threads of its own: the
   // nested OpenMP teams of `dembuf sweep --jobs 2` when a worker is lent a core.
-  std::vector<std::vector<Vec3>> nested(2);
+  std::vector<std::vector<dem::Vec3>> nested(2);
   const int levels = omp_get_max_active_levels();
   omp_set_max_active_levels(2);
 #pragma omp parallel num_threads(2)
   nested[omp_get_thread_num()] = run(2).first.beads().position;
   omp_set_max_active_levels(levels);
-  for (const std::vector<Vec3>& positions : nested)
+  for (const std::vector<dem::Vec3>& positions : nested)
     EXPECT_TRUE(SameBits(one.beads().position, positions));
 }
 
@@ -385,23 +386,23 @@ TEST(Determinism, DensePackingSameBitsWhateverTheThreadCount) {
   const World world = BuildWorld(scene);
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  ParticleState beads;
+  dem::ParticleState beads;
   const double radius = 0.00225, spacing = 0.00445;  // overlaps of 1% of the diameter
   for (int iz = 0; iz < 11; ++iz)
     for (int iy = 0; iy < 12; ++iy)
       for (int ix = 0; ix < 12; ++ix) {
-        beads.Add(Vec3((ix - 5.5) * spacing, (iy - 5.5) * spacing, radius + iz * spacing), radius,
-                  2650.0);
-        beads.velocity.back() = 0.1 * Vec3(u(rng), u(rng), u(rng));
+        beads.Add(dem::Vec3((ix - 5.5) * spacing, (iy - 5.5) * spacing, radius + iz * spacing),
+                  radius, 2650.0);
+        beads.velocity.back() = 0.1 * dem::Vec3(u(rng), u(rng), u(rng));
       }
   auto run = [&](int threads) {
-    WorldParams p = world.params;
+    dem::WorldParams p = world.params;
     p.threads = threads;
-    Simulation sim(p, beads, std::nullopt);
+    dem::Simulation sim(p, beads, std::nullopt);
     for (int k = 0; k < 300; ++k) sim.Step();
     return sim.beads().position;
   };
-  const std::vector<Vec3> one = run(1);
+  const std::vector<dem::Vec3> one = run(1);
   for (int threads : {2, 3, 4}) EXPECT_TRUE(SameBits(one, run(threads))) << threads << " threads";
 }
 
@@ -411,9 +412,9 @@ TEST(Determinism, DensePackingSameBitsWhateverTheThreadCount) {
 TEST(Determinism, LookingAtTheBeadsBetweenStepsChangesNothing) {
   Scene scene;
   scene.cylinder.radius_m = 0.03;
-  const WorldParams params = BuildWorld(scene).params;
-  Simulation unobserved(params, FallingBeads(), std::nullopt);
-  Simulation observed(params, FallingBeads(), std::nullopt);
+  const dem::WorldParams params = BuildWorld(scene).params;
+  dem::Simulation unobserved(params, FallingBeads(), std::nullopt);
+  dem::Simulation observed(params, FallingBeads(), std::nullopt);
   double kinetic = 0.0;
   for (int k = 0; k < 1000; ++k) {
     unobserved.Step();
@@ -429,9 +430,9 @@ TEST(Determinism, LookingAtTheBeadsBetweenStepsChangesNothing) {
 
   // A bead in free fall, read after every step: v = -g t (velocity Verlet is exact for a
   // constant force, up to rounding).
-  ParticleState one;
-  one.Add(Vec3(0.0, 0.0, 0.05), 0.002, 2650.0);
-  Simulation falling(params, one, std::nullopt);
+  dem::ParticleState one;
+  one.Add(dem::Vec3(0.0, 0.0, 0.05), 0.002, 2650.0);
+  dem::Simulation falling(params, one, std::nullopt);
   for (int k = 0; k < 100; ++k) {
     falling.Step();
     const double t = falling.time_s();
@@ -487,7 +488,7 @@ TEST(SmallBedImpact, SnapshotsAreTakenWhenAskedAndBalance) {
   // damping term with full-step velocities, the step with half-step ones: 2% covers that.
   double plate = 0.0;
   for (const auto& c : peak->contacts)
-    if (c.b == kPlate) plate += c.normal_N;
+    if (c.b == dem::kPlate) plate += c.normal_N;
   EXPECT_NEAR(plate / summary.peak_plate_force_N, 1.0, 0.02);
   // The flight-time snapshot shows the bed at rest: its plate load is the resting load (as
   // recorded before the residual jitter, below the rest tolerance, was zeroed: within 0.1%).
@@ -495,7 +496,7 @@ TEST(SmallBedImpact, SnapshotsAreTakenWhenAskedAndBalance) {
   EXPECT_EQ(rest.label, "t=0.001");
   double rest_plate = 0.0;
   for (const auto& c : rest.contacts)
-    if (c.b == kPlate) rest_plate += c.normal_N;
+    if (c.b == dem::kPlate) rest_plate += c.normal_N;
   EXPECT_NEAR(rest_plate / summary.bed.rest_plate_force_N, 1.0, 1e-3);
   EXPECT_NEAR(snaps[1].t_s, summary.first_contact_time_s + 0.0002, 2 * summary.dt_s);
 }

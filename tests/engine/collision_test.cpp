@@ -26,30 +26,31 @@ double BeadMass() {
 }
 
 // Two equal beads approaching head-on at relative speed v, just apart.
-Simulation HeadOn(const WorldParams& p, double v) {
+dem::Simulation HeadOn(const dem::WorldParams& p, double v) {
   return HeadOnPair(p, kRadius, kRadius, kDensity, v);
 }
 
-double PairOverlap(const Simulation& s) {
+double PairOverlap(const dem::Simulation& s) {
   return 2.0 * kRadius - (s.beads().position[0] - s.beads().position[1]).norm();
 }
-double PairForce(const Simulation& s) {
+double PairForce(const dem::Simulation& s) {
   return s.beads().force[0].norm();
 }
 
 // One bead falling onto the plate at speed v (no gravity: a pure two-body problem).
-Simulation OntoPlate(const WorldParams& p, const Vec3& velocity, const Vec3& spin = Vec3::Zero()) {
-  ParticleState beads;
-  beads.Add(Vec3(0, 0, kRadius + 1e-7), kRadius, kDensity);
+dem::Simulation OntoPlate(const dem::WorldParams& p, const dem::Vec3& velocity,
+                          const dem::Vec3& spin = dem::Vec3::Zero()) {
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0, 0, kRadius + 1e-7), kRadius, kDensity);
   beads.velocity[0] = velocity;
   beads.angular_velocity[0] = spin;
-  return Simulation(p, std::move(beads), std::nullopt);
+  return dem::Simulation(p, std::move(beads), std::nullopt);
 }
 
-double PlateOverlap(const Simulation& s) {
+double PlateOverlap(const dem::Simulation& s) {
   return kRadius - s.beads().position[0].z();
 }
-double PlateForce(const Simulation& s) {
+double PlateForce(const dem::Simulation& s) {
   return s.observables().plate_force_N;
 }
 
@@ -58,9 +59,9 @@ double PlateForce(const Simulation& s) {
 constexpr double kFineAlpha = 0.005;
 
 TEST(HertzElastic, BeadBeadHeadOnMatchesHertzWithin1Percent) {
-  const WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
+  const dem::WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
   for (double v : {0.1, 1.0, 5.0}) {
-    Simulation sim = HeadOn(p, v);
+    dem::Simulation sim = HeadOn(p, v);
     const ContactRecord rec = RecordContact(sim, PairOverlap, PairForce, 1'000'000);
     const double kn = p.sphere_pair.kn_per_sqrt_r * std::sqrt(0.5 * kRadius);
     const HertzImpact hertz(kn, 0.5 * BeadMass(), v);
@@ -73,9 +74,9 @@ TEST(HertzElastic, BeadBeadHeadOnMatchesHertzWithin1Percent) {
 }
 
 TEST(HertzElastic, BeadPlateMatchesHertzWithin1Percent) {
-  const WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
+  const dem::WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
   for (double v : {0.1, 1.0, 5.0}) {
-    Simulation sim = OntoPlate(p, Vec3(0, 0, -v));
+    dem::Simulation sim = OntoPlate(p, dem::Vec3(0, 0, -v));
     const ContactRecord rec = RecordContact(sim, PlateOverlap, PlateForce, 1'000'000);
     const double kn = p.sphere_wall.kn_per_sqrt_r * std::sqrt(kRadius);  // R* = R for a wall
     const HertzImpact hertz(kn, BeadMass(), v);
@@ -86,15 +87,17 @@ TEST(HertzElastic, BeadPlateMatchesHertzWithin1Percent) {
 }
 
 TEST(HertzElastic, BeadSideWallMatchesHertzWithin1Percent) {
-  WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
+  dem::WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
   p.container.radius_m = 0.095;
   const double v = 1.0;
-  ParticleState beads;
-  beads.Add(Vec3(0.095 - kRadius - 1e-7, 0, 0.1), kRadius, kDensity);
-  beads.velocity[0] = Vec3(v, 0, 0);
-  Simulation sim(p, std::move(beads), std::nullopt);
-  auto overlap = [](const Simulation& s) { return s.beads().position[0].x() + kRadius - 0.095; };
-  auto force = [](const Simulation& s) { return s.beads().force[0].norm(); };
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0.095 - kRadius - 1e-7, 0, 0.1), kRadius, kDensity);
+  beads.velocity[0] = dem::Vec3(v, 0, 0);
+  dem::Simulation sim(p, std::move(beads), std::nullopt);
+  auto overlap = [](const dem::Simulation& s) {
+    return s.beads().position[0].x() + kRadius - 0.095;
+  };
+  auto force = [](const dem::Simulation& s) { return s.beads().force[0].norm(); };
   const ContactRecord rec = RecordContact(sim, overlap, force, 1'000'000);
   const HertzImpact hertz(p.sphere_wall.kn_per_sqrt_r * std::sqrt(kRadius), BeadMass(), v);
   EXPECT_NEAR(rec.max_overlap / hertz.max_overlap, 1.0, 0.01);
@@ -106,28 +109,28 @@ TEST(HertzElastic, BeadSideWallMatchesHertzWithin1Percent) {
 // contacts are checked only for the beads near the walls at a list build, so the bead must
 // join those in time; then the contact is Hertz's.
 TEST(HertzElastic, BeadFromAfarMeetsSideWallAndPlateAsHertz) {
-  WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
+  dem::WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
   p.container.radius_m = 0.095;
   const double v = 5.0;
   const double gap = 5e-3;  // over five skins (0.2 bead diameters each)
   const HertzImpact hertz(p.sphere_wall.kn_per_sqrt_r * std::sqrt(kRadius), BeadMass(), v);
-  auto force = [](const Simulation& s) { return s.beads().force[0].norm(); };
+  auto force = [](const dem::Simulation& s) { return s.beads().force[0].norm(); };
 
-  ParticleState towards_wall;
-  towards_wall.Add(Vec3(0.095 - kRadius - gap, 0, 0.1), kRadius, kDensity);
-  towards_wall.velocity[0] = Vec3(v, 0, 0);
-  Simulation wall(p, std::move(towards_wall), std::nullopt);
-  auto wall_overlap = [](const Simulation& s) {
+  dem::ParticleState towards_wall;
+  towards_wall.Add(dem::Vec3(0.095 - kRadius - gap, 0, 0.1), kRadius, kDensity);
+  towards_wall.velocity[0] = dem::Vec3(v, 0, 0);
+  dem::Simulation wall(p, std::move(towards_wall), std::nullopt);
+  auto wall_overlap = [](const dem::Simulation& s) {
     return s.beads().position[0].x() + kRadius - 0.095;
   };
   const ContactRecord at_wall = RecordContact(wall, wall_overlap, force, 1'000'000);
   EXPECT_NEAR(at_wall.max_force / hertz.max_force, 1.0, 0.01);
   EXPECT_NEAR(at_wall.Duration() / hertz.duration, 1.0, 0.01);
 
-  ParticleState towards_plate;
-  towards_plate.Add(Vec3(0, 0, kRadius + gap), kRadius, kDensity);
-  towards_plate.velocity[0] = Vec3(0, 0, -v);
-  Simulation plate(p, std::move(towards_plate), std::nullopt);
+  dem::ParticleState towards_plate;
+  towards_plate.Add(dem::Vec3(0, 0, kRadius + gap), kRadius, kDensity);
+  towards_plate.velocity[0] = dem::Vec3(0, 0, -v);
+  dem::Simulation plate(p, std::move(towards_plate), std::nullopt);
   const ContactRecord at_plate = RecordContact(plate, PlateOverlap, force, 1'000'000);
   EXPECT_NEAR(at_plate.max_force / hertz.max_force, 1.0, 0.01);
   EXPECT_NEAR(at_plate.Duration() / hertz.duration, 1.0, 0.01);
@@ -136,8 +139,8 @@ TEST(HertzElastic, BeadFromAfarMeetsSideWallAndPlateAsHertz) {
 TEST(Restitution, CalibratedPairReboundsWithTargetAtReferenceSpeed) {
   Scene scene;  // e = 0.8 at 1 m/s, paper materials
   scene.material.friction_bead_bead = 0.0;
-  const WorldParams p = IsolatedWorld(scene, kFineAlpha);
-  Simulation sim = HeadOn(p, 1.0);
+  const dem::WorldParams p = IsolatedWorld(scene, kFineAlpha);
+  dem::Simulation sim = HeadOn(p, 1.0);
   RecordContact(sim, PairOverlap, PairForce, 1'000'000);
   const double e = -(sim.beads().velocity[0].x() - sim.beads().velocity[1].x()) / 1.0;
   EXPECT_NEAR(e, 0.8, 0.8 * 0.005);
@@ -146,17 +149,17 @@ TEST(Restitution, CalibratedPairReboundsWithTargetAtReferenceSpeed) {
 TEST(Restitution, VelocityDependenceMatchesIndependentIntegration) {
   Scene scene;
   scene.material.friction_bead_bead = 0.0;
-  const WorldParams p = IsolatedWorld(scene, kFineAlpha);
+  const dem::WorldParams p = IsolatedWorld(scene, kFineAlpha);
   const double kn = p.sphere_pair.kn_per_sqrt_r * std::sqrt(0.5 * kRadius);
   const double A = p.sphere_pair.damping_A_s;
   for (double v : {0.1, 1.0, 10.0}) {
-    Simulation sim = HeadOn(p, v);
+    dem::Simulation sim = HeadOn(p, v);
     RecordContact(sim, PairOverlap, PairForce, 10'000'000);
     const double e_engine = -(sim.beads().velocity[0].x() - sim.beads().velocity[1].x()) / v;
     const double e_reference = FineStepRestitution(A, kn, 0.5 * BeadMass(), v);
     EXPECT_NEAR(e_engine / e_reference, 1.0, 0.005) << "v = " << v;
     // The library's own e(v) (used in reports) agrees too.
-    EXPECT_NEAR(RestitutionAtSpeed(A, kn, 0.5 * BeadMass(), v) / e_reference, 1.0, 1e-4);
+    EXPECT_NEAR(dem::RestitutionAtSpeed(A, kn, 0.5 * BeadMass(), v) / e_reference, 1.0, 1e-4);
   }
   // The model's e falls with speed: the slow collision is the more elastic.
   EXPECT_GT(FineStepRestitution(A, kn, 0.5 * BeadMass(), 0.1),
@@ -170,12 +173,12 @@ TEST(Restitution, VelocityDependenceMatchesIndependentIntegration) {
 TEST(ObliqueImpact, GrossSlidingMatchesCoulombWithin2Percent) {
   Scene scene;
   scene.material.friction_bead_wall = 0.3;
-  const WorldParams p = IsolatedWorld(scene, 0.05);
+  const dem::WorldParams p = IsolatedWorld(scene, 0.05);
   const double vn = 1.0, vt = 5.0, mu = 0.3;
-  Simulation sim = OntoPlate(p, Vec3(vt, 0, -vn));
+  dem::Simulation sim = OntoPlate(p, dem::Vec3(vt, 0, -vn));
   RecordContact(sim, PlateOverlap, PlateForce, 1'000'000);
-  const Vec3 v_out = sim.beads().velocity[0];
-  const Vec3 w_out = sim.beads().angular_velocity[0];
+  const dem::Vec3 v_out = sim.beads().velocity[0];
+  const dem::Vec3 w_out = sim.beads().angular_velocity[0];
   const double jn = v_out.z() + vn;  // normal impulse per unit mass
   EXPECT_NEAR(v_out.x() / (vt - mu * jn), 1.0, 0.02);
   // Friction along +x at the bottom spins the bead about +y.
@@ -188,27 +191,27 @@ TEST(ObliqueImpact, GrossSlidingMatchesCoulombWithin2Percent) {
 TEST(ObliqueImpact, NewtonsThirdLawAndAngularMomentumForBeadPair) {
   Scene scene;
   scene.material.friction_bead_bead = 0.5;
-  const WorldParams p = IsolatedWorld(scene, 0.05);
-  ParticleState beads;
-  beads.Add(Vec3(-kRadius, 0.3 * kRadius, 1), kRadius, kDensity);
-  beads.Add(Vec3(kRadius + 1e-6, -0.3 * kRadius, 1), 0.8 * kRadius, kDensity);
-  beads.velocity[0] = Vec3(1.0, 0.2, 0.1);
-  beads.angular_velocity[1] = Vec3(0, 0, 300.0);
-  Simulation sim(p, std::move(beads), std::nullopt);
-  auto momentum = [](const Simulation& s) {
-    Vec3 m = Vec3::Zero();
+  const dem::WorldParams p = IsolatedWorld(scene, 0.05);
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(-kRadius, 0.3 * kRadius, 1), kRadius, kDensity);
+  beads.Add(dem::Vec3(kRadius + 1e-6, -0.3 * kRadius, 1), 0.8 * kRadius, kDensity);
+  beads.velocity[0] = dem::Vec3(1.0, 0.2, 0.1);
+  beads.angular_velocity[1] = dem::Vec3(0, 0, 300.0);
+  dem::Simulation sim(p, std::move(beads), std::nullopt);
+  auto momentum = [](const dem::Simulation& s) {
+    dem::Vec3 m = dem::Vec3::Zero();
     for (std::size_t i = 0; i < 2; ++i) m += s.beads().mass[i] * s.beads().velocity[i];
     return m;
   };
-  auto angular_momentum = [](const Simulation& s) {
-    Vec3 l = Vec3::Zero();
+  auto angular_momentum = [](const dem::Simulation& s) {
+    dem::Vec3 l = dem::Vec3::Zero();
     const auto& b = s.beads();
     for (std::size_t i = 0; i < 2; ++i)
       l +=
           b.mass[i] * b.position[i].cross(b.velocity[i]) + b.angular_velocity[i] / b.inv_inertia[i];
     return l;
   };
-  const Vec3 p0 = momentum(sim), l0 = angular_momentum(sim);
+  const dem::Vec3 p0 = momentum(sim), l0 = angular_momentum(sim);
   for (int k = 0; k < 400; ++k) {
     sim.Step();
     EXPECT_NEAR((sim.beads().force[0] + sim.beads().force[1]).norm(), 0.0, 1e-9);
@@ -221,16 +224,16 @@ TEST(HeldBead, ABeadHittingAHeldBeadMeetsAnImmovableHertzBody) {
   // A bead with inv_mass 0 is held in place (local settling holds a region's edge this way):
   // a bead hitting it sees Hertz's impact on an immovable sphere, with its own mass as the
   // reduced mass, and the held bead keeps its position bit for bit, under gravity too.
-  WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
+  dem::WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
   const double v = 1.0;
-  Simulation sim = HeadOn(p, 0.0);
+  dem::Simulation sim = HeadOn(p, 0.0);
   {
-    ParticleState beads = sim.beads();
+    dem::ParticleState beads = sim.beads();
     beads.inv_mass[1] = 0.0;
-    beads.velocity[0] = Vec3(v, 0, 0);
-    sim = Simulation(p, std::move(beads), std::nullopt);
+    beads.velocity[0] = dem::Vec3(v, 0, 0);
+    sim = dem::Simulation(p, std::move(beads), std::nullopt);
   }
-  const Vec3 held = sim.beads().position[1];
+  const dem::Vec3 held = sim.beads().position[1];
   const ContactRecord rec = RecordContact(sim, PairOverlap, PairForce, 1'000'000);
   const HertzImpact hertz(p.sphere_pair.kn_per_sqrt_r * std::sqrt(0.5 * kRadius), BeadMass(), v);
   EXPECT_NEAR(rec.max_overlap / hertz.max_overlap, 1.0, 0.01);
@@ -238,15 +241,15 @@ TEST(HeldBead, ABeadHittingAHeldBeadMeetsAnImmovableHertzBody) {
   EXPECT_NEAR(rec.Duration() / hertz.duration, 1.0, 0.01);
   EXPECT_NEAR(sim.beads().velocity[0].x(), -v, 1e-3 * v);  // elastic: it bounces straight back
   EXPECT_EQ(sim.beads().position[1], held);
-  EXPECT_EQ(sim.beads().velocity[1], Vec3::Zero());
+  EXPECT_EQ(sim.beads().velocity[1], dem::Vec3::Zero());
 
   p.gravity_m_s2 = 9.81;
-  ParticleState alone;
-  alone.Add(Vec3(0, 0, 0.5), kRadius, kDensity);
+  dem::ParticleState alone;
+  alone.Add(dem::Vec3(0, 0, 0.5), kRadius, kDensity);
   alone.inv_mass[0] = 0.0;
-  Simulation hanging(p, std::move(alone), std::nullopt);
+  dem::Simulation hanging(p, std::move(alone), std::nullopt);
   for (int k = 0; k < 1000; ++k) hanging.Step();
-  EXPECT_EQ(hanging.beads().position[0], Vec3(0, 0, 0.5));
+  EXPECT_EQ(hanging.beads().position[0], dem::Vec3(0, 0, 0.5));
 }
 
 }  // namespace

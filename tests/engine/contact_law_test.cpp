@@ -13,22 +13,22 @@ namespace dembuf::test {
 namespace {
 
 // The paper's glass: E = 5 GPa, nu = 0.22, two beads of 4.5 mm.
-PairParams GlassPair(double damping_A_s, double friction) {
-  const Elastic glass{5.0e9, 0.22};
-  return MakePairParams(EffectiveModuli(glass, glass, ShearStiffness::kPaper), damping_A_s,
-                        friction);
+dem::PairParams GlassPair(double damping_A_s, double friction) {
+  const dem::Elastic glass{5.0e9, 0.22};
+  return dem::MakePairParams(dem::EffectiveModuli(glass, glass, dem::ShearStiffness::kPaper),
+                             damping_A_s, friction);
 }
 
 TEST(ContactLaw, ElasticHeadOnCollisionMatchesHertzWithinHalfAPercent) {
   const double radius = 2.25e-3, mass = 2650.0 * 4.0 / 3.0 * std::numbers::pi * std::pow(radius, 3);
   const double reduced_mass = 0.5 * mass, v = 1.0;
-  const PairParams p = GlassPair(0.0, 0.5);
+  const dem::PairParams p = GlassPair(0.0, 0.5);
   const double sqrt_r_star = std::sqrt(0.5 * radius);
   const HertzImpact hertz(p.kn_per_sqrt_r * sqrt_r_star, reduced_mass, v);
 
   // The relative motion m* x'' = -Fn(x, x') by velocity Verlet, 20,000 steps a contact.
   const double h = hertz.duration / 20000.0;
-  ContactLawInput c{};
+  dem::ContactLawInput c{};
   c.nz = 1.0;
   c.sqrt_r_star = sqrt_r_star;
   double x = 0.0, u = v, t = 0.0, peak_force = 0.0, peak_overlap = 0.0;
@@ -36,7 +36,7 @@ TEST(ContactLaw, ElasticHeadOnCollisionMatchesHertzWithinHalfAPercent) {
     if (overlap <= 0.0) return 0.0;
     c.overlap = overlap;
     c.approach_rate = rate;
-    return ApplyContactLaw<false>(c, p, h).normal;
+    return dem::ApplyContactLaw<false>(c, p, h).normal;
   };
   double f = force(x, u);
   while (!(x <= 0.0 && u < 0.0) && t < 2.0 * hertz.duration) {
@@ -55,30 +55,30 @@ TEST(ContactLaw, ElasticHeadOnCollisionMatchesHertzWithinHalfAPercent) {
 }
 
 TEST(ContactLaw, NeverPullsAndCapsTheSpringAtCoulomb) {
-  const PairParams p = GlassPair(2.5e-6, 0.5);
-  ContactLawInput c{};
+  const dem::PairParams p = GlassPair(2.5e-6, 0.5);
+  dem::ContactLawInput c{};
   c.nz = 1.0;
   c.overlap = 1e-6;
   c.sqrt_r_star = std::sqrt(1.125e-3);
   // Parting fast: the damping term exceeds the elastic one, and the force is clamped at 0.
   c.approach_rate = -10.0;
-  EXPECT_EQ((ApplyContactLaw<true>(c, p, 1e-6).normal), 0.0);
+  EXPECT_EQ((dem::ApplyContactLaw<true>(c, p, 1e-6).normal), 0.0);
 
   // At rest with a long stored spring in the tangent plane: the force is capped at mu Fn and
   // the spring shortened to what the cap supports.
   c.approach_rate = 0.0;
   c.hx = 1e-3;
-  const ContactLawOutput out = ApplyContactLaw<true>(c, p, 1e-6);
+  const dem::ContactLawOutput out = dem::ApplyContactLaw<true>(c, p, 1e-6);
   const double tangential = std::hypot(out.tx, out.ty, out.tz);
   EXPECT_NEAR(tangential, 0.5 * out.normal, 1e-12 * out.normal);
   const double ks_x = p.ks_per_sqrt_r * c.sqrt_r_star * std::sqrt(c.overlap);
   EXPECT_NEAR(out.hx, 0.5 * out.normal / ks_x, 1e-12 * out.hx);
 
   // A history with a normal part is turned into the tangent plane with its length kept.
-  ContactLawInput tilted = c;
+  dem::ContactLawInput tilted = c;
   tilted.hx = 3e-9;
   tilted.hz = 4e-9;
-  const ContactLawOutput turned = ApplyContactLaw<true>(tilted, p, 0.0);
+  const dem::ContactLawOutput turned = dem::ApplyContactLaw<true>(tilted, p, 0.0);
   EXPECT_EQ(turned.hz, 0.0);
   EXPECT_NEAR(turned.hx, 5e-9, 1e-21);
 }

@@ -9,13 +9,13 @@ namespace dembuf {
 namespace {
 
 TEST(DampingNumber, NoDampingIsElastic) {
-  EXPECT_NEAR(RestitutionOfDampingNumber(0.0), 1.0, 1e-6);
+  EXPECT_NEAR(dem::RestitutionOfDampingNumber(0.0), 1.0, 1e-6);
 }
 
 TEST(DampingNumber, RestitutionFallsMonotonicallyWithDamping) {
   double previous = 1.0;
   for (double g = 0.05; g < 5.0; g *= 1.5) {
-    const double e = RestitutionOfDampingNumber(g);
+    const double e = dem::RestitutionOfDampingNumber(g);
     EXPECT_LT(e, previous) << "g = " << g;
     EXPECT_GT(e, 0.0);
     previous = e;
@@ -24,32 +24,33 @@ TEST(DampingNumber, RestitutionFallsMonotonicallyWithDamping) {
 
 TEST(DampingNumber, InverseRecoversTheRestitution) {
   for (double e : {0.05, 0.3, 0.5, 0.8, 0.95, 0.999}) {
-    const double g = DampingNumberForRestitution(e);
-    EXPECT_NEAR(RestitutionOfDampingNumber(g), e, 1e-9) << "e = " << e;
+    const double g = dem::DampingNumberForRestitution(e);
+    EXPECT_NEAR(dem::RestitutionOfDampingNumber(g), e, 1e-9) << "e = " << e;
   }
-  EXPECT_EQ(DampingNumberForRestitution(1.0), 0.0);
-  EXPECT_THROW(DampingNumberForRestitution(0.0), std::invalid_argument);
-  EXPECT_THROW(DampingNumberForRestitution(1.5), std::invalid_argument);
+  EXPECT_EQ(dem::DampingNumberForRestitution(1.0), 0.0);
+  EXPECT_THROW(dem::DampingNumberForRestitution(0.0), std::invalid_argument);
+  EXPECT_THROW(dem::DampingNumberForRestitution(1.5), std::invalid_argument);
 }
 
 TEST(DampingNumber, WeakDampingLimitIsLinearInG) {
   // For g -> 0 the dissipated fraction grows linearly: 1 - e = c g. The slope must be the
   // same at two small g (a check of the integrator near the elastic limit).
-  const double s1 = (1.0 - RestitutionOfDampingNumber(1e-3)) / 1e-3;
-  const double s2 = (1.0 - RestitutionOfDampingNumber(2e-3)) / 2e-3;
+  const double s1 = (1.0 - dem::RestitutionOfDampingNumber(1e-3)) / 1e-3;
+  const double s2 = (1.0 - dem::RestitutionOfDampingNumber(2e-3)) / 2e-3;
   EXPECT_NEAR(s1 / s2, 1.0, 2e-3);
 }
 
 TEST(Calibration, RestitutionDependsOnlyOnTheDampingNumber) {
   // g = A (Kn/m*)^(2/5) v^(1/5): scale Kn/m* by 32 and v by 1/1024, g stays the same.
-  const DampingCalibration cal = CalibrateDamping(0.8, 1.0, 1.2e8, 6.3e-5);
+  const dem::DampingCalibration cal = dem::CalibrateDamping(0.8, 1.0, 1.2e8, 6.3e-5);
   EXPECT_NEAR(cal.restitution_at_ref, 0.8, 1e-9);
-  const double e_other = RestitutionAtSpeed(cal.damping_A_s, 32.0 * 1.2e8, 6.3e-5, 1.0 / 1024.0);
+  const double e_other =
+      dem::RestitutionAtSpeed(cal.damping_A_s, 32.0 * 1.2e8, 6.3e-5, 1.0 / 1024.0);
   EXPECT_NEAR(e_other, 0.8, 1e-9);
 }
 
 TEST(Calibration, ReportsTheSpeedDependence) {
-  const DampingCalibration cal = CalibrateDamping(0.8, 1.0, 1.2e8, 6.3e-5);
+  const dem::DampingCalibration cal = dem::CalibrateDamping(0.8, 1.0, 1.2e8, 6.3e-5);
   ASSERT_EQ(cal.restitution_curve.size(), 5u);
   for (std::size_t k = 1; k < cal.restitution_curve.size(); ++k)
     EXPECT_LT(cal.restitution_curve[k].restitution, cal.restitution_curve[k - 1].restitution);

@@ -11,7 +11,7 @@ namespace {
 
 // 500 beads on a loose jittered lattice, a column eight layers high in the paper's cylinder,
 // thrown about at up to 1 m/s, bouncing under gravity off each other, the plate and the wall.
-Simulation BouncingBeads(double alpha) {
+dem::Simulation BouncingBeads(double alpha) {
   Scene scene;
   scene.material.restitution = 1.0;
   scene.material.friction_bead_bead = 0.0;
@@ -22,26 +22,26 @@ Simulation BouncingBeads(double alpha) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   std::uniform_real_distribution<double> diameter(scene.beads.diameter_min_m,
                                                   scene.beads.diameter_max_m);
-  ParticleState beads;
+  dem::ParticleState beads;
   const double spacing = 0.0065;
   for (int iz = 0; beads.size() < 500; ++iz)
     for (int iy = -12; iy <= 12 && beads.size() < 500; ++iy)
       for (int ix = -12; ix <= 12 && beads.size() < 500; ++ix) {
         const double x = ix * spacing, y = iy * spacing;
         if (std::hypot(x, y) > 0.03) continue;
-        beads.Add(Vec3(x + 2e-4 * unit(rng), y + 2e-4 * unit(rng), 0.004 + iz * spacing),
+        beads.Add(dem::Vec3(x + 2e-4 * unit(rng), y + 2e-4 * unit(rng), 0.004 + iz * spacing),
                   0.5 * diameter(rng), scene.material.density_kg_m3);
-        beads.velocity.back() = Vec3(unit(rng), unit(rng), unit(rng));
+        beads.velocity.back() = dem::Vec3(unit(rng), unit(rng), unit(rng));
       }
-  return Simulation(world.params, std::move(beads), std::nullopt);
+  return dem::Simulation(world.params, std::move(beads), std::nullopt);
 }
 
 TEST(Energy, ElasticFrictionlessBedConservesEnergyOver1e5Steps) {
-  Simulation sim = BouncingBeads(0.2);
+  dem::Simulation sim = BouncingBeads(0.2);
   sim.RefreshForces();
   const double e0 = sim.Energy().Total();
   // The scale of the energy that moves around: kinetic plus potential above the plate.
-  const EnergyBreakdown start = sim.Energy();
+  const dem::EnergyBreakdown start = sim.Energy();
   const double scale = start.kinetic_J + start.potential_J;
   double worst = 0.0;
   long contact_steps = 0;  // sum over steps of the bead-bead contacts

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <numbers>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/scene_fields.h"
 #include "engine/impact_audit.h"
@@ -38,10 +38,10 @@ PlateHit ElasticPlateHit(double youngs_modulus, double v) {
   scene.projectile.mass_kg = 0.3;
   World world = BuildWorld(scene);
   world.params.gravity_m_s2 = 0.0;  // a pure two-body problem
-  RigidSphere p = *world.projectile;
-  p.position = Vec3(0, 0, p.radius + 1e-6);
-  p.velocity = Vec3(0, 0, -v);
-  Simulation sim(world.params, ParticleState{}, p);
+  dem::RigidSphere p = *world.projectile;
+  p.position = dem::Vec3(0, 0, p.radius + 1e-6);
+  p.velocity = dem::Vec3(0, 0, -v);
+  dem::Simulation sim(world.params, dem::ParticleState{}, p);
   PlateHit hit;
   hit.kn = world.params.sphere_wall.kn_per_sqrt_r * std::sqrt(p.radius);
   hit.dt_s = world.params.dt_s;
@@ -75,14 +75,14 @@ TEST(HardCase, StiffGlassGetsASmallerAutomaticStep) {
 }
 
 double PairRestitution(const Scene& scene, double r1, double r2, double v, double* momentum) {
-  const WorldParams p = IsolatedWorld(scene, 0.01);
-  Simulation sim = HeadOnPair(p, r1, r2, 2650.0, v);
-  auto overlap = [&](const Simulation& s) {
+  const dem::WorldParams p = IsolatedWorld(scene, 0.01);
+  dem::Simulation sim = HeadOnPair(p, r1, r2, 2650.0, v);
+  auto overlap = [&](const dem::Simulation& s) {
     return r1 + r2 - (s.beads().position[0] - s.beads().position[1]).norm();
   };
   RecordContact(
-      sim, overlap, [](const Simulation& s) { return s.beads().force[0].norm(); }, 10'000'000);
-  const ParticleState& b = sim.beads();
+      sim, overlap, [](const dem::Simulation& s) { return s.beads().force[0].norm(); }, 10'000'000);
+  const dem::ParticleState& b = sim.beads();
   if (momentum) *momentum = b.mass[0] * b.velocity[0].x() + b.mass[1] * b.velocity[1].x();
   return -(b.velocity[0].x() - b.velocity[1].x()) / v;
 }
@@ -110,7 +110,7 @@ TEST(HardCase, SizeRatioTenMatchesTheLawAndConservesMomentum) {
   const double r1 = 0.25e-3, r2 = 2.5e-3;
   double momentum = 1.0;
   const double e = PairRestitution(scene, r1, r2, 1.0, &momentum);
-  const WorldParams p = IsolatedWorld(scene, 0.01);
+  const dem::WorldParams p = IsolatedWorld(scene, 0.01);
   const double m1 = 2650.0 * 4.0 / 3.0 * std::numbers::pi * r1 * r1 * r1;
   const double m2 = 2650.0 * 4.0 / 3.0 * std::numbers::pi * r2 * r2 * r2;
   const double kn = p.sphere_pair.kn_per_sqrt_r * std::sqrt(r1 * r2 / (r1 + r2));
@@ -127,22 +127,22 @@ TEST(HardCase, FrictionFiveCreatesNoEnergy) {
   Scene scene;
   scene.material.friction_bead_wall = 5.0;
   scene.material.friction_bead_bead = 5.0;
-  const WorldParams p = IsolatedWorld(scene, 0.01);
+  const dem::WorldParams p = IsolatedWorld(scene, 0.01);
   const double r = 2.25e-3;
-  ParticleState beads;
-  beads.Add(Vec3(0, 0, r + 1e-7), r, 2650.0);
-  beads.velocity[0] = Vec3(1.0, 0, -1.0);
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0, 0, r + 1e-7), r, 2650.0);
+  beads.velocity[0] = dem::Vec3(1.0, 0, -1.0);
   const double m = beads.mass[0], inertia = 0.4 * m * r * r;
-  auto energy = [&](const ParticleState& b) {
+  auto energy = [&](const dem::ParticleState& b) {
     return 0.5 * m * b.velocity[0].squaredNorm() +
            0.5 * inertia * b.angular_velocity[0].squaredNorm();
   };
   const double before = energy(beads);
-  Simulation sim(p, std::move(beads), std::nullopt);
+  dem::Simulation sim(p, std::move(beads), std::nullopt);
   RecordContact(
-      sim, [&](const Simulation& s) { return r - s.beads().position[0].z(); },
-      [](const Simulation& s) { return s.observables().plate_force_N; }, 10'000'000);
-  const ParticleState& b = sim.beads();
+      sim, [&](const dem::Simulation& s) { return r - s.beads().position[0].z(); },
+      [](const dem::Simulation& s) { return s.observables().plate_force_N; }, 10'000'000);
+  const dem::ParticleState& b = sim.beads();
   ASSERT_TRUE(b.velocity[0].allFinite() && b.angular_velocity[0].allFinite());
   EXPECT_LT(energy(b), before);
   EXPECT_GT(b.velocity[0].z(), 0.0);
@@ -202,7 +202,7 @@ TEST(HardCase, ImportedBedWithSmallOverlapsRelaxesToRest) {
   const World world = BuildWorld(scene);  // throws SimulationError if a bead escapes
   ASSERT_EQ(world.beads.size(), static_cast<std::size_t>(count));
   for (std::size_t i = 0; i < world.beads.size(); ++i) {
-    const Vec3& x = world.beads.position[i];
+    const dem::Vec3& x = world.beads.position[i];
     ASSERT_TRUE(x.allFinite());
     EXPECT_LT(std::hypot(x.x(), x.y()), scene.cylinder.radius_m);
     EXPECT_GT(x.z(), 0.0);
@@ -215,16 +215,16 @@ TEST(HardCase, BeadThrownOverTheRimStopsTheRunWithTheReason) {
   // A bead flying out over the top of a 1 cm wall and falling outside it: the run stops and
   // says so, rather than integrating a bead the container no longer holds.
   Scene scene;
-  WorldParams p = BuildWorld(scene).params;
+  dem::WorldParams p = BuildWorld(scene).params;
   p.container = {0.02, 0.01};
-  ParticleState beads;
-  beads.Add(Vec3(0.015, 0, 0.0105), 0.00225, 2650.0);
-  beads.velocity[0] = Vec3(0.5, 0, 0.2);
-  Simulation sim(p, std::move(beads), std::nullopt);
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0.015, 0, 0.0105), 0.00225, 2650.0);
+  beads.velocity[0] = dem::Vec3(0.5, 0, 0.2);
+  dem::Simulation sim(p, std::move(beads), std::nullopt);
   try {
     for (int k = 0; k < 1'000'000; ++k) sim.Step();
     FAIL() << "the bead left without a word";
-  } catch (const SimulationError& e) {
+  } catch (const dem::SimulationError& e) {
     EXPECT_NE(std::string(e.what()).find("thrown over the rim"), std::string::npos) << e.what();
   }
 }

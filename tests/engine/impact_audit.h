@@ -26,7 +26,7 @@ struct ImpactAudit {
   double bed_surface_m = 0.0;
   double lowest_projectile_bottom_m = 0.0;     ///< above the plate
   double max_projectile_wall_overlap_m = 0.0;  ///< how far it went into the side wall
-  RigidSphere projectile_end;
+  dem::RigidSphere projectile_end;
   double final_plate_force_N = 0.0;
   double final_wall_force_z_N = 0.0;
   double weight_N = 0.0;  ///< of beads and projectile
@@ -49,9 +49,9 @@ inline bool StressMode() {
 inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check_every = 20,
                                std::int64_t rest_from_step = -1) {
   World world = BuildWorld(scene);
-  const Container box = world.params.container;
+  const dem::Container box = world.params.container;
   const double bed_surface = world.bed_surface_m;
-  Simulation sim(world.params, std::move(world.beads), world.projectile, world.history);
+  dem::Simulation sim(world.params, std::move(world.beads), world.projectile, world.history);
   sim.RefreshForces();
   ImpactAudit audit;
   audit.bed_surface_m = bed_surface;
@@ -59,15 +59,15 @@ inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check
   const double g = std::abs(scene.gravity_m_s2);
   for (std::size_t i = 0; i < sim.beads().size(); ++i) audit.weight_N += sim.beads().mass[i] * g;
   if (sim.projectile()) {
-    const RigidSphere& p = *sim.projectile();
+    const dem::RigidSphere& p = *sim.projectile();
     audit.projectile_energy_J = 0.5 * p.mass * p.velocity.squaredNorm();
     audit.weight_N += p.mass * g;
     audit.lowest_projectile_bottom_m = p.position.z() - p.radius;
   }
   auto check = [&] {
-    const ParticleState& b = sim.beads();
+    const dem::ParticleState& b = sim.beads();
     for (std::size_t i = 0; i < b.size() && audit.problem.empty(); ++i) {
-      const Vec3& x = b.position[i];
+      const dem::Vec3& x = b.position[i];
       if (!x.allFinite() || !b.velocity[i].allFinite())
         audit.problem = "bead " + std::to_string(i) + " is not finite";
       else if (std::hypot(x.x(), x.y()) > box.radius_m + 0.5 * b.radius[i] || x.z() < -b.radius[i])
@@ -76,20 +76,20 @@ inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check
     audit.energy_gain_J =
         std::max(audit.energy_gain_J, sim.Energy().Total() - audit.start_energy_J);
   };
-  std::vector<Vec3> rest_positions;
-  Vec3 rest_projectile = Vec3::Zero();
+  std::vector<dem::Vec3> rest_positions;
+  dem::Vec3 rest_projectile = dem::Vec3::Zero();
   for (std::int64_t k = 0; k < steps && audit.problem.empty(); ++k) {
     if (k == rest_from_step) {
       rest_positions = sim.beads().position;
       if (sim.projectile()) rest_projectile = sim.projectile()->position;
     }
     sim.Step();
-    const StepObservables& o = sim.observables();
+    const dem::StepObservables& o = sim.observables();
     audit.peak_plate_force_N = std::max(audit.peak_plate_force_N, o.plate_force_N);
     audit.peak_wall_force_z_N = std::max(audit.peak_wall_force_z_N, std::abs(o.wall_force_z_N));
     audit.max_overlap_ratio = std::max(audit.max_overlap_ratio, o.max_overlap_ratio);
     if (sim.projectile()) {
-      const RigidSphere& p = *sim.projectile();
+      const dem::RigidSphere& p = *sim.projectile();
       audit.lowest_projectile_bottom_m =
           std::min(audit.lowest_projectile_bottom_m, p.position.z() - p.radius);
       audit.max_projectile_wall_overlap_m =
@@ -100,7 +100,7 @@ inline ImpactAudit AuditImpact(const Scene& scene, std::int64_t steps, int check
   }
   check();
   if (!rest_positions.empty()) {
-    const ParticleState& b = sim.beads();
+    const dem::ParticleState& b = sim.beads();
     for (std::size_t i = 0; i < rest_positions.size(); ++i)
       if ((b.position[i] - rest_positions[i]).norm() > 2e-3 * b.radius[i])
         ++audit.late_moving_beads;

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/scene_fields.h"
 #include "engine/temp_path.h"
@@ -64,10 +64,10 @@ TEST(FreeFlight, AnalyticFlightMatchesStepByStepIntegration) {
   scene.projectile.height_m = 0.10;  // keep the stepped run short
   World world = BuildWorld(scene);
   const double dt = world.params.dt_s;
-  Simulation stepped(world.params, {}, world.projectile);
+  dem::Simulation stepped(world.params, {}, world.projectile);
   const double t_target = FallTime(0.10, -5.0, 0.03, 9.81);
   while (stepped.time_s() + 0.5 * dt < t_target) stepped.Step();
-  const RigidSphere& p = *stepped.projectile();
+  const dem::RigidSphere& p = *stepped.projectile();
   const double t = stepped.time_s();
   EXPECT_NEAR(p.position.z(), 0.10 - 5.0 * t - 0.5 * 9.81 * t * t, 1e-9);
   EXPECT_NEAR(p.velocity.z(), -5.0 - 9.81 * t, 1e-9);
@@ -193,7 +193,7 @@ TEST(Stability, OversizedStepStopsWithAClearReason) {
   try {
     RunImpact(std::move(world), scene);
     FAIL() << "expected a SimulationError";
-  } catch (const SimulationError& e) {
+  } catch (const dem::SimulationError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("the projectile"), std::string::npos) << what;
     EXPECT_NE(what.find("the plate"), std::string::npos) << what;

@@ -12,19 +12,19 @@
 #include "contact_kernels.h"
 #include "pair_batch.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 namespace {
 
 // A contact's history, by turns: none, small (sticks), large (slides), or along the normal n.
-Vec3 SomeHistory(int k, const Vec3& n, std::mt19937& rng) {
+dem::Vec3 SomeHistory(int k, const dem::Vec3& n, std::mt19937& rng) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   switch (k % 4) {
     case 0:
-      return Vec3::Zero();
+      return dem::Vec3::Zero();
     case 1:
-      return 3e-6 * Vec3(unit(rng), unit(rng), unit(rng));
+      return 3e-6 * dem::Vec3(unit(rng), unit(rng), unit(rng));
     case 2:
-      return 1e-4 * Vec3(unit(rng), unit(rng), unit(rng));
+      return 1e-4 * dem::Vec3(unit(rng), unit(rng), unit(rng));
     default:
       return 1e-6 * n;
   }
@@ -32,7 +32,7 @@ Vec3 SomeHistory(int k, const Vec3& n, std::mt19937& rng) {
 
 // Two beads per contact (bead 2c touches bead 2c + 1), one list entry per contact.
 struct Contacts {
-  std::vector<Vec3> position, velocity, angular_velocity, shear;
+  std::vector<dem::Vec3> position, velocity, angular_velocity, shear;
   std::vector<double> radius, sqrt_r_star;
 };
 
@@ -42,10 +42,10 @@ Contacts RandomContacts(int count, std::uint32_t seed) {
   Contacts c;
   for (int k = 0; k < count; ++k) {
     const double ri = 0.001 * (1.0 + share(rng)), rj = 0.001 * (1.0 + share(rng));
-    Vec3 n(unit(rng), unit(rng), unit(rng));
+    dem::Vec3 n(unit(rng), unit(rng), unit(rng));
     n.normalize();
     const double overlap = 0.03 * ri * share(rng) + 1e-9;
-    const Vec3 xi(unit(rng), unit(rng), unit(rng));
+    const dem::Vec3 xi(unit(rng), unit(rng), unit(rng));
     c.position.push_back(xi);
     c.position.push_back(xi - (ri + rj - overlap) * n);
     c.radius.push_back(ri);
@@ -53,8 +53,8 @@ Contacts RandomContacts(int count, std::uint32_t seed) {
     c.sqrt_r_star.push_back(std::sqrt(ri * rj / (ri + rj)));
     // Speeds up to 5 m/s: some pairs separate fast enough to clamp the normal force to 0.
     for (int b = 0; b < 2; ++b) {
-      c.velocity.push_back(5.0 * Vec3(unit(rng), unit(rng), unit(rng)));
-      c.angular_velocity.push_back(3000.0 * Vec3(unit(rng), unit(rng), unit(rng)));
+      c.velocity.push_back(5.0 * dem::Vec3(unit(rng), unit(rng), unit(rng)));
+      c.angular_velocity.push_back(3000.0 * dem::Vec3(unit(rng), unit(rng), unit(rng)));
     }
     c.shear.push_back(SomeHistory(k, n, rng));
   }
@@ -65,7 +65,7 @@ bool SameBits(double a, double b) {
   return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
 }
 
-void ExpectSameBits(const Vec3& batched, const Vec3& reference, const char* what, int k) {
+void ExpectSameBits(const dem::Vec3& batched, const dem::Vec3& reference, const char* what, int k) {
   for (int d = 0; d < 3; ++d) {
     EXPECT_TRUE(SameBits(batched[d], reference[d]))
         << what << " of contact " << k << ", component " << d << ": " << batched[d] << " vs "
@@ -76,7 +76,7 @@ void ExpectSameBits(const Vec3& batched, const Vec3& reference, const char* what
 void CompareWithScalarLaw(bool friction) {
   constexpr int kCount = 999;  // not a multiple of any vector width: the loop's tail runs too
   Contacts c = RandomContacts(kCount, friction ? 7u : 8u);
-  const PairParams params{4.0 / 3.0 * 3.5e10, 8.0 * 1.2e10, 2e-6, 0.5};
+  const dem::PairParams params{4.0 / 3.0 * 3.5e10, 8.0 * 1.2e10, 2e-6, 0.5};
   const double dt = 2e-7;
 
   PairBatch batch;
@@ -100,36 +100,37 @@ void CompareWithScalarLaw(bool friction) {
   int sliding = 0, sticking_with_history = 0, clamped = 0;
   for (int k = 0; k < kCount; ++k) {
     const int i = 2 * k, j = 2 * k + 1;
-    const Vec3 d = c.position[i] - c.position[j];
+    const dem::Vec3 d = c.position[i] - c.position[j];
     const double dist = std::sqrt(d.squaredNorm());
     const double overlap = c.radius[i] + c.radius[j] - dist;
-    const Vec3 normal = d * (1.0 / dist);
+    const dem::Vec3 normal = d * (1.0 / dist);
     const double ai = LeverArm(c.radius[i], overlap), aj = LeverArm(c.radius[j], overlap);
-    const Vec3 w_arm =
-        friction ? Vec3(ai * c.angular_velocity[i] + aj * c.angular_velocity[j]) : Vec3::Zero();
-    const ContactGeometry g =
+    const dem::Vec3 w_arm = friction
+                                ? dem::Vec3(ai * c.angular_velocity[i] + aj * c.angular_velocity[j])
+                                : dem::Vec3::Zero();
+    const dem::ContactGeometry g =
         MakeGeometry(normal, overlap, c.velocity[i] - c.velocity[j], w_arm, c.sqrt_r_star[k]);
-    Vec3 shear = c.shear[k];
+    dem::Vec3 shear = c.shear[k];
     const ContactOutcome out = friction ? Resolve<true>(g, ai, aj, params, dt, shear)
                                         : Resolve<false>(g, ai, aj, params, dt, shear);
     sliding += friction && out.force.squaredNorm() > 0.0 &&
                (out.force - out.normal * normal).norm() >= 0.999999 * params.friction * out.normal;
     clamped += out.normal == 0.0;
     sticking_with_history +=
-        friction && out.normal > 0.0 && c.shear[k] != Vec3::Zero() &&
+        friction && out.normal > 0.0 && c.shear[k] != dem::Vec3::Zero() &&
         (out.force - out.normal * normal).norm() < 0.99 * params.friction * out.normal;
 
     EXPECT_TRUE(SameBits(batch.overlap[k], overlap)) << "overlap of contact " << k;
-    ExpectSameBits(Vec3(batch.force[0][k], batch.force[1][k], batch.force[2][k]), out.force,
+    ExpectSameBits(dem::Vec3(batch.force[0][k], batch.force[1][k], batch.force[2][k]), out.force,
                    "force", k);
     if (friction) {
       ExpectSameBits(
-          Vec3(batch.torque_bead[0][k], batch.torque_bead[1][k], batch.torque_bead[2][k]),
+          dem::Vec3(batch.torque_bead[0][k], batch.torque_bead[1][k], batch.torque_bead[2][k]),
           out.torque_i, "torque on the bead", k);
-      ExpectSameBits(
-          Vec3(batch.torque_partner[0][k], batch.torque_partner[1][k], batch.torque_partner[2][k]),
-          out.torque_j, "torque on the partner", k);
-      ExpectSameBits(Vec3(batch.shear[0][k], batch.shear[1][k], batch.shear[2][k]), shear,
+      ExpectSameBits(dem::Vec3(batch.torque_partner[0][k], batch.torque_partner[1][k],
+                               batch.torque_partner[2][k]),
+                     out.torque_j, "torque on the partner", k);
+      ExpectSameBits(dem::Vec3(batch.shear[0][k], batch.shear[1][k], batch.shear[2][k]), shear,
                      "history", k);
     }
   }
@@ -154,28 +155,28 @@ TEST(PairBatch, FrictionlessLawGivesTheScalarLawsBits) {
 // (MakeGeometry and Resolve with the wall's normal, lever arm 0 on the wall's side).
 void CompareWallsWithScalarLaw(bool friction) {
   constexpr int kCount = 999;
-  const Container box{0.05, 0.1};
+  const dem::Container box{0.05, 0.1};
   std::mt19937 rng(friction ? 9u : 10u);
   std::uniform_real_distribution<double> unit(-1.0, 1.0), share(0.0, 1.0);
-  std::vector<Vec3> position, velocity, angular_velocity, shear;
+  std::vector<dem::Vec3> position, velocity, angular_velocity, shear;
   std::vector<double> radius;
   for (int k = 0; k < kCount; ++k) {
     const double r = 0.001 * (1.0 + share(rng));
     const double overlap = 0.03 * r * share(rng) + 1e-9;
     if (k % 2 == 0) {
       position.emplace_back(0.03 * unit(rng), 0.03 * unit(rng), r - overlap);
-      shear.push_back(SomeHistory(k / 2, Vec3::UnitZ(), rng));
+      shear.push_back(SomeHistory(k / 2, dem::Vec3::UnitZ(), rng));
     } else {
       const double angle = 3.14159 * unit(rng), rho = box.radius_m - r + overlap;
       position.emplace_back(rho * std::cos(angle), rho * std::sin(angle), 0.09 * share(rng));
       shear.push_back(SomeHistory(k / 2, -position.back().normalized(), rng));
     }
     radius.push_back(r);
-    velocity.push_back(5.0 * Vec3(unit(rng), unit(rng), unit(rng)));
-    angular_velocity.push_back(3000.0 * Vec3(unit(rng), unit(rng), unit(rng)));
+    velocity.push_back(5.0 * dem::Vec3(unit(rng), unit(rng), unit(rng)));
+    angular_velocity.push_back(3000.0 * dem::Vec3(unit(rng), unit(rng), unit(rng)));
   }
   // Damping strong enough that the fastest separations clamp the normal force to 0.
-  const PairParams params{4.0 / 3.0 * 6.0e10, 8.0 * 2.0e10, 4e-6, 0.3};
+  const dem::PairParams params{4.0 / 3.0 * 6.0e10, 8.0 * 2.0e10, 4e-6, 0.3};
   const double dt = 2e-7;
   const WallBatchInputs inputs{position.front().data(),
                                velocity.front().data(),
@@ -187,8 +188,8 @@ void CompareWallsWithScalarLaw(bool friction) {
                                box.radius_m};
 
   int clamped = 0, sliding = 0;
-  for (const BodyId wall : {kPlate, kSideWall}) {
-    const int parity = wall == kPlate ? 0 : 1;
+  for (const dem::BodyId wall : {dem::kPlate, dem::kSideWall}) {
+    const int parity = wall == dem::kPlate ? 0 : 1;
     WallBatch batch;
     batch.Reserve(kCount);
     batch.size = 0;
@@ -199,14 +200,14 @@ void CompareWallsWithScalarLaw(bool friction) {
       const int k = static_cast<int>(batch.bead[c]);
       const double r = radius[k];
       double overlap = r - position[k].z();
-      Vec3 normal = Vec3::UnitZ();
-      if (wall == kSideWall) {
+      dem::Vec3 normal = dem::Vec3::UnitZ();
+      if (wall == dem::kSideWall) {
         ASSERT_TRUE(SideWallContact(box, position[k], r, overlap, normal));
       }
       const double arm = LeverArm(r, overlap);
-      const ContactGeometry g =
+      const dem::ContactGeometry g =
           MakeGeometry(normal, overlap, velocity[k], arm * angular_velocity[k], std::sqrt(r));
-      Vec3 history = shear[k];
+      dem::Vec3 history = shear[k];
       const ContactOutcome out = friction ? Resolve<true>(g, arm, 0.0, params, dt, history)
                                           : Resolve<false>(g, arm, 0.0, params, dt, history);
       clamped += out.normal == 0.0;
@@ -215,12 +216,12 @@ void CompareWallsWithScalarLaw(bool friction) {
           (out.force - out.normal * normal).norm() >= 0.999999 * params.friction * out.normal;
       EXPECT_TRUE(SameBits(batch.overlap[c], overlap)) << "overlap of bead " << k;
       EXPECT_TRUE(SameBits(batch.normal_force[c], out.normal)) << "normal force of bead " << k;
-      ExpectSameBits(Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]), out.force,
+      ExpectSameBits(dem::Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]), out.force,
                      "force", k);
       if (friction) {
-        ExpectSameBits(Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]),
+        ExpectSameBits(dem::Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]),
                        out.torque_i, "torque", k);
-        ExpectSameBits(Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]), history,
+        ExpectSameBits(dem::Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]), history,
                        "history", k);
       }
     }
@@ -240,4 +241,4 @@ TEST(WallBatch, FrictionlessLawGivesTheScalarLawsBits) {
 }
 
 }  // namespace
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -5,8 +5,8 @@
 
 #include <cmath>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/study/scene_fields.h"

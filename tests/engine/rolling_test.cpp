@@ -24,32 +24,32 @@ double BeadMass() {
 
 // The scene's contact constants with rolling resistance mu_r, set through the scene field, in
 // a container wide enough for the bead to roll in.
-WorldParams RollingWorld(double mu_r, double friction) {
+dem::WorldParams RollingWorld(double mu_r, double friction) {
   Scene scene;
   scene.material.rolling_friction = mu_r;
   scene.material.friction_bead_bead = friction;
   scene.material.friction_bead_wall = friction;
   scene.gravity_m_s2 = kGravity;
-  WorldParams p = BuildWorld(scene).params;
+  dem::WorldParams p = BuildWorld(scene).params;
   p.container = {1.0, 2.0};
   return p;
 }
 
 // Hertz overlap under the weight m g for the stiffness constant Kn / sqrt(R*).
-double RestingOverlap(const PairParams& p, double r_star) {
+double RestingOverlap(const dem::PairParams& p, double r_star) {
   return std::pow(BeadMass() * kGravity / (p.kn_per_sqrt_r * std::sqrt(r_star)), 2.0 / 3.0);
 }
 
 // A bead resting on the plate (at its Hertz overlap, so that the plate carries its weight
 // from the start), rolling along x at v0 without slipping.
-Simulation RollingOnThePlate(const WorldParams& p, double v0) {
+dem::Simulation RollingOnThePlate(const dem::WorldParams& p, double v0) {
   const double overlap = RestingOverlap(p.sphere_wall, kRadius);
-  ParticleState beads;
-  beads.Add(Vec3(0.0, 0.0, kRadius - overlap), kRadius, kDensity);
-  beads.velocity[0] = Vec3(v0, 0.0, 0.0);
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0.0, 0.0, kRadius - overlap), kRadius, kDensity);
+  beads.velocity[0] = dem::Vec3(v0, 0.0, 0.0);
   // The contact point, a lever arm R - overlap/2 below the centre, stands still.
-  beads.angular_velocity[0] = Vec3(0.0, v0 / (kRadius - 0.5 * overlap), 0.0);
-  return Simulation(p, std::move(beads), std::nullopt);
+  beads.angular_velocity[0] = dem::Vec3(0.0, v0 / (kRadius - 0.5 * overlap), 0.0);
+  return dem::Simulation(p, std::move(beads), std::nullopt);
 }
 
 TEST(RollingResistance, ABeadRollingOnThePlateStopsAtTheAnalyticDistance) {
@@ -58,8 +58,8 @@ TEST(RollingResistance, ABeadRollingOnThePlateStopsAtTheAnalyticDistance) {
   // v0^2 / (2 |a|) = 7 v0^2 / (10 mu_r g) in v0 / |a|. It needs a friction force of 5/7 mu_r m g,
   // well below mu m g here, so it does not slip.
   const double mu_r = 0.05, v0 = 0.05;
-  const WorldParams p = RollingWorld(mu_r, 0.5);
-  Simulation sim = RollingOnThePlate(p, v0);
+  const dem::WorldParams p = RollingWorld(mu_r, 0.5);
+  dem::Simulation sim = RollingOnThePlate(p, v0);
   const double deceleration = 5.0 / 7.0 * mu_r * kGravity;
   const double distance = v0 * v0 / (2.0 * deceleration);
   const double stop_time = v0 / deceleration;
@@ -69,7 +69,7 @@ TEST(RollingResistance, ABeadRollingOnThePlateStopsAtTheAnalyticDistance) {
     if (speed_at_half < 0.0 && sim.time_s() >= 0.5 * stop_time)
       speed_at_half = sim.beads().velocity[0].x();
   }
-  const Vec3& x = sim.beads().position[0];
+  const dem::Vec3& x = sim.beads().position[0];
   std::printf("rolled %.4f mm (analytic %.4f mm), speed at half time %.5f m/s (analytic %.5f)\n",
               x.x() * 1e3, distance * 1e3, speed_at_half, 0.5 * v0);
   EXPECT_NEAR(x.x(), distance, 0.01 * distance);
@@ -84,7 +84,7 @@ TEST(RollingResistance, WithoutItABeadRollsOn) {
   // The paper's model (mu_r = 0, the default): pure rolling dissipates nothing.
   EXPECT_EQ(Scene{}.material.rolling_friction, 0.0);
   const double v0 = 0.05, duration = 0.1;
-  Simulation sim = RollingOnThePlate(RollingWorld(0.0, 0.5), v0);
+  dem::Simulation sim = RollingOnThePlate(RollingWorld(0.0, 0.5), v0);
   while (sim.time_s() < duration) sim.Step();
   EXPECT_NEAR(sim.beads().velocity[0].x(), v0, 1e-3 * v0);
   EXPECT_NEAR(sim.beads().position[0].x(), v0 * sim.time_s(), 1e-3 * v0 * duration);
@@ -95,15 +95,15 @@ TEST(RollingResistance, ASpinningBeadOnAnotherStopsAtTheAnalyticTime) {
   // friction: only the bead-bead rolling torque mu_r R* m g (R* = R/2) acts, so the spin falls
   // linearly, w(t) = w0 - mu_r R* m g t / I, and stays at zero once there.
   const double mu_r = 0.05, w0 = 20.0;
-  const WorldParams p = RollingWorld(mu_r, 0.0);
+  const dem::WorldParams p = RollingWorld(mu_r, 0.0);
   const double r_star = 0.5 * kRadius;
   const double overlap = RestingOverlap(p.sphere_pair, r_star);
-  ParticleState beads;
-  beads.Add(Vec3(0.0, 0.0, 0.1), kRadius, kDensity);
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0.0, 0.0, 0.1), kRadius, kDensity);
   beads.inv_mass[0] = 0.0;  // held
-  beads.Add(Vec3(0.0, 0.0, 0.1 + 2.0 * kRadius - overlap), kRadius, kDensity);
-  beads.angular_velocity[1] = Vec3(w0, 0.0, 0.0);
-  Simulation sim(p, std::move(beads), std::nullopt);
+  beads.Add(dem::Vec3(0.0, 0.0, 0.1 + 2.0 * kRadius - overlap), kRadius, kDensity);
+  beads.angular_velocity[1] = dem::Vec3(w0, 0.0, 0.0);
+  dem::Simulation sim(p, std::move(beads), std::nullopt);
   const double inertia = 0.4 * BeadMass() * kRadius * kRadius;
   const double rate = mu_r * r_star * BeadMass() * kGravity / inertia;
   const double stop_time = w0 / rate;

@@ -4,7 +4,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/presets.h"
 #include "dembuf/study/scene_fields.h"
 #include "engine/temp_path.h"

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <string>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/presets.h"
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/text_limits.h"

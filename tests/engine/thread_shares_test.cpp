@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 namespace {
 
 TEST(ThreadShares, EqualUntilMeasured) {
@@ -48,4 +48,4 @@ TEST(ThreadShares, NoShareVanishes) {
 }
 
 }  // namespace
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -12,10 +12,10 @@ namespace dembuf::test {
 
 /// The scene's calibrated pair constants, in a large container far from everything, without
 /// gravity, at time-step factor alpha.
-inline WorldParams IsolatedWorld(const Scene& scene, double alpha) {
+inline dem::WorldParams IsolatedWorld(const Scene& scene, double alpha) {
   Scene s = scene;
   s.time.alpha = alpha;
-  WorldParams p = BuildWorld(s).params;
+  dem::WorldParams p = BuildWorld(s).params;
   p.gravity_m_s2 = 0.0;
   p.container = {1.0, 2.0};
   return p;
@@ -23,15 +23,16 @@ inline WorldParams IsolatedWorld(const Scene& scene, double alpha) {
 
 /// Two beads of radii r1 and r2 (density rho) approaching head-on along x at relative speed v
 /// with zero total momentum, just apart, at height 1 m.
-inline Simulation HeadOnPair(const WorldParams& p, double r1, double r2, double rho, double v) {
-  ParticleState beads;
+inline dem::Simulation HeadOnPair(const dem::WorldParams& p, double r1, double r2, double rho,
+                                  double v) {
+  dem::ParticleState beads;
   const double gap = 1e-7;
-  beads.Add(Vec3(-r1 - gap, 0, 1), r1, rho);
-  beads.Add(Vec3(r2 + gap, 0, 1), r2, rho);
+  beads.Add(dem::Vec3(-r1 - gap, 0, 1), r1, rho);
+  beads.Add(dem::Vec3(r2 + gap, 0, 1), r2, rho);
   const double m1 = beads.mass[0], m2 = beads.mass[1];
-  beads.velocity[0] = Vec3(v * m2 / (m1 + m2), 0, 0);
-  beads.velocity[1] = Vec3(-v * m1 / (m1 + m2), 0, 0);
-  return Simulation(p, std::move(beads), std::nullopt);
+  beads.velocity[0] = dem::Vec3(v * m2 / (m1 + m2), 0, 0);
+  beads.velocity[1] = dem::Vec3(-v * m1 / (m1 + m2), 0, 0);
+  return dem::Simulation(p, std::move(beads), std::nullopt);
 }
 
 /// What one contact did, from step-by-step samples of its overlap.
@@ -45,7 +46,7 @@ struct ContactRecord {
 
 /// Steps until the contact has ended (or max_steps), recording overlap(sim) and force(sim).
 template <class Overlap, class Force>
-ContactRecord RecordContact(Simulation& sim, Overlap overlap, Force force, long max_steps) {
+ContactRecord RecordContact(dem::Simulation& sim, Overlap overlap, Force force, long max_steps) {
   ContactRecord rec;
   double prev_overlap = overlap(sim), prev_t = sim.time_s();
   for (long k = 0; k < max_steps; ++k) {

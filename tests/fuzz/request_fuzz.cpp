@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/v1/dembuf.pb.h"
 #include "google/protobuf/stubs/logging.h"

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/scene_fields.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/presets.h"
 #include "dembuf/study/scene_fields.h"
 #include "scene_request.h"
@@ -329,11 +329,11 @@ TEST_F(StoreTest, BedsRoundTripExactly) {
   bed.hash = "0123456789abcdef";
   bed.stage = "cut";
   bed.surface_m = 0.1 / 3.0;
-  bed.beads.position.push_back(Vec3(1.0 / 3.0, 2.0 / 7.0, 0.01));
-  bed.beads.velocity.push_back(Vec3::Zero());
-  bed.beads.angular_velocity.push_back(Vec3::Zero());
-  bed.beads.force.push_back(Vec3::Zero());
-  bed.beads.torque.push_back(Vec3::Zero());
+  bed.beads.position.push_back(dem::Vec3(1.0 / 3.0, 2.0 / 7.0, 0.01));
+  bed.beads.velocity.push_back(dem::Vec3::Zero());
+  bed.beads.angular_velocity.push_back(dem::Vec3::Zero());
+  bed.beads.force.push_back(dem::Vec3::Zero());
+  bed.beads.torque.push_back(dem::Vec3::Zero());
   bed.beads.radius.push_back(0.0021);
   bed.beads.mass.push_back(1e-4);
   bed.beads.inv_mass.push_back(1e4);

@@ -6,7 +6,7 @@
 
 #include "block_schedule.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 namespace {
 
@@ -185,4 +185,4 @@ void UpdateLists(const WorldParams& params, ParticleState& beads,
   }
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -8,11 +8,11 @@
 #include "dembuf/core/particles.h"
 #include "simulation_state.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 /// Rebuilds what is stale: every list when a bead may have closed the skin (or after a change
 /// from outside), else the projectile's candidates when it has outrun them.
 void UpdateLists(const WorldParams& params, ParticleState& beads,
                  const std::optional<RigidSphere>& projectile, Simulation::Impl& s);
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -2,7 +2,7 @@
 
 #include <thread>
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 void WeighBlocks(Simulation::Impl& s) {
   // Resolving a touching pair costs several times as much as checking an entry, and touching
@@ -34,4 +34,4 @@ void Pause(int& spins) {
   }
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -14,7 +14,7 @@
 
 #include "simulation_state.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 /// Weighs the blocks (ForcePassBlocks::work): a block's list entries and beads, and its touching
 /// pairs once a pass has counted them. Only the split between threads depends on it.
@@ -59,4 +59,4 @@ void SweepBlocks(long first, long last, long blocks, std::atomic<std::uint64_t>*
   }
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

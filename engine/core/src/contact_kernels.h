@@ -7,7 +7,7 @@
 #include "dembuf/core/contact_law.h"
 #include "dembuf/core/particles.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 /// Forces and torques of one contact on body i (and the torque on body j; its force is -force).
 struct ContactOutcome {
@@ -64,4 +64,4 @@ inline bool SideWallContact(const Container& box, const Vec3& x, double r, doubl
   return true;
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -6,7 +6,7 @@
 #include "contact_kernels.h"
 #include "simulation_state.h"
 
-namespace dembuf {
+namespace dembuf::dem {
 
 std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
   CompleteKick();
@@ -116,4 +116,4 @@ EnergyBreakdown Simulation::Energy() const {
   return e;
 }
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

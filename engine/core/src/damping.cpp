@@ -3,7 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace dembuf {
+namespace dembuf::dem {
 namespace {
 
 // Dimensionless acceleration of the collision; the force never pulls (clamp at 0).
@@ -81,4 +81,4 @@ DampingCalibration CalibrateDamping(double restitution, double ref_speed_m_s, do
   return cal;
 }
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

@@ -3,7 +3,7 @@
 // without an effect pays nothing for it: no branch in the loops, no history, no torque.
 #pragma once
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 template <bool kFrictionOn, bool kRollingOn>
 struct Effects {
@@ -26,4 +26,4 @@ decltype(auto) WithEffects(bool friction, bool rolling, F&& f) {
   return f(Effects<false, false>{});
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -9,7 +9,7 @@
 #include "contact_kernels.h"
 #include "effects.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 namespace {
 
@@ -345,4 +345,4 @@ void ComputeForcePass(const WorldParams& params, ParticleState& beads,
               [&]<class E>(E) { ForcePass<E>(params, beads, projectile, s, obs); });
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -9,7 +9,7 @@
 #include "dembuf/core/particles.h"
 #include "simulation_state.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 /// Computes the forces and torques of all bodies (overwriting the last ones), the step's
 /// observables, and s.conditions. Results do not depend on the thread count.
@@ -17,4 +17,4 @@ void ComputeForcePass(const WorldParams& params, ParticleState& beads,
                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
                       StepObservables& obs);
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 namespace {
 
@@ -165,4 +165,4 @@ void HalfKickProjectile(const WorldParams& params, bool rotate, RigidSphere& p) 
   if (rotate) p.angular_velocity += half * p.torque / p.Inertia();
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

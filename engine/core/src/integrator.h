@@ -6,7 +6,7 @@
 #include "dembuf/core/particles.h"
 #include "simulation_state.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 /// What the drift saw: the largest displacement of a bead since the lists were built, and a
 /// bead that went wrong (-1: none): non-finite, or outside the container.
@@ -27,4 +27,4 @@ void HalfKickBeads(const WorldParams& params, ParticleState& beads, const Simula
 /// One half kick of the projectile; `rotate`: its torque turns it.
 void HalfKickProjectile(const WorldParams& params, bool rotate, RigidSphere& projectile);
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 void CellGrid::Build(const std::vector<Vec3>& positions, double cell_size, const Vec3& lo,
                      const Vec3& hi) {
@@ -160,4 +160,4 @@ void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, cons
   list.shear = std::move(shear);
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 void PairBatch::Grow(std::size_t n) {
   bead.resize(n);
@@ -297,4 +297,4 @@ void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch
     ResolveWithoutFriction(in, batch);
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

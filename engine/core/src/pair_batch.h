@@ -14,7 +14,7 @@
 #include "dembuf/core/contact_law.h"
 #include "dembuf/core/particles.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 /// The touching pairs of one batch (inputs: bead, partner, list entry) and the law's result
 /// for each (force on the bead, torques on both, overlap, new history), as arrays of one
@@ -93,4 +93,4 @@ struct WallBatchInputs {
 /// the projectile's contacts with them, so the same bits), filling its result arrays.
 void ResolveWallBatch(bool friction, BodyId wall, const WallBatchInputs& in, WallBatch& batch);
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

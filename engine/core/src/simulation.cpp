@@ -13,7 +13,7 @@
 #include "integrator.h"
 #include "simulation_state.h"
 
-namespace dembuf {
+namespace dembuf::dem {
 
 Simulation::Simulation(const WorldParams& params, ParticleState beads,
                        std::optional<RigidSphere> projectile,
@@ -178,4 +178,4 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   s.forces_valid = false;
 }
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

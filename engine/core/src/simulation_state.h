@@ -14,7 +14,7 @@
 #include "pair_batch.h"
 #include "thread_shares.h"
 
-namespace dembuf {
+namespace dembuf::dem {
 
 namespace detail {
 
@@ -142,4 +142,4 @@ struct Simulation::Impl {
   bool parallel = false;  // beds of kParallelMinBeads or more: blocks, threads
 };
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

@@ -7,7 +7,7 @@
 #include "dembuf/core/errors.h"
 #include "simulation_state.h"
 
-namespace dembuf {
+namespace dembuf::dem {
 
 namespace {
 
@@ -73,4 +73,4 @@ void Simulation::CheckConditions() {
   c = detail::StepConditions{};
 }
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 void ThreadShares::Update(int team) {
   // Each update moves a share a quarter of the way to the measured speed: one pass's timing
@@ -39,4 +39,4 @@ void ThreadShares::Update(int team) {
   std::fill(m_measured.begin(), m_measured.end(), Measured{});
 }
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 class ThreadShares {
  public:
@@ -50,4 +50,4 @@ class ThreadShares {
   std::vector<Measured> m_measured;
 };
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

@@ -10,10 +10,10 @@
 #include <sstream>
 #include <unordered_map>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/core/neighbor_list.h"
 #include "dembuf/study/bed_io.h"
 #include "dembuf/study/content_hash.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/scene_fields.h"
 
@@ -111,7 +111,7 @@ class Uniform {
 
 // Beads at random positions in a loose column (solid fraction about 0.3) above the plate,
 // without overlaps, as many as PlanSourceBed counts.
-ParticleState InsertBeads(const Scene& scene, const BedRequest& request) {
+dem::ParticleState InsertBeads(const Scene& scene, const BedRequest& request) {
   const SourcePlan plan = PlanSourceBed(scene);
   if (plan.column_top_m > scene.cylinder.height_m)
     throw SceneError("bed.source_thickness_m",
@@ -129,7 +129,7 @@ ParticleState InsertBeads(const Scene& scene, const BedRequest& request) {
   double column_top = plan.column_top_m;
 
   Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
-  ParticleState beads;
+  dem::ParticleState beads;
   const double cell = d_max;
   auto key = [&](int x, int y, int z) {
     return (static_cast<std::int64_t>(z) << 32) ^ (static_cast<std::int64_t>(y + 32768) << 16) ^
@@ -154,7 +154,7 @@ ParticleState InsertBeads(const Scene& scene, const BedRequest& request) {
       const double x = uniform(-reach, reach), y = uniform(-reach, reach);
       if (x * x + y * y > reach * reach) continue;
       const double z = uniform(r, column_top - r);
-      const Vec3 p(x, y, z);
+      const dem::Vec3 p(x, y, z);
       const int cx = cell_of(x), cy = cell_of(y), cz = cell_of(z);
       bool free = true;
       for (int dz = -1; dz <= 1 && free; ++dz)
@@ -187,7 +187,7 @@ struct RestState {
   double weight;
 };
 
-RestState MeasureRest(const Simulation& sim, double energy_scale) {
+RestState MeasureRest(const dem::Simulation& sim, double energy_scale) {
   const auto& b = sim.beads();
   double weight = 0.0;
   for (double m : b.mass) weight += m * sim.params().gravity_m_s2;
@@ -223,23 +223,23 @@ constexpr double kRegionReach = 2.0;
 // A region is chosen again when one of its free beads has moved this many mean diameters.
 constexpr double kMaxDrift = 0.5;
 
-double TotalKinetic(const ParticleState& b) {
+double TotalKinetic(const dem::ParticleState& b) {
   double kinetic = 0.0;
   for (std::size_t i = 0; i < b.size(); ++i) kinetic += b.KineticEnergy(i);
   return kinetic;
 }
 
 // The beads within `reach` (centre to centre) of a marked bead, the marked ones included.
-std::vector<char> Near(const ParticleState& b, const std::vector<char>& marked, double reach) {
-  Vec3 lo = b.position.front(), hi = b.position.front();
-  for (const Vec3& x : b.position) {
+std::vector<char> Near(const dem::ParticleState& b, const std::vector<char>& marked, double reach) {
+  dem::Vec3 lo = b.position.front(), hi = b.position.front();
+  for (const dem::Vec3& x : b.position) {
     lo = lo.cwiseMin(x);
     hi = hi.cwiseMax(x);
   }
-  detail::CellGrid grid;
+  dem::detail::CellGrid grid;
   grid.Build(b.position, reach, lo, hi);
   std::vector<char> near = marked;
-  const Vec3 box = Vec3::Constant(reach);
+  const dem::Vec3 box = dem::Vec3::Constant(reach);
   for (std::size_t i = 0; i < b.size(); ++i) {
     if (!marked[i]) continue;
     grid.ForEachInBox(b.position[i] - box, b.position[i] + box, [&](std::uint32_t j) {
@@ -250,7 +250,7 @@ std::vector<char> Near(const ParticleState& b, const std::vector<char>& marked, 
 }
 
 bool IsWall(std::uint32_t other) {
-  return other == kPlate || other == kSideWall;
+  return other == dem::kPlate || other == dem::kSideWall;
 }
 
 // One region: steps the free beads around `moving`, with the beads they can reach held, until
@@ -259,8 +259,8 @@ bool IsWall(std::uint32_t other) {
 // Writes the free beads' state and springs back into `beads` and `history`, and stops every
 // other bead. Returns the steps taken. The region's clock starts at the bed's (`time_s`,
 // `step`), so that an error in it names the bed's step and time.
-std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
-                          std::vector<ContactHistoryEntry>& history,
+std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& beads,
+                          std::vector<dem::ContactHistoryEntry>& history,
                           const std::vector<char>& moving, double moving_energy, double d_mean,
                           double d_max, double energy_limit, std::int64_t max_steps, double time_s,
                           std::int64_t step) {
@@ -271,7 +271,7 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
   // centre is farther than d_max + 1.5 drift from where it started.
   const std::vector<char> in_region = Near(beads, free_bead, d_max + 1.5 * drift);
 
-  ParticleState region;
+  dem::ParticleState region;
   std::vector<std::uint32_t> region_id(beads.size(), 0);
   std::vector<std::uint32_t> bed_id;
   for (std::size_t i = 0; i < beads.size(); ++i) {
@@ -285,19 +285,19 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
       region.inv_mass.back() = 0.0;
     }
   }
-  auto touches_free = [&](const ContactHistoryEntry& h) {
+  auto touches_free = [&](const dem::ContactHistoryEntry& h) {
     return free_bead[h.bead] || (!IsWall(h.other) && free_bead[h.other]);
   };
-  std::vector<ContactHistoryEntry> region_history, kept_history;
-  for (const ContactHistoryEntry& h : history) {
+  std::vector<dem::ContactHistoryEntry> region_history, kept_history;
+  for (const dem::ContactHistoryEntry& h : history) {
     if (in_region[h.bead] && (IsWall(h.other) || in_region[h.other]))
       region_history.push_back(
           {region_id[h.bead], IsWall(h.other) ? h.other : region_id[h.other], h.shear});
     if (!touches_free(h)) kept_history.push_back(h);  // springs the region cannot change
   }
 
-  const std::vector<Vec3> start = region.position;
-  Simulation sim(params, std::move(region), std::nullopt, region_history);
+  const std::vector<dem::Vec3> start = region.position;
+  dem::Simulation sim(params, std::move(region), std::nullopt, region_history);
   sim.SetClock(time_s, step);
   // Large regions are reordered in memory at list builds; origin maps back to region order.
   const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
@@ -306,7 +306,7 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
     while (steps < max_steps) {
       sim.Step();
       ++steps;
-      const ParticleState& b = sim.beads();
+      const dem::ParticleState& b = sim.beads();
       bool drifted = false;
       for (std::size_t k = 0; k < b.size() && !drifted; ++k)
         drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
@@ -318,14 +318,14 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
         if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
       }
     }
-  } catch (const SimulationError& e) {
-    throw SimulationError(
+  } catch (const dem::SimulationError& e) {
+    throw dem::SimulationError(
         std::string("in local settling (bead numbers count the settling region's beads): ") +
             e.what(),
         e.step(), e.time_s());
   }
 
-  const ParticleState& b = sim.beads();
+  const dem::ParticleState& b = sim.beads();
   for (std::size_t i = 0; i < beads.size(); ++i) {
     beads.velocity[i].setZero();
     beads.angular_velocity[i].setZero();
@@ -337,7 +337,7 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
     beads.velocity[i] = b.velocity[k];
     beads.angular_velocity[i] = b.angular_velocity[k];
   }
-  for (ContactHistoryEntry h : sim.ExportHistory()) {
+  for (dem::ContactHistoryEntry h : sim.ExportHistory()) {
     h.bead = bed_id[origin[h.bead]];
     if (!IsWall(h.other)) h.other = bed_id[origin[h.other]];
     if (touches_free(h)) kept_history.push_back(h);
@@ -350,10 +350,10 @@ std::int64_t SettleRegion(const WorldParams& params, ParticleState& beads,
 // kinetic energy is down to kLocalEnergyTarget of the rest tolerance (`tolerance_energy` per
 // bead). Returns the bed as a new simulation, its clock advanced by the steps taken, or
 // nothing when too many beads move for it to pay. report(steps, kinetic energy) follows it.
-std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d_max,
-                                        double tolerance_energy, std::int64_t max_steps,
-                                        const std::function<void(std::int64_t, double)>& report) {
-  ParticleState beads = sim.beads();
+std::optional<dem::Simulation> SettleLocally(
+    dem::Simulation& sim, double d_mean, double d_max, double tolerance_energy,
+    std::int64_t max_steps, const std::function<void(std::int64_t, double)>& report) {
+  dem::ParticleState beads = sim.beads();
   const std::size_t n = beads.size();
   const double moving_energy = kMovingEnergy * tolerance_energy;  // per bead
   std::vector<char> moving(n);
@@ -365,8 +365,8 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
   std::size_t count = count_moving();
   if (count == 0 || count > kMaxMovingShare * static_cast<double>(n)) return std::nullopt;
   const double energy_limit = kLocalEnergyTarget * tolerance_energy * static_cast<double>(n);
-  std::vector<ContactHistoryEntry> history = sim.ExportHistory();
-  WorldParams params = sim.params();
+  std::vector<dem::ContactHistoryEntry> history = sim.ExportHistory();
+  dem::WorldParams params = sim.params();
   std::int64_t steps = 0, reported = 0;
   while (count > 0 && steps < max_steps && TotalKinetic(beads) > energy_limit) {
     steps +=
@@ -379,7 +379,7 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
       reported = steps;
     }
   }
-  Simulation settled(params, std::move(beads), std::nullopt, history);
+  dem::Simulation settled(params, std::move(beads), std::nullopt, history);
   settled.SetClock(sim.time_s() + static_cast<double>(steps) * params.dt_s, sim.steps() + steps);
   return settled;
 }
@@ -390,9 +390,9 @@ std::optional<Simulation> SettleLocally(Simulation& sim, double d_mean, double d
 // tolerance. Rest is judged only on intervals without quenching, so the criterion is the same.
 // With `local`, local settling (above) whenever the bulk carries its weight but the bed is not
 // yet at rest; rest is judged on the whole bed, after an interval in which every bead moves.
-double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stage,
+double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string& stage,
                     const BedRequest& request, double max_time, double tolerance,
-                    const std::function<void(Simulation&, double)>& before_step = {},
+                    const std::function<void(dem::Simulation&, double)>& before_step = {},
                     bool quench = false, bool local = false) {
   const double d_mean = scene.beads.MeanDiameter();
   const double m_mean =
@@ -453,22 +453,23 @@ double SettleToRest(Simulation& sim, const Scene& scene, const std::string& stag
            << stage << " stage): kinetic energy per bead " << rest.kinetic_ratio
            << " m g d (tolerance " << tolerance << "), force balance error "
            << rest.balance_error * 100 << "% (tolerance 1%)";
-      throw SimulationError(what.str(), sim.steps(), sim.time_s());
+      throw dem::SimulationError(what.str(), sim.steps(), sim.time_s());
     }
   }
 }
 
-PreparedBed Finish(Simulation& sim, const Scene& scene, const std::string& hash,
+PreparedBed Finish(dem::Simulation& sim, const Scene& scene, const std::string& hash,
                    const std::string& stage, double settle_time,
                    std::chrono::steady_clock::time_point wall_start) {
   PreparedBed bed;
   bed.beads = sim.beads();
   // A bed at rest: keep positions and springs, drop the residual jitter of the velocities so
   // that the resting state is exactly reproducible and the free flight sees a still bed.
-  std::fill(bed.beads.velocity.begin(), bed.beads.velocity.end(), Vec3::Zero());
-  std::fill(bed.beads.angular_velocity.begin(), bed.beads.angular_velocity.end(), Vec3::Zero());
-  std::fill(bed.beads.force.begin(), bed.beads.force.end(), Vec3::Zero());
-  std::fill(bed.beads.torque.begin(), bed.beads.torque.end(), Vec3::Zero());
+  std::fill(bed.beads.velocity.begin(), bed.beads.velocity.end(), dem::Vec3::Zero());
+  std::fill(bed.beads.angular_velocity.begin(), bed.beads.angular_velocity.end(),
+            dem::Vec3::Zero());
+  std::fill(bed.beads.force.begin(), bed.beads.force.end(), dem::Vec3::Zero());
+  std::fill(bed.beads.torque.begin(), bed.beads.torque.end(), dem::Vec3::Zero());
   bed.history = sim.ExportHistory();
   bed.hash = hash;
   bed.stage = stage;
@@ -490,8 +491,8 @@ PreparedBed Finish(Simulation& sim, const Scene& scene, const std::string& hash,
 }
 
 // A simulation of a bed with the scene's contact law and bead friction `friction`.
-Simulation BedSimulation(const Scene& scene, const PreparedBed* from, ParticleState beads,
-                         double friction) {
+dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::ParticleState beads,
+                              double friction) {
   double min_radius = 0.5 * scene.beads.diameter_min_m;
   for (double r : beads.radius) min_radius = std::min(min_radius, r);
   ContactSetup setup = MakeContactSetup(scene, min_radius);
@@ -499,32 +500,33 @@ Simulation BedSimulation(const Scene& scene, const PreparedBed* from, ParticleSt
   // Beds settle without rolling resistance, so that it leaves their cache keys alone: it only
   // dissipates, and a bed at rest stays at rest when the impact switches it on.
   setup.params.rolling_friction = 0.0;
-  return Simulation(setup.params, std::move(beads), std::nullopt,
-                    from ? from->history : std::vector<ContactHistoryEntry>{});
+  return dem::Simulation(setup.params, std::move(beads), std::nullopt,
+                         from ? from->history : std::vector<dem::ContactHistoryEntry>{});
 }
 
 PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  Simulation sim =
+  dem::Simulation sim =
       BedSimulation(scene, nullptr, InsertBeads(scene, request), scene.bed.prep_friction);
   const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s,
                                 scene.bed.settle_tolerance, {}, false, scene.bed.local_settling);
   PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
   if (bed.surface_m < scene.bed.thickness_m)
-    throw SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
-                              " m thick, less than bed.thickness_m",
-                          sim.steps(), sim.time_s());
+    throw dem::SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
+                                   " m thick, less than bed.thickness_m",
+                               sim.steps(), sim.time_s());
   return bed;
 }
 
 // Keeps the beads whose centre lies below the height that puts the measured surface at H.
-std::vector<bool> CutMask(const ParticleState& beads, double cylinder_radius, double thickness) {
+std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius,
+                          double thickness) {
   double mean_r = 0.0;
   for (double r : beads.radius) mean_r += r / beads.size();
   double cut = thickness - mean_r;
   std::vector<bool> keep(beads.size());
   for (int iteration = 0; iteration < 12; ++iteration) {
-    ParticleState kept;
+    dem::ParticleState kept;
     for (std::size_t i = 0; i < beads.size(); ++i) {
       keep[i] = beads.position[i].z() < cut;
       if (keep[i]) kept.Add(beads.position[i], beads.radius[i], 1.0);
@@ -539,7 +541,7 @@ std::vector<bool> CutMask(const ParticleState& beads, double cylinder_radius, do
 PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std::string& hash,
                        const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  Simulation sim = BedSimulation(scene, &source, source.beads, scene.bed.prep_friction);
+  dem::Simulation sim = BedSimulation(scene, &source, source.beads, scene.bed.prep_friction);
   const std::vector<bool> keep =
       CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m);
   sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
@@ -552,12 +554,12 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
 PreparedBed PrepareFriction(const Scene& scene, const PreparedBed& cut, const std::string& hash,
                             const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  Simulation sim = BedSimulation(scene, &cut, cut.beads, scene.bed.prep_friction);
+  dem::Simulation sim = BedSimulation(scene, &cut, cut.beads, scene.bed.prep_friction);
   const double mu0 = scene.bed.prep_friction, mu1 = scene.material.friction_bead_bead;
   const double ramp = scene.bed.friction_ramp_s;
   const double wall_mu = scene.material.friction_bead_wall;
   // Linear in time from the preparation friction to the study's, then relax.
-  auto before_step = [&](Simulation& s, double t) {
+  auto before_step = [&](dem::Simulation& s, double t) {
     const double f = ramp > 0.0 ? std::min(t / ramp, 1.0) : 1.0;
     s.SetFriction(mu0 + f * (mu1 - mu0), wall_mu);
   };
@@ -573,7 +575,7 @@ PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const Bed
   const auto wall_start = std::chrono::steady_clock::now();
   ImportedBed imported = ReadTextBed(scene.bed.import, scene);
   const std::string report = imported.Describe();
-  Simulation sim =
+  dem::Simulation sim =
       BedSimulation(scene, nullptr, std::move(imported.beads), scene.material.friction_bead_bead);
   const double t = SettleToRest(sim, scene, "relaxing the imported bed", request,
                                 scene.bed.max_settle_s, scene.bed.settle_tolerance);
@@ -681,7 +683,7 @@ PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& reques
                     [&] { return PrepareFriction(scene, cut(), k.friction, request); });
 }
 
-double MeasureSurface(const ParticleState& beads, double cylinder_radius_m) {
+double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m) {
   if (beads.size() == 0) return 0.0;
   const double d_max = 2.0 * *std::max_element(beads.radius.begin(), beads.radius.end());
   const double cell = 2.0 * d_max;
@@ -689,7 +691,7 @@ double MeasureSurface(const ParticleState& beads, double cylinder_radius_m) {
   const int n = static_cast<int>(std::ceil(cylinder_radius_m / cell));
   std::vector<double> top((2 * n) * (2 * n), -1.0);
   for (std::size_t i = 0; i < beads.size(); ++i) {
-    const Vec3& x = beads.position[i];
+    const dem::Vec3& x = beads.position[i];
     const int cx = std::clamp(static_cast<int>(std::floor(x.x() / cell)) + n, 0, 2 * n - 1);
     const int cy = std::clamp(static_cast<int>(std::floor(x.y() / cell)) + n, 0, 2 * n - 1);
     double& t = top[cy * 2 * n + cx];
@@ -707,7 +709,8 @@ double MeasureSurface(const ParticleState& beads, double cylinder_radius_m) {
   return cells ? sum / cells : 0.0;
 }
 
-double SolidFraction(const ParticleState& beads, double cylinder_radius_m, double thickness_m) {
+double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m,
+                     double thickness_m) {
   if (thickness_m <= 0.0) return 0.0;
   double volume = 0.0;
   for (double r : beads.radius) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;

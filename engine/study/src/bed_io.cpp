@@ -9,8 +9,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
+#include "dembuf/study/errors.h"
 
 namespace dembuf {
 
@@ -30,7 +30,7 @@ std::string Percent(double ratio) {
 // The beads in cells one largest diameter wide, for finding overlapping pairs.
 class BeadGrid {
  public:
-  explicit BeadGrid(const ParticleState& beads) : m_beads(beads) {
+  explicit BeadGrid(const dem::ParticleState& beads) : m_beads(beads) {
     double r_max = 0.0;
     for (double r : beads.radius) r_max = std::max(r_max, r);
     m_cell = 2.0 * r_max;
@@ -41,7 +41,7 @@ class BeadGrid {
   template <class Visit>
   void ForEachOverlap(Visit&& visit) const {
     for (std::size_t i = 0; i < m_beads.size(); ++i) {
-      const Vec3& x = m_beads.position[i];
+      const dem::Vec3& x = m_beads.position[i];
       const long cx = Index(x.x()), cy = Index(x.y()), cz = Index(x.z());
       for (long dx = -1; dx <= 1; ++dx)
         for (long dy = -1; dy <= 1; ++dy)
@@ -63,18 +63,18 @@ class BeadGrid {
   static long Hash(long ix, long iy, long iz) {
     return (ix * 73856093L) ^ (iy * 19349663L) ^ (iz * 83492791L);
   }
-  long Key(const Vec3& x) const { return Hash(Index(x.x()), Index(x.y()), Index(x.z())); }
+  long Key(const dem::Vec3& x) const { return Hash(Index(x.x()), Index(x.y()), Index(x.z())); }
 
-  const ParticleState& m_beads;
+  const dem::ParticleState& m_beads;
   double m_cell = 1.0;
   std::unordered_map<long, std::vector<std::size_t>> m_cells;
 };
 
 // How far bead i sinks into the plate and into the side wall.
-double PlateOverlap(const ParticleState& b, std::size_t i) {
+double PlateOverlap(const dem::ParticleState& b, std::size_t i) {
   return b.radius[i] - b.position[i].z();
 }
-double WallOverlap(const ParticleState& b, std::size_t i, double wall_radius) {
+double WallOverlap(const dem::ParticleState& b, std::size_t i, double wall_radius) {
   return std::hypot(b.position[i].x(), b.position[i].y()) + b.radius[i] - wall_radius;
 }
 
@@ -94,7 +94,7 @@ void Finish(OverlapStats& stats) {
   if (stats.contacts > 0) stats.mean_ratio /= static_cast<double>(stats.contacts);
 }
 
-Measured MeasureOverlaps(const ParticleState& b, double wall_radius) {
+Measured MeasureOverlaps(const dem::ParticleState& b, double wall_radius) {
   Measured m;
   BeadGrid(b).ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
     const double ratio = overlap / std::min(b.radius[i], b.radius[j]);
@@ -127,7 +127,7 @@ double Worst(const Measured& m) {
 // Moves overlapping beads apart until no overlap passes kSeparationTarget of a radius: each
 // pass pushes every bead out of the plate and the wall and every overlapping pair apart along
 // its line of centres, each bead by half the excess. Returns false if passes run out.
-bool Separate(ParticleState& b, double wall_radius) {
+bool Separate(dem::ParticleState& b, double wall_radius) {
   for (int pass = 0; pass < kSeparationPasses; ++pass) {
     bool moved = false;
     for (std::size_t i = 0; i < b.size(); ++i) {
@@ -147,9 +147,9 @@ bool Separate(ParticleState& b, double wall_radius) {
     BeadGrid(b).ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
       const double r_min = std::min(b.radius[i], b.radius[j]);
       if (overlap <= kSeparationTarget * r_min) return;
-      const Vec3 d = b.position[j] - b.position[i];
+      const dem::Vec3 d = b.position[j] - b.position[i];
       const double dist = d.norm();
-      const Vec3 n = dist > 0.0 ? Vec3(d / dist) : Vec3::UnitZ();
+      const dem::Vec3 n = dist > 0.0 ? dem::Vec3(d / dist) : dem::Vec3::UnitZ();
       const double half = 0.5 * (overlap - 0.5 * kSeparationTarget * r_min);
       b.position[i] -= half * n;
       b.position[j] += half * n;
@@ -236,7 +236,7 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
            number(scene.cylinder.height_m) + " m)");
     if (static_cast<double>(bed.beads.size()) >= kMaxBeads)
       fail("more beads than a simulation can hold");
-    bed.beads.Add(Vec3(x, y, z), r, scene.material.density_kg_m3);
+    bed.beads.Add(dem::Vec3(x, y, z), r, scene.material.density_kg_m3);
     bed.lines.push_back(line_no);
   }
   if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
@@ -244,7 +244,7 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
   Measured m = MeasureOverlaps(bed.beads, R);
   bed.max_ratio_before = Worst(m);
   if (bed.max_ratio_before > kMaxRestingOverlap && scene.bed.import_overlaps == "relax") {
-    const std::vector<Vec3> before = bed.beads.position;
+    const std::vector<dem::Vec3> before = bed.beads.position;
     if (!Separate(bed.beads, R))
       throw SceneError("bed.import", name + ": the beads could not be separated within " +
                                          std::to_string(kSeparationPasses) +
@@ -293,7 +293,7 @@ ImportedBed ReadTextBed(const std::string& path, const Scene& scene) {
   return ParseTextBed(in, path, scene);
 }
 
-double BedSurfaceHeight(const ParticleState& beads) {
+double BedSurfaceHeight(const dem::ParticleState& beads) {
   double top = 0.0;
   for (std::size_t i = 0; i < beads.size(); ++i)
     top = std::max(top, beads.position[i].z() + beads.radius[i]);

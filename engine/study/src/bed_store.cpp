@@ -70,7 +70,7 @@ std::string SerializeBed(const PreparedBed& bed) {
       << "note=" << bed.note << "\n"
       << "data\n";
   Checksum sum;
-  const ParticleState& b = bed.beads;
+  const dem::ParticleState& b = bed.beads;
   Put<std::uint64_t>(out, sum, b.size());
   for (std::size_t i = 0; i < b.size(); ++i) {
     for (int d = 0; d < 3; ++d) Put(out, sum, b.position[i][d]);
@@ -80,7 +80,7 @@ std::string SerializeBed(const PreparedBed& bed) {
     for (int d = 0; d < 3; ++d) Put(out, sum, b.angular_velocity[i][d]);
   }
   Put<std::uint64_t>(out, sum, bed.history.size());
-  for (const ContactHistoryEntry& h : bed.history) {
+  for (const dem::ContactHistoryEntry& h : bed.history) {
     Put(out, sum, h.bead);
     Put(out, sum, h.other);
     for (int d = 0; d < 3; ++d) Put(out, sum, h.shear[d]);
@@ -128,9 +128,9 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
   Checksum sum;
   const auto n = Get<std::uint64_t>(in, sum, name);
   if (n > (1ULL << 32)) throw std::runtime_error(name + ": implausible bead count");
-  ParticleState& b = bed.beads;
+  dem::ParticleState& b = bed.beads;
   for (std::uint64_t i = 0; i < n; ++i) {
-    Vec3 x, v, w;
+    dem::Vec3 x, v, w;
     for (int d = 0; d < 3; ++d) x[d] = Get<double>(in, sum, name);
     const double r = Get<double>(in, sum, name);
     const double m = Get<double>(in, sum, name);
@@ -139,8 +139,8 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
     b.position.push_back(x);
     b.velocity.push_back(v);
     b.angular_velocity.push_back(w);
-    b.force.push_back(Vec3::Zero());
-    b.torque.push_back(Vec3::Zero());
+    b.force.push_back(dem::Vec3::Zero());
+    b.torque.push_back(dem::Vec3::Zero());
     b.radius.push_back(r);
     b.mass.push_back(m);
     b.inv_mass.push_back(1.0 / m);
@@ -149,7 +149,7 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
   const auto h = Get<std::uint64_t>(in, sum, name);
   if (h > 64 * n + 64) throw std::runtime_error(name + ": implausible contact count");
   for (std::uint64_t k = 0; k < h; ++k) {
-    ContactHistoryEntry e;
+    dem::ContactHistoryEntry e;
     e.bead = Get<std::uint32_t>(in, sum, name);
     e.other = Get<std::uint32_t>(in, sum, name);
     for (int d = 0; d < 3; ++d) e.shear[d] = Get<double>(in, sum, name);

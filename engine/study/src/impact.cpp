@@ -5,10 +5,10 @@
 #include <limits>
 #include <numbers>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/core/time_step.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/bed_io.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/scene_fields.h"
 
 namespace dembuf {
@@ -24,32 +24,32 @@ double FallTime(double z0, double vz0, double z1, double gravity_m_s2) {
 ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
   ContactSetup setup;
   const MaterialSpec& mat = scene.material;
-  const ShearStiffness shear =
-      mat.shear_stiffness == "mindlin" ? ShearStiffness::kMindlin : ShearStiffness::kPaper;
-  const Elastic bead_elastic{mat.youngs_modulus_Pa, mat.poisson_ratio};
-  const Elastic wall_elastic =
+  const dem::ShearStiffness shear = mat.shear_stiffness == "mindlin" ? dem::ShearStiffness::kMindlin
+                                                                     : dem::ShearStiffness::kPaper;
+  const dem::Elastic bead_elastic{mat.youngs_modulus_Pa, mat.poisson_ratio};
+  const dem::Elastic wall_elastic =
       scene.walls.material_from_beads
           ? bead_elastic
-          : Elastic{scene.walls.youngs_modulus_Pa, scene.walls.poisson_ratio};
-  const PairModuli pair_moduli = EffectiveModuli(bead_elastic, bead_elastic, shear);
-  const PairModuli wall_moduli = EffectiveModuli(bead_elastic, wall_elastic, shear);
+          : dem::Elastic{scene.walls.youngs_modulus_Pa, scene.walls.poisson_ratio};
+  const dem::PairModuli pair_moduli = dem::EffectiveModuli(bead_elastic, bead_elastic, shear);
+  const dem::PairModuli wall_moduli = dem::EffectiveModuli(bead_elastic, wall_elastic, shear);
 
   // Calibrate A on two beads of the mean diameter meeting head-on (docs/model.md section 2).
   const double d_mean = scene.beads.MeanDiameter();
   const double bead_mass = mat.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
   const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);
-  setup.damping =
-      CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref, 0.5 * bead_mass);
+  setup.damping = dem::CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref,
+                                        0.5 * bead_mass);
   const double A = setup.damping.damping_A_s;
 
-  WorldParams& wp = setup.params;
+  dem::WorldParams& wp = setup.params;
   wp.container = {scene.cylinder.radius_m, scene.cylinder.height_m};
-  wp.sphere_pair = MakePairParams(pair_moduli, A, mat.friction_bead_bead);
-  wp.sphere_wall = MakePairParams(wall_moduli, A, mat.friction_bead_wall);
+  wp.sphere_pair = dem::MakePairParams(pair_moduli, A, mat.friction_bead_bead);
+  wp.sphere_wall = dem::MakePairParams(wall_moduli, A, mat.friction_bead_wall);
   wp.rolling_friction = mat.rolling_friction;
   wp.gravity_m_s2 = scene.gravity_m_s2;
-  setup.critical_dt_s =
-      CriticalTimeStep(min_radius_m, mat.density_kg_m3, mat.youngs_modulus_Pa, mat.poisson_ratio);
+  setup.critical_dt_s = dem::CriticalTimeStep(min_radius_m, mat.density_kg_m3,
+                                              mat.youngs_modulus_Pa, mat.poisson_ratio);
   wp.dt_s = scene.time.alpha * setup.critical_dt_s;
   return setup;
 }
@@ -76,12 +76,12 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
   world.critical_dt_s = setup.critical_dt_s;
 
   if (scene.projectile.enabled) {
-    RigidSphere p;
+    dem::RigidSphere p;
     p.radius = 0.5 * scene.projectile.diameter_m;
     p.mass = scene.projectile.mass_kg;
     p.position =
-        Vec3(scene.projectile.offset_m, 0.0, world.bed_surface_m + scene.projectile.height_m);
-    p.velocity = Vec3(0.0, 0.0, -scene.projectile.speed_m_s);
+        dem::Vec3(scene.projectile.offset_m, 0.0, world.bed_surface_m + scene.projectile.height_m);
+    p.velocity = dem::Vec3(0.0, 0.0, -scene.projectile.speed_m_s);
     world.projectile = p;
   }
   return world;
@@ -109,8 +109,8 @@ class SampleClock {
   double m_next = 0.0;  ///< k of the next grid time
 };
 
-ImpactSample MakeSample(const Simulation& sim) {
-  const StepObservables& o = sim.observables();
+ImpactSample MakeSample(const dem::Simulation& sim) {
+  const dem::StepObservables& o = sim.observables();
   ImpactSample s{sim.time_s(),
                  o.plate_force_N,
                  o.wall_force_z_N,
@@ -133,7 +133,7 @@ ImpactSummary RunImpact(const Scene& scene, const RunControl& control) {
 
 namespace {
 
-ImpactSnapshot TakeSnapshot(const Simulation& sim, const std::string& label) {
+ImpactSnapshot TakeSnapshot(const dem::Simulation& sim, const std::string& label) {
   ImpactSnapshot snap;
   snap.label = label;
   snap.t_s = sim.time_s();
@@ -163,7 +163,7 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
   summary.bed_surface_m = world.bed_surface_m;
   summary.bed = world.bed;
 
-  Simulation sim(world.params, std::move(world.beads), world.projectile, world.history);
+  dem::Simulation sim(world.params, std::move(world.beads), world.projectile, world.history);
   sim.RefreshForces();  // the resting load of the bed, felt during the free flight
   const double rest_force = sim.observables().plate_force_N;
   SampleClock clock(scene.time.output_interval_s);
@@ -186,11 +186,11 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
   // below it (or the plate), and the resting bed does not change meanwhile. Jump there
   // analytically, stopping a few steps short so that the first contact is integrated whole.
   if (sim.projectile()) {
-    RigidSphere p = *sim.projectile();
+    dem::RigidSphere p = *sim.projectile();
     // The centre height at first contact: touching bead i at horizontal distance rho needs
     // z_c = z_i + sqrt((R + r_i)^2 - rho^2); the plate needs z_c = R.
     double contact_z = p.radius;
-    const ParticleState& beads = sim.beads();
+    const dem::ParticleState& beads = sim.beads();
     for (std::size_t i = 0; i < beads.size(); ++i) {
       const double reach = p.radius + beads.radius[i];
       const double dx = beads.position[i].x() - p.position.x();
@@ -250,7 +250,7 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     }
     if (control.threads) sim.SetThreads(control.threads->load(std::memory_order_relaxed));
     sim.Step();
-    const StepObservables& o = sim.observables();
+    const dem::StepObservables& o = sim.observables();
     const double t = sim.time_s();
     summary.max_overlap_ratio = std::max(summary.max_overlap_ratio, o.max_overlap_ratio);
     if (o.plate_force_N > peak) {
@@ -266,7 +266,7 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
       series.plate_force_N.push_back(o.plate_force_N);
     }
     if (sim.projectile()) {
-      const RigidSphere& p = *sim.projectile();
+      const dem::RigidSphere& p = *sim.projectile();
       if (in_window) series.projectile_z_m.push_back(p.position.z());
       crater = std::max(crater, world.bed_surface_m - (p.position.z() - p.radius));
     }
@@ -285,7 +285,7 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     }
     if (!sim.projectile()) continue;
 
-    const RigidSphere& p = *sim.projectile();
+    const dem::RigidSphere& p = *sim.projectile();
     if (summary.first_contact_time_s < 0.0) {
       if (o.projectile_contacts > 0) {
         summary.first_contact_time_s = t;

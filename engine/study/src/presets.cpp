@@ -1,6 +1,6 @@
 #include "dembuf/study/presets.h"
 
-#include "dembuf/core/errors.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/scene_fields.h"
 
 namespace dembuf {

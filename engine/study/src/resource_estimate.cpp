@@ -6,10 +6,10 @@
 #include <numbers>
 #include <sstream>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/core/time_step.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/bed_io.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 
 namespace dembuf {
@@ -142,9 +142,9 @@ ResourceEstimate EstimateResources(const Scene& scene) {
     for (double r : imported.beads.radius) min_radius = std::min(min_radius, r);
     e.impact_beads = static_cast<double>(imported.beads.size());
   }
-  e.dt_s = scene.time.alpha * CriticalTimeStep(min_radius, scene.material.density_kg_m3,
-                                               scene.material.youngs_modulus_Pa,
-                                               scene.material.poisson_ratio);
+  e.dt_s = scene.time.alpha * dem::CriticalTimeStep(min_radius, scene.material.density_kg_m3,
+                                                    scene.material.youngs_modulus_Pa,
+                                                    scene.material.poisson_ratio);
   // A settling stage is checked for rest every 200 steps.
   auto settle_steps = [&](double seconds) { return std::ceil(seconds / e.dt_s) + 200; };
 

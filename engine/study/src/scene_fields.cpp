@@ -11,8 +11,8 @@
 #include <sstream>
 #include <toml.hpp>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/text_limits.h"
 

@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <map>
 
-#include "dembuf/core/errors.h"
 #include "dembuf/study/bed.h"
+#include "dembuf/study/errors.h"
 #include "dembuf/study/scene_fields.h"
 
 namespace dembuf {

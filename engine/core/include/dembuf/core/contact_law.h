@@ -17,7 +17,7 @@
 
 #include "dembuf/core/vec.h"
 
-namespace dembuf {
+namespace dembuf::dem {
 
 /// Elastic constants of one material.
 struct Elastic {
@@ -205,4 +205,4 @@ inline double ContactElasticEnergy(double overlap, double sqrt_r_star, const Pai
          0.5 * p.ks_per_sqrt_r * sqrt_r_star * sqrt_x * shear.squaredNorm();
 }
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

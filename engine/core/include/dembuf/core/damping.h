@@ -12,7 +12,7 @@
 
 #include <vector>
 
-namespace dembuf {
+namespace dembuf::dem {
 
 /// Restitution of the dimensionless collision above (RK4, fine step; the force is clamped at 0).
 double RestitutionOfDampingNumber(double g);
@@ -42,4 +42,4 @@ struct DampingCalibration {
 DampingCalibration CalibrateDamping(double restitution, double ref_speed_m_s, double kn,
                                     double reduced_mass_kg);
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

@@ -9,7 +9,7 @@
 
 #include "dembuf/core/particles.h"
 
-namespace dembuf::detail {
+namespace dembuf::dem::detail {
 
 /// Beads binned into cubic cells (counting sort). Points outside the grid are clamped into
 /// its border cells, which stays correct (only the candidate count grows).
@@ -143,4 +143,4 @@ void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, cons
                           double radius, double max_bead_radius, double skin, CandidateList& list,
                           double grid_age_margin = 0.0);
 
-}  // namespace dembuf::detail
+}  // namespace dembuf::dem::detail

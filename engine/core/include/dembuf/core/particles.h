@@ -8,7 +8,7 @@
 
 #include "dembuf/core/vec.h"
 
-namespace dembuf {
+namespace dembuf::dem {
 
 /// Who a contact joins: beads are numbered 0 .. n - 1, and the plate, the side wall and the
 /// projectile have the top ids. One encoding for contact histories, snapshots and the kernels.
@@ -109,4 +109,4 @@ struct Container {
   }
 };
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

@@ -10,7 +10,7 @@
 #include "dembuf/core/contact_law.h"
 #include "dembuf/core/particles.h"
 
-namespace dembuf {
+namespace dembuf::dem {
 
 /// Constants of the world, fixed for a run.
 struct WorldParams {
@@ -156,4 +156,4 @@ void Simulation::RemoveBeads(Keep keep) {
   RemoveBeadsMasked(mask);
 }
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace dembuf {
+namespace dembuf::dem {
 
 /// tmax = pi Rmin / (0.163 nu + 0.8766) * sqrt(rho / G).
 inline double CriticalTimeStep(double min_radius_m, double density_kg_m3, double youngs_modulus_Pa,
@@ -14,4 +14,4 @@ inline double CriticalTimeStep(double min_radius_m, double density_kg_m3, double
          std::sqrt(density_kg_m3 / shear_modulus);
 }
 
-}  // namespace dembuf
+}  // namespace dembuf::dem

@@ -4,6 +4,6 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>  // cross products
 
-namespace dembuf {
+namespace dembuf::dem {
 using Vec3 = Eigen::Vector3d;
-}  // namespace dembuf
+}  // namespace dembuf::dem

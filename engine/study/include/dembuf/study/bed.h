@@ -41,8 +41,8 @@ inline constexpr int kLocalSettlingVersion = 2;
 
 /// A bed at rest, with what was measured on it.
 struct PreparedBed {
-  ParticleState beads;
-  std::vector<ContactHistoryEntry> history;  ///< tangential springs, for an exact restart
+  dem::ParticleState beads;
+  std::vector<dem::ContactHistoryEntry> history;  ///< tangential springs, for an exact restart
   std::string hash;
   std::string stage;            ///< "source", "cut", "friction" or "import"
   double surface_m = 0.0;       ///< measured surface height (the bed thickness H)
@@ -200,9 +200,9 @@ bool WaitsForBed(const BedNeeds& needs, const std::vector<BedNeeds>& running, Be
 
 /// Surface height: the mean, over square cells of side 2 d_max covering the plate (cells whose
 /// centre lies within R - d_max of the axis), of the highest bead top in the cell.
-double MeasureSurface(const ParticleState& beads, double cylinder_radius_m);
+double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m);
 
 /// Bead volume / (pi R^2 H).
-double SolidFraction(const ParticleState& beads, double cylinder_radius_m, double thickness_m);
+double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m, double thickness_m);
 
 }  // namespace dembuf

@@ -35,8 +35,8 @@ struct OverlapStats {
 
 /// A bed read from a text file, and what its contacts look like.
 struct ImportedBed {
-  ParticleState beads;      ///< with the scene's density
-  std::vector<long> lines;  ///< each bead's line in the file
+  dem::ParticleState beads;  ///< with the scene's density
+  std::vector<long> lines;   ///< each bead's line in the file
   OverlapStats pairs, plate, wall;
   std::size_t moved = 0;          ///< beads moved apart (bed.import_overlaps = "relax")
   double max_move_m = 0.0;        ///< the farthest one moved
@@ -53,6 +53,6 @@ ImportedBed ReadTextBed(const std::string& path, const Scene& scene);
 ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene& scene);
 
 /// Height of the bed surface: the top of the highest bead.
-double BedSurfaceHeight(const ParticleState& beads);
+double BedSurfaceHeight(const dem::ParticleState& beads);
 
 }  // namespace dembuf

@@ -18,8 +18,8 @@ namespace dembuf {
 
 /// The contact constants, container, gravity and time step of a scene (no bodies yet).
 struct ContactSetup {
-  WorldParams params;
-  DampingCalibration damping;
+  dem::WorldParams params;
+  dem::DampingCalibration damping;
   double critical_dt_s = 0.0;  ///< eq. 6 for the smallest bead
 };
 
@@ -39,11 +39,11 @@ struct BedSummary {
 
 /// Everything a Simulation needs, derived from a Scene.
 struct World {
-  WorldParams params;
-  ParticleState beads;
-  std::vector<ContactHistoryEntry> history;  ///< the bed's tangential springs
-  std::optional<RigidSphere> projectile;     ///< at its start position (centre H1 above the bed)
-  DampingCalibration damping;
+  dem::WorldParams params;
+  dem::ParticleState beads;
+  std::vector<dem::ContactHistoryEntry> history;  ///< the bed's tangential springs
+  std::optional<dem::RigidSphere> projectile;  ///< at its start position (centre H1 above the bed)
+  dem::DampingCalibration damping;
   double critical_dt_s = 0.0;  ///< eq. 6
   double bed_surface_m = 0.0;  ///< height of the bed surface (0 without beads)
   BedSummary bed;
@@ -72,10 +72,10 @@ struct ImpactSample {
 struct ImpactSnapshot {
   std::string label;  ///< "t=0.0572" or "peak"
   double t_s = 0.0;
-  std::vector<Vec3> positions;
+  std::vector<dem::Vec3> positions;
   std::vector<double> radii;
-  std::optional<RigidSphere> projectile;
-  std::vector<ContactSnapshot> contacts;
+  std::optional<dem::RigidSphere> projectile;
+  std::vector<dem::ContactSnapshot> contacts;
 };
 
 struct ImpactProgress {
@@ -108,7 +108,7 @@ struct ImpactSummary {
   double critical_dt_s = 0.0;
   std::int64_t steps = 0;  ///< integrated steps (the analytic free flight takes none)
   double wall_time_s = 0.0;
-  DampingCalibration damping;
+  dem::DampingCalibration damping;
   double bed_surface_m = 0.0;
   double free_flight_s = 0.0;          ///< time covered analytically
   double first_contact_time_s = -1.0;  ///< -1: the projectile never touched anything

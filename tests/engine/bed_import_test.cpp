@@ -73,6 +73,21 @@ TEST(BedImport, ABeadOutsideTheContainerIsRefusedWithItsLine) {
             std::string::npos);
 }
 
+// Found by the fuzzer: beads of 2e-21 m make cells so small that a bead 0.4 mm up is in cell
+// 1e17, whose hash overflowed a long (undefined behaviour, caught by UBSan in the sanitizer
+// suite). Such a file must get an answer, not undefined behaviour.
+TEST(BedImport, TinyBeadsFarOutOfTheirCellsAreMeasured) {
+  Scene scene;
+  scene.cylinder.radius_m = 0.02;
+  std::istringstream in("0 0 0.0002 2e-21\n0 0 0.0004 2e-21\n");
+  try {
+    const ImportedBed bed = ParseTextBed(in, "tiny.txt", scene);
+    EXPECT_EQ(bed.pairs.contacts, 0u);
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "bed.import");
+  }
+}
+
 TEST(BedImport, ASettledBedsRestingContactsAreAccepted) {
   // 0.3 um into the plate and 0.3 um into each neighbour: a bed as LAMMPS leaves it at rest.
   // These were refused ("reaches below the plate"), so no settled bed could be brought in.

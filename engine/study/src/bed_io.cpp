@@ -59,9 +59,17 @@ class BeadGrid {
   }
 
  private:
-  long Index(double v) const { return static_cast<long>(std::floor(v / m_cell)); }
+  // A cell index, clamped: beads far away in cells of tiny beads would not fit in a long
+  // (a bed file is checked for its beads' sizes and places after its overlaps are measured).
+  long Index(double v) const {
+    double cell = std::floor(v / m_cell);
+    if (!(std::abs(cell) < 1e15)) cell = cell > 0.0 ? 1e15 : -1e15;  // NaN too
+    return static_cast<long>(cell);
+  }
+  // In unsigned arithmetic, whose products wrap where a long's would overflow.
   static long Hash(long ix, long iy, long iz) {
-    return (ix * 73856093L) ^ (iy * 19349663L) ^ (iz * 83492791L);
+    const auto u = [](long v) { return static_cast<unsigned long>(v); };
+    return static_cast<long>((u(ix) * 73856093UL) ^ (u(iy) * 19349663UL) ^ (u(iz) * 83492791UL));
   }
   long Key(const dem::Vec3& x) const { return Hash(Index(x.x()), Index(x.y()), Index(x.z())); }
 

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Installs everything dembuf needs to build, test and plot on Debian 12 (bookworm) or newer.
+# Installs everything dembuf needs to build, test and plot on Debian 12 (bookworm) or newer,
+# or, given package names, just those (deploy/slurm/up.sh asks for Slurm's this way).
 # Safe to run again: apt-get skips what is already there.
 set -euo pipefail
 
-packages=(
+packages=("$@")
+[ ${#packages[@]} -gt 0 ] || packages=(
   # toolchain
   g++ cmake ninja-build pkg-config
   # service

@@ -18,17 +18,7 @@ if [ "$(id -u)" -ne 0 ]; then
   exec sudo DEMBUF_SLURM_PORT="$port" bash "$0" "$dir"
 fi
 
-packages=(munge slurmctld slurmd slurm-client)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "slurm: installing ${missing[*]}"
-  export DEBIAN_FRONTEND=noninteractive
-  apt-get update -qq
-  apt-get install -y -qq --no-install-recommends "${missing[@]}" > /dev/null
-fi
+bash "$here/../install-deps.sh" munge slurmctld slurmd slurm-client > /dev/null
 
 # A process from a pid file, if it still runs.
 running() { [ -f "$1" ] && kill -0 "$(cat "$1")" 2>/dev/null; }

@@ -94,8 +94,11 @@ struct RunOptions {
   int jobs = 1;
   bool local = false;
   std::string name;
-  bool dry_run = false;  ///< print the estimate and stop
-  bool yes = false;      ///< run even past this machine's limits
+  std::string samples_out;  ///< also stream the samples, packed, to this file
+  bool no_plots = false;
+  bool source_only = false;  ///< prepare-bed: only the source bed
+  bool dry_run = false;      ///< print the estimate and stop
+  bool yes = false;          ///< run even past this machine's limits
 };
 
 int Cores() {
@@ -192,6 +195,7 @@ int RunLocal(const RunOptions& opt) {
   std::string phase = "bed preparation";
   cli::ProgressLine progress(stderr);
   std::optional<report::SampleCsvWriter> csv;
+  std::optional<report::SampleStreamWriter> stream;
   auto partial = [&] { return csv ? csv->partial_path().string() : std::string("none"); };
   try {
     BedRequest bed_request;
@@ -205,8 +209,12 @@ int RunLocal(const RunOptions& opt) {
 
     phase = "impact";
     csv.emplace(dir / "plate_force.csv");
+    if (!opt.samples_out.empty()) stream.emplace(opt.samples_out);
     RunControl control;
-    control.on_sample = [&](const ImpactSample& s) { csv->Write(s); };
+    control.on_sample = [&](const ImpactSample& s) {
+      csv->Write(s);
+      if (stream) stream->Write(s);
+    };
     control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
     control.cancel = &g_interrupted;
     control.on_snapshot = [&](const ImpactSnapshot& snap) {
@@ -215,11 +223,12 @@ int RunLocal(const RunOptions& opt) {
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
     progress.Finish();
     csv->Commit();
+    if (stream) stream->Close();
     report::WriteFileAtomically(dir / "summary.json",
                                 report::SummaryToJson(summary, scene).dump(2) + "\n");
     PrintSummary(summary, dir);
     phase = "plots";
-    cli::PlotIfPossible(dir);
+    if (!opt.no_plots) cli::PlotIfPossible(dir);
     if (g_interrupted) throw Cancelled();  // during the plots: the results are complete
     return 0;
   } catch (const dem::SimulationError& e) {
@@ -256,6 +265,33 @@ int RunLocal(const RunOptions& opt) {
     std::error_code error;
     if (new_folder && fs::is_empty(dir, error)) fs::remove(dir, error);
     throw;
+  }
+}
+
+// Prepares a scene's bed (or only its source bed) into the bed cache, and nothing else: a
+// cluster runs this as a job of its own that the impacts cutting the bed wait for.
+int PrepareBedCommand(const RunOptions& opt) {
+  const Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
+  const fs::path dir = BedCacheDir(opt);
+  if (dir.empty())
+    throw SceneError("--bed-cache", "prepare-bed keeps the bed in a bed cache: give a folder");
+  BedCache beds(dir);
+  CatchInterrupts();
+  BedRequest request;
+  request.cancel = &g_interrupted;
+  request.on_progress = PrintBedProgress;
+  try {
+    const PreparedBed bed =
+        opt.source_only ? GetSourceBed(scene, beds, request) : GetBed(scene, beds, request);
+    std::printf("%s bed %s: %zu beads, H = %.5f m, C0 = %.4f, in %s\n", bed.stage.c_str(),
+                bed.hash.c_str(), bed.beads.size(), bed.surface_m, bed.solid_fraction, dir.c_str());
+    return 0;
+  } catch (const dem::SimulationError& e) {
+    std::fprintf(stderr, "dembuf: bed preparation failed: %s\n", e.what());
+    return kExitUnstable;
+  } catch (const Cancelled&) {
+    std::fprintf(stderr, "dembuf: bed preparation interrupted by %s\n", SignalName());
+    return InterruptedExit();
   }
 }
 
@@ -343,6 +379,18 @@ int main(int argc, char** argv) {
                 "print what the run would cost (beads, steps, output, memory, predicted time, "
                 "cached beds) and stop");
   run->add_flag("--yes", opt.yes, "run even when the estimate passes this machine's limits");
+  run->add_flag("--no-plots", opt.no_plots, "do not draw plots");
+  run->add_option("--samples-out", opt.samples_out,
+                  "also stream the samples to this file as they come, as rows of six "
+                  "little-endian doubles (for a daemon following a cluster job)");
+
+  CLI::App* prepare_bed = app.add_subcommand(
+      "prepare-bed", "prepare a scene's bed into the bed cache, without the impact");
+  add_scene_args(prepare_bed);
+  prepare_bed->add_option("--bed-cache", opt.bed_cache,
+                          "folder of prepared beds (default ~/.cache/dembuf/beds)");
+  prepare_bed->add_flag("--source-only", opt.source_only,
+                        "only the settled source bed that the bed is cut from");
 
   CLI::App* sweep = app.add_subcommand("sweep", "run a scene over ranges of fields and seeds");
   add_scene_args(sweep);
@@ -472,6 +520,7 @@ int main(int argc, char** argv) {
 #endif
   try {
     if (run->parsed()) return RunLocal(opt);
+    if (prepare_bed->parsed()) return PrepareBedCommand(opt);
     if (sweep->parsed()) {
 #if DEMBUF_SERVICE
       if (!opt.local && cli::ServerGiven(server_flag))

@@ -1,9 +1,5 @@
 #include "plots.h"
 
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -12,6 +8,8 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+
+#include "dembuf/study/program.h"
 
 namespace dembuf::cli {
 
@@ -23,8 +21,6 @@ constexpr const char* kTerminal =
     "set terminal pngcairo size 1000,640 font 'DejaVu Sans,12'\n"
     "set datafile separator ','\nset key top right noenhanced\nset grid\nset termoption "
     "noenhanced\n";
-
-extern "C" char** environ;
 
 // Any text as a gnuplot string literal: every string that reaches a script (folder names,
 // CSV headers, labels from summary.json) goes through here, so that it is data, never code.
@@ -48,43 +44,11 @@ std::string Q(const fs::path& p) {
   return Literal(p.string());
 }
 
-// Runs a program with these arguments, no shell between; returns its exit status and puts
-// what it printed (stdout and stderr) into `output`. Hand-written because the standard
-// library has no process API and popen would pass the path through a shell.
-int RunProgram(const std::vector<std::string>& args, std::string* output) {
-  int pipe_fds[2];
-  if (pipe(pipe_fds) != 0) throw std::runtime_error("cannot make a pipe for " + args[0]);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
-  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
-  std::vector<char*> argv;
-  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int spawned = posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  close(pipe_fds[1]);
-  if (spawned != 0) {
-    close(pipe_fds[0]);
-    return 127;  // as a shell says of a program it cannot find
-  }
-  char buf[4096];
-  for (ssize_t n; (n = read(pipe_fds[0], buf, sizeof buf)) > 0;)
-    if (output) output->append(buf, static_cast<std::size_t>(n));
-  close(pipe_fds[0]);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
 void RunGnuplot(const std::string& script, const fs::path& script_path) {
   std::ofstream(script_path) << script;
-  std::string output;
-  if (RunProgram({"gnuplot", script_path.string()}, &output) != 0)
-    throw std::runtime_error("gnuplot failed on " + script_path.string() + ": " + output);
+  const ProgramResult gnuplot = RunProgram({"gnuplot", script_path.string()});
+  if (gnuplot.exit_code != 0)
+    throw std::runtime_error("gnuplot failed on " + script_path.string() + ": " + gnuplot.output);
 }
 
 // Whether a CSV file has a row after its header.
@@ -293,7 +257,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
 }  // namespace
 
 bool GnuplotAvailable() {
-  return RunProgram({"gnuplot", "--version"}, nullptr) == 0;
+  return RunProgram({"gnuplot", "--version"}).exit_code == 0;
 }
 
 std::vector<fs::path> PlotFolder(const fs::path& dir) {

@@ -409,6 +409,9 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
                 j.progress().sim_time_s() * 1e3, j.progress().peak_plate_force_n());
   std::printf("scene %s, bed %s\n", j.scene_hash().c_str(),
               j.bed_hash().empty() ? "(none)" : j.bed_hash().c_str());
+  if (j.slurm_job_id() != 0)
+    std::printf("Slurm job %lld%s%s\n", static_cast<long long>(j.slurm_job_id()),
+                j.host().empty() ? "" : " on ", j.host().c_str());
   for (const auto& bed : j.beds_prepared()) std::printf("prepared bed: %s\n", bed.c_str());
   if (!j.error().empty()) std::printf("note: %s\n", j.error().c_str());
   if (!j.summary_json().empty()) {
@@ -615,9 +618,16 @@ int RemoteServerInfo(const Remote& remote) {
   if (!status.ok()) return Report(remote, status);
   std::printf("dembufd %s at %s (host %s, up since %s)\n", info.version().c_str(),
               remote.address.c_str(), info.host().c_str(), info.started_at().c_str());
-  std::printf("workers %d x %d threads, running %d, queued %d of %d, database %s\n", info.workers(),
-              info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
-              info.database().c_str());
+  if (info.executor() == "slurm")
+    std::printf(
+        "jobs run on a Slurm cluster, %d CPUs each; running %d, queued %d of %d, "
+        "database %s\n",
+        info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
+        info.database().c_str());
+  else
+    std::printf("workers %d x %d threads, running %d, queued %d of %d, database %s\n",
+                info.workers(), info.threads_per_job(), info.running(), info.queue_depth(),
+                info.queue_limit(), info.database().c_str());
   return 0;
 }
 

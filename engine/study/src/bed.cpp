@@ -683,6 +683,15 @@ PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& reques
                     [&] { return PrepareFriction(scene, cut(), k.friction, request); });
 }
 
+PreparedBed GetSourceBed(const Scene& scene, BedCache& cache, const BedRequest& request) {
+  ValidateScene(scene);
+  if (!scene.bed.import.empty() || scene.bed.thickness_m <= 0.0)
+    throw SceneError("bed.thickness_m", "this scene's bed is not cut from a source bed");
+  const StageKeys k = Keys(scene);
+  return FindOrMake(cache, k.source, "source",
+                    [&] { return PrepareSource(scene, k.source, request); });
+}
+
 double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m) {
   if (beads.size() == 0) return 0.0;
   const double d_max = 2.0 * *std::max_element(beads.radius.begin(), beads.radius.end());

@@ -1,7 +1,10 @@
 #include "dembuf/study/run_output.h"
 
+#include <bit>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <iterator>
 #include <stdexcept>
 
 #include "dembuf/study/scene_fields.h"
@@ -113,6 +116,66 @@ void SampleCsvWriter::Commit() {
   m_out.close();
   if (!m_out) throw std::runtime_error("error writing " + m_partial.string());
   std::filesystem::rename(m_partial, m_final);
+}
+
+std::string PackSamples(const std::vector<ImpactSample>& samples) {
+  static_assert(std::endian::native == std::endian::little, "packed samples are little-endian");
+  std::string bytes(samples.size() * kPackedSampleBytes, '\0');
+  char* out = bytes.data();
+  for (const ImpactSample& s : samples) {
+    const double row[6] = {s.t_s,
+                           s.plate_force_N,
+                           s.wall_force_z_N,
+                           s.projectile_z_m,
+                           s.projectile_vz_m_s,
+                           s.projectile_force_z_N};
+    std::memcpy(out, row, sizeof row);
+    out += sizeof row;
+  }
+  return bytes;
+}
+
+std::vector<ImpactSample> UnpackSamples(std::string_view bytes) {
+  std::vector<ImpactSample> samples(bytes.size() / kPackedSampleBytes);
+  const char* in = bytes.data();
+  for (ImpactSample& s : samples) {
+    double row[6];
+    std::memcpy(row, in, sizeof row);
+    in += sizeof row;
+    s = {row[0], row[1], row[2], row[3], row[4], row[5]};
+  }
+  return samples;
+}
+
+SampleStreamWriter::SampleStreamWriter(const std::filesystem::path& path,
+                                       std::chrono::milliseconds flush_every)
+    : m_path(path), m_out(path, std::ios::binary | std::ios::trunc), m_flush_every(flush_every) {
+  if (!m_out) throw std::runtime_error("cannot write " + path.string());
+  m_last_flush = std::chrono::steady_clock::now();
+}
+
+void SampleStreamWriter::Write(const ImpactSample& sample) {
+  const std::string bytes = PackSamples({sample});
+  m_out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  const auto now = std::chrono::steady_clock::now();
+  if (now - m_last_flush >= m_flush_every) {
+    m_out.flush();
+    m_last_flush = now;
+  }
+}
+
+void SampleStreamWriter::Close() {
+  m_out.close();
+  if (!m_out) throw std::runtime_error("error writing " + m_path.string());
+}
+
+std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path,
+                                           std::uint64_t offset) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return {};
+  in.seekg(static_cast<std::streamoff>(offset));
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return UnpackSamples(bytes);
 }
 
 const std::vector<std::string>& RunOutputNames() {

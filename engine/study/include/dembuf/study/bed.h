@@ -170,6 +170,11 @@ bool NeedsFrictionStage(const Scene& scene);
 /// (and stored). Throws SceneError, SimulationError (a bed that will not settle) or Cancelled.
 PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request = {});
 
+/// Only the settled source bed a scene's bed is cut from: from the cache, or prepared (and
+/// stored). A cluster prepares it once, in a job of its own, before the jobs that cut it.
+/// Throws SceneError for a scene whose bed has no source (none, or imported).
+PreparedBed GetSourceBed(const Scene& scene, BedCache& cache, const BedRequest& request = {});
+
 /// The hash of the settled source bed a scene's bed is cut from ("" for none or an import):
 /// scenes that share it share the expensive settling.
 std::string BedSourceHash(const Scene& scene);

@@ -2,10 +2,13 @@
 // serves a local run and results fetched from the daemon.
 #pragma once
 
+#include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "dembuf/study/impact.h"
@@ -33,6 +36,35 @@ class SampleCsvWriter {
   std::filesystem::path m_partial;
   std::ofstream m_out;
 };
+
+/// Samples as bytes: rows of six little-endian doubles (the columns of plate_force.csv), exact
+/// to the bit. The daemon stores series so, and a cluster job streams them so.
+std::string PackSamples(const std::vector<ImpactSample>& samples);
+/// The whole rows of `bytes` (a trailing part row, still being written, is left out).
+std::vector<ImpactSample> UnpackSamples(std::string_view bytes);
+inline constexpr std::size_t kPackedSampleBytes = 6 * sizeof(double);
+
+/// Streams samples, packed, to a file that another process follows while the run goes (the
+/// daemon following a cluster job): the bytes reach the file at least every `flush_every`.
+class SampleStreamWriter {
+ public:
+  explicit SampleStreamWriter(
+      const std::filesystem::path& path,
+      std::chrono::milliseconds flush_every = std::chrono::milliseconds(200));
+  void Write(const ImpactSample& sample);
+  /// Flushes; throws when the file could not be written.
+  void Close();
+
+ private:
+  std::filesystem::path m_path;
+  std::ofstream m_out;
+  std::chrono::milliseconds m_flush_every;
+  std::chrono::steady_clock::time_point m_last_flush;
+};
+
+/// The whole samples of a stream file from byte `offset` on (a multiple of kPackedSampleBytes);
+/// none when the file does not exist yet.
+std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path, std::uint64_t offset);
 
 /// The files and folders a run writes into its folder (results, failure or interruption
 /// reports, plots, snapshots), so that replacing a run removes all of the run before and

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "dembuf/study/text_limits.h"
+#include "slurm.h"
 
 namespace dembuf::server {
 
@@ -47,7 +48,7 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
     throw ConfigError("configuration " + path + ": " + e.what());
   }
   // Every setting once: its key and where it goes. A key not here is refused.
-  using Target = std::variant<std::string*, int*, bool*, double*>;
+  using Target = std::variant<std::string*, int*, bool*, double*, std::vector<std::string>*>;
   const std::vector<std::pair<std::string, Target>> settings = {
       {"listen", &config.listen},
       {"db", &config.db},
@@ -71,11 +72,31 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"max_watch_streams_per_user", &config.max_watch_streams_per_user},
       {"max_watch_streams", &config.max_watch_streams},
       {"max_request_kb", &config.max_request_kb},
+      {"executor", &config.executor},
+      {"slurm.partition", &config.slurm.partition},
+      {"slurm.account", &config.slurm.account},
+      {"slurm.cpus_per_job", &config.slurm.cpus_per_job},
+      {"slurm.mem_per_job_mb", &config.slurm.mem_per_job_mb},
+      {"slurm.time_limit", &config.slurm.time_limit},
+      {"slurm.extra_args", &config.slurm.extra_args},
+      {"slurm.work_dir", &config.slurm.work_dir},
+      {"slurm.dembuf", &config.slurm.dembuf},
+      {"slurm.poll_s", &config.slurm.poll_s},
   };
-  for (const auto& entry : root.as_table()) {
+  // The settings with their tables' names: [slurm] work_dir = ... is "slurm.work_dir".
+  std::vector<std::pair<std::string, const toml::value*>> entries;
+  for (const auto& [key, value] : root.as_table()) {
+    if (key == "slurm" && value.is_table()) {
+      for (const auto& [inner, inner_value] : value.as_table())
+        entries.push_back({"slurm." + inner, &inner_value});
+    } else {
+      entries.push_back({key, &value});
+    }
+  }
+  for (const auto& entry : entries) {
     // (Named references, not a structured binding: clang 14 cannot capture one.)
     const std::string& key = entry.first;
-    const toml::value& value = entry.second;
+    const toml::value& value = *entry.second;
     const auto setting = std::find_if(settings.begin(), settings.end(),
                                       [&](const auto& s) { return s.first == key; });
     if (setting == settings.end())
@@ -156,6 +177,37 @@ void ValidateConfig(ServerConfig& config) {
                                     {"quota_memory_mb", config.quota_memory_mb}})
     require(value >= 0 && value <= 1e18,
             std::string(name) + ": must be 0 (no limit) to 1e18, not " + std::to_string(value));
+  require(config.executor == "threads" || config.executor == "slurm",
+          "executor: \"" + config.executor + "\" must be \"threads\" or \"slurm\"");
+  if (config.executor == "slurm") {
+    const auto& slurm = config.slurm;
+    require(!slurm.work_dir.empty(),
+            "slurm.work_dir: give a folder every node of the cluster sees (jobs, beds, results)");
+    require(slurm.cpus_per_job >= 1 && slurm.cpus_per_job <= 1024,
+            "slurm.cpus_per_job: must be 1 to 1024, not " + std::to_string(slurm.cpus_per_job));
+    require(slurm.mem_per_job_mb >= 0 && slurm.mem_per_job_mb <= 16 << 20,
+            "slurm.mem_per_job_mb: must be 0 (from the estimate) to 16777216, not " +
+                std::to_string(slurm.mem_per_job_mb));
+    require(slurm.time_limit.empty() || slurm::ParseTimeLimit(slurm.time_limit),
+            "slurm.time_limit: \"" + slurm.time_limit +
+                "\" is not a Slurm time (MM, MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS; at "
+                "most a year) or \"\" (from the estimate)");
+    require(slurm.poll_s >= 0.1 && slurm.poll_s <= 600,
+            "slurm.poll_s: must be 0.1 to 600, not " + std::to_string(slurm.poll_s));
+    // Names and values reach sbatch as single arguments, never through a shell; still, a
+    // partition or account is one word of Slurm's.
+    for (const auto& [name, value] :
+         {std::pair{"slurm.partition", slurm.partition}, {"slurm.account", slurm.account}})
+      require(value.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                      "0123456789_-.,") == std::string::npos,
+              std::string(name) + ": \"" + value +
+                  "\" is not a Slurm name (letters, digits, _ - . and commas)");
+    for (const std::string& arg : slurm.extra_args)
+      require(arg.rfind("--", 0) == 0 && arg.find('\n') == std::string::npos &&
+                  arg.rfind("--wrap", 0) != 0,
+              "slurm.extra_args: \"" + arg +
+                  "\" must be one sbatch option, written --name=value (not --wrap)");
+  }
   if (config.threads_per_job == 0) {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     config.threads_per_job = std::max(1, cores / config.workers);

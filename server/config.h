@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace dembuf::server {
 
@@ -36,6 +37,20 @@ struct ServerConfig {
   double quota_bead_steps = 1e12;  ///< beads times steps: about 17 core-hours
   double quota_samples = 1e6;      ///< force samples written (48 MB stored)
   double quota_memory_mb = 4096;   ///< peak memory of the run
+
+  /// Where jobs run: "threads" (the daemon's workers) or "slurm" (the [slurm] table's cluster).
+  std::string executor = "threads";
+  struct Slurm {
+    std::string partition;  ///< "" for the cluster's default
+    std::string account;    ///< "" for the user's default
+    int cpus_per_job = 1;
+    int mem_per_job_mb = 0;  ///< 0: from each job's estimate
+    std::string time_limit;  ///< Slurm's format ("30", "2:00:00", "1-00"); "" from the estimate
+    std::vector<std::string> extra_args;  ///< more sbatch arguments
+    std::string work_dir;                 ///< a folder every node sees (required)
+    std::string dembuf;                   ///< dembuf on the nodes; "" for the one beside dembufd
+    double poll_s = 2.0;                  ///< how often the daemon asks Slurm
+  } slurm;
 };
 
 /// A setting is unknown, of the wrong type or out of range; the message names it.

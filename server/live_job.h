@@ -37,7 +37,9 @@ struct LiveRead {
 
 class LiveJob {
  public:
-  explicit LiveJob(std::int64_t id) : m_id(id) {}
+  /// `first_sample`: how many of its samples are stored already (a job taken up again).
+  explicit LiveJob(std::int64_t id, std::int64_t first_sample = 0)
+      : m_id(id), m_first(first_sample) {}
 
   std::int64_t id() const { return m_id; }
 
@@ -136,7 +138,7 @@ class LiveJob {
   mutable std::mutex m_mutex;
   std::condition_variable m_changed;
   std::vector<ImpactSample> m_samples;  ///< from index m_first on; the earlier ones are stored
-  std::int64_t m_first = 0;
+  std::int64_t m_first;
   JobState m_state = JobState::kQueued;
   JobProgress m_progress;
   bool m_ended = false;

@@ -15,6 +15,7 @@
 #include <CLI/CLI.hpp>
 #include <cctype>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -24,9 +25,10 @@
 #include "config.h"
 #include "dembuf/study/version.h"
 #include "instance.h"
-#include "scheduler.h"
 #include "service.h"
+#include "slurm_executor.h"
 #include "store.h"
+#include "thread_executor.h"
 
 using namespace dembuf::server;
 
@@ -44,6 +46,15 @@ std::shared_ptr<spdlog::logger> MakeLogger(const ServerConfig& config) {
   log->set_level(spdlog::level::from_str(config.log_level));
   log->flush_on(spdlog::level::info);
   return log;
+}
+
+// A program installed beside this one (dembuf beside dembufd), else its name, found in PATH.
+std::string BesideThisProgram(const std::string& name) {
+  std::error_code error;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error && std::filesystem::exists(self.parent_path() / name))
+    return (self.parent_path() / name).string();
+  return name;
 }
 
 std::string HostName() {
@@ -75,6 +86,9 @@ int main(int argc, char** argv) {
                                "seconds SIGTERM waits for running jobs before requeueing them");
   auto* retry = app.add_option("--storage-retry", flags.storage_retry_s,
                                "seconds to wait before the next job once the disk was full");
+  auto* executor = app.add_option("--executor", flags.executor,
+                                  "where jobs run: threads (this machine) or slurm (the cluster "
+                                  "of the configuration's [slurm] table)");
   // Token administration: works on the database, does not start the server.
   std::string user;
   bool admin = false;
@@ -102,6 +116,7 @@ int main(int argc, char** argv) {
     if (*log_level) config.log_level = flags.log_level;
     if (*grace) config.shutdown_grace_s = flags.shutdown_grace_s;
     if (*retry) config.storage_retry_s = flags.storage_retry_s;
+    if (*executor) config.executor = flags.executor;
     ValidateConfig(config);
   } catch (const ConfigError& e) {
     std::cerr << "dembufd: " << e.what() << "\n";
@@ -163,16 +178,28 @@ int main(int argc, char** argv) {
     return kExitRuntime;
   }
 
-  SchedulerOptions options;
-  options.workers = config.workers;
-  options.threads_per_job = config.threads_per_job;
-  options.queue_limit = config.queue_limit;
-  options.storage_retry = std::chrono::seconds(config.storage_retry_s);
-  options.host = HostName();
-  Scheduler scheduler(*store, options, log);
+  std::unique_ptr<Executor> executor_ptr;
+  if (config.executor == "slurm") {
+    SlurmExecutorOptions options;
+    const ServerConfig::Slurm& s = config.slurm;
+    options.slurm = {s.partition,  s.account,  s.cpus_per_job, s.mem_per_job_mb, s.time_limit,
+                     s.extra_args, s.work_dir, s.dembuf,       s.poll_s};
+    options.queue_limit = config.queue_limit;
+    options.dembuf = !s.dembuf.empty() ? s.dembuf : BesideThisProgram("dembuf");
+    executor_ptr = std::make_unique<SlurmExecutor>(*store, options, log);
+  } else {
+    ThreadExecutorOptions options;
+    options.workers = config.workers;
+    options.threads_per_job = config.threads_per_job;
+    options.queue_limit = config.queue_limit;
+    options.storage_retry = std::chrono::seconds(config.storage_retry_s);
+    options.host = HostName();
+    executor_ptr = std::make_unique<ThreadExecutor>(*store, options, log);
+  }
+  Executor& scheduler = *executor_ptr;
   ServiceInfo info;
   info.database = config.db;
-  info.host = options.host;
+  info.host = HostName();
   info.started_at = UtcNow();
   info.max_sweep_jobs = config.max_sweep_jobs;
   // Beyond loopback, every request must name its user.

@@ -190,9 +190,9 @@ Status DembufService::Guard(const char* rpc, Handler&& handler) {
   }
 }
 
-DembufService::DembufService(Store& store, Scheduler& scheduler, ServiceInfo info,
+DembufService::DembufService(Store& store, Executor& executor, ServiceInfo info,
                              std::shared_ptr<spdlog::logger> log)
-    : m_store(store), m_scheduler(scheduler), m_info(std::move(info)), m_log(std::move(log)) {}
+    : m_store(store), m_executor(executor), m_info(std::move(info)), m_log(std::move(log)) {}
 
 void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out) {
   out->set_id(r.id);
@@ -210,9 +210,10 @@ void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out)
   out->set_finished_at(r.finished_at);
   out->set_host(r.host);
   out->set_code_version(r.code_version);
+  out->set_slurm_job_id(r.slurm_id);
   JobState state = r.state;
   JobProgress progress;
-  if (auto live = m_scheduler.Live(r.id)) {
+  if (auto live = m_executor.Live(r.id)) {
     progress = live->Progress();
   } else if (r.state == JobState::kDone) {
     progress.stage = "done";
@@ -272,7 +273,7 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     }
     if (Status s = CheckQueuedQuota(caller.name, 1); !s.ok()) return s;
     try {
-      m_scheduler.Admit(1, [&] {
+      m_executor.Admit(1, [&] {
         m_store.AddJob(job);
         return std::vector<JobRecord>{job};
       });
@@ -334,7 +335,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     }
     if (Status s = CheckQueuedQuota(caller.name, jobs.size()); !s.ok()) return s;
     try {
-      m_scheduler.Admit(jobs.size(), [&] {
+      m_executor.Admit(jobs.size(), [&] {
         m_store.AddSweep(sweep, jobs);
         return jobs;
       });
@@ -460,7 +461,7 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
     int cancelled = 0;
     try {
       for (const JobRecord& job : targets)
-        if (!IsFinal(job.state) && m_scheduler.Cancel(job.id)) ++cancelled;
+        if (!IsFinal(job.state) && m_executor.Cancel(job.id)) ++cancelled;
     } catch (const StorageFull& e) {
       m_log->error("a request found the disk full: {}", e.what());
       return DiskFull();
@@ -524,7 +525,7 @@ Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobR
     auto last_status = std::chrono::steady_clock::time_point{};
     while (!context->IsCancelled()) {
       // A running job is read live; else the store has the final word.
-      if (auto live = m_scheduler.Live(request->id())) {
+      if (auto live = m_executor.Live(request->id())) {
         LiveRead read = live->Read(next, kSamplesPerMessage, std::chrono::milliseconds(500));
         if (read.stored)  // already stored by the worker: a watcher that came late or fell behind
           read.samples = m_store.ReadSeries(request->id(), static_cast<std::int64_t>(next),
@@ -606,11 +607,13 @@ Status DembufService::ServerInfo(grpc::ServerContext* context, const v1::ServerI
     Caller caller;
     if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
     response->set_version(kVersion);
-    response->set_workers(m_scheduler.options().workers);
-    response->set_threads_per_job(m_scheduler.options().threads_per_job);
-    response->set_queue_depth(m_scheduler.queued());
-    response->set_queue_limit(m_scheduler.options().queue_limit);
-    response->set_running(m_scheduler.running());
+    const ExecutorInfo executor = m_executor.info();
+    response->set_executor(executor.kind);
+    response->set_workers(executor.workers);
+    response->set_threads_per_job(executor.threads_per_job);
+    response->set_queue_depth(m_executor.queued());
+    response->set_queue_limit(executor.queue_limit);
+    response->set_running(m_executor.running());
     response->set_database(m_info.database);
     response->set_host(m_info.host);
     response->set_started_at(m_info.started_at);

@@ -10,7 +10,7 @@
 
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
-#include "scheduler.h"
+#include "executor.h"
 #include "store.h"
 
 namespace dembuf::server {
@@ -37,7 +37,7 @@ struct Caller {
 
 class DembufService final : public v1::Dembuf::Service {
  public:
-  DembufService(Store& store, Scheduler& scheduler, ServiceInfo info,
+  DembufService(Store& store, Executor& executor, ServiceInfo info,
                 std::shared_ptr<spdlog::logger> log);
 
   grpc::Status SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest*,
@@ -82,7 +82,7 @@ class DembufService final : public v1::Dembuf::Service {
   void GiveBackWatch(const std::string& user);
 
   Store& m_store;
-  Scheduler& m_scheduler;
+  Executor& m_executor;
   std::mutex m_watch_mutex;
   std::map<std::string, int> m_watch_streams;  ///< open streams by user
   int m_watch_total = 0;

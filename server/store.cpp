@@ -1,9 +1,12 @@
 #include "store.h"
 
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <nlohmann/json.hpp>
+#include <random>
 
+#include "dembuf/study/run_output.h"
 #include "digest.h"
 #include "fault_injection.h"
 
@@ -96,38 +99,29 @@ CREATE TABLE series_chunks (
 -- How often a daemon died while running the job (kill -9, power cut, or the job itself).
 ALTER TABLE jobs ADD COLUMN crashes INTEGER NOT NULL DEFAULT 0;
 )sql",
+    R"sql(
+-- The Slurm executor: the cluster job that runs a job (0: none), and whether its user asked
+-- to cancel it (so that its end in Slurm reads as cancelled, not failed).
+ALTER TABLE jobs ADD COLUMN slurm_id INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE jobs ADD COLUMN cancel_requested INTEGER NOT NULL DEFAULT 0;
+-- The cluster jobs that prepare beds, one per bed hash, shared by every job that needs it.
+CREATE TABLE slurm_beds (
+  hash          TEXT PRIMARY KEY,
+  stage         TEXT NOT NULL,
+  slurm_id      INTEGER NOT NULL,
+  state         TEXT NOT NULL,
+  error         TEXT NOT NULL DEFAULT '',
+  job_id        INTEGER NOT NULL,  -- the job it was first submitted for
+  submitted_at  TEXT NOT NULL
+);
+-- Facts about this database: its daemon's id (in the names of its cluster jobs).
+CREATE TABLE meta (
+  key    TEXT PRIMARY KEY,
+  value  TEXT NOT NULL
+);
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
-
-constexpr int kSampleColumns = 6;
-
-std::string PackSamples(const std::vector<ImpactSample>& samples) {
-  std::string bytes(samples.size() * kSampleColumns * sizeof(double), '\0');
-  char* out = bytes.data();
-  for (const ImpactSample& s : samples) {
-    const double row[kSampleColumns] = {s.t_s,
-                                        s.plate_force_N,
-                                        s.wall_force_z_N,
-                                        s.projectile_z_m,
-                                        s.projectile_vz_m_s,
-                                        s.projectile_force_z_N};
-    std::memcpy(out, row, sizeof row);
-    out += sizeof row;
-  }
-  return bytes;
-}
-
-std::vector<ImpactSample> UnpackSamples(const std::string& bytes) {
-  std::vector<ImpactSample> samples(bytes.size() / (kSampleColumns * sizeof(double)));
-  const char* in = bytes.data();
-  for (ImpactSample& s : samples) {
-    double row[kSampleColumns];
-    std::memcpy(row, in, sizeof row);
-    in += sizeof row;
-    s = {row[0], row[1], row[2], row[3], row[4], row[5]};
-  }
-  return samples;
-}
 
 nlohmann::json AxesToJson(const std::vector<SweepAxis>& axes) {
   nlohmann::json out = nlohmann::json::array();
@@ -145,7 +139,7 @@ std::vector<SweepAxis> AxesFromJson(const std::string& text) {
 const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
-    "finished_at, host, code_version";
+    "finished_at, host, code_version, slurm_id, cancel_requested";
 
 }  // namespace
 
@@ -253,6 +247,8 @@ JobRecord Store::ReadJob(Statement& s) {
   j.finished_at = s.Text(15);
   j.host = s.Text(16);
   j.code_version = s.Text(17);
+  j.slurm_id = s.Int(18);
+  j.cancel_requested = s.Int(19) != 0;
   return j;
 }
 
@@ -405,7 +401,7 @@ void Store::AppendSeriesLocked(std::int64_t id, std::int64_t first,
   const auto chunk = static_cast<std::size_t>(std::max<std::int64_t>(m_options.chunk_samples, 1));
   for (std::size_t begin = 0; begin < samples.size(); begin += chunk) {
     const std::size_t end = std::min(samples.size(), begin + chunk);
-    const std::string bytes = PackSamples({samples.begin() + begin, samples.begin() + end});
+    const std::string bytes = report::PackSamples({samples.begin() + begin, samples.begin() + end});
     m_db->Prepare(
             "INSERT OR REPLACE INTO series_chunks (job_id, first_index, sample_count, data, "
             "sha256) VALUES (?, ?, ?, ?, ?)")
@@ -445,10 +441,10 @@ std::vector<ImpactSample> Store::ReadSeriesLocked(std::int64_t id, std::int64_t 
       throw damaged("samples " + std::to_string(from) + " to " + std::to_string(first - 1) +
                     " are missing");
     if (Sha256Hex(bytes) != s.Text(3) ||
-        bytes.size() != static_cast<std::size_t>(count) * kSampleColumns * sizeof(double))
+        bytes.size() != static_cast<std::size_t>(count) * report::kPackedSampleBytes)
       throw damaged("the chunk from sample " + std::to_string(first) +
                     " does not match its checksum");
-    const std::vector<ImpactSample> chunk = UnpackSamples(bytes);
+    const std::vector<ImpactSample> chunk = report::UnpackSamples(bytes);
     for (std::int64_t k = std::max<std::int64_t>(from - first, 0);
          k < count && static_cast<std::int64_t>(out.size()) < max; ++k)
       out.push_back(chunk[k]);
@@ -493,7 +489,7 @@ std::optional<JobResults> Store::GetResults(std::int64_t id) {
   const std::string legacy = s.Blob(2);  // a whole series, from before chunks
   s.Run();
   if (!legacy.empty()) {
-    results.samples = UnpackSamples(legacy);
+    results.samples = report::UnpackSamples(legacy);
     return results;
   }
   results.samples = ReadSeriesLocked(id, 0, count);
@@ -511,7 +507,7 @@ InterruptedJobs Store::RequeueInterrupted(const std::string& reason) {
                                ", crashes FROM jobs WHERE state IN ('preparing_bed', 'running')");
   s.Bind();
   std::vector<std::pair<JobRecord, std::int64_t>> found;
-  while (s.Step()) found.push_back({ReadJob(s), s.Int(18)});
+  while (s.Step()) found.push_back({ReadJob(s), s.Int(20)});
   InterruptedJobs out;
   for (const auto& [job, crashes] : found) {
     // The second time: this job may be what brought the daemon down; running it again could
@@ -558,6 +554,88 @@ std::vector<std::string> Store::BedsPreparedBy(std::int64_t job_id) {
   std::vector<std::string> beds;
   while (s.Step()) beds.push_back(s.Text(0) + " " + s.Text(1));
   return beds;
+}
+
+std::string Store::DaemonId() {
+  std::lock_guard lock(m_mutex);
+  Statement& read = m_db->Prepare("SELECT value FROM meta WHERE key = 'daemon_id'");
+  read.Bind();
+  if (read.Step()) {
+    std::string id = read.Text(0);
+    read.Run();
+    return id;
+  }
+  read.Run();
+  // Random, so that two daemons (or one whose database was replaced) never share job names.
+  std::random_device random;
+  char id[16];
+  std::snprintf(id, sizeof id, "%08x", random());
+  m_db->Prepare("INSERT INTO meta (key, value) VALUES ('daemon_id', ?)")
+      .Bind(std::string(id))
+      .Run();
+  return id;
+}
+
+std::vector<JobRecord> Store::UnfinishedJobs() {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(std::string("SELECT ") + kJobColumns +
+                               " FROM jobs WHERE state IN ('queued', 'preparing_bed', 'running') "
+                               "ORDER BY id");
+  s.Bind();
+  std::vector<JobRecord> jobs;
+  while (s.Step()) jobs.push_back(ReadJob(s));
+  return jobs;
+}
+
+void Store::SetSlurmId(std::int64_t id, std::int64_t slurm_id) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare("UPDATE jobs SET slurm_id = ? WHERE id = ?").Bind(slurm_id, id).Run();
+}
+
+void Store::RequestCancel(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare("UPDATE jobs SET cancel_requested = 1 WHERE id = ?").Bind(id).Run();
+}
+
+std::int64_t Store::SeriesLength(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT IFNULL(MAX(first_index + sample_count), 0) FROM series_chunks WHERE job_id = ?");
+  s.Bind(id);
+  s.Step();
+  const std::int64_t length = s.Int(0);
+  s.Run();
+  return length;
+}
+
+std::optional<SlurmBedJob> Store::GetSlurmBed(const std::string& hash) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT hash, stage, slurm_id, state, error, job_id FROM slurm_beds WHERE hash = ?");
+  s.Bind(hash);
+  if (!s.Step()) return std::nullopt;
+  SlurmBedJob bed{s.Text(0), s.Text(1), s.Int(2), s.Text(3), s.Text(4), s.Int(5)};
+  s.Run();
+  return bed;
+}
+
+std::vector<SlurmBedJob> Store::SlurmBedsInState(const std::string& state) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT hash, stage, slurm_id, state, error, job_id FROM slurm_beds WHERE state = ?");
+  s.Bind(state);
+  std::vector<SlurmBedJob> beds;
+  while (s.Step()) beds.push_back({s.Text(0), s.Text(1), s.Int(2), s.Text(3), s.Text(4), s.Int(5)});
+  return beds;
+}
+
+void Store::PutSlurmBed(const SlurmBedJob& bed) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare(
+          "INSERT OR REPLACE INTO slurm_beds (hash, stage, slurm_id, state, error, job_id, "
+          "submitted_at) VALUES (?, ?, ?, ?, ?, ?, ?)")
+      .Bind(bed.hash, bed.stage, bed.slurm_id, bed.state, bed.error, bed.job_id, UtcNow())
+      .Run();
 }
 
 void Store::LogEvent(std::int64_t job_id, const std::string& message) {

@@ -46,6 +46,19 @@ struct JobRecord {
   std::string finished_at;
   std::string host;
   std::string code_version;
+  std::int64_t slurm_id = 0;  ///< the cluster job running it (the Slurm executor); 0: none
+  bool cancel_requested = false;
+};
+
+/// A cluster job preparing a bed (the Slurm executor): one per bed hash, shared by every job
+/// that needs the bed.
+struct SlurmBedJob {
+  std::string hash;
+  std::string stage;  ///< "source" (only the source bed), or the bed's last: "cut", "friction"
+  std::int64_t slurm_id = 0;
+  std::string state;  ///< "submitted", "done" or "failed"
+  std::string error;
+  std::int64_t job_id = 0;  ///< the job it was first submitted for
 };
 
 struct SweepRecord {
@@ -153,6 +166,19 @@ class Store {
   bool RemoveUser(const std::string& name);
   bool AnyUsers();
   int CountQueuedBy(const std::string& owner);
+
+  /// This database's daemon id: 8 random hex digits, made once.
+  std::string DaemonId();
+  /// Jobs queued, preparing or running, oldest first.
+  std::vector<JobRecord> UnfinishedJobs();
+  void SetSlurmId(std::int64_t id, std::int64_t slurm_id);
+  /// Notes that the job's user asked to cancel it.
+  void RequestCancel(std::int64_t id);
+  /// How many samples of a running job are stored.
+  std::int64_t SeriesLength(std::int64_t id);
+  std::optional<SlurmBedJob> GetSlurmBed(const std::string& hash);
+  std::vector<SlurmBedJob> SlurmBedsInState(const std::string& state);
+  void PutSlurmBed(const SlurmBedJob& bed);
 
   /// Appends to the provenance log.
   void LogEvent(std::int64_t job_id, const std::string& message);

@@ -1,4 +1,4 @@
-#include "scheduler.h"
+#include "thread_executor.h"
 
 #include <omp.h>
 
@@ -25,7 +25,8 @@ constexpr std::int64_t kProgressEverySteps = 64;
 
 }  // namespace
 
-Scheduler::Scheduler(Store& store, SchedulerOptions options, std::shared_ptr<spdlog::logger> log)
+ThreadExecutor::ThreadExecutor(Store& store, ThreadExecutorOptions options,
+                               std::shared_ptr<spdlog::logger> log)
     : m_store(store),
       m_options(std::move(options)),
       m_log(std::move(log)),
@@ -40,11 +41,11 @@ Scheduler::Scheduler(Store& store, SchedulerOptions options, std::shared_ptr<spd
   });
 }
 
-Scheduler::~Scheduler() {
+ThreadExecutor::~ThreadExecutor() {
   Shutdown(std::chrono::seconds(0));
 }
 
-void Scheduler::Start() {
+void ThreadExecutor::Start() {
   const InterruptedJobs interrupted = m_store.RequeueInterrupted(
       "interrupted: the daemon stopped while this job ran; it runs again from the start");
   for (const JobRecord& job : interrupted.requeued)
@@ -62,7 +63,7 @@ void Scheduler::Start() {
   for (int w = 0; w < m_options.workers; ++w) m_workers.emplace_back([this, w] { WorkerLoop(w); });
 }
 
-void Scheduler::Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) {
+void ThreadExecutor::Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) {
   std::lock_guard admit(m_admit_mutex);  // one admission at a time: the check stays true
   {
     std::lock_guard lock(m_mutex);
@@ -76,7 +77,7 @@ void Scheduler::Admit(std::size_t count, const std::function<std::vector<JobReco
   for (const JobRecord& job : add()) m_queue.Push(job.id, {job.source_hash, job.bed_hash});
 }
 
-bool Scheduler::Cancel(std::int64_t id) {
+bool ThreadExecutor::Cancel(std::int64_t id) {
   if (const std::optional<BedNeeds> needs = m_queue.Remove(id)) {
     try {
       m_store.FinishJob(id, JobState::kCancelled, "cancelled while queued", {});
@@ -97,18 +98,18 @@ bool Scheduler::Cancel(std::int64_t id) {
   return false;
 }
 
-std::shared_ptr<LiveJob> Scheduler::Live(std::int64_t id) {
+std::shared_ptr<LiveJob> ThreadExecutor::Live(std::int64_t id) {
   std::lock_guard lock(m_mutex);
   auto it = m_running.find(id);
   return it == m_running.end() ? nullptr : it->second;
 }
 
-int Scheduler::running() const {
+int ThreadExecutor::running() const {
   std::lock_guard lock(m_mutex);
   return static_cast<int>(m_running.size());
 }
 
-void Scheduler::Shutdown(std::chrono::seconds grace) {
+void ThreadExecutor::Shutdown(std::chrono::seconds grace) {
   {
     std::lock_guard lock(m_mutex);
     if (m_stopping && m_workers.empty()) return;
@@ -129,14 +130,14 @@ void Scheduler::Shutdown(std::chrono::seconds grace) {
   m_workers.clear();  // joins
 }
 
-std::atomic<int>* Scheduler::StartLive(std::int64_t id) {
+std::atomic<int>* ThreadExecutor::StartLive(std::int64_t id) {
   std::lock_guard lock(m_mutex);
   std::shared_ptr<LiveJob>& live = m_running[id];
   live = std::make_shared<LiveJob>(id);
   return &live->threads;
 }
 
-void Scheduler::WorkerLoop(int worker) {
+void ThreadExecutor::WorkerLoop(int worker) {
   // Each job's engine uses this many OpenMP threads (a per-thread setting).
   omp_set_num_threads(m_options.threads_per_job);
   while (auto id = m_queue.Next([this](std::int64_t job) { return StartLive(job); })) {
@@ -168,8 +169,8 @@ void Scheduler::WorkerLoop(int worker) {
   }
 }
 
-void Scheduler::FailAfterError(std::int64_t id, const std::shared_ptr<LiveJob>& live,
-                               const std::string& what) {
+void ThreadExecutor::FailAfterError(std::int64_t id, const std::shared_ptr<LiveJob>& live,
+                                    const std::string& what) {
   const std::string error = "the server failed while running this job: " + what;
   m_log->error("job {}: {}", id, error);
   try {
@@ -181,18 +182,18 @@ void Scheduler::FailAfterError(std::int64_t id, const std::shared_ptr<LiveJob>& 
   live->End(JobState::kFailed);
 }
 
-void Scheduler::StoreSamples(std::int64_t id, LiveJob& live) {
+void ThreadExecutor::StoreSamples(std::int64_t id, LiveJob& live) {
   auto [first, samples] = live.UnstoredSamples();
   m_store.AppendSeries(id, first, samples);
   live.Stored(first + static_cast<std::int64_t>(samples.size()));
 }
 
-JobResults Scheduler::Rest(const LiveJob& live, const std::string& summary_json) {
+JobResults ThreadExecutor::Rest(const LiveJob& live, const std::string& summary_json) {
   auto [first, samples] = live.UnstoredSamples();
   return {summary_json, std::move(samples), first};
 }
 
-void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
+void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
   const std::optional<JobRecord> job = m_store.GetJob(id);
   if (!job) {
     live->End(JobState::kFailed);
@@ -262,8 +263,8 @@ void Scheduler::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
   }
 }
 
-void Scheduler::RequeueForStorage(std::int64_t id, const std::shared_ptr<LiveJob>& live,
-                                  const StorageFull& error) {
+void ThreadExecutor::RequeueForStorage(std::int64_t id, const std::shared_ptr<LiveJob>& live,
+                                       const StorageFull& error) {
   const std::string note = "the server's disk is full; the job waits and runs again from the start";
   m_log->error("job {}: {} (in {} s): {}", id, note, m_options.storage_retry.count(), error.what());
   try {

@@ -1,7 +1,8 @@
-// The job queue and the workers that run it. The queue is the one a local sweep uses
-// (RunQueue): jobs run oldest first, except that a job whose bed is being prepared by a running
-// job waits for that bed (its completion wakes the queue) while the workers take other jobs, so
-// a bed is prepared once, by one worker; the workers' cores are shared among the running jobs.
+// The thread executor: the job queue and the daemon's worker threads that run it. The queue is the
+// one a local sweep uses (RunQueue): jobs run oldest first, except that a job whose bed is being
+// prepared by a running job waits for that bed (its completion wakes the queue) while the workers
+// take other jobs, so a bed is prepared once, by one worker; the workers' cores are shared among
+// the running jobs.
 #pragma once
 
 #include <spdlog/logger.h>
@@ -19,12 +20,11 @@
 
 #include "dembuf/study/bed.h"
 #include "dembuf/study/run_queue.h"
-#include "live_job.h"
-#include "store.h"
+#include "executor.h"
 
 namespace dembuf::server {
 
-struct SchedulerOptions {
+struct ThreadExecutorOptions {
   int workers = 1;
   int threads_per_job = 1;
   int queue_limit = 1000;  ///< queued jobs at most
@@ -34,37 +34,33 @@ struct SchedulerOptions {
   std::string host;
 };
 
-/// The queue cannot take the jobs.
-class QueueFull : public std::runtime_error {
+class ThreadExecutor final : public Executor {
  public:
-  using std::runtime_error::runtime_error;
-};
-
-class Scheduler {
- public:
-  Scheduler(Store& store, SchedulerOptions options, std::shared_ptr<spdlog::logger> log);
-  ~Scheduler();
+  ThreadExecutor(Store& store, ThreadExecutorOptions options, std::shared_ptr<spdlog::logger> log);
+  ~ThreadExecutor() override;
 
   /// Re-queues the jobs a previous daemon left running, loads the queue, starts the workers.
-  void Start();
+  void Start() override;
 
   /// Stores new jobs (with `add`, which inserts them into the database) and queues them, if
   /// the queue has room for `count` more; else throws QueueFull and stores nothing.
-  void Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add);
+  void Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) override;
 
   /// Cancels a queued or running job. False if it had already ended.
-  bool Cancel(std::int64_t id);
+  bool Cancel(std::int64_t id) override;
 
   /// The job while it runs (null when queued or ended).
-  std::shared_ptr<LiveJob> Live(std::int64_t id);
+  std::shared_ptr<LiveJob> Live(std::int64_t id) override;
 
-  int queued() const { return static_cast<int>(m_queue.queued()); }
-  int running() const;
-  const SchedulerOptions& options() const { return m_options; }
+  int queued() const override { return static_cast<int>(m_queue.queued()); }
+  int running() const override;
+  ExecutorInfo info() const override {
+    return {"threads", m_options.workers, m_options.threads_per_job, m_options.queue_limit};
+  }
 
   /// Stops taking jobs; waits up to `grace` for the running ones, then interrupts them and
   /// puts them back in the queue for the next start. Returns when every worker has stopped.
-  void Shutdown(std::chrono::seconds grace);
+  void Shutdown(std::chrono::seconds grace) override;
 
  private:
   void WorkerLoop(int worker);
@@ -85,7 +81,7 @@ class Scheduler {
                          const StorageFull& error);
 
   Store& m_store;
-  SchedulerOptions m_options;
+  ThreadExecutorOptions m_options;
   std::shared_ptr<spdlog::logger> m_log;
   BedCache m_beds;
   RunQueue m_queue;

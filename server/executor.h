@@ -1,0 +1,53 @@
+// Where jobs run: on the daemon's own worker threads (ThreadExecutor) or as jobs of the lab's
+// Slurm cluster (SlurmExecutor). Both take jobs stored in the database, keep their state
+// there, and hold a LiveJob for every running job, which `watch` reads.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "live_job.h"
+#include "store.h"
+
+namespace dembuf::server {
+
+/// The queue cannot take the jobs.
+class QueueFull : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// What server-info shows of an executor.
+struct ExecutorInfo {
+  std::string kind;  ///< "threads" or "slurm"
+  int workers = 0;   ///< jobs run at once (threads); 0: as many as the cluster places
+  int threads_per_job = 1;
+  int queue_limit = 0;
+};
+
+class Executor {
+ public:
+  virtual ~Executor() = default;
+
+  /// Takes up the jobs a previous daemon left, and starts.
+  virtual void Start() = 0;
+  /// Stores new jobs (with `add`, which inserts them into the database) and queues them, if
+  /// the queue has room for `count` more; else throws QueueFull and stores nothing.
+  virtual void Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) = 0;
+  /// Cancels a queued or running job. False if it had already ended.
+  virtual bool Cancel(std::int64_t id) = 0;
+  /// The job while it runs (null when queued or ended).
+  virtual std::shared_ptr<LiveJob> Live(std::int64_t id) = 0;
+  virtual int queued() const = 0;
+  virtual int running() const = 0;
+  virtual ExecutorInfo info() const = 0;
+  /// Stops taking jobs and waits up to `grace` for what runs here.
+  virtual void Shutdown(std::chrono::seconds grace) = 0;
+};
+
+}  // namespace dembuf::server

@@ -1,0 +1,104 @@
+// Slurm through its command-line tools (sbatch, squeue, scontrol, scancel): stable across
+// versions, nothing to link, and they work wherever the daemon's user may submit jobs. What
+// they print is parsed as untrusted text: a line that does not parse is left out.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace dembuf::server::slurm {
+
+/// A Slurm command failed (not found, refused the job, timed out); the message has its output.
+class SlurmError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// A job as squeue or scontrol describes it.
+struct JobStatus {
+  std::int64_t id = 0;
+  std::string name;
+  std::string state;   ///< PENDING, RUNNING, COMPLETED, FAILED, CANCELLED, TIMEOUT, ...
+  std::string reason;  ///< why it waits or ended (Dependency, TimeLimit, None, ...)
+  std::string node;    ///< where it runs ("" while pending)
+};
+
+/// Whether a job in this state will not run again (COMPLETED, FAILED, CANCELLED, TIMEOUT,
+/// OUT_OF_MEMORY, NODE_FAIL, PREEMPTED, BOOT_FAIL, DEADLINE).
+bool IsFinalState(std::string_view state);
+
+/// squeue's output format: id, name, state, reason, node.
+inline constexpr const char* kSqueueFormat = "%i|%j|%T|%r|%N";
+/// The lines of `squeue -h -o kSqueueFormat`.
+std::vector<JobStatus> ParseSqueue(std::string_view output);
+/// One line of `scontrol show job -o` (JobId=.. JobName=.. JobState=.. Reason=..).
+std::optional<JobStatus> ParseScontrolJob(std::string_view line);
+/// The job id sbatch --parsable prints ("123" or "123;cluster").
+std::optional<std::int64_t> ParseSbatchId(std::string_view output);
+
+/// A Slurm time limit in seconds: "MM", "MM:SS", "HH:MM:SS", "D-HH", "D-HH:MM", "D-HH:MM:SS".
+std::optional<int> ParseTimeLimit(std::string_view text);
+/// Seconds as Slurm's "MM:SS" (minutes may pass 59).
+std::string FormatTimeLimit(int seconds);
+
+/// What the daemon asks of the cluster for every job (dembufd's [slurm] settings).
+struct Settings {
+  std::string partition;  ///< "" for the cluster's default
+  std::string account;    ///< "" for the user's default
+  int cpus_per_job = 1;
+  int mem_per_job_mb = 0;               ///< 0: from the job's estimate
+  std::string time_limit;               ///< Slurm's format; "" from the job's estimate
+  std::vector<std::string> extra_args;  ///< more sbatch arguments, one word each
+  std::string work_dir;                 ///< a folder every node sees: job folders, bed cache
+  std::string dembuf;          ///< the dembuf program on the nodes; "" for the one beside dembufd
+  double poll_s = 2.0;         ///< how often squeue is asked
+  int command_timeout_s = 60;  ///< a Slurm command that takes longer has failed
+};
+
+/// One job to submit.
+struct Submission {
+  std::string name;    ///< dembuf-<daemon id>-<job id>, or -bed-<hash>
+  std::string folder;  ///< its working folder (--chdir)
+  std::string log;     ///< its stdout and stderr (-o)
+  int cpus = 1;
+  int mem_mb = 0;                      ///< 0: the cluster's default
+  int time_s = 0;                      ///< 0: the partition's default
+  std::vector<std::int64_t> after_ok;  ///< jobs that must end well first
+  std::vector<std::string> command;    ///< the program and its arguments
+};
+
+/// The sbatch arguments of a submission: every value one argument, and the command a single
+/// shell word each (sbatch --wrap runs a shell line: each word is quoted).
+std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& job);
+
+/// Runs the commands. Thread-compatible (no state besides the settings).
+class Client {
+ public:
+  explicit Client(Settings settings) : m_settings(std::move(settings)) {}
+
+  /// Submits; returns the Slurm job id. Throws SlurmError with sbatch's words.
+  std::int64_t Submit(const Submission& job);
+  /// The state of these jobs: squeue first; the jobs it does not list (finished long ago,
+  /// or unknown) from scontrol. A job neither knows is absent. Throws SlurmError when
+  /// squeue itself cannot be run.
+  std::map<std::int64_t, JobStatus> Query(const std::vector<std::int64_t>& ids);
+  /// Jobs whose name starts with `prefix` (the daemon's own: to re-adopt after a restart).
+  std::vector<JobStatus> FindByNamePrefix(const std::string& prefix);
+  /// Cancels; a job already ended is no error.
+  void Cancel(std::int64_t id);
+
+  const Settings& settings() const { return m_settings; }
+
+ private:
+  std::string Run(const std::vector<std::string>& args, bool check = true);
+
+  Settings m_settings;
+};
+
+}  // namespace dembuf::server::slurm

@@ -1,0 +1,488 @@
+#include "slurm_executor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "dembuf/study/bed.h"
+#include "dembuf/study/resource_estimate.h"
+#include "dembuf/study/run_output.h"
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/version.h"
+
+namespace dembuf::server {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Why Slurm ended a job that left no result, in words, with Slurm's state name in them.
+std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int64_t slurm_id) {
+  const std::string job = "Slurm job " + std::to_string(slurm_id);
+  if (!status) return job + " is unknown to Slurm and left no result (its state was wiped?)";
+  const std::string& state = status->state;
+  if (state == "TIMEOUT") return job + " passed its time limit: TIMEOUT";
+  if (state == "OUT_OF_MEMORY") return job + " passed its memory limit: OUT_OF_MEMORY";
+  if (state == "NODE_FAIL") return job + " lost its node: NODE_FAIL";
+  if (state == "CANCELLED")
+    return job + " was cancelled outside dembuf (scancel, or an administrator): CANCELLED";
+  if (state == "COMPLETED") return job + " ended without writing its result: COMPLETED";
+  return job + " ended: " + state +
+         (status->reason.empty() || status->reason == "None" ? "" : " (" + status->reason + ")");
+}
+
+std::string BedWords(const std::string& stage) {
+  return stage == "source" ? "the source bed" : "the bed";
+}
+
+}  // namespace
+
+SlurmExecutor::SlurmExecutor(Store& store, SlurmExecutorOptions options,
+                             std::shared_ptr<spdlog::logger> log)
+    : m_store(store),
+      m_options(std::move(options)),
+      m_log(std::move(log)),
+      m_slurm(m_options.slurm),
+      m_work(fs::absolute(m_options.slurm.work_dir)) {}
+
+SlurmExecutor::~SlurmExecutor() {
+  Shutdown(std::chrono::seconds(0));
+}
+
+void SlurmExecutor::Start() {
+  m_daemon_id = m_store.DaemonId();
+  for (const char* folder : {"beds", "jobs", "bed-jobs"}) fs::create_directories(m_work / folder);
+  Adopt();
+  m_log->info("jobs run on Slurm as dembuf-{}-<job id>, {} CPUs each, in {}; nodes run {}",
+              m_daemon_id, m_options.slurm.cpus_per_job, m_work.string(), m_options.dembuf);
+  m_loop = std::jthread([this] { Loop(); });
+}
+
+void SlurmExecutor::Adopt() {
+  std::vector<slurm::JobStatus> in_slurm;
+  try {
+    in_slurm = m_slurm.FindByNamePrefix(JobName(0).substr(0, JobName(0).size() - 1));
+  } catch (const slurm::SlurmError& e) {
+    m_log->error("cannot ask Slurm for this daemon's jobs: {}", e.what());
+  }
+  for (const JobRecord& job : m_store.UnfinishedJobs()) {
+    if (job.slurm_id != 0) {
+      m_log->info("job {}: taken up again in Slurm job {}", job.id, job.slurm_id);
+      continue;
+    }
+    // Submitted by a daemon that died before it could store the Slurm id?
+    const auto found = std::find_if(in_slurm.begin(), in_slurm.end(),
+                                    [&](const auto& s) { return s.name == JobName(job.id); });
+    if (found != in_slurm.end()) {
+      m_store.SetSlurmId(job.id, found->id);
+      m_log->warn("job {}: found in Slurm as job {}; taken up, not submitted again", job.id,
+                  found->id);
+    } else if (job.state != JobState::kQueued) {
+      // Left running by the thread executor before a change of executor.
+      const std::string note = "interrupted: the daemon stopped while this job ran; it runs again";
+      m_store.SetState(job.id, JobState::kQueued, note);
+      m_store.LogEvent(job.id, note);
+    }
+  }
+}
+
+void SlurmExecutor::Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) {
+  std::lock_guard admit(m_admit_mutex);
+  {
+    std::lock_guard lock(m_mutex);
+    if (m_stopping) throw QueueFull("the daemon is shutting down");
+  }
+  const std::size_t waiting = static_cast<std::size_t>(queued());
+  if (waiting + count > static_cast<std::size_t>(m_options.queue_limit))
+    throw QueueFull("the queue holds " + std::to_string(waiting) + " jobs; " +
+                    std::to_string(count) + " more would pass its limit of " +
+                    std::to_string(m_options.queue_limit));
+  add();
+  {
+    std::lock_guard lock(m_mutex);
+    m_woken = true;
+  }
+  m_wake.notify_all();
+}
+
+bool SlurmExecutor::Cancel(std::int64_t id) {
+  std::lock_guard work(m_work_mutex);  // not while a pass submits it
+  const std::optional<JobRecord> job = m_store.GetJob(id);
+  if (!job || IsFinal(job->state)) return false;
+  m_store.RequestCancel(id);
+  if (job->slurm_id == 0) {
+    m_store.FinishJob(id, JobState::kCancelled, "cancelled while queued", {});
+    m_log->info("job {}: cancelled while queued", id);
+    return true;
+  }
+  // It ends when Slurm says so (the next pass records it): the run gets SIGTERM first.
+  try {
+    m_slurm.Cancel(job->slurm_id);
+  } catch (const slurm::SlurmError& e) {
+    m_log->error("job {}: scancel {}: {}", id, job->slurm_id, e.what());
+    throw std::runtime_error("Slurm did not take the cancel: " + std::string(e.what()));
+  }
+  m_log->info("job {}: cancel requested (scancel {})", id, job->slurm_id);
+  {
+    std::lock_guard lock(m_mutex);
+    m_woken = true;
+  }
+  m_wake.notify_all();
+  return true;
+}
+
+std::shared_ptr<LiveJob> SlurmExecutor::Live(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  const auto it = m_followed.find(id);
+  return it == m_followed.end() ? nullptr : it->second.live;
+}
+
+int SlurmExecutor::queued() const {
+  return m_store.CountQueued();
+}
+
+int SlurmExecutor::running() const {
+  std::lock_guard lock(m_mutex);
+  return static_cast<int>(m_followed.size());
+}
+
+void SlurmExecutor::Shutdown(std::chrono::seconds) {
+  {
+    std::lock_guard lock(m_mutex);
+    if (m_stopping && !m_loop.joinable()) return;
+    m_stopping = true;
+  }
+  m_wake.notify_all();
+  if (m_loop.joinable()) m_loop.join();
+  std::lock_guard lock(m_mutex);
+  if (!m_followed.empty())
+    m_log->info("{} jobs go on running in Slurm; the next start takes them up", m_followed.size());
+  // Watchers see the stream end; the job itself is not ended.
+  for (auto& [id, followed] : m_followed) followed.live->End(JobState::kRunning);
+  m_followed.clear();
+}
+
+void SlurmExecutor::Loop() {
+  const auto interval = std::chrono::milliseconds(
+      static_cast<std::int64_t>(std::max(0.1, m_options.slurm.poll_s) * 1000));
+  for (;;) {
+    try {
+      Tick();
+    } catch (const std::exception& e) {
+      // The database or Slurm failed for now: the next pass tries again.
+      m_log->error("following the cluster: {}", e.what());
+    }
+    std::unique_lock lock(m_mutex);
+    m_wake.wait_for(lock, interval, [&] { return m_stopping || m_woken; });
+    m_woken = false;
+    if (m_stopping) return;
+  }
+}
+
+void SlurmExecutor::Tick() {
+  std::lock_guard work(m_work_mutex);
+  SubmitQueued();
+  std::vector<std::int64_t> ids;
+  for (const SlurmBedJob& bed : m_store.SlurmBedsInState("submitted")) ids.push_back(bed.slurm_id);
+  for (const JobRecord& job : m_store.UnfinishedJobs())
+    if (job.slurm_id != 0) ids.push_back(job.slurm_id);
+  // Slurm first, then the folders: a run whose files are not there yet when Slurm says it
+  // ended has really ended without them.
+  const std::map<std::int64_t, slurm::JobStatus> status = m_slurm.Query(ids);
+  PollBeds(status);
+  PollJobs(status);
+}
+
+std::string SlurmExecutor::JobName(std::int64_t id) const {
+  return "dembuf-" + m_daemon_id + "-" + std::to_string(id);
+}
+
+fs::path SlurmExecutor::JobFolder(std::int64_t id) const {
+  return m_work / "jobs" / (m_daemon_id + "-" + std::to_string(id));
+}
+
+void SlurmExecutor::SubmitQueued() {
+  for (const JobRecord& job : m_store.UnfinishedJobs()) {
+    if (job.slurm_id != 0 || job.state != JobState::kQueued || job.cancel_requested) continue;
+    {
+      std::lock_guard lock(m_mutex);
+      if (m_stopping) return;
+    }
+    try {
+      Submit(job);
+    } catch (const slurm::SlurmError& e) {
+      const std::string what = e.what();
+      // sbatch says "Batch job submission failed" when the cluster refuses this job (a
+      // partition, memory or time it does not have): the job fails. Anything else (no
+      // controller, no configuration) is the cluster's trouble: the job waits for it.
+      if (what.find("submission failed") == std::string::npos) {
+        m_log->error("job {}: cannot reach Slurm; trying again in a moment: {}", job.id, what);
+        return;
+      }
+      m_store.FinishJob(job.id, JobState::kFailed, "Slurm refused the job: " + what, {});
+      m_log->error("job {}: Slurm refused it: {}", job.id, what);
+    }
+  }
+}
+
+void SlurmExecutor::Size(slurm::Submission& submission, const std::string& scene_toml,
+                         bool bed_only) const {
+  const slurm::Settings& settings = m_options.slurm;
+  submission.cpus = settings.cpus_per_job;
+  const ResourceEstimate cost = EstimateResources(LoadSceneText(scene_toml, "scene"));
+  submission.mem_mb = settings.mem_per_job_mb > 0
+                          ? settings.mem_per_job_mb
+                          : static_cast<int>(std::ceil(cost.memory_bytes_max * 1.5 / 1e6)) + 256;
+  if (!settings.time_limit.empty()) {
+    submission.time_s = slurm::ParseTimeLimit(settings.time_limit).value_or(0);
+  } else {
+    // Three times the prediction and ten minutes more: a slow node or a bed that settles
+    // slowly still finishes, and a run that hangs is ended within hours, not days.
+    std::vector<std::string> prepared;  // an impact's beds are prepared by jobs before it
+    if (!bed_only)
+      for (const StageEstimate& stage : cost.stages) prepared.push_back(stage.hash);
+    const double predicted = cost.PredictedSeconds(settings.cpus_per_job, prepared);
+    submission.time_s = static_cast<int>(std::min(3.0 * predicted + 600.0, 365.0 * 86400));
+  }
+}
+
+std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& stage,
+                                   const JobRecord& job, std::int64_t after) {
+  if (hash.empty() || fs::exists(m_work / "beds" / (hash + ".bed"))) return 0;
+  if (const auto bed = m_store.GetSlurmBed(hash); bed && bed->state == "submitted")
+    return bed->slurm_id;  // another job's, shared
+  const fs::path folder = m_work / "bed-jobs" / hash;
+  fs::create_directories(folder);
+  report::WriteFileAtomically(folder / "scene.toml", job.scene_toml);
+  slurm::Submission submission;
+  submission.name = "dembuf-" + m_daemon_id + "-bed-" + hash;
+  submission.folder = folder.string();
+  submission.log = (folder / "slurm.log").string();
+  Size(submission, job.scene_toml, true);
+  if (after != 0) submission.after_ok.push_back(after);
+  submission.command = {"env",
+                        "OMP_NUM_THREADS=" + std::to_string(m_options.slurm.cpus_per_job),
+                        m_options.dembuf,
+                        "prepare-bed",
+                        (folder / "scene.toml").string(),
+                        "--bed-cache",
+                        (m_work / "beds").string()};
+  if (stage == "source") submission.command.push_back("--source-only");
+  const std::int64_t slurm_id = m_slurm.Submit(submission);
+  m_store.PutSlurmBed({hash, stage, slurm_id, "submitted", "", job.id});
+  m_log->info("job {}: {} {} is prepared by Slurm job {}", job.id, BedWords(stage), hash, slurm_id);
+  return slurm_id;
+}
+
+void SlurmExecutor::Submit(const JobRecord& job) {
+  const fs::path folder = JobFolder(job.id);
+  fs::create_directories(folder);
+  report::WriteFileAtomically(folder / "scene.toml", job.scene_toml);
+  // Only the source when the bed is cut from one: the source is shared by many beds.
+  std::int64_t bed_after = 0;
+  if (!job.bed_hash.empty() && !fs::exists(m_work / "beds" / (job.bed_hash + ".bed"))) {
+    const std::int64_t source = BedJob(job.source_hash, "source", job, 0);
+    const std::vector<BedStage> stages = BedStagesOf(LoadSceneText(job.scene_toml, "scene"));
+    bed_after = BedJob(job.bed_hash, stages.empty() ? "cut" : stages.back().stage, job, source);
+  }
+  slurm::Submission submission;
+  submission.name = JobName(job.id);
+  submission.folder = folder.string();
+  submission.log = (folder / "slurm.log").string();
+  Size(submission, job.scene_toml, false);
+  if (bed_after != 0) submission.after_ok.push_back(bed_after);
+  submission.command = {"env",
+                        "OMP_NUM_THREADS=" + std::to_string(m_options.slurm.cpus_per_job),
+                        m_options.dembuf,
+                        "run",
+                        (folder / "scene.toml").string(),
+                        "--out",
+                        (folder / "out").string(),
+                        "--force",
+                        "--yes",
+                        "--no-plots",
+                        "--bed-cache",
+                        (m_work / "beds").string(),
+                        "--samples-out",
+                        (folder / "samples.bin").string()};
+  const std::int64_t slurm_id = m_slurm.Submit(submission);
+  m_store.SetSlurmId(job.id, slurm_id);
+  m_store.LogEvent(job.id, "submitted to Slurm as job " + std::to_string(slurm_id) + " (" +
+                               submission.name + ")");
+  m_log->info("job {}: submitted to Slurm as job {}{}", job.id, slurm_id,
+              bed_after ? " after its bed, job " + std::to_string(bed_after) : "");
+}
+
+void SlurmExecutor::PollBeds(const std::map<std::int64_t, slurm::JobStatus>& status) {
+  for (SlurmBedJob bed : m_store.SlurmBedsInState("submitted")) {
+    const auto it = status.find(bed.slurm_id);
+    std::optional<slurm::JobStatus> s;
+    if (it != status.end() && it->second.name == "dembuf-" + m_daemon_id + "-bed-" + bed.hash)
+      s = it->second;
+    if (fs::exists(m_work / "beds" / (bed.hash + ".bed"))) {
+      bed.state = "done";
+      m_store.PutSlurmBed(bed);
+      m_store.RecordBedPreparation(bed.hash, bed.stage, bed.job_id);
+      m_log->info("{} {} is ready (Slurm job {})", BedWords(bed.stage), bed.hash, bed.slurm_id);
+      continue;
+    }
+    if (s && !slurm::IsFinalState(s->state)) continue;
+    const std::string last = LastError(m_work / "bed-jobs" / bed.hash / "slurm.log");
+    bed.state = "failed";
+    bed.error = SlurmReason(s, bed.slurm_id) + (last.empty() ? "" : "; it said: " + last);
+    m_store.PutSlurmBed(bed);
+    m_log->error("{} {} could not be prepared: {}", BedWords(bed.stage), bed.hash, bed.error);
+    FailDependents(bed.hash, BedWords(bed.stage) + " could not be prepared: " + bed.error);
+  }
+}
+
+void SlurmExecutor::FailDependents(const std::string& bed_hash, const std::string& why) {
+  for (const JobRecord& job : m_store.UnfinishedJobs()) {
+    if (job.bed_hash != bed_hash && job.source_hash != bed_hash) continue;
+    if (job.state != JobState::kQueued) continue;  // running: its bed was there
+    // A bed to be cut from a failed source waits for nothing now.
+    if (auto bed = m_store.GetSlurmBed(job.bed_hash);
+        bed && job.bed_hash != bed_hash && bed->state == "submitted") {
+      m_slurm.Cancel(bed->slurm_id);
+      bed->state = "failed";
+      bed->error = why;
+      m_store.PutSlurmBed(*bed);
+    }
+    if (job.slurm_id != 0) m_slurm.Cancel(job.slurm_id);
+    m_store.FinishJob(job.id, JobState::kFailed, why, {});
+    m_log->error("job {}: failed: {}", job.id, why);
+  }
+}
+
+void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& status) {
+  for (const JobRecord& job : m_store.UnfinishedJobs()) {
+    if (job.slurm_id == 0) continue;
+    std::optional<slurm::JobStatus> s;
+    // A job of that id but another name is not ours: Slurm's ids began again.
+    if (const auto it = status.find(job.slurm_id);
+        it != status.end() && it->second.name == JobName(job.id))
+      s = it->second;
+    const fs::path out = JobFolder(job.id) / "out";
+    const bool ended = fs::exists(out / "summary.json") || fs::exists(out / "failure.json") || !s ||
+                       slurm::IsFinalState(s->state);
+    if (ended) {
+      // A run that began and ended between two looks: it ran all the same.
+      if (job.state == JobState::kQueued && fs::exists(out))
+        m_store.MarkStarted(job.id, JobState::kRunning, s ? s->node : "", kVersion);
+      Finish(job, s);
+      continue;
+    }
+    if (s->state != "RUNNING" && s->state != "COMPLETING") continue;  // pending
+    if (job.state != JobState::kRunning) {
+      m_store.MarkStarted(job.id, JobState::kRunning, s->node, kVersion);
+      m_log->info("job {}: runs on {} (Slurm job {})", job.id, s->node, job.slurm_id);
+    }
+    Followed* followed = nullptr;
+    {
+      std::lock_guard lock(m_mutex);
+      if (const auto it = m_followed.find(job.id); it != m_followed.end()) followed = &it->second;
+    }
+    if (!followed) followed = &StartFollowing(job);
+    Follow(job.id, *followed);
+  }
+}
+
+SlurmExecutor::Followed& SlurmExecutor::StartFollowing(const JobRecord& job) {
+  Followed followed;
+  followed.live = std::make_shared<LiveJob>(job.id, m_store.SeriesLength(job.id));
+  followed.live->SetState(JobState::kRunning);
+  try {
+    const ResourceEstimate cost = EstimateResources(LoadSceneText(job.scene_toml, "scene"));
+    followed.expected_end_s = cost.flight_time_s + cost.impact_steps_max * cost.dt_s;
+  } catch (const std::exception&) {
+    followed.expected_end_s = 0.0;  // progress unknown; the samples still come
+  }
+  std::lock_guard lock(m_mutex);
+  return m_followed[job.id] = std::move(followed);
+}
+
+void SlurmExecutor::Follow(std::int64_t id, Followed& followed) {
+  LiveJob& live = *followed.live;
+  auto [first, held] = live.UnstoredSamples();
+  const std::int64_t read = first + static_cast<std::int64_t>(held.size());
+  const std::vector<ImpactSample> fresh = report::ReadSampleStream(
+      JobFolder(id) / "samples.bin", static_cast<std::uint64_t>(read) * report::kPackedSampleBytes);
+  for (const ImpactSample& sample : fresh) live.Append(sample);
+  if (!fresh.empty()) {
+    const double t = fresh.back().t_s;
+    live.SetProgress("impact", followed.expected_end_s > 0 ? t / followed.expected_end_s : 0.0, t,
+                     0);
+  }
+  if (live.Unstored() >= static_cast<std::size_t>(m_store.options().chunk_samples)) {
+    auto [from, samples] = live.UnstoredSamples();
+    m_store.AppendSeries(id, from, samples);
+    live.Stored(from + static_cast<std::int64_t>(samples.size()));
+  }
+}
+
+void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobStatus>& status) {
+  const fs::path folder = JobFolder(job.id);
+  // The samples not yet stored: what the live job holds, then the rest of the file.
+  std::shared_ptr<LiveJob> live = Live(job.id);
+  std::int64_t first = m_store.SeriesLength(job.id);
+  std::vector<ImpactSample> rest;
+  if (live) std::tie(first, rest) = live->UnstoredSamples();
+  const std::vector<ImpactSample> tail = report::ReadSampleStream(
+      folder / "samples.bin",
+      static_cast<std::uint64_t>(first + static_cast<std::int64_t>(rest.size())) *
+          report::kPackedSampleBytes);
+  rest.insert(rest.end(), tail.begin(), tail.end());
+
+  JobState state = JobState::kFailed;
+  std::string error;
+  std::string summary;
+  if (fs::exists(folder / "out" / "summary.json")) {
+    state = JobState::kDone;
+    summary = ReadText(folder / "out" / "summary.json");
+  } else if (fs::exists(folder / "out" / "failure.json")) {
+    try {
+      const nlohmann::json failure =
+          nlohmann::json::parse(ReadText(folder / "out" / "failure.json"));
+      error = failure.at("error").get<std::string>() + " (in the " +
+              failure.at("phase").get<std::string>() + ")";
+    } catch (const std::exception&) {
+      error = "the run failed, and its failure.json cannot be read";
+    }
+  } else if (job.cancel_requested) {
+    state = JobState::kCancelled;
+    error = job.state == JobState::kQueued ? "cancelled while queued" : "cancelled while running";
+  } else {
+    const std::string last = LastError(folder / "slurm.log");
+    error = SlurmReason(status, job.slurm_id) + (last.empty() ? "" : "; it said: " + last);
+  }
+  m_store.FinishJob(job.id, state, error, {summary, std::move(rest), first});
+  if (live) live->End(state);
+  {
+    std::lock_guard lock(m_mutex);
+    m_followed.erase(job.id);
+  }
+  if (state == JobState::kDone)
+    m_log->info("job {}: done (Slurm job {})", job.id, job.slurm_id);
+  else
+    m_log->warn("job {}: {}: {}", job.id, StateName(state), error);
+}
+
+std::string SlurmExecutor::LastError(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (line.rfind("dembuf:", 0) == 0 || line.rfind("slurmstepd:", 0) == 0) last = line;
+  if (last.size() > 500) last = last.substr(0, 500) + "...";
+  return last;
+}
+
+}  // namespace dembuf::server

@@ -1,0 +1,105 @@
+// The Slurm executor: every job runs as a job of the lab's Slurm cluster, `dembuf run` on a
+// node, in a folder under work_dir that every node sees. The daemon stays the front: it
+// submits, follows and records; Slurm places, queues and accounts.
+//
+//   work_dir/beds/                      the bed cache every job reads and fills
+//   work_dir/jobs/<daemon>-<job>/       scene.toml, out/ (the run's files), samples.bin
+//                                       (the force samples as they come), slurm.log
+//   work_dir/bed-jobs/<hash>/           a bed preparation's scene.toml and slurm.log
+//
+// A bed is prepared once, by a job of its own (the source bed first when it has one), and the
+// jobs that need it wait for it with --dependency=afterok. The run's own files are the truth
+// about its end (summary.json: done, failure.json: failed); without them Slurm's state says
+// why it ended (TIMEOUT, OUT_OF_MEMORY, NODE_FAIL, CANCELLED). Slurm job ids are stored with
+// the jobs, and jobs are named dembuf-<daemon id>-<job id>, so that a restarted daemon takes
+// up what runs instead of submitting it again, and never mistakes another job for its own.
+#pragma once
+
+#include <spdlog/logger.h>
+
+#include <condition_variable>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "executor.h"
+#include "slurm.h"
+
+namespace dembuf::server {
+
+struct SlurmExecutorOptions {
+  slurm::Settings slurm;
+  int queue_limit = 1000;
+  std::string dembuf;  ///< the dembuf program the nodes run (resolved)
+};
+
+class SlurmExecutor final : public Executor {
+ public:
+  SlurmExecutor(Store& store, SlurmExecutorOptions options, std::shared_ptr<spdlog::logger> log);
+  ~SlurmExecutor() override;
+
+  void Start() override;
+  void Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) override;
+  bool Cancel(std::int64_t id) override;
+  std::shared_ptr<LiveJob> Live(std::int64_t id) override;
+  int queued() const override;
+  int running() const override;
+  ExecutorInfo info() const override {
+    return {"slurm", 0, m_options.slurm.cpus_per_job, m_options.queue_limit};
+  }
+  /// Stops following the cluster; its jobs go on, and the next start takes them up.
+  void Shutdown(std::chrono::seconds grace) override;
+
+ private:
+  /// What the daemon follows of a running job.
+  struct Followed {
+    std::shared_ptr<LiveJob> live;
+    double expected_end_s = 0.0;  ///< simulated time at which the run ends at the latest
+  };
+
+  void Loop();
+  void Tick();
+  /// Jobs a daemon before this one submitted: found by name in Slurm, or by their results.
+  void Adopt();
+  void SubmitQueued();
+  void Submit(const JobRecord& job);
+  /// The Slurm job preparing this bed, submitting it if none has it: 0 when the bed is ready.
+  std::int64_t BedJob(const std::string& hash, const std::string& stage, const JobRecord& job,
+                      std::int64_t after);
+  void PollBeds(const std::map<std::int64_t, slurm::JobStatus>& status);
+  void PollJobs(const std::map<std::int64_t, slurm::JobStatus>& status);
+  /// A job whose run ended: its results from its folder, or Slurm's reason.
+  void Finish(const JobRecord& job, const std::optional<slurm::JobStatus>& status);
+  void FailDependents(const std::string& bed_hash, const std::string& why);
+  /// Reads the job's new samples from samples.bin into its LiveJob, storing full chunks.
+  void Follow(std::int64_t id, Followed& followed);
+  Followed& StartFollowing(const JobRecord& job);
+
+  std::filesystem::path JobFolder(std::int64_t id) const;
+  std::string JobName(std::int64_t id) const;
+  /// The last line the run printed that says what went wrong, from its Slurm log.
+  static std::string LastError(const std::filesystem::path& log);
+  /// Memory and time to ask for, from the settings, else from the scene's estimate.
+  void Size(slurm::Submission& submission, const std::string& scene_toml, bool bed_only) const;
+
+  Store& m_store;
+  SlurmExecutorOptions m_options;
+  std::shared_ptr<spdlog::logger> m_log;
+  slurm::Client m_slurm;
+  std::filesystem::path m_work;
+  std::string m_daemon_id;
+
+  // m_work_mutex: one of the loop's passes, or a cancel, at a time. m_mutex: the followed
+  // jobs (watchers read them while a pass runs). Taken in that order.
+  std::mutex m_work_mutex;
+  mutable std::mutex m_mutex;
+  std::condition_variable m_wake;
+  std::map<std::int64_t, Followed> m_followed;
+  bool m_stopping = false;
+  bool m_woken = false;
+  std::mutex m_admit_mutex;
+  std::jthread m_loop;
+};
+
+}  // namespace dembuf::server

@@ -186,6 +186,9 @@ int main(int argc, char** argv) {
                      s.extra_args, s.work_dir, s.dembuf,       s.poll_s};
     options.queue_limit = config.queue_limit;
     options.dembuf = !s.dembuf.empty() ? s.dembuf : BesideThisProgram("dembuf");
+    // A relative path means from here, not from the job's folder on a node.
+    if (options.dembuf.find('/') != std::string::npos)
+      options.dembuf = std::filesystem::absolute(options.dembuf).string();
     executor_ptr = std::make_unique<SlurmExecutor>(*store, options, log);
   } else {
     ThreadExecutorOptions options;

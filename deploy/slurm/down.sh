@@ -28,6 +28,11 @@ stop "$dir/slurmd.pid"
 stop "$dir/slurmctld.pid"
 if [ -f "$dir/munged.started-here" ]; then
   pkill -x munged || true
+  # Gone before this returns, so that an up.sh right after starts a new one.
+  for _ in $(seq 100); do
+    pgrep -x munged > /dev/null || break
+    sleep 0.1
+  done
   rm -f "$dir/munged.started-here"
 fi
 if [ "$purge" = --purge ]; then

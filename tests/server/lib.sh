@@ -40,7 +40,8 @@ stop_daemon() {
 
 # job_state ID: prints the job's state.
 job_state() {
-  "$dembuf" status "$1" | sed -n '1s/.*(\(.*\))$/\1/p'
+  # (status exits 3 for a failed job: the state is what is wanted here)
+  { "$dembuf" status "$1" || true; } | sed -n '1s/.*(\(.*\))$/\1/p'
 }
 
 # wait_state ID STATES SECONDS: waits until the job is in one of STATES (separated by spaces).

@@ -1,0 +1,131 @@
+#!/usr/bin/env bash
+# The Slurm executor on the one-node Slurm of deploy/slurm/, against real dembufd daemons:
+#   1. a three-point sweep through executor = "slurm" gives the thread executor's results, bit
+#      for bit (summaries but for their wall time, and the stored series' SHA-256), its two bed
+#      stages each prepared by one Slurm job, and a second user's sweep prepares none;
+#   2. watch shows a Slurm job's samples while it runs, and cancel ends it in Slurm;
+#   3. kill -9 of dembufd mid-sweep, and a restart: every job submitted once, all finish;
+#   4. a job cancelled with scancel from outside ends failed, saying CANCELLED;
+#   5. a job past its time limit ends failed, saying TIMEOUT.
+# Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
+set -euo pipefail
+root=$1
+. "$root/tests/server/lib.sh" "$2" "$3"
+cluster=$work/cluster
+export SLURM_CONF=$cluster/slurm.conf
+export DEMBUF_SLURM_PORT=$((20000 + RANDOM % 20000))
+trap 'rc=$?; for p in $(jobs -p) ${daemon_pid:-}; do kill -9 "$p" 2> /dev/null || true; done
+      bash "$root/deploy/slurm/down.sh" "$cluster" --purge > /dev/null 2>&1 || true
+      rm -rf "$work"; exit $rc' EXIT
+bash "$root/deploy/slurm/up.sh" "$cluster" > /dev/null
+
+# A daemon with the Slurm executor: slurm_config FILE WORK_DIR [more [slurm] lines].
+slurm_config() {
+  {
+    echo 'executor = "slurm"'
+    echo '[slurm]'
+    echo "work_dir = \"$2\""
+    echo "dembuf = \"$dembuf\""
+    echo 'poll_s = 0.3'
+    shift 2
+    for line in "$@"; do echo "$line"; done
+  } > "$1"
+}
+# slurm_state ID: what Slurm says of one of its jobs.
+slurm_state() { squeue -h -t all -j "$1" -o '%T' 2> /dev/null || true; }
+# slurm_id JOB: the Slurm job of a dembuf job, from status.
+slurm_id() { "$dembuf" status "$1" | sed -n 's/^Slurm job \([0-9]*\).*/\1/p'; }
+small_scene "$work/scene.toml"
+# Runs of about 7 s per simulated second on one core, once the bed is ready.
+long=(--set time.output_interval_s=1e-3 --set projectile.speed_m_s=0.5)
+
+echo "== 1. a sweep on Slurm and on threads, bit for bit"
+slurm_config "$work/slurm.toml" "$work/shared"
+start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
+"$dembuf" sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2,3 > /dev/null
+for id in 1 2 3; do wait_state $id done 120; done
+[ "$(slurm_id 1)" -gt 0 ] || fail "job 1 has no Slurm job"
+# A second user's sweep on the same beds prepares none.
+"$dembuf" --owner second sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2 > /dev/null
+for id in 4 5; do wait_state $id done 120; done
+bed_jobs=$(squeue -h -t all -o '%j' | grep -c -- '-bed-' || true)
+[ "$bed_jobs" = 2 ] || fail "$bed_jobs bed jobs in Slurm, not 2 (a source and its cut)"
+stop_daemon
+start_daemon "$work/threads.db" "$work/threads.log"
+"$dembuf" sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2,3 > /dev/null
+for id in 1 2 3; do wait_state $id done 120; done
+stop_daemon
+python3 - "$work/slurm.db" "$work/threads.db" <<'PY'
+import json, sqlite3, sys
+def results(path):
+    db = sqlite3.connect(path)
+    out = {}
+    for job, summary in db.execute("SELECT job_id, summary_json FROM results WHERE job_id <= 3"):
+        s = json.loads(summary)
+        s.pop("wall_time_s")
+        # The series' bytes: rows of six doubles, whatever the chunks they were stored in.
+        series = b"".join(row[0] for row in db.execute(
+            "SELECT data FROM series_chunks WHERE job_id = ? ORDER BY first_index", (job,)))
+        out[job] = (s, series)
+    return out
+slurm, threads = results(sys.argv[1]), results(sys.argv[2])
+assert len(slurm) == 3 and slurm.keys() == threads.keys(), (slurm.keys(), threads.keys())
+for job in slurm:
+    assert slurm[job][0] == threads[job][0], f"job {job}: summaries differ"
+    assert slurm[job][1] == threads[job][1] and slurm[job][1], f"job {job}: series differ"
+print("3 jobs: summaries and series identical;",
+      sum(len(v[1]) for v in slurm.values()) // 48, "samples compared")
+PY
+
+echo "== 2. watch a Slurm job live, then cancel it"
+start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
+watched=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=4 | grep -o '[0-9]*' | head -1)
+wait_state "$watched" running 60
+"$dembuf" watch "$watched" --csv > "$work/watch.csv" 2> /dev/null &
+watcher=$!
+sleep 3
+rows=$(grep -c '^[0-9]' "$work/watch.csv" || true)
+[ "$(job_state "$watched")" = running ] || fail "job $watched ended before the check"
+[ "$rows" -ge 10 ] || fail "watch showed $rows samples of a running Slurm job in 3 s"
+echo "watch: $rows samples in 3 s while job $watched runs"
+sid=$(slurm_id "$watched")
+"$dembuf" cancel "$watched" > /dev/null
+wait_state "$watched" cancelled 60
+[ "$(slurm_state "$sid")" = CANCELLED ] || fail "Slurm job $sid is $(slurm_state "$sid")"
+wait "$watcher" || true
+
+echo "== 3. kill -9 of the daemon mid-sweep, and a restart"
+"$dembuf" sweep "$work/scene.toml" "${long[@]}" --vary time.end_s=0.6,0.8,1.0 > /dev/null
+first=$((watched + 1))
+wait_state "$first" running 60
+kill -9 "$daemon_pid"
+wait "$daemon_pid" 2> /dev/null || true
+daemon_pid=""
+start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
+for id in $first $((first + 1)) $((first + 2)); do wait_state $id done 180; done
+for id in $first $((first + 1)) $((first + 2)); do
+  n=$(squeue -h -t all -o '%j' | grep -c -- "-$id\$" || true)
+  [ "$n" = 1 ] || fail "job $id was submitted to Slurm $n times"
+done
+echo "after the restart: 3 jobs done, each submitted once"
+
+echo "== 4. scancel from outside"
+outside=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=4 | grep -o '[0-9]*' | head -1)
+wait_state "$outside" running 60
+scancel "$(slurm_id "$outside")"
+wait_state "$outside" failed 60
+echo "$("$dembuf" status "$outside" | grep note || true)"
+said=$("$dembuf" status "$outside" || true)
+[[ "$said" == *"CANCELLED"* ]] || fail "no CANCELLED in: $said"
+stop_daemon
+
+echo "== 5. past the time limit"
+slurm_config "$work/short.toml" "$work/shared" 'time_limit = "0:05"'
+start_daemon "$work/short.db" "$work/short.log" --config "$work/short.toml"
+late=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=30 | grep -o '[0-9]*' | head -1)
+wait_state "$late" failed 120
+said=$("$dembuf" status "$late" || true)
+[[ "$said" == *"TIMEOUT"* ]] || fail "no TIMEOUT in: $said"
+echo "$said" | grep note
+stop_daemon
+echo "PASS"

@@ -10,6 +10,7 @@
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/study/run_output.h"
 #include "dembuf/study/scene_fields.h"
+#include "dembuf/study/text_limits.h"
 #include "dembuf/study/version.h"
 
 namespace dembuf::server {
@@ -18,12 +19,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+// A run's summary.json or failure.json, from a folder others may write too: bounded (a
+// summary is a few kB) and a JSON object, or a std::runtime_error saying what is wrong.
+nlohmann::json ReadRunJson(const fs::path& path) {
+  const std::string text = ReadBoundedFile(path.string(), 4 << 20, "run file");
+  nlohmann::json json = nlohmann::json::parse(text);
+  if (!json.is_object()) throw std::runtime_error(path.string() + " is not a JSON object");
+  return json;
 }
+
+// Samples read from a run's stream in one pass at most: a run gone wild cannot make the
+// daemon read gigabytes at once (48 MB; the rest comes in the next passes).
+constexpr std::uint64_t kMaxSamplesPerRead = 1 << 20;
 
 // Why Slurm ended a job that left no result, in words, with Slurm's state name in them.
 std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int64_t slurm_id) {
@@ -415,7 +422,8 @@ void SlurmExecutor::Follow(std::int64_t id, Followed& followed) {
   auto [first, held] = live.UnstoredSamples();
   const std::int64_t read = first + static_cast<std::int64_t>(held.size());
   const std::vector<ImpactSample> fresh = report::ReadSampleStream(
-      JobFolder(id) / "samples.bin", static_cast<std::uint64_t>(read) * report::kPackedSampleBytes);
+      JobFolder(id) / "samples.bin", static_cast<std::uint64_t>(read) * report::kPackedSampleBytes,
+      kMaxSamplesPerRead);
   for (const ImpactSample& sample : fresh) live.Append(sample);
   if (!fresh.empty()) {
     const double t = fresh.back().t_s;
@@ -439,21 +447,31 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
   const std::vector<ImpactSample> tail = report::ReadSampleStream(
       folder / "samples.bin",
       static_cast<std::uint64_t>(first + static_cast<std::int64_t>(rest.size())) *
-          report::kPackedSampleBytes);
+          report::kPackedSampleBytes,
+      8 * kMaxSamplesPerRead);
   rest.insert(rest.end(), tail.begin(), tail.end());
 
   JobState state = JobState::kFailed;
   std::string error;
   std::string summary;
-  if (fs::exists(folder / "out" / "summary.json")) {
-    state = JobState::kDone;
-    summary = ReadText(folder / "out" / "summary.json");
-  } else if (fs::exists(folder / "out" / "failure.json")) {
+  const fs::path out = folder / "out";
+  if (tail.size() == 8 * kMaxSamplesPerRead) {
+    // More than a run of dembuf's writes after its last look: not taken.
+    error = "its samples.bin holds more samples than the daemon reads at a job's end (" +
+            std::to_string(8 * kMaxSamplesPerRead) + ")";
+    rest.clear();
+  } else if (fs::exists(out / "summary.json")) {
     try {
-      const nlohmann::json failure =
-          nlohmann::json::parse(ReadText(folder / "out" / "failure.json"));
-      error = failure.at("error").get<std::string>() + " (in the " +
-              failure.at("phase").get<std::string>() + ")";
+      summary = ReadRunJson(out / "summary.json").dump(2) + "\n";
+      state = JobState::kDone;
+    } catch (const std::exception& e) {
+      error = std::string("the run ended, but its summary.json cannot be read: ") + e.what();
+    }
+  } else if (fs::exists(out / "failure.json")) {
+    try {
+      const nlohmann::json failure = ReadRunJson(out / "failure.json");
+      error = failure.at("error").get<std::string>().substr(0, 2000) + " (in the " +
+              failure.at("phase").get<std::string>().substr(0, 100) + ")";
     } catch (const std::exception&) {
       error = "the run failed, and its failure.json cannot be read";
     }

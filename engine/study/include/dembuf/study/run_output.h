@@ -62,9 +62,10 @@ class SampleStreamWriter {
   std::chrono::steady_clock::time_point m_last_flush;
 };
 
-/// The whole samples of a stream file from byte `offset` on (a multiple of kPackedSampleBytes);
-/// none when the file does not exist yet.
-std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path, std::uint64_t offset);
+/// The whole samples of a stream file from byte `offset` on (a multiple of kPackedSampleBytes),
+/// at most `max_samples` of them; none when the file does not exist yet.
+std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path, std::uint64_t offset,
+                                           std::uint64_t max_samples = UINT64_MAX);
 
 /// The files and folders a run writes into its folder (results, failure or interruption
 /// reports, plots, snapshots), so that replacing a run removes all of the run before and

@@ -39,7 +39,7 @@ small_scene "$work/scene.toml"
 # Runs of about 7 s per simulated second on one core, once the bed is ready.
 long=(--set time.output_interval_s=1e-3 --set projectile.speed_m_s=0.5)
 
-echo "== 1. a sweep on Slurm and on threads, bit for bit"
+echo "== 1. a sweep on Slurm and on threads, bit for bit ($SECONDS s)"
 slurm_config "$work/slurm.toml" "$work/shared"
 start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
 "$dembuf" sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2,3 > /dev/null
@@ -77,7 +77,7 @@ print("3 jobs: summaries and series identical;",
       sum(len(v[1]) for v in slurm.values()) // 48, "samples compared")
 PY
 
-echo "== 2. watch a Slurm job live, then cancel it"
+echo "== 2. watch a Slurm job live, then cancel it ($SECONDS s)"
 start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
 watched=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=4 | grep -o '[0-9]*' | head -1)
 wait_state "$watched" running 60
@@ -94,7 +94,7 @@ wait_state "$watched" cancelled 60
 [ "$(slurm_state "$sid")" = CANCELLED ] || fail "Slurm job $sid is $(slurm_state "$sid")"
 wait "$watcher" || true
 
-echo "== 3. kill -9 of the daemon mid-sweep, and a restart"
+echo "== 3. kill -9 of the daemon mid-sweep, and a restart ($SECONDS s)"
 "$dembuf" sweep "$work/scene.toml" "${long[@]}" --vary time.end_s=0.6,0.8,1.0 > /dev/null
 first=$((watched + 1))
 wait_state "$first" running 60
@@ -109,7 +109,7 @@ for id in $first $((first + 1)) $((first + 2)); do
 done
 echo "after the restart: 3 jobs done, each submitted once"
 
-echo "== 4. scancel from outside"
+echo "== 4. scancel from outside ($SECONDS s)"
 outside=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=4 | grep -o '[0-9]*' | head -1)
 wait_state "$outside" running 60
 scancel "$(slurm_id "$outside")"
@@ -119,7 +119,7 @@ said=$("$dembuf" status "$outside" || true)
 [[ "$said" == *"CANCELLED"* ]] || fail "no CANCELLED in: $said"
 stop_daemon
 
-echo "== 5. past the time limit"
+echo "== 5. past the time limit ($SECONDS s)"
 slurm_config "$work/short.toml" "$work/shared" 'time_limit = "0:05"'
 start_daemon "$work/short.db" "$work/short.log" --config "$work/short.toml"
 late=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=30 | grep -o '[0-9]*' | head -1)
@@ -128,4 +128,4 @@ said=$("$dembuf" status "$late" || true)
 [[ "$said" == *"TIMEOUT"* ]] || fail "no TIMEOUT in: $said"
 echo "$said" | grep note
 stop_daemon
-echo "PASS"
+echo "PASS ($SECONDS s)"

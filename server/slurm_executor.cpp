@@ -1,9 +1,11 @@
 #include "slurm_executor.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "dembuf/study/bed.h"
@@ -45,6 +47,11 @@ std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int6
   if (state == "COMPLETED") return job + " ended without writing its result: COMPLETED";
   return job + " ended: " + state +
          (status->reason.empty() || status->reason == "None" ? "" : " (" + status->reason + ")");
+}
+
+std::string ToLower(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
 }
 
 std::string BedWords(const std::string& stage) {
@@ -207,6 +214,26 @@ void SlurmExecutor::Tick() {
   const std::map<std::int64_t, slurm::JobStatus> status = m_slurm.Query(ids);
   PollBeds(status);
   PollJobs(status);
+  CancelUnneededBeds();
+}
+
+void SlurmExecutor::CancelUnneededBeds() {
+  std::set<std::string> needed;
+  for (const JobRecord& job : m_store.UnfinishedJobs()) {
+    if (job.cancel_requested) continue;
+    needed.insert(job.bed_hash);
+    needed.insert(job.source_hash);
+  }
+  // Every job that waited for the bed was cancelled (a cancelled sweep): its cores go back.
+  for (SlurmBedJob bed : m_store.SlurmBedsInState("submitted")) {
+    if (needed.count(bed.hash)) continue;
+    m_slurm.Cancel(bed.slurm_id);
+    bed.state = "cancelled";
+    bed.error = "no job needs it any more";
+    m_store.PutSlurmBed(bed);
+    m_log->info("{} {}: Slurm job {} cancelled, no job needs it any more", BedWords(bed.stage),
+                bed.hash, bed.slurm_id);
+  }
 }
 
 std::string SlurmExecutor::JobName(std::int64_t id) const {
@@ -388,9 +415,17 @@ void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& sta
       Finish(job, s);
       continue;
     }
-    if (s->state != "RUNNING" && s->state != "COMPLETING") continue;  // pending
+    if (s->state != "RUNNING" && s->state != "COMPLETING") {
+      // Waiting: status says for what (its bed, free cores, the partition's limits).
+      const std::string note = "Slurm job " + std::to_string(job.slurm_id) + " " +
+                               ToLower(s->state) +
+                               (s->reason.empty() || s->reason == "None" ? "" : ": " + s->reason);
+      if (note != job.error) m_store.SetState(job.id, job.state, note);
+      continue;
+    }
     if (job.state != JobState::kRunning) {
       m_store.MarkStarted(job.id, JobState::kRunning, s->node, kVersion);
+      m_store.SetState(job.id, JobState::kRunning);  // (no "pending" note any more)
       m_log->info("job {}: runs on {} (Slurm job {})", job.id, s->node, job.slurm_id);
     }
     Followed* followed = nullptr;

@@ -72,6 +72,8 @@ class SlurmExecutor final : public Executor {
   /// A job whose run ended: its results from its folder, or Slurm's reason.
   void Finish(const JobRecord& job, const std::optional<slurm::JobStatus>& status);
   void FailDependents(const std::string& bed_hash, const std::string& why);
+  /// Cancels the bed jobs that no job waits for any more.
+  void CancelUnneededBeds();
   /// Reads the job's new samples from samples.bin into its LiveJob, storing full chunks.
   void Follow(std::int64_t id, Followed& followed);
   Followed& StartFollowing(const JobRecord& job);

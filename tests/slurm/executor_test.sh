@@ -6,7 +6,9 @@
 #   2. watch shows a Slurm job's samples while it runs, and cancel ends it in Slurm;
 #   3. kill -9 of dembufd mid-sweep, and a restart: every job submitted once, all finish;
 #   4. a job cancelled with scancel from outside ends failed, saying CANCELLED;
-#   5. a job past its time limit ends failed, saying TIMEOUT.
+#   5. cancelling a sweep whose bed is being prepared cancels the bed's Slurm job;
+#   6. a job past its time limit ends failed, saying TIMEOUT (found by its daemon restarted
+#      after the job ended).
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -39,16 +41,36 @@ small_scene "$work/scene.toml"
 # Runs of about 7 s per simulated second on one core, once the bed is ready.
 long=(--set time.output_interval_s=1e-3 --set projectile.speed_m_s=0.5)
 
+# Part 6's job, with a time limit of 5 s (a minute for Slurm), from a daemon of its own that
+# stops while the job runs.
+slurm_config "$work/short.toml" "$work/short" 'time_limit = "0:05"'
+start_daemon "$work/short.db" "$work/short.log" --config "$work/short.toml"
+late=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=30 | grep -o '[0-9]*' | head -1)
+for _ in $(seq 100); do
+  [ -n "$(slurm_id "$late")" ] && break
+  sleep 0.1
+done
+[ -n "$(slurm_id "$late")" ] || fail "the time-limited job was not submitted"
+stop_daemon
+
 echo "== 1. a sweep on Slurm and on threads, bit for bit ($SECONDS s)"
 slurm_config "$work/slurm.toml" "$work/shared"
 start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
 "$dembuf" sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2,3 > /dev/null
+# While its bed is prepared, status says what the job waits for.
+for _ in $(seq 100); do
+  said=$("$dembuf" status 1 || true)
+  [[ "$said" == *"pending: Dependency"* ]] && break
+  sleep 0.1
+done
+[[ "$said" == *"pending: Dependency"* ]] || fail "job 1 does not say it waits for its bed: $said"
 for id in 1 2 3; do wait_state $id done 120; done
 [ "$(slurm_id 1)" -gt 0 ] || fail "job 1 has no Slurm job"
 # A second user's sweep on the same beds prepares none.
 "$dembuf" --owner second sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2 > /dev/null
 for id in 4 5; do wait_state $id done 120; done
-bed_jobs=$(squeue -h -t all -o '%j' | grep -c -- '-bed-' || true)
+daemon_id=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/slurm.log" | tail -1)
+bed_jobs=$(squeue -h -t all -o '%j' | grep -c -- "^dembuf-$daemon_id-bed-" || true)
 [ "$bed_jobs" = 2 ] || fail "$bed_jobs bed jobs in Slurm, not 2 (a source and its cut)"
 stop_daemon
 start_daemon "$work/threads.db" "$work/threads.log"
@@ -104,7 +126,7 @@ daemon_pid=""
 start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
 for id in $first $((first + 1)) $((first + 2)); do wait_state $id done 180; done
 for id in $first $((first + 1)) $((first + 2)); do
-  n=$(squeue -h -t all -o '%j' | grep -c -- "-$id\$" || true)
+  n=$(squeue -h -t all -o '%j' | grep -c -- "^dembuf-$daemon_id-$id\$" || true)
   [ "$n" = 1 ] || fail "job $id was submitted to Slurm $n times"
 done
 echo "after the restart: 3 jobs done, each submitted once"
@@ -117,12 +139,32 @@ wait_state "$outside" failed 60
 echo "$("$dembuf" status "$outside" | grep note || true)"
 said=$("$dembuf" status "$outside" || true)
 [[ "$said" == *"CANCELLED"* ]] || fail "no CANCELLED in: $said"
+
+echo "== 5. a sweep cancelled while its bed is prepared ($SECONDS s)"
+"$dembuf" sweep "$work/scene.toml" --set bed.seed=7 --set bed.source_thickness_m=0.03 \
+  --vary projectile.speed_m_s=1,2 > /dev/null
+sweep=$("$dembuf" list --sweeps --limit 1 | awk 'NR == 2 { print $1 }')
+for _ in $(seq 300); do
+  source_job=$(squeue -h -t running -o '%i|%j' | awk -F'|' -v d="dembuf-$daemon_id-bed-" 'index($2, d) == 1 { print $1 }')
+  [ -n "$source_job" ] && break
+  sleep 0.1
+done
+[ -n "$source_job" ] || fail "no bed job runs for the new sweep"
+"$dembuf" cancel --sweep "$sweep" > /dev/null
+for _ in $(seq 100); do
+  [ "$(slurm_state "$source_job")" = CANCELLED ] && break
+  sleep 0.1
+done
+[ "$(slurm_state "$source_job")" = CANCELLED ] ||
+  fail "the bed job $source_job of a cancelled sweep is $(slurm_state "$source_job")"
+echo "bed job $source_job cancelled with its sweep"
 stop_daemon
 
-echo "== 5. past the time limit ($SECONDS s)"
-slurm_config "$work/short.toml" "$work/shared" 'time_limit = "0:05"'
+echo "== 6. past the time limit ($SECONDS s)"
+# Submitted first (below): Slurm counts limits in whole minutes and looks at them every
+# half minute or so, so the job runs meanwhile, its daemon stopped; the daemon, started
+# again, finds it ended and says why.
 start_daemon "$work/short.db" "$work/short.log" --config "$work/short.toml"
-late=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=30 | grep -o '[0-9]*' | head -1)
 wait_state "$late" failed 120
 said=$("$dembuf" status "$late" || true)
 [[ "$said" == *"TIMEOUT"* ]] || fail "no TIMEOUT in: $said"

@@ -137,6 +137,28 @@ TEST(Overrides, SetFieldsByDottedName) {
   EXPECT_EQ(s.bed.seed, 17);
 }
 
+TEST(Overrides, TakeEveryValueTheWayASceneFileWritesIt) {
+  // `dembuf scene --print` shows lists in brackets and text in quotes; --set takes both, and
+  // the plain forms it always took.
+  Scene s;
+  ApplyOverride(s, "output.snapshot_times_s=[0.01, 0.02]");
+  EXPECT_EQ(s.output.snapshot_times_s, (std::vector<double>{0.01, 0.02}));
+  ApplyOverride(s, "output.snapshot_times_s=0.03,0.04");
+  EXPECT_EQ(s.output.snapshot_times_s, (std::vector<double>{0.03, 0.04}));
+  ApplyOverride(s, "output.snapshot_times_s=[]");
+  EXPECT_TRUE(s.output.snapshot_times_s.empty());
+  ApplyOverride(s, "bed.import_overlaps=\"relax\"");
+  EXPECT_EQ(s.bed.import_overlaps, "relax");
+  ApplyOverride(s, "bed.import_overlaps=refuse");
+  EXPECT_EQ(s.bed.import_overlaps, "refuse");
+  ApplyOverride(s, "bed.thickness_m=1_0e-3");
+  EXPECT_EQ(s.bed.thickness_m, 0.01);
+  ApplyOverride(s, "projectile.enabled=0");
+  EXPECT_FALSE(s.projectile.enabled);
+  ApplyOverride(s, "bed.import=1");  // a file named 1
+  EXPECT_EQ(s.bed.import, "1");
+}
+
 TEST(Overrides, BadOverridesNameTheField) {
   Scene s;
   auto field_of = [&](const char* text) {
@@ -154,6 +176,10 @@ TEST(Overrides, BadOverridesNameTheField) {
   EXPECT_EQ(field_of("time.alpha=nan"), "time.alpha");
   EXPECT_EQ(field_of("projectile.enabled=yes"), "projectile.enabled");
   EXPECT_EQ(field_of("projectile.speed_m_s"), "");  // no '='
+  EXPECT_EQ(field_of("time.alpha=inf"), "time.alpha");
+  EXPECT_EQ(field_of("bed.thickness_m=[0.01]"), "bed.thickness_m");
+  EXPECT_EQ(field_of("bed.seed=2.5"), "bed.seed");
+  EXPECT_EQ(field_of("output.snapshot_times_s=[0.01, \"a\"]"), "output.snapshot_times_s");
 }
 
 TEST(Overrides, EveryRequiredFieldNameExists) {

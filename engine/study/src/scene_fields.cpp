@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <ostream>
 #include <sstream>
 #include <toml.hpp>
@@ -384,7 +385,39 @@ void ApplyOverride(Scene& scene, std::string_view assignment) {
   if (eq == std::string_view::npos || eq == 0)
     throw SceneError(
         "", "override \"" + std::string(assignment) + "\" must have the form dotted.field=value");
-  SetSceneField(scene, assignment.substr(0, eq), assignment.substr(eq + 1));
+  const std::string_view name = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  const SceneField& field = RequireSceneField(name);
+  // The value as a scene file (and `dembuf scene --print`) writes it: [0.01, 0.02], "relax",
+  // 1e-5. Text that is not a TOML value (a bare file name, 0.01,0.02) is taken as it is, and
+  // so is any text for a field of text (a file named 1 is the text "1").
+  std::optional<toml::value> value;
+  const std::string line = "v = " + std::string(text);
+  try {
+    CheckTomlText(line, "--set " + std::string(name), kSceneLimits);
+    std::istringstream in(line);
+    value = toml::parse(in, "--set").as_table().at("v");
+  } catch (const InputLimitError& e) {
+    throw SceneError(std::string(name), e.what());
+  } catch (const std::exception&) {
+    value.reset();
+  }
+  const bool text_field = std::holds_alternative<std::string& (*)(Scene&)>(field.ref);
+  if (value && (!text_field || value->is_string())) {
+    try {
+      SetFromToml(scene, field, *value);
+      return;
+    } catch (const SceneError& toml_error) {
+      // A value the text form also takes (projectile.enabled=1) stays accepted; else the
+      // TOML reading's words ("expected a number, got an array") say what is wrong.
+      try {
+        SetSceneField(scene, name, text);
+        return;
+      } catch (const SceneError&) {
+        throw toml_error;
+      }
+    }
+  }
+  SetSceneField(scene, name, text);
 }
 
 namespace {

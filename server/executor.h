@@ -22,6 +22,14 @@ class QueueFull : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Throws QueueFull when `count` more jobs would take a queue holding `queued` past `limit`.
+inline void CheckQueueRoom(std::size_t queued, std::size_t count, int limit) {
+  if (queued + count > static_cast<std::size_t>(limit))
+    throw QueueFull("the queue holds " + std::to_string(queued) + " jobs; " +
+                    std::to_string(count) + " more would pass its limit of " +
+                    std::to_string(limit));
+}
+
 /// What server-info shows of an executor.
 struct ExecutorInfo {
   std::string kind;  ///< "threads" or "slurm"

@@ -84,7 +84,7 @@ void SlurmExecutor::Start() {
 void SlurmExecutor::Adopt() {
   std::vector<slurm::JobStatus> in_slurm;
   try {
-    in_slurm = m_slurm.FindByNamePrefix(JobName(0).substr(0, JobName(0).size() - 1));
+    in_slurm = m_slurm.FindByNamePrefix("dembuf-" + m_daemon_id + "-");
   } catch (const slurm::SlurmError& e) {
     m_log->error("cannot ask Slurm for this daemon's jobs: {}", e.what());
   }
@@ -115,11 +115,7 @@ void SlurmExecutor::Admit(std::size_t count, const std::function<std::vector<Job
     std::lock_guard lock(m_mutex);
     if (m_stopping) throw QueueFull("the daemon is shutting down");
   }
-  const std::size_t waiting = static_cast<std::size_t>(queued());
-  if (waiting + count > static_cast<std::size_t>(m_options.queue_limit))
-    throw QueueFull("the queue holds " + std::to_string(waiting) + " jobs; " +
-                    std::to_string(count) + " more would pass its limit of " +
-                    std::to_string(m_options.queue_limit));
+  CheckQueueRoom(static_cast<std::size_t>(queued()), count, m_options.queue_limit);
   add();
   {
     std::lock_guard lock(m_mutex);
@@ -240,6 +236,10 @@ std::string SlurmExecutor::JobName(std::int64_t id) const {
   return "dembuf-" + m_daemon_id + "-" + std::to_string(id);
 }
 
+std::string SlurmExecutor::BedJobName(const std::string& hash) const {
+  return "dembuf-" + m_daemon_id + "-bed-" + hash;
+}
+
 fs::path SlurmExecutor::JobFolder(std::int64_t id) const {
   return m_work / "jobs" / (m_daemon_id + "-" + std::to_string(id));
 }
@@ -268,11 +268,19 @@ void SlurmExecutor::SubmitQueued() {
   }
 }
 
-void SlurmExecutor::Size(slurm::Submission& submission, const std::string& scene_toml,
-                         bool bed_only) const {
+slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const fs::path& folder,
+                                               const std::string& scene_toml, const Scene& scene,
+                                               bool bed_only, std::int64_t after,
+                                               const std::vector<std::string>& dembuf_args) const {
+  fs::create_directories(folder);
+  report::WriteFileAtomically(folder / "scene.toml", scene_toml);
   const slurm::Settings& settings = m_options.slurm;
+  slurm::Submission submission;
+  submission.name = name;
+  submission.folder = folder.string();
+  submission.log = (folder / "slurm.log").string();
   submission.cpus = settings.cpus_per_job;
-  const ResourceEstimate cost = EstimateResources(LoadSceneText(scene_toml, "scene"));
+  const ResourceEstimate cost = EstimateResources(scene);
   submission.mem_mb = settings.mem_per_job_mb > 0
                           ? settings.mem_per_job_mb
                           : static_cast<int>(std::ceil(cost.memory_bytes_max * 1.5 / 1e6)) + 256;
@@ -287,71 +295,50 @@ void SlurmExecutor::Size(slurm::Submission& submission, const std::string& scene
     const double predicted = cost.PredictedSeconds(settings.cpus_per_job, prepared);
     submission.time_s = static_cast<int>(std::min(3.0 * predicted + 600.0, 365.0 * 86400));
   }
+  if (after != 0) submission.after_ok.push_back(after);
+  // The engine runs as many threads as the job has CPUs (Slurm does not bind them here).
+  submission.command = {"env", "OMP_NUM_THREADS=" + std::to_string(settings.cpus_per_job),
+                        m_options.dembuf};
+  submission.command.insert(submission.command.end(), dembuf_args.begin(), dembuf_args.end());
+  return submission;
 }
 
 std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& stage,
-                                   const JobRecord& job, std::int64_t after) {
+                                   const JobRecord& job, const Scene& scene, std::int64_t after) {
   if (hash.empty() || fs::exists(m_work / "beds" / (hash + ".bed"))) return 0;
   if (const auto bed = m_store.GetSlurmBed(hash); bed && bed->state == "submitted")
     return bed->slurm_id;  // another job's, shared
   const fs::path folder = m_work / "bed-jobs" / hash;
-  fs::create_directories(folder);
-  report::WriteFileAtomically(folder / "scene.toml", job.scene_toml);
-  slurm::Submission submission;
-  submission.name = "dembuf-" + m_daemon_id + "-bed-" + hash;
-  submission.folder = folder.string();
-  submission.log = (folder / "slurm.log").string();
-  Size(submission, job.scene_toml, true);
-  if (after != 0) submission.after_ok.push_back(after);
-  submission.command = {"env",
-                        "OMP_NUM_THREADS=" + std::to_string(m_options.slurm.cpus_per_job),
-                        m_options.dembuf,
-                        "prepare-bed",
-                        (folder / "scene.toml").string(),
-                        "--bed-cache",
-                        (m_work / "beds").string()};
-  if (stage == "source") submission.command.push_back("--source-only");
-  const std::int64_t slurm_id = m_slurm.Submit(submission);
+  std::vector<std::string> args = {"prepare-bed", (folder / "scene.toml").string(), "--bed-cache",
+                                   (m_work / "beds").string()};
+  if (stage == "source") args.push_back("--source-only");
+  const std::int64_t slurm_id = m_slurm.Submit(
+      NewSubmission(BedJobName(hash), folder, job.scene_toml, scene, true, after, args));
   m_store.PutSlurmBed({hash, stage, slurm_id, "submitted", "", job.id});
   m_log->info("job {}: {} {} is prepared by Slurm job {}", job.id, BedWords(stage), hash, slurm_id);
   return slurm_id;
 }
 
 void SlurmExecutor::Submit(const JobRecord& job) {
-  const fs::path folder = JobFolder(job.id);
-  fs::create_directories(folder);
-  report::WriteFileAtomically(folder / "scene.toml", job.scene_toml);
+  const Scene scene = LoadSceneText(job.scene_toml, "job " + std::to_string(job.id));
   // Only the source when the bed is cut from one: the source is shared by many beds.
   std::int64_t bed_after = 0;
   if (!job.bed_hash.empty() && !fs::exists(m_work / "beds" / (job.bed_hash + ".bed"))) {
-    const std::int64_t source = BedJob(job.source_hash, "source", job, 0);
-    const std::vector<BedStage> stages = BedStagesOf(LoadSceneText(job.scene_toml, "scene"));
-    bed_after = BedJob(job.bed_hash, stages.empty() ? "cut" : stages.back().stage, job, source);
+    const std::int64_t source = BedJob(job.source_hash, "source", job, scene, 0);
+    const std::vector<BedStage> stages = BedStagesOf(scene);
+    bed_after =
+        BedJob(job.bed_hash, stages.empty() ? "cut" : stages.back().stage, job, scene, source);
   }
-  slurm::Submission submission;
-  submission.name = JobName(job.id);
-  submission.folder = folder.string();
-  submission.log = (folder / "slurm.log").string();
-  Size(submission, job.scene_toml, false);
-  if (bed_after != 0) submission.after_ok.push_back(bed_after);
-  submission.command = {"env",
-                        "OMP_NUM_THREADS=" + std::to_string(m_options.slurm.cpus_per_job),
-                        m_options.dembuf,
-                        "run",
-                        (folder / "scene.toml").string(),
-                        "--out",
-                        (folder / "out").string(),
-                        "--force",
-                        "--yes",
-                        "--no-plots",
-                        "--bed-cache",
-                        (m_work / "beds").string(),
-                        "--samples-out",
-                        (folder / "samples.bin").string()};
-  const std::int64_t slurm_id = m_slurm.Submit(submission);
+  const fs::path folder = JobFolder(job.id);
+  const std::string name = JobName(job.id);
+  const std::int64_t slurm_id = m_slurm.Submit(
+      NewSubmission(name, folder, job.scene_toml, scene, false, bed_after,
+                    {"run", (folder / "scene.toml").string(), "--out", (folder / "out").string(),
+                     "--force", "--yes", "--no-plots", "--bed-cache", (m_work / "beds").string(),
+                     "--samples-out", (folder / "samples.bin").string()}));
   m_store.SetSlurmId(job.id, slurm_id);
-  m_store.LogEvent(job.id, "submitted to Slurm as job " + std::to_string(slurm_id) + " (" +
-                               submission.name + ")");
+  m_store.LogEvent(job.id,
+                   "submitted to Slurm as job " + std::to_string(slurm_id) + " (" + name + ")");
   m_log->info("job {}: submitted to Slurm as job {}{}", job.id, slurm_id,
               bed_after ? " after its bed, job " + std::to_string(bed_after) : "");
 }
@@ -360,8 +347,7 @@ void SlurmExecutor::PollBeds(const std::map<std::int64_t, slurm::JobStatus>& sta
   for (SlurmBedJob bed : m_store.SlurmBedsInState("submitted")) {
     const auto it = status.find(bed.slurm_id);
     std::optional<slurm::JobStatus> s;
-    if (it != status.end() && it->second.name == "dembuf-" + m_daemon_id + "-bed-" + bed.hash)
-      s = it->second;
+    if (it != status.end() && it->second.name == BedJobName(bed.hash)) s = it->second;
     if (fs::exists(m_work / "beds" / (bed.hash + ".bed"))) {
       bed.state = "done";
       m_store.PutSlurmBed(bed);

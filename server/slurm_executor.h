@@ -23,6 +23,7 @@
 #include <mutex>
 #include <thread>
 
+#include "dembuf/study/scene.h"
 #include "executor.h"
 #include "slurm.h"
 
@@ -66,7 +67,7 @@ class SlurmExecutor final : public Executor {
   void Submit(const JobRecord& job);
   /// The Slurm job preparing this bed, submitting it if none has it: 0 when the bed is ready.
   std::int64_t BedJob(const std::string& hash, const std::string& stage, const JobRecord& job,
-                      std::int64_t after);
+                      const Scene& scene, std::int64_t after);
   void PollBeds(const std::map<std::int64_t, slurm::JobStatus>& status);
   void PollJobs(const std::map<std::int64_t, slurm::JobStatus>& status);
   /// A job whose run ended: its results from its folder, or Slurm's reason.
@@ -80,10 +81,16 @@ class SlurmExecutor final : public Executor {
 
   std::filesystem::path JobFolder(std::int64_t id) const;
   std::string JobName(std::int64_t id) const;
+  std::string BedJobName(const std::string& hash) const;
   /// The last line the run printed that says what went wrong, from its Slurm log.
   static std::string LastError(const std::filesystem::path& log);
-  /// Memory and time to ask for, from the settings, else from the scene's estimate.
-  void Size(slurm::Submission& submission, const std::string& scene_toml, bool bed_only) const;
+  /// A Slurm job of `dembuf dembuf_args...` in `folder` (made, with the scene.toml), after job
+  /// `after` (0: none): its memory and time from the settings, else from the scene's estimate
+  /// (`bed_only`: the estimate of preparing its bed; else of its impact alone).
+  slurm::Submission NewSubmission(const std::string& name, const std::filesystem::path& folder,
+                                  const std::string& scene_toml, const Scene& scene, bool bed_only,
+                                  std::int64_t after,
+                                  const std::vector<std::string>& dembuf_args) const;
 
   Store& m_store;
   SlurmExecutorOptions m_options;

@@ -608,25 +608,27 @@ std::int64_t Store::SeriesLength(std::int64_t id) {
   return length;
 }
 
-std::optional<SlurmBedJob> Store::GetSlurmBed(const std::string& hash) {
+std::vector<SlurmBedJob> Store::SlurmBedsWhere(const std::string& column,
+                                               const std::string& value) {
   std::lock_guard lock(m_mutex);
   Statement& s = m_db->Prepare(
-      "SELECT hash, stage, slurm_id, state, error, job_id FROM slurm_beds WHERE hash = ?");
-  s.Bind(hash);
-  if (!s.Step()) return std::nullopt;
-  SlurmBedJob bed{s.Text(0), s.Text(1), s.Int(2), s.Text(3), s.Text(4), s.Int(5)};
-  s.Run();
-  return bed;
-}
-
-std::vector<SlurmBedJob> Store::SlurmBedsInState(const std::string& state) {
-  std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare(
-      "SELECT hash, stage, slurm_id, state, error, job_id FROM slurm_beds WHERE state = ?");
-  s.Bind(state);
+      "SELECT hash, stage, slurm_id, state, error, job_id FROM slurm_beds "
+      "WHERE " +
+      column + " = ?");
+  s.Bind(value);
   std::vector<SlurmBedJob> beds;
   while (s.Step()) beds.push_back({s.Text(0), s.Text(1), s.Int(2), s.Text(3), s.Text(4), s.Int(5)});
   return beds;
+}
+
+std::optional<SlurmBedJob> Store::GetSlurmBed(const std::string& hash) {
+  std::vector<SlurmBedJob> beds = SlurmBedsWhere("hash", hash);
+  if (beds.empty()) return std::nullopt;
+  return beds.front();
+}
+
+std::vector<SlurmBedJob> Store::SlurmBedsInState(const std::string& state) {
+  return SlurmBedsWhere("state", state);
 }
 
 void Store::PutSlurmBed(const SlurmBedJob& bed) {

@@ -201,6 +201,8 @@ class Store {
   };
 
   JobRecord ReadJob(Statement& s);
+  /// The bed jobs whose `column` ("hash" or "state": a name of ours, never a user's) is `value`.
+  std::vector<SlurmBedJob> SlurmBedsWhere(const std::string& column, const std::string& value);
   void InsertJobLocked(JobRecord& job);
   void AppendSeriesLocked(std::int64_t id, std::int64_t first,
                           const std::vector<ImpactSample>& samples);

@@ -69,11 +69,7 @@ void ThreadExecutor::Admit(std::size_t count, const std::function<std::vector<Jo
     std::lock_guard lock(m_mutex);
     if (m_stopping) throw QueueFull("the daemon is shutting down");
   }
-  const std::size_t queued = m_queue.queued();
-  if (queued + count > static_cast<std::size_t>(m_options.queue_limit))
-    throw QueueFull("the queue holds " + std::to_string(queued) + " jobs; " +
-                    std::to_string(count) + " more would pass its limit of " +
-                    std::to_string(m_options.queue_limit));
+  CheckQueueRoom(m_queue.queued(), count, m_options.queue_limit);
   for (const JobRecord& job : add()) m_queue.Push(job.id, {job.source_hash, job.bed_hash});
 }
 

@@ -113,6 +113,31 @@ TEST(BedPreparation, CachedBedIsReusedNotSettledAgain) {
             0);
 }
 
+// The two cut conventions: "surface" puts the measured mean surface at H; "tops" keeps only
+// beads whose tops are below H, so its surface comes out lower (here by a quarter radius).
+TEST(BedPreparation, TheTwoCutsPutTheSurfaceAtHOrEveryTopBelowIt) {
+  const auto dir = std::filesystem::path(test::TempPath("bed-cut"));
+  std::filesystem::remove_all(dir);
+  BedCache cache(dir);
+  const Scene scene = SmallBedScene();
+  const double H = scene.bed.thickness_m;
+  const double r_mean = 0.25 * (scene.beads.diameter_min_m + scene.beads.diameter_max_m);
+  const PreparedBed surface = GetBed(scene, cache);
+  Scene tops_scene = scene;
+  tops_scene.bed.cut = "tops";
+  const PreparedBed tops = GetBed(tops_scene, cache);
+  EXPECT_EQ(cache.prepared_counts().at("source"), 1);  // one settling for both
+  EXPECT_NEAR(surface.surface_m, H, 0.2 * r_mean);  // the cut bed sinks a little as it relaxes
+  double highest_top = 0.0;
+  for (std::size_t i = 0; i < tops.beads.size(); ++i)
+    highest_top = std::max(highest_top, tops.beads.position[i].z() + tops.beads.radius[i]);
+  // Relaxing only lets beads sink; 1% of a radius covers the resting overlaps released.
+  EXPECT_LE(highest_top, H + 0.01 * r_mean);
+  EXPECT_LT(tops.surface_m, surface.surface_m - 0.1 * r_mean);
+  EXPECT_GT(tops.surface_m, H - 2.0 * r_mean);
+  EXPECT_LT(tops.beads.size(), surface.beads.size());
+}
+
 TEST(BedPreparation, KineticDampingReachesTheSameRest) {
   // The draft accuracy relaxes a cut bed with kinetic damping. From the same source (at the
   // draft's tolerance), the bed meets the same rest criterion, and its packing stays within
@@ -287,8 +312,10 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
   projectile.time.end_s = 0.1;
   EXPECT_EQ(BedHash(projectile), BedHash(s));
-  for (const char* field : {"seed", "prep", "thickness", "mu", "alpha", "quench", "local"}) {
+  for (const char* field :
+       {"seed", "prep", "thickness", "mu", "alpha", "quench", "local", "cut"}) {
     Scene other = s;
+    if (std::string(field) == "cut") other.bed.cut = "tops";
     if (std::string(field) == "quench") other.bed.quench_cut_relaxation = true;
     if (std::string(field) == "local") other.bed.local_settling = true;
     if (std::string(field) == "seed") other.bed.seed = 2;
@@ -302,6 +329,10 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   Scene local = s;
   local.bed.local_settling = true;
   EXPECT_EQ(BedHash(local), "cf7c59483829c521");  // preparation version 3, local settling version 2
+  // Both cuts share the source bed.
+  Scene tops = s;
+  tops.bed.cut = "tops";
+  EXPECT_EQ(BedSourceHash(tops), BedSourceHash(s));
   // Changing friction after settling keeps the source (shared settling).
   Scene mu = s;
   mu.material.friction_bead_bead = 0.2;

@@ -84,7 +84,8 @@ StageKeys Keys(const Scene& scene) {
   // Named only when set, so that the beds relaxed freely keep the hashes they always had.
   const std::string cut_text =
       source_text + FieldText(scene, "bed.thickness_m") +
-      (scene.bed.quench_cut_relaxation ? FieldText(scene, "bed.quench_cut_relaxation") : "");
+      (scene.bed.quench_cut_relaxation ? FieldText(scene, "bed.quench_cut_relaxation") : "") +
+      (scene.bed.cut != "surface" ? FieldText(scene, "bed.cut") : "");
   k.cut = ContentHash(cut_text);
   k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
                            FieldText(scene, "bed.friction_ramp_s") +
@@ -518,9 +519,16 @@ PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const Bed
   return bed;
 }
 
-// Keeps the beads whose centre lies below the height that puts the measured surface at H.
+// Keeps the beads whose centre lies below the height that puts the measured surface at H
+// (bed.cut = "surface"), or those whose top is below H (bed.cut = "tops").
 std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius,
-                          double thickness) {
+                          double thickness, const std::string& convention) {
+  if (convention == "tops") {
+    std::vector<bool> keep(beads.size());
+    for (std::size_t i = 0; i < beads.size(); ++i)
+      keep[i] = beads.position[i].z() + beads.radius[i] <= thickness;
+    return keep;
+  }
   double mean_r = 0.0;
   for (double r : beads.radius) mean_r += r / beads.size();
   double cut = thickness - mean_r;
@@ -543,7 +551,7 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
   const auto wall_start = std::chrono::steady_clock::now();
   dem::Simulation sim = BedSimulation(scene, &source, source.beads, scene.bed.prep_friction);
   const std::vector<bool> keep =
-      CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m);
+      CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m, scene.bed.cut);
   sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
   const double t = SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s,
                                 scene.bed.settle_tolerance, {}, scene.bed.quench_cut_relaxation,

@@ -61,6 +61,11 @@ struct BedSpec {
   /// Beds are cut from one settled bed of this thickness, so that every H of a study shares
   /// one settling (a bed thicker than this minus d_max gets a source of H + 2 d_max).
   double source_thickness_m = 0.09;
+  /// How the source bed is cut to thickness H: "surface" keeps the beads whose centres lie
+  /// below the height that puts the measured mean surface at H; "tops" keeps only the beads
+  /// whose tops are below H, so that no bead reaches above it (the bed comes out about a bead
+  /// radius thinner). The paper does not say which it used (docs/reproduction.md).
+  std::string cut = "surface";
   /// Rest: mean kinetic energy per bead below this fraction of m g d (mean bead), and plate +
   /// wall support within 1% of the bed's weight.
   double settle_tolerance = 1e-5;

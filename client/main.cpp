@@ -23,6 +23,7 @@
 #include "dembuf/study/impact.h"
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/study/run_output.h"
+#include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/version.h"
@@ -32,7 +33,6 @@
 #include "remote.h"
 #endif
 #include "scene_input.h"
-#include "snapshot_output.h"
 #include "sweep.h"
 
 namespace fs = std::filesystem;
@@ -218,7 +218,8 @@ int RunLocal(const RunOptions& opt) {
     control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
     control.cancel = &g_interrupted;
     control.on_snapshot = [&](const ImpactSnapshot& snap) {
-      cli::WriteSnapshot(snap, dir, scene.cylinder.radius_m, scene.beads.diameter_max_m);
+      report::WriteResultFiles(
+          report::SnapshotFiles(snap, scene.cylinder.radius_m, scene.beads.diameter_max_m), dir);
     };
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
     progress.Finish();

@@ -16,6 +16,7 @@
 
 #include "dembuf/study/errors.h"
 #include "dembuf/study/run_output.h"
+#include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/sweep_report.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
@@ -413,6 +414,12 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
     std::printf("Slurm job %lld%s%s\n", static_cast<long long>(j.slurm_job_id()),
                 j.host().empty() ? "" : " on ", j.host().c_str());
   for (const auto& bed : j.beds_prepared()) std::printf("prepared bed: %s\n", bed.c_str());
+  if (j.files_size() > 0) {
+    std::int64_t bytes = 0;
+    for (const auto& file : j.files()) bytes += file.size();
+    std::printf("result files: %d (%.3g MB; dembuf fetch writes them)\n", j.files_size(),
+                bytes / 1e6);
+  }
   if (!j.error().empty()) std::printf("note: %s\n", j.error().c_str());
   if (!j.summary_json().empty()) {
     const nlohmann::json s = nlohmann::json::parse(j.summary_json());
@@ -492,6 +499,57 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   return state == v1::JOB_STATE_FAILED ? kExitJobFailed : kExitError;
 }
 
+// A job's result files (snapshots), streamed piece by piece into `dir`. The server's answers
+// are checked: plain relative paths, pieces in order, sizes as announced and within bounds.
+grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, const v1::Job& job,
+                                 const fs::path& dir) {
+  if (job.files_size() == 0) return grpc::Status::OK;
+  constexpr std::int64_t kMaxFileBytes = std::int64_t{1} << 34;  // 16 GiB
+  grpc::ClientContext context;
+  Prepare(context, remote, 3600);
+  v1::FetchFilesRequest request;
+  request.set_id(job.id());
+  auto reader = stub.FetchFiles(&context, request);
+  v1::FileChunk chunk;
+  std::string path;
+  std::int64_t size = 0, written = 0;
+  std::ofstream out;
+  auto bad = [&](const std::string& why) {
+    context.TryCancel();
+    return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                        "the server sent a bad result file (" + why + ")");
+  };
+  auto close = [&]() -> bool {
+    out.close();
+    if (!out || written != size) return false;
+    fs::rename(dir / (path + ".partial"), dir / path);
+    return true;
+  };
+  while (reader->Read(&chunk)) {
+    if (chunk.path() != path || !out.is_open()) {
+      if (out.is_open() && !close()) return bad(path + ": cut short");
+      if (!report::IsSafeResultPath(chunk.path()) || chunk.path() <= path)
+        return bad("a name not allowed, or out of order: \"" + chunk.path().substr(0, 80) + "\"");
+      if (chunk.size() < 0 || chunk.size() > kMaxFileBytes) return bad(chunk.path() + ": size");
+      path = chunk.path();
+      size = chunk.size();
+      written = 0;
+      fs::create_directories((dir / path).parent_path());
+      out.open(dir / (path + ".partial"), std::ios::binary | std::ios::trunc);
+      if (!out) throw std::runtime_error("cannot write " + (dir / path).string());
+    }
+    if (chunk.offset() != written || chunk.size() != size ||
+        static_cast<std::int64_t>(chunk.data().size()) > size - written)
+      return bad(path + ": pieces out of order");
+    out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
+    written += static_cast<std::int64_t>(chunk.data().size());
+  }
+  const grpc::Status status = reader->Finish();
+  if (!status.ok()) return status;
+  if (out.is_open() && !close()) return bad(path + ": cut short");
+  return grpc::Status::OK;
+}
+
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
                 bool plots, bool force) {
   auto stub = Connect(remote);
@@ -523,6 +581,9 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     const grpc::Status status = fetch(id, result);
     if (!status.ok()) return Report(remote, status);
     WriteJobFiles(result, dir);
+    if (const grpc::Status files = FetchJobResultFiles(*stub, remote, result.job(), dir);
+        !files.ok())
+      return Report(remote, files);
     std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
                 StateText(result.job().state()).c_str(), dir.c_str());
     if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
@@ -577,7 +638,11 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     v1::FetchResultsResponse result;
     const grpc::Status status = fetch(job.id(), result);
     if (!status.ok()) return Report(remote, status);
-    WriteJobFiles(result, dir / "runs" / SafeFolderName(job.name(), job.id()));
+    const fs::path run_dir = dir / "runs" / SafeFolderName(job.name(), job.id());
+    WriteJobFiles(result, run_dir);
+    if (const grpc::Status files = FetchJobResultFiles(*stub, remote, result.job(), run_dir);
+        !files.ok())
+      return Report(remote, files);
     run.ok = result.job().state() == v1::JOB_STATE_DONE;
     run.error = result.job().error();
     if (run.ok) run.summary = nlohmann::json::parse(result.job().summary_json());

@@ -69,6 +69,7 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"quota_bead_steps", &config.quota_bead_steps},
       {"quota_samples", &config.quota_samples},
       {"quota_memory_mb", &config.quota_memory_mb},
+      {"quota_output_mb", &config.quota_output_mb},
       {"max_watch_streams_per_user", &config.max_watch_streams_per_user},
       {"max_watch_streams", &config.max_watch_streams},
       {"max_request_kb", &config.max_request_kb},
@@ -174,7 +175,8 @@ void ValidateConfig(ServerConfig& config) {
                                     {"quota_steps", config.quota_steps},
                                     {"quota_bead_steps", config.quota_bead_steps},
                                     {"quota_samples", config.quota_samples},
-                                    {"quota_memory_mb", config.quota_memory_mb}})
+                                    {"quota_memory_mb", config.quota_memory_mb},
+                                    {"quota_output_mb", config.quota_output_mb}})
     require(value >= 0 && value <= 1e18,
             std::string(name) + ": must be 0 (no limit) to 1e18, not " + std::to_string(value));
   require(config.executor == "threads" || config.executor == "slurm",

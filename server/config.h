@@ -37,6 +37,7 @@ struct ServerConfig {
   double quota_bead_steps = 1e12;  ///< beads times steps: about 17 core-hours
   double quota_samples = 1e6;      ///< force samples written (48 MB stored)
   double quota_memory_mb = 4096;   ///< peak memory of the run
+  double quota_output_mb = 1024;   ///< result files stored (E5's six snapshots: 120 MB)
 
   /// Where jobs run: "threads" (the daemon's workers) or "slurm" (the [slurm] table's cluster).
   std::string executor = "threads";

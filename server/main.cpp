@@ -185,6 +185,11 @@ int main(int argc, char** argv) {
     options.slurm = {s.partition,  s.account,  s.cpus_per_job, s.mem_per_job_mb, s.time_limit,
                      s.extra_args, s.work_dir, s.dembuf,       s.poll_s};
     options.queue_limit = config.queue_limit;
+    // A job's files were bounded by its estimate at submission; the bound read back is wider
+    // (the estimate is an upper bound, but a cluster node's files are not trusted).
+    options.max_result_bytes = config.quota_output_mb > 0
+                                   ? static_cast<std::uint64_t>(2 * config.quota_output_mb * 1e6)
+                                   : UINT64_MAX;
     options.dembuf = !s.dembuf.empty() ? s.dembuf : BesideThisProgram("dembuf");
     // A relative path means from here, not from the job's folder on a node.
     if (options.dembuf.find('/') != std::string::npos)
@@ -213,6 +218,7 @@ int main(int argc, char** argv) {
   info.job_limits.bead_steps = config.quota_bead_steps;
   info.job_limits.samples = config.quota_samples;
   info.job_limits.memory_bytes = config.quota_memory_mb * 1e6;
+  info.job_limits.output_bytes = config.quota_output_mb * 1e6;
   info.max_watch_streams_per_user = config.max_watch_streams_per_user;
   info.max_watch_streams = config.max_watch_streams;
   if (info.require_tokens && !store->AnyUsers())

@@ -98,15 +98,18 @@ void CheckServerScene(const Scene& scene) {
     throw SceneError("bed.import",
                      "the server prepares its beds and does not read files on its disk; import "
                      "the bed in a local run (dembuf run) instead");
-  if (!scene.output.snapshot_times_s.empty())
-    throw SceneError("output.snapshot_times_s",
-                     "snapshots are written by local runs (dembuf run) only; leave it empty");
-  if (!scene.output.snapshot_after_contact_s.empty())
-    throw SceneError("output.snapshot_after_contact_s",
-                     "snapshots are written by local runs (dembuf run) only; leave it empty");
-  if (scene.output.snapshot_at_peak)
-    throw SceneError("output.snapshot_at_peak",
-                     "snapshots are written by local runs (dembuf run) only; set it to false");
+  // Their bytes are bounded by the cost check (quota_output_mb); their number here, so that
+  // many tiny snapshots cannot flood the store with rows.
+  const std::size_t snapshots = scene.output.snapshot_times_s.size() +
+                                scene.output.snapshot_after_contact_s.size() +
+                                (scene.output.snapshot_at_peak ? 1 : 0);
+  if (snapshots > kMaxServerSnapshots)
+    throw SceneError(scene.output.snapshot_times_s.size() >
+                             scene.output.snapshot_after_contact_s.size()
+                         ? "output.snapshot_times_s"
+                         : "output.snapshot_after_contact_s",
+                     std::to_string(snapshots) + " snapshots; a server job takes at most " +
+                         std::to_string(kMaxServerSnapshots));
 }
 
 }  // namespace dembuf::server

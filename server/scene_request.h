@@ -1,6 +1,8 @@
 // From a request's SceneSpec to a validated Scene, and what the daemon refuses to run.
 #pragma once
 
+#include <cstddef>
+
 #include "dembuf/study/scene.h"
 #include "dembuf/v1/dembuf.pb.h"
 
@@ -10,6 +12,8 @@ namespace dembuf::server {
 inline constexpr int kMaxAssignments = 1000;
 inline constexpr int kMaxAxes = 16;
 inline constexpr int kMaxAxisValues = 10000;
+/// The most snapshots (output.snapshot_*) one job on the server may take.
+inline constexpr std::size_t kMaxServerSnapshots = 100;
 
 /// The default scene, then the preset, the scene file text, the accuracy level, the typed
 /// fields, and each `set` assignment, in that order; validated. Throws SceneError naming the field
@@ -24,7 +28,7 @@ void ApplyProtoScene(const v1::Scene& fields, Scene& scene);
 void CheckSweepAxes(const v1::SubmitSweepRequest& request);
 
 /// Refuses what a shared daemon does not run: beds read from files on the server and
-/// snapshots (written by local runs only). What a job costs is checked against the server's
+/// more than kMaxServerSnapshots snapshots. What a job costs is checked against the server's
 /// limits separately (ServiceInfo::job_limits). Throws SceneError.
 void CheckServerScene(const Scene& scene);
 

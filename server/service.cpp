@@ -226,6 +226,11 @@ void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out)
   if (with_details) {
     out->set_scene_toml(r.scene_toml);
     for (const auto& bed : m_store.BedsPreparedBy(r.id)) out->add_beds_prepared(bed);
+    for (const JobFileInfo& file : m_store.JobFiles(r.id)) {
+      v1::ResultFileInfo* info = out->add_files();
+      info->set_path(file.path);
+      info->set_size(file.size);
+    }
     if (r.state == JobState::kDone)
       if (auto results = m_store.GetResults(r.id)) out->set_summary_json(results->summary_json);
   }
@@ -597,6 +602,39 @@ Status DembufService::FetchResults(grpc::ServerContext* context,
     FillJob(*job, true, response->mutable_job());
     if (auto results = m_store.GetResults(job->id))
       for (const ImpactSample& s : results->samples) FillSample(s, response->add_samples());
+    return Status::OK;
+  });
+}
+
+Status DembufService::FetchFiles(grpc::ServerContext* context,
+                                 const v1::FetchFilesRequest* request,
+                                 grpc::ServerWriter<v1::FileChunk>* writer) {
+  return Guard("FetchFiles", [&]() -> Status {
+    Caller caller;
+    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const auto job = m_store.GetJob(request->id());
+    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+    if (!IsFinal(job->state))
+      return Status(StatusCode::FAILED_PRECONDITION,
+                    "id: job " + std::to_string(job->id) + " is " + StateName(job->state) +
+                        "; its files come when it ends");
+    // Piece by piece from the store: a file of any size is sent without holding it whole.
+    constexpr std::int64_t kChunkBytes = 1 << 20;
+    for (const JobFileInfo& file : m_store.JobFiles(job->id)) {
+      std::int64_t offset = 0;
+      do {
+        if (context->IsCancelled()) return Status(StatusCode::CANCELLED, "the client left");
+        v1::FileChunk chunk;
+        chunk.set_path(file.path);
+        chunk.set_size(file.size);
+        chunk.set_offset(offset);
+        chunk.set_data(m_store.ReadJobFile(job->id, file.path, offset, kChunkBytes));
+        offset += static_cast<std::int64_t>(chunk.data().size());
+        if (!writer->Write(chunk)) return Status(StatusCode::CANCELLED, "the client left");
+        if (chunk.data().empty()) break;  // an empty file, or one that shrank
+      } while (offset < file.size);
+    }
     return Status::OK;
   });
 }

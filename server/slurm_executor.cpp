@@ -12,8 +12,10 @@
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/study/run_output.h"
 #include "dembuf/study/scene_fields.h"
+#include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/text_limits.h"
 #include "dembuf/study/version.h"
+#include "scene_request.h"
 
 namespace dembuf::server {
 
@@ -33,6 +35,10 @@ nlohmann::json ReadRunJson(const fs::path& path) {
 // Samples read from a run's stream in one pass at most: a run gone wild cannot make the
 // daemon read gigabytes at once (48 MB; the rest comes in the next passes).
 constexpr std::uint64_t kMaxSamplesPerRead = 1 << 20;
+
+// Result files read back from a job's folder at most: a server job takes at most
+// kMaxServerSnapshots snapshots of report::SnapshotFiles' six files each.
+constexpr std::size_t kMaxResultFiles = 6 * kMaxServerSnapshots;
 
 // Why Slurm ended a job that left no result, in words, with Slurm's state name in them.
 std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int64_t slurm_id) {
@@ -475,6 +481,7 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
   JobState state = JobState::kFailed;
   std::string error;
   std::string summary;
+  std::vector<report::ResultFile> files;
   const fs::path out = folder / "out";
   if (tail.size() == 8 * kMaxSamplesPerRead) {
     // More than a run of dembuf's writes after its last look: not taken.
@@ -484,9 +491,12 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
   } else if (fs::exists(out / "summary.json")) {
     try {
       summary = ReadRunJson(out / "summary.json").dump(2) + "\n";
+      files = report::ReadResultFiles(out, "snapshots", m_options.max_result_bytes,
+                                      kMaxResultFiles);
       state = JobState::kDone;
     } catch (const std::exception& e) {
-      error = std::string("the run ended, but its summary.json cannot be read: ") + e.what();
+      error = std::string("the run ended, but its results cannot be read: ") + e.what();
+      summary.clear();
     }
   } else if (fs::exists(out / "failure.json")) {
     try {
@@ -503,7 +513,7 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
     const std::string last = LastError(folder / "slurm.log");
     error = SlurmReason(status, job.slurm_id) + (last.empty() ? "" : "; it said: " + last);
   }
-  m_store.FinishJob(job.id, state, error, {summary, std::move(rest), first});
+  m_store.FinishJob(job.id, state, error, {summary, std::move(rest), first, std::move(files)});
   if (live) live->End(state);
   {
     std::lock_guard lock(m_mutex);

@@ -33,6 +33,7 @@ struct SlurmExecutorOptions {
   slurm::Settings slurm;
   int queue_limit = 1000;
   std::string dembuf;  ///< the dembuf program the nodes run (resolved)
+  std::uint64_t max_result_bytes = UINT64_MAX;  ///< a job's result files read back, at most
 };
 
 class SlurmExecutor final : public Executor {

@@ -120,6 +120,16 @@ CREATE TABLE meta (
   value  TEXT NOT NULL
 );
 )sql",
+    R"sql(
+-- The files a job leaves besides its summary and series (the snapshots of E5), stored with it
+-- when it ends; a path is relative to the job's folder ("snapshots/peak/contacts.csv").
+CREATE TABLE job_files (
+  job_id  INTEGER NOT NULL REFERENCES jobs(id),
+  path    TEXT NOT NULL,
+  data    BLOB NOT NULL,
+  PRIMARY KEY (job_id, path)
+);
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 
@@ -386,6 +396,7 @@ void Store::MarkStarted(std::int64_t id, JobState state, const std::string& host
       .Bind(StateName(state), UtcNow(), host, code_version, id)
       .Run();
   m_db->Prepare("DELETE FROM series_chunks WHERE job_id = ?").Bind(id).Run();
+  m_db->Prepare("DELETE FROM job_files WHERE job_id = ?").Bind(id).Run();
   t.Commit();
 }
 
@@ -471,11 +482,48 @@ void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
       .Bind(id, results.summary_json,
             results.first_index + static_cast<std::int64_t>(results.samples.size()))
       .Run();
+  PutJobFilesLocked(id, results.files);
   FaultPoint("kill-during-result-write");  // the series is written, the job not yet done
   m_db->Prepare("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?")
       .Bind(StateName(state), error, UtcNow(), id)
       .Run();
   t.Commit();
+}
+
+void Store::PutJobFiles(std::int64_t id, const std::vector<report::ResultFile>& files) {
+  std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
+  PutJobFilesLocked(id, files);
+  t.Commit();
+}
+
+void Store::PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultFile>& files) {
+  for (const report::ResultFile& file : files)
+    m_db->Prepare("INSERT OR REPLACE INTO job_files (job_id, path, data) VALUES (?, ?, ?)")
+        .Bind(id, file.path, Database::AsBlob(file.data))
+        .Run();
+}
+
+std::vector<JobFileInfo> Store::JobFiles(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT path, length(data) FROM job_files WHERE job_id = ? ORDER BY path");
+  s.Bind(id);
+  std::vector<JobFileInfo> files;
+  while (s.Step()) files.push_back({s.Text(0), s.Int(1)});
+  return files;
+}
+
+std::string Store::ReadJobFile(std::int64_t id, const std::string& path, std::int64_t offset,
+                               std::int64_t max) {
+  std::lock_guard lock(m_mutex);
+  // substr counts bytes of a blob from 1.
+  Statement& s = m_db->Prepare(
+      "SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
+  s.Bind(offset, max, id, path);
+  std::string data = s.Step() ? s.Blob(0) : std::string();
+  s.Run();
+  return data;
 }
 
 std::optional<JobResults> Store::GetResults(std::int64_t id) {
@@ -484,7 +532,7 @@ std::optional<JobResults> Store::GetResults(std::int64_t id) {
       m_db->Prepare("SELECT summary_json, sample_count, series FROM results WHERE job_id = ?");
   s.Bind(id);
   if (!s.Step()) return std::nullopt;
-  JobResults results{s.Text(0), {}, 0};
+  JobResults results{s.Text(0), {}, 0, {}};
   const std::int64_t count = s.Int(1);
   const std::string legacy = s.Blob(2);  // a whole series, from before chunks
   s.Run();

@@ -13,6 +13,7 @@
 
 #include "dembuf/study/bed.h"
 #include "dembuf/study/impact.h"
+#include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/sweep_plan.h"
 #include "sqlite.h"
 
@@ -76,13 +77,21 @@ struct JobFilter {
   int limit = 100;
 };
 
-/// What a finished (or failed) job leaves: its summary.json and the samples written.
+/// What a finished (or failed) job leaves: its summary.json, the samples written, and its
+/// other files (snapshots).
 struct JobResults {
   std::string summary_json;  ///< "" when the job did not finish
   std::vector<ImpactSample> samples;
   /// The index of samples[0] in the job's series: FinishJob stores the samples not yet
   /// appended with AppendSeries (GetResults returns all of them, from 0).
   std::int64_t first_index = 0;
+  std::vector<report::ResultFile> files;  ///< stored by FinishJob, beside those of PutJobFiles
+};
+
+/// A stored result file of a job.
+struct JobFileInfo {
+  std::string path;
+  std::int64_t size = 0;
 };
 
 /// Jobs a daemon found interrupted when it started.
@@ -150,6 +159,14 @@ class Store {
                  const JobResults& results);
   /// A finished job's summary and whole series; throws StoreError for a damaged series.
   std::optional<JobResults> GetResults(std::int64_t id);
+  /// Stores result files of a running job (a snapshot as it is taken); a job's files are
+  /// removed when it starts again.
+  void PutJobFiles(std::int64_t id, const std::vector<report::ResultFile>& files);
+  /// The result files of a job (snapshots), by path.
+  std::vector<JobFileInfo> JobFiles(std::int64_t id);
+  /// Up to `max` bytes of a job's result file from byte `offset` on ("" past its end).
+  std::string ReadJobFile(std::int64_t id, const std::string& path, std::int64_t offset,
+                          std::int64_t max);
 
   /// At start: jobs left preparing or running by a daemon that died go back to the queue,
   /// with a note, unless this is the second time (they may be what killed it): those fail.
@@ -204,6 +221,7 @@ class Store {
   /// The bed jobs whose `column` ("hash" or "state": a name of ours, never a user's) is `value`.
   std::vector<SlurmBedJob> SlurmBedsWhere(const std::string& column, const std::string& value);
   void InsertJobLocked(JobRecord& job);
+  void PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultFile>& files);
   void AppendSeriesLocked(std::int64_t id, std::int64_t first,
                           const std::vector<ImpactSample>& samples);
   std::vector<ImpactSample> ReadSeriesLocked(std::int64_t id, std::int64_t from, std::int64_t max);

@@ -8,6 +8,7 @@
 #include "dembuf/study/impact.h"
 #include "dembuf/study/run_output.h"
 #include "dembuf/study/scene_fields.h"
+#include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/version.h"
 #include "fault_injection.h"
 
@@ -186,7 +187,7 @@ void ThreadExecutor::StoreSamples(std::int64_t id, LiveJob& live) {
 
 JobResults ThreadExecutor::Rest(const LiveJob& live, const std::string& summary_json) {
   auto [first, samples] = live.UnstoredSamples();
-  return {summary_json, std::move(samples), first};
+  return {summary_json, std::move(samples), first, {}};
 }
 
 void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
@@ -223,6 +224,10 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     control.on_progress = [&](const ImpactProgress& p) {
       live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0, p.t_s,
                         p.steps);
+    };
+    control.on_snapshot = [&](const ImpactSnapshot& snap) {
+      m_store.PutJobFiles(id, report::SnapshotFiles(snap, scene.cylinder.radius_m,
+                                                    scene.beads.diameter_max_m));
     };
     control.progress_every_steps = kProgressEverySteps;
     control.cancel = &live->cancel;

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The service end to end: a real dembufd on loopback driven by the real client. A job watched
 # live (samples before the end, in order, none missing; a late watcher gets them all), fetched
-# and compared with a local run; a sweep of 6 jobs on one bed prepared once; a cancel taking
+# and compared with a local run; E5's snapshots stored and fetched as a local run writes them; a sweep of 6 jobs on one bed prepared once; a cancel taking
 # effect within a second; bad requests refused naming the field; a full queue refused.
 # Usage: service_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
@@ -48,6 +48,21 @@ cmp "$work/local/plate_force.csv" "$work/fetched/plate_force.csv" || fail "serie
 grep -v '"wall_time_s"' "$work/local/summary.json" > "$work/local.summary"
 grep -v '"wall_time_s"' "$work/fetched/summary.json" > "$work/fetched.summary"
 cmp -s "$work/local.summary" "$work/fetched.summary" || fail "summaries differ from local"
+
+# --- E5 on the service: the snapshots are stored with the job and fetched with it -------------
+# The preset's snapshot times (after contact, and at the peak) on the small scene; the files
+# fetched are those of a local run, byte for byte.
+e5=$("$dembuf" submit --preset e5 "$work/small.toml" --set bed.seed=3)
+wait_state "$e5" "done failed cancelled" 300
+[ "$(job_state "$e5")" = done ] || fail "E5 job $e5: $("$dembuf" status "$e5")"
+"$dembuf" status "$e5" | grep -q "^result files: [1-9]" || fail "status shows no result files"
+"$dembuf" fetch "$e5" --out "$work/e5-fetched" --no-plots > /dev/null || fail "fetch of E5"
+"$dembuf" run --preset e5 "$work/small.toml" --set bed.seed=3 --no-bed-cache --no-plots \
+  --out "$work/e5-local" > /dev/null 2>&1 || fail "local E5"
+[ -f "$work/e5-fetched/snapshots/peak/contacts.csv" ] || fail "no peak snapshot fetched"
+[ -f "$work/e5-fetched/snapshots/after_contact_0.5ms/network.vtk" ] || fail "no 0.5 ms snapshot"
+diff -r "$work/e5-local/snapshots" "$work/e5-fetched/snapshots" > "$work/e5.diff" \
+  || fail "fetched snapshots differ from a local run's: $(head -5 "$work/e5.diff")"
 
 # --- a sweep of 6 jobs on one bed: the bed is prepared once -----------------------------------
 sweep=$("$dembuf" sweep "$work/small.toml" --set bed.seed=4 \
@@ -105,7 +120,7 @@ bad accuracy submit --accuracy sloppy
 bad time.alpha submit --set time.alpha=fast
 bad beads.diameter_min_m submit --set beads.diameter_min_m=0.006
 bad bed.import submit --set bed.import=/etc/passwd
-bad output.snapshot_at_peak submit --set output.snapshot_at_peak=true
+bad output.snapshot_times_s submit --set "$(python3 -c 'print("output.snapshot_times_s=[" + ", ".join(["0.001"] * 101) + "]")')"
 bad bed.thickness_m submit "$work/bad.toml"
 bad bed.thickness_m sweep --vary bed.thickness_m=0.02:0.01:0.005
 bad nope.field sweep --vary nope.field=1,2

@@ -10,6 +10,7 @@
 #include "config.h"
 #include "dembuf/study/program.h"
 #include "dembuf/study/run_output.h"
+#include "dembuf/study/snapshot_report.h"
 #include "slurm.h"
 
 namespace dembuf::server {
@@ -147,6 +148,39 @@ TEST(SampleStream, AFollowerReadsWholeSamplesExactlyAsTheyCome) {
   std::filesystem::resize_file(path, report::kPackedSampleBytes * 2 - 3);
   EXPECT_EQ(report::ReadSampleStream(path, 0).size(), 1u);
   EXPECT_TRUE(report::ReadSampleStream(test::TempPath("absent.bin"), 0).empty());
+}
+
+TEST(ResultFiles, OnlyPlainRelativePathsAreAccepted) {
+  for (const char* good : {"snapshots/peak/contacts.csv", "snapshots/after_contact_0.5ms/x.vtk",
+                           "a", "a.b-c_d"})
+    EXPECT_TRUE(report::IsSafeResultPath(good)) << good;
+  for (const char* bad : {"", "/etc/passwd", "../x", "snapshots/../../x", "a//b", "a/", "./a",
+                          "a/./b", "a b", "a\\b", "a;b", "a/b/c/d", "snapshots/$(id)/x"})
+    EXPECT_FALSE(report::IsSafeResultPath(bad)) << bad;
+  EXPECT_FALSE(report::IsSafeResultPath(std::string(201, 'a')));
+}
+
+// A cluster job's snapshots are read back from a shared folder: a link, a name not allowed,
+// too many files or bytes are refused, not followed or read.
+TEST(ResultFiles, AFolderOnASharedDiskIsReadBackWithinItsBounds) {
+  namespace fs = std::filesystem;
+  const fs::path dir = test::TempPath("result-files");
+  fs::remove_all(dir);
+  fs::create_directories(dir / "snapshots" / "peak");
+  report::WriteFileAtomically(dir / "snapshots" / "peak" / "a.csv", "12345");
+  report::WriteFileAtomically(dir / "snapshots" / "peak" / "b.csv", "");
+  auto files = report::ReadResultFiles(dir, "snapshots", 100, 10);
+  ASSERT_EQ(files.size(), 2u);
+  EXPECT_EQ(files[0].path, "snapshots/peak/a.csv");
+  EXPECT_EQ(files[0].data, "12345");
+  EXPECT_TRUE(report::ReadResultFiles(dir, "absent", 100, 10).empty());
+  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 4, 10), std::runtime_error);
+  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 100, 1), std::runtime_error);
+  fs::create_symlink("/etc/passwd", dir / "snapshots" / "peak" / "c.csv");
+  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 1 << 20, 10), std::runtime_error);
+  fs::remove(dir / "snapshots" / "peak" / "c.csv");
+  report::WriteFileAtomically(dir / "snapshots" / "peak" / "x y.csv", "");
+  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 1 << 20, 10), std::runtime_error);
 }
 
 TEST(SlurmConfig, TheSlurmTableIsReadAndChecked) {

@@ -145,7 +145,7 @@ TEST_F(StoreTest, ResultsSurviveReopeningExactly) {
     store.AddJob(job);
     id = job.id;
     store.MarkStarted(id, JobState::kRunning, "host", "0.1.0");
-    store.FinishJob(id, JobState::kDone, "", {"{\"P_N\": 1}\n", samples});
+    store.FinishJob(id, JobState::kDone, "", {"{\"P_N\": 1}\n", samples, 0, {}});
   }
   Store store(path.string());
   const auto job = store.GetJob(id);
@@ -214,7 +214,7 @@ TEST_F(StoreTest, ASeriesLongerThanABlobMayBeIsStoredInChunks) {
     store.AppendSeries(id, 0, Samples(0, 640));
     store.AppendSeries(id, 640, Samples(640, 360));
     ExpectSamples(store.ReadSeries(id, 150, 100), 150, 100);  // across two chunks
-    store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(1000, 100), 1000});
+    store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(1000, 100), 1000, {}});
   }
   Store store(path.string(), small);
   const auto results = store.GetResults(id);
@@ -231,7 +231,7 @@ TEST_F(StoreTest, ADamagedChunkIsReportedNotServed) {
     job.scene_toml = "x";
     store.AddJob(job);
     id = job.id;
-    store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(0, 10), 0});
+    store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(0, 10), 0, {}});
   }
   {
     Database db(path.string());
@@ -346,6 +346,36 @@ TEST_F(StoreTest, BedsRoundTripExactly) {
   EXPECT_EQ(back->surface_m, bed.surface_m);
   EXPECT_EQ(back->beads.position[0], bed.beads.position[0]);
   EXPECT_EQ(back->beads.radius[0], bed.beads.radius[0]);
+}
+
+TEST_F(StoreTest, ResultFilesAreStoredWithTheJobAndReadInPieces) {
+  std::int64_t id = 0;
+  const std::string big(3000, 'x');
+  {
+    Store store(path.string());
+    JobRecord job;
+    job.scene_toml = "x";
+    store.AddJob(job);
+    id = job.id;
+    store.MarkStarted(id, JobState::kRunning, "h", "v");
+    store.PutJobFiles(id, {{"snapshots/t_1ms/a.csv", "a,b\n"}});
+    store.FinishJob(id, JobState::kDone, "", {"{}\n", {}, 0, {{"snapshots/peak/big.vtk", big}}});
+  }
+  Store store(path.string());
+  const std::vector<JobFileInfo> files = store.JobFiles(id);
+  ASSERT_EQ(files.size(), 2u);
+  EXPECT_EQ(files[0].path, "snapshots/peak/big.vtk");  // in path order
+  EXPECT_EQ(files[0].size, 3000);
+  EXPECT_EQ(files[1].path, "snapshots/t_1ms/a.csv");
+  std::string pieces;
+  for (std::int64_t offset = 0; offset < 3000; offset += 1024)
+    pieces += store.ReadJobFile(id, "snapshots/peak/big.vtk", offset, 1024);
+  EXPECT_EQ(pieces, big);
+  EXPECT_EQ(store.ReadJobFile(id, "snapshots/peak/big.vtk", 3000, 1024), "");
+  EXPECT_EQ(store.ReadJobFile(id, "no/such/file", 0, 1024), "");
+  // A job that starts again (after a crash) starts without the files of its first try.
+  store.MarkStarted(id, JobState::kRunning, "h", "v");
+  EXPECT_TRUE(store.JobFiles(id).empty());
 }
 
 }  // namespace

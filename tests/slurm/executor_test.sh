@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The Slurm executor on the one-node Slurm of deploy/slurm/, against real dembufd daemons:
 #   1. a three-point sweep through executor = "slurm" gives the thread executor's results, bit
-#      for bit (summaries but for their wall time, and the stored series' SHA-256), its two bed
+#      for bit (summaries but for their wall time, the stored series, the snapshots), its two bed
 #      stages each prepared by one Slurm job, and a second user's sweep prepares none;
 #   2. watch shows a Slurm job's samples while it runs, and cancel ends it in Slurm;
 #   3. kill -9 of dembufd mid-sweep, and a restart: every job submitted once, all finish;
@@ -40,6 +40,8 @@ slurm_id() { "$dembuf" status "$1" | sed -n 's/^Slurm job \([0-9]*\).*/\1/p'; }
 small_scene "$work/scene.toml"
 # Runs of about 7 s per simulated second on one core, once the bed is ready.
 long=(--set time.output_interval_s=1e-3 --set projectile.speed_m_s=0.5)
+# Part 1's sweep takes a snapshot 1 ms after contact: its files come back from the nodes.
+snap=(--set 'output.snapshot_after_contact_s=[0.001]')
 
 # Part 6's job, with a time limit of 5 s (a minute for Slurm), from a daemon of its own that
 # stops while the job runs.
@@ -56,7 +58,7 @@ stop_daemon
 echo "== 1. a sweep on Slurm and on threads, bit for bit ($SECONDS s)"
 slurm_config "$work/slurm.toml" "$work/shared"
 start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
-"$dembuf" sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2,3 > /dev/null
+"$dembuf" sweep "$work/scene.toml" "${snap[@]}" --vary projectile.speed_m_s=1,2,3 > /dev/null
 # While its bed is prepared, status says what the job waits for.
 for _ in $(seq 100); do
   said=$("$dembuf" status 1 || true)
@@ -74,7 +76,7 @@ bed_jobs=$(squeue -h -t all -o '%j' | grep -c -- "^dembuf-$daemon_id-bed-" || tr
 [ "$bed_jobs" = 2 ] || fail "$bed_jobs bed jobs in Slurm, not 2 (a source and its cut)"
 stop_daemon
 start_daemon "$work/threads.db" "$work/threads.log"
-"$dembuf" sweep "$work/scene.toml" --vary projectile.speed_m_s=1,2,3 > /dev/null
+"$dembuf" sweep "$work/scene.toml" "${snap[@]}" --vary projectile.speed_m_s=1,2,3 > /dev/null
 for id in 1 2 3; do wait_state $id done 120; done
 stop_daemon
 python3 - "$work/slurm.db" "$work/threads.db" <<'PY'
@@ -88,14 +90,17 @@ def results(path):
         # The series' bytes: rows of six doubles, whatever the chunks they were stored in.
         series = b"".join(row[0] for row in db.execute(
             "SELECT data FROM series_chunks WHERE job_id = ? ORDER BY first_index", (job,)))
-        out[job] = (s, series)
+        files = list(db.execute(
+            "SELECT path, data FROM job_files WHERE job_id = ? ORDER BY path", (job,)))
+        out[job] = (s, series, files)
     return out
 slurm, threads = results(sys.argv[1]), results(sys.argv[2])
 assert len(slurm) == 3 and slurm.keys() == threads.keys(), (slurm.keys(), threads.keys())
 for job in slurm:
     assert slurm[job][0] == threads[job][0], f"job {job}: summaries differ"
     assert slurm[job][1] == threads[job][1] and slurm[job][1], f"job {job}: series differ"
-print("3 jobs: summaries and series identical;",
+    assert slurm[job][2] == threads[job][2] and len(slurm[job][2]) == 6, f"job {job}: snapshots"
+print("3 jobs: summaries, series and snapshot files identical;",
       sum(len(v[1]) for v in slurm.values()) // 48, "samples compared")
 PY
 

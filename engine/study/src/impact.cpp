@@ -1,5 +1,6 @@
 #include "dembuf/study/impact.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -144,11 +145,20 @@ ImpactSnapshot TakeSnapshot(const dem::Simulation& sim, const std::string& label
   return snap;
 }
 
-std::string TimeLabel(double t) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "t=%.6g", t);
+// A snapshot's folder name: a time in milliseconds, to a microsecond at most, after a prefix
+// ("t_57.2ms", "after_contact_0.5ms"); letters, digits, '.' and '_' only.
+std::string TimeLabel(const char* prefix, double t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%s%.6gms", prefix, std::round(t * 1e6) / 1e3);
   return buf;
 }
+
+// A snapshot due at `t_s`, and its label.
+struct DueSnapshot {
+  double t_s;
+  std::string label;
+  bool operator<(const DueSnapshot& other) const { return t_s < other.t_s; }
+};
 
 // One pass of the impact. `peak_step` >= 0 asks for a "peak" snapshot at that step (known from
 // an earlier pass of the same deterministic run).
@@ -170,10 +180,13 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
   auto emit = [&](const ImpactSample& s) {
     if (control.on_sample) control.on_sample(s);
   };
-  std::vector<double> snapshot_times = scene.output.snapshot_times_s;
-  std::sort(snapshot_times.begin(), snapshot_times.end());
+  std::vector<DueSnapshot> snapshot_times;
+  for (double t : scene.output.snapshot_times_s) snapshot_times.push_back({t, TimeLabel("t_", t)});
+  std::stable_sort(snapshot_times.begin(), snapshot_times.end());
   std::size_t next_snapshot = 0;
-  auto snapshot = [&](const ImpactSnapshot& snap) {
+  auto snapshot = [&](ImpactSnapshot snap) {
+    if (summary.first_contact_time_s >= 0.0)
+      snap.t_after_contact_s = snap.t_s - summary.first_contact_time_s;
     if (control.on_snapshot) control.on_snapshot(snap);
   };
 
@@ -208,10 +221,11 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
       const double z0 = p.position.z(), vz0 = p.velocity.z();
       const ImpactSnapshot at_rest =
           snapshot_times.empty() ? ImpactSnapshot{} : TakeSnapshot(sim, "");
-      while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot] <= t_fly) {
-        const double t = snapshot_times[next_snapshot++];
+      while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot].t_s <= t_fly) {
+        const DueSnapshot& due = snapshot_times[next_snapshot++];
+        const double t = due.t_s;
         ImpactSnapshot snap = at_rest;
-        snap.label = TimeLabel(t);
+        snap.label = due.label;
         snap.t_s = t;
         snap.projectile->position.z() = z0 + vz0 * t - 0.5 * g * t * t;
         snap.projectile->velocity.z() = vz0 - g * t;
@@ -274,8 +288,8 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
       emit(MakeSample(sim));
       clock.Advance(t);
     }
-    while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot] <= t)
-      snapshot(TakeSnapshot(sim, TimeLabel(snapshot_times[next_snapshot++])));
+    while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot].t_s <= t)
+      snapshot(TakeSnapshot(sim, snapshot_times[next_snapshot++].label));
     if (sim.steps() == peak_step) snapshot(TakeSnapshot(sim, "peak"));
     // Every step: a step of a large bed takes milliseconds, a cancel must act within a second.
     if (control.cancel && control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
@@ -291,8 +305,8 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
         summary.first_contact_time_s = t;
         // Snapshots counted from first contact join the schedule now that it is known.
         for (double after : scene.output.snapshot_after_contact_s)
-          snapshot_times.push_back(t + after);
-        std::sort(snapshot_times.begin() + next_snapshot, snapshot_times.end());
+          snapshot_times.push_back({t + after, TimeLabel("after_contact_", after)});
+        std::stable_sort(snapshot_times.begin() + next_snapshot, snapshot_times.end());
       }
       continue;
     }

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -70,8 +71,11 @@ struct ImpactSample {
 /// The state of the bed at one instant: bead positions and radii, the projectile, and every
 /// contact with its force (for force chains, the plate load map and force statistics).
 struct ImpactSnapshot {
-  std::string label;  ///< "t=0.0572" or "peak"
+  /// Its folder name: "after_contact_0.5ms" (output.snapshot_after_contact_s), "t_57.2ms"
+  /// (output.snapshot_times_s) or "peak".
+  std::string label;
   double t_s = 0.0;
+  double t_after_contact_s = std::numeric_limits<double>::quiet_NaN();  ///< NaN: before contact
   std::vector<dem::Vec3> positions;
   std::vector<double> radii;
   std::optional<dem::RigidSphere> projectile;

@@ -1,0 +1,51 @@
+// Files of a contact-network snapshot, in snapshots/<label>/ of a run's folder:
+//   snapshot.json     when it was taken (simulated time, time after the first contact), counts
+//   network.vtk       beads (points, radius) and bead/projectile contacts (lines, forces), for
+//                     ParaView (legacy VTK polydata)
+//   contacts.csv      every contact: bodies, contact point, force vector, normal force
+//   plate_radial.csv  plate load by ring of width one bead diameter: force and pressure
+//   plate_map.csv     plate load on a square grid of 1 cm cells
+//   force_pdf.csv     probability density of bead-bead normal forces over their mean
+// They are made in memory, so that a local run writes them to its folder and the daemon
+// stores them with the job; both give the same bytes.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "dembuf/study/impact.h"
+
+namespace dembuf::report {
+
+/// One file of a run's results: its path relative to the run's folder, and its bytes.
+struct ResultFile {
+  std::string path;
+  std::string data;
+};
+
+/// The files of one snapshot, under "snapshots/<label>/".
+std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinder_radius_m,
+                                      double bead_diameter_m);
+
+/// Whether `path` may name a result file: relative, made of folder and file names of letters,
+/// digits, '.', '-' and '_' (none of them "." or ".."), at most kMaxResultPathLength long and
+/// kMaxResultPathDepth deep. Result files come from a cluster's shared folder and from a
+/// server's answers: a name that could leave the run's folder is refused.
+bool IsSafeResultPath(std::string_view path);
+inline constexpr std::size_t kMaxResultPathLength = 200;
+inline constexpr int kMaxResultPathDepth = 3;
+
+/// Writes the files under `dir` (each atomically), creating their folders. Throws
+/// std::runtime_error for a path IsSafeResultPath refuses, before writing anything.
+void WriteResultFiles(const std::vector<ResultFile>& files, const std::filesystem::path& dir);
+
+/// The files under dir/folder (say "snapshots"), read back for storing: only regular files
+/// with paths IsSafeResultPath accepts, at most `max_files` of them and `max_bytes` in all.
+/// Throws std::runtime_error naming what broke a rule (a link, a name, a size): the folder is
+/// another program's output on a shared disk.
+std::vector<ResultFile> ReadResultFiles(const std::filesystem::path& dir, const std::string& folder,
+                                        std::uint64_t max_bytes, std::size_t max_files);
+
+}  // namespace dembuf::report

@@ -1,0 +1,242 @@
+#include "dembuf/study/snapshot_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include "dembuf/study/run_output.h"
+
+namespace dembuf::report {
+
+namespace {
+
+bool IsSafeNameChar(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_';
+}
+
+std::string SafeLabel(const std::string& label) {
+  std::string out;
+  for (char c : label)
+    if (IsSafeNameChar(c)) out += c;
+  if (out.empty() || out == "." || out == "..") return "snapshot";
+  return out.substr(0, 64);
+}
+
+// Text built like a file: full precision for coordinates and forces.
+std::ostringstream TextFile() {
+  std::ostringstream out;
+  out.precision(9);
+  return out;
+}
+
+std::string Metadata(const ImpactSnapshot& s) {
+  std::size_t bead_pairs = 0;
+  for (const auto& c : s.contacts) bead_pairs += dem::IsBead(c.a) && dem::IsBead(c.b);
+  nlohmann::json j = {{"label", s.label},
+                      {"t_s", s.t_s},
+                      {"t_after_contact_s", nullptr},
+                      {"beads", s.positions.size()},
+                      {"contacts", s.contacts.size()},
+                      {"bead_bead_contacts", bead_pairs}};
+  if (std::isfinite(s.t_after_contact_s)) j["t_after_contact_s"] = s.t_after_contact_s;
+  return j.dump(2) + "\n";
+}
+
+bool IsBodyPair(const dem::ContactSnapshot& c) {
+  return dem::IsBead(c.b);
+}
+
+std::string Vtk(const ImpactSnapshot& s) {
+  std::ostringstream out = TextFile();
+  const std::size_t n = s.positions.size();
+  const std::size_t points = n + (s.projectile ? 1 : 0);
+  out << "# vtk DataFile Version 3.0\ndembuf force network " << s.label << "\nASCII\n"
+      << "DATASET POLYDATA\nPOINTS " << points << " double\n";
+  for (const dem::Vec3& x : s.positions) out << x.x() << " " << x.y() << " " << x.z() << "\n";
+  if (s.projectile)
+    out << s.projectile->position.x() << " " << s.projectile->position.y() << " "
+        << s.projectile->position.z() << "\n";
+  std::size_t lines = 0;
+  for (const auto& c : s.contacts) lines += IsBodyPair(c);
+  out << "LINES " << lines << " " << 3 * lines << "\n";
+  for (const auto& c : s.contacts) {
+    if (!IsBodyPair(c)) continue;
+    const std::size_t a = c.a == dem::kProjectile ? n : static_cast<std::size_t>(c.a);
+    out << "2 " << a << " " << c.b << "\n";
+  }
+  out << "CELL_DATA " << lines << "\nSCALARS normal_force_N double 1\nLOOKUP_TABLE default\n";
+  for (const auto& c : s.contacts)
+    if (IsBodyPair(c)) out << c.normal_N << "\n";
+  out << "POINT_DATA " << points << "\nSCALARS radius_m double 1\nLOOKUP_TABLE default\n";
+  for (double r : s.radii) out << r << "\n";
+  if (s.projectile) out << s.projectile->radius << "\n";
+  return out.str();
+}
+
+std::string Contacts(const ImpactSnapshot& s) {
+  std::ostringstream out = TextFile();
+  out << "a,b,x_m,y_m,z_m,fx_N,fy_N,fz_N,normal_N,ax_m,ay_m,az_m,bx_m,by_m,bz_m\n";
+  auto centre = [&](dem::BodyId id, const dem::Vec3& point) -> dem::Vec3 {
+    if (dem::IsBead(id)) return s.positions[id];
+    if (id == dem::kProjectile && s.projectile) return s.projectile->position;
+    return point;  // a wall: its contact point
+  };
+  auto name = [](dem::BodyId id) -> std::string {
+    switch (id) {
+      case dem::kPlate:
+        return "plate";
+      case dem::kSideWall:
+        return "wall";
+      case dem::kProjectile:
+        return "projectile";
+      default:
+        return std::to_string(id);
+    }
+  };
+  for (const auto& c : s.contacts) {
+    const dem::Vec3 a = centre(c.a, c.point), b = centre(c.b, c.point);
+    out << name(c.a) << "," << name(c.b) << "," << c.point.x() << "," << c.point.y() << ","
+        << c.point.z() << "," << c.force.x() << "," << c.force.y() << "," << c.force.z() << ","
+        << c.normal_N << "," << a.x() << "," << a.y() << "," << a.z() << "," << b.x() << ","
+        << b.y() << "," << b.z() << "\n";
+  }
+  return out.str();
+}
+
+// plate_radial.csv and plate_map.csv.
+std::pair<std::string, std::string> PlateLoad(const ImpactSnapshot& s, double R,
+                                              double ring_width) {
+  const int rings = std::max(1, static_cast<int>(std::ceil(R / ring_width)));
+  std::vector<double> ring_force(rings, 0.0);
+  constexpr double kCell = 0.01;
+  const int cells = static_cast<int>(std::ceil(2.0 * R / kCell));
+  std::vector<double> map(cells * cells, 0.0);
+  for (const auto& c : s.contacts) {
+    if (c.b != dem::kPlate) continue;
+    const double rho = std::hypot(c.point.x(), c.point.y());
+    ring_force[std::min(rings - 1, static_cast<int>(rho / ring_width))] += c.normal_N;
+    const int cx = std::clamp(static_cast<int>((c.point.x() + R) / kCell), 0, cells - 1);
+    const int cy = std::clamp(static_cast<int>((c.point.y() + R) / kCell), 0, cells - 1);
+    map[cy * cells + cx] += c.normal_N;
+  }
+  std::ostringstream radial = TextFile();
+  radial << "r_inner_m,r_outer_m,force_N,pressure_Pa\n";
+  for (int k = 0; k < rings; ++k) {
+    const double r0 = k * ring_width, r1 = std::min(R, (k + 1) * ring_width);
+    const double area = std::numbers::pi * (r1 * r1 - r0 * r0);
+    radial << r0 << "," << r1 << "," << ring_force[k] << "," << ring_force[k] / area << "\n";
+  }
+  std::ostringstream grid = TextFile();
+  grid << "x_m,y_m,force_N\n";
+  for (int cy = 0; cy < cells; ++cy)
+    for (int cx = 0; cx < cells; ++cx)
+      grid << -R + (cx + 0.5) * kCell << "," << -R + (cy + 0.5) * kCell << ","
+           << map[cy * cells + cx] << "\n";
+  return {radial.str(), grid.str()};
+}
+
+std::string ForcePdf(const ImpactSnapshot& s) {
+  std::vector<double> forces;
+  for (const auto& c : s.contacts)
+    if (dem::IsBead(c.a) && dem::IsBead(c.b) && c.normal_N > 0.0) forces.push_back(c.normal_N);
+  std::ostringstream out = TextFile();
+  out << "f_over_mean,pdf,count\n";
+  if (forces.empty()) return out.str();
+  double mean = 0.0;
+  for (double f : forces) mean += f / forces.size();
+  // Bins of a tenth of the mean, up to the largest force: every force in its own bin (a last
+  // bin that collected the tail would show a false peak at the edge).
+  constexpr double kBin = 0.1;
+  const double largest = *std::max_element(forces.begin(), forces.end());
+  const int bins = static_cast<int>(largest / mean / kBin) + 1;
+  std::vector<int> counts(bins, 0);
+  for (double f : forces) ++counts[std::min(bins - 1, static_cast<int>(f / mean / kBin))];
+  for (int k = 0; k < bins; ++k)
+    out << (k + 0.5) * kBin << "," << counts[k] / (forces.size() * kBin) << "," << counts[k]
+        << "\n";
+  return out.str();
+}
+
+}  // namespace
+
+std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinder_radius_m,
+                                      double bead_diameter_m) {
+  const std::string folder = "snapshots/" + SafeLabel(snap.label) + "/";
+  auto [radial, map] = PlateLoad(snap, cylinder_radius_m, bead_diameter_m);
+  return {{folder + "snapshot.json", Metadata(snap)},
+          {folder + "network.vtk", Vtk(snap)},
+          {folder + "contacts.csv", Contacts(snap)},
+          {folder + "plate_radial.csv", std::move(radial)},
+          {folder + "plate_map.csv", std::move(map)},
+          {folder + "force_pdf.csv", ForcePdf(snap)}};
+}
+
+bool IsSafeResultPath(std::string_view path) {
+  if (path.empty() || path.size() > kMaxResultPathLength) return false;
+  int depth = 0;
+  std::size_t start = 0;
+  while (start <= path.size()) {
+    const std::size_t end = std::min(path.find('/', start), path.size());
+    const std::string_view name = path.substr(start, end - start);
+    if (name.empty() || name == "." || name == "..") return false;
+    if (!std::all_of(name.begin(), name.end(), IsSafeNameChar)) return false;
+    if (++depth > kMaxResultPathDepth) return false;
+    start = end + 1;
+  }
+  return true;
+}
+
+void WriteResultFiles(const std::vector<ResultFile>& files, const std::filesystem::path& dir) {
+  for (const ResultFile& f : files)
+    if (!IsSafeResultPath(f.path))
+      throw std::runtime_error("refused a result file named \"" + f.path.substr(0, 80) +
+                               "\": not a plain relative path");
+  for (const ResultFile& f : files) {
+    const std::filesystem::path path = dir / f.path;
+    std::filesystem::create_directories(path.parent_path());
+    WriteFileAtomically(path, f.data);
+  }
+}
+
+std::vector<ResultFile> ReadResultFiles(const std::filesystem::path& dir, const std::string& folder,
+                                        std::uint64_t max_bytes, std::size_t max_files) {
+  namespace fs = std::filesystem;
+  std::vector<ResultFile> files;
+  const fs::path root = dir / folder;
+  if (fs::symlink_status(root).type() == fs::file_type::not_found) return files;
+  if (!fs::is_directory(fs::symlink_status(root)))
+    throw std::runtime_error(folder + " is not a folder");
+  std::uint64_t total = 0;
+  for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator();
+       ++it) {
+    const fs::file_status status = it->symlink_status();
+    const std::string path = folder + "/" + it->path().lexically_relative(root).generic_string();
+    if (!IsSafeResultPath(path))
+      throw std::runtime_error("a result file or folder with a name not allowed: \"" +
+                               path.substr(0, 80) + "\"");
+    if (fs::is_directory(status)) continue;
+    if (!fs::is_regular_file(status))
+      throw std::runtime_error(path + " is not a regular file (a link?)");
+    if (files.size() == max_files)
+      throw std::runtime_error("more than " + std::to_string(max_files) + " files in " + folder);
+    const std::uint64_t size = fs::file_size(it->path());
+    if (size > max_bytes - total)
+      throw std::runtime_error("the files of " + folder + " pass " + std::to_string(max_bytes) +
+                               " bytes");
+    total += size;
+    std::ifstream in(it->path(), std::ios::binary);
+    std::string data(size, '\0');
+    if (!in.read(data.data(), static_cast<std::streamsize>(size)))
+      throw std::runtime_error("cannot read " + path);
+    files.push_back({path, std::move(data)});
+  }
+  std::sort(files.begin(), files.end(),
+            [](const ResultFile& a, const ResultFile& b) { return a.path < b.path; });
+  return files;
+}
+
+}  // namespace dembuf::report

@@ -215,6 +215,9 @@ int RunLocal(const RunOptions& opt) {
       csv->Write(s);
       if (stream) stream->Write(s);
     };
+    // The same impact on the bare plate (run for lambda), drawn beside this one.
+    std::vector<ImpactSample> bare;
+    control.on_reference_sample = [&](const ImpactSample& s) { bare.push_back(s); };
     control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
     control.cancel = &g_interrupted;
     control.on_snapshot = [&](const ImpactSnapshot& snap) {
@@ -224,6 +227,8 @@ int RunLocal(const RunOptions& opt) {
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
     progress.Finish();
     csv->Commit();
+    if (!bare.empty())
+      report::WriteFileAtomically(dir / "plate_force_bare.csv", report::SamplesToCsv(bare));
     if (stream) stream->Close();
     report::WriteFileAtomically(dir / "summary.json",
                                 report::SummaryToJson(summary, scene).dump(2) + "\n");

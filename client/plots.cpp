@@ -69,28 +69,50 @@ nlohmann::json ReadJson(const fs::path& p) {
   return nlohmann::json::parse(in);
 }
 
-// F(t) around the impact, in ms and kN, with the peaks marked.
+// A number rounded for a title or a label: `digits` significant digits.
+std::string Rounded(double v, int digits = 3) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+// F(t) around the impact, in ms after the first contact and kN, with the peaks marked, and the
+// same impact on the bare plate (run for lambda) beside it when the run has a bed.
 std::vector<fs::path> PlotRun(const fs::path& dir) {
   std::vector<fs::path> out;
   const nlohmann::json s = ReadJson(dir / "summary.json");
   const double contact = Number(s, "first_contact_time_s", 0.0);
   const double end = Number(s, "end_time_s", contact + 0.02);
+  const double H = Number(s, "bed_thickness_m", 0.0);
+  const double P = Number(s, "P_N", 0.0), P0 = Number(s, "reference_peak_N", 0.0);
+  const fs::path bare = dir / "plate_force_bare.csv";
+  const bool with_bare = H > 0.0 && HasRows(bare);
+  std::string title = H > 0.0 ? "impact on a " + Rounded(100 * H) + " cm bed: P = " +
+                                    Rounded(P / 1e3) + " kN, bare plate " + Rounded(P0 / 1e3) +
+                                    " kN, lambda = " + Rounded(100 * Number(s, "lambda", 0.0), 2) +
+                                    "%"
+                              : "impact on the bare plate: P = " + Rounded(P / 1e3) + " kN";
   std::ostringstream gp;
   gp << kTerminal << "set output " << Q(dir / "plate_force.png") << "\n"
-     << "set xlabel 'time [ms]'\nset ylabel 'plate force [kN]'\n"
-     << "set title 'bottom-plate force (H = " << 100 * Number(s, "bed_thickness_m", 0.0)
-     << " cm, P = " << Number(s, "P_N", 0.0) / 1e3 << " kN)'\n"
-     << "set xrange [" << (contact - 0.001) * 1e3 << ":" << end * 1e3 << "]\n";
-  std::string labels;
+     << "set xlabel 'time after first contact [ms]'\nset ylabel 'bottom-plate force [kN]'\n"
+     << "set title " << Literal(title) << "\n"
+     << "set xrange [-0.5:" << (end - contact) * 1e3 << "]\n";
   const nlohmann::json peaks = s.value("peaks", nlohmann::json::array());
   for (const auto& p : peaks.is_array() ? peaks : nlohmann::json::array()) {
     if (!p.is_object() || !p.contains("kind") || !p["kind"].is_string()) continue;
-    gp << "set label " << Literal(p["kind"].get<std::string>()) << " at "
-       << Number(p, "time_s", 0.0) * 1e3 << "," << Number(p, "force_N", 0.0) / 1e3
-       << " offset 0.5,0.5 point pt 7 ps 1.2\n";
+    const double force = Number(p, "force_N", 0.0);
+    gp << "set label " << Literal(p["kind"].get<std::string>() + " " + Rounded(force / 1e3) + " kN")
+       << " at " << (Number(p, "time_s", 0.0) - contact) * 1e3 << "," << force / 1e3
+       << " offset 0.6,0.6 point pt 7 ps 1.2\n";
   }
-  gp << "plot " << Q(dir / "plate_force.csv")
-     << " every ::1 using ($1*1e3):($2/1e3) with lines lw 1.5 title 'plate'\n";
+  gp << "plot " << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact
+     << ")*1e3):($2/1e3) with lines lw 2 lc rgb '#1f4e9c' title "
+     << Literal(H > 0.0 ? "on the bed" : "bare plate");
+  if (with_bare)
+    gp << ", " << Q(bare) << " every ::1 using (($1-"
+       << Number(s, "reference_first_contact_time_s", contact)
+       << ")*1e3):($2/1e3) with lines lw 1.5 dt 2 lc rgb '#808080' title 'bare plate'";
+  gp << "\n";
   RunGnuplot(gp.str(), dir / "plate_force.gp");
   out.push_back(dir / "plate_force.png");
 

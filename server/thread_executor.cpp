@@ -225,6 +225,8 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
       live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0, p.t_s,
                         p.steps);
     };
+    std::vector<ImpactSample> bare;  // the bare-plate impact run for lambda: a few hundred
+    control.on_reference_sample = [&](const ImpactSample& s) { bare.push_back(s); };
     control.on_snapshot = [&](const ImpactSnapshot& snap) {
       m_store.PutJobFiles(id, report::SnapshotFiles(snap, scene.cylinder.radius_m,
                                                     scene.beads.diameter_max_m));
@@ -236,7 +238,9 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     control.bed_request = &bed_request;
     const ImpactSummary summary = RunImpact(std::move(world), scene, control);
     const std::string summary_json = report::SummaryToJson(summary, scene).dump(2) + "\n";
-    m_store.FinishJob(id, JobState::kDone, "", Rest(*live, summary_json));
+    JobResults results = Rest(*live, summary_json);
+    if (!bare.empty()) results.files.push_back({"plate_force_bare.csv", report::SamplesToCsv(bare)});
+    m_store.FinishJob(id, JobState::kDone, "", results);
     live->End(JobState::kDone);
     m_log->info("job {}: done in {:.1f} s: P = {:.5g} N, lambda = {:.3f}", id,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),

@@ -169,18 +169,22 @@ TEST(ResultFiles, AFolderOnASharedDiskIsReadBackWithinItsBounds) {
   fs::create_directories(dir / "snapshots" / "peak");
   report::WriteFileAtomically(dir / "snapshots" / "peak" / "a.csv", "12345");
   report::WriteFileAtomically(dir / "snapshots" / "peak" / "b.csv", "");
-  auto files = report::ReadResultFiles(dir, "snapshots", 100, 10);
+  auto files = report::ReadResultFiles(dir, {"snapshots"}, 100, 10);
   ASSERT_EQ(files.size(), 2u);
   EXPECT_EQ(files[0].path, "snapshots/peak/a.csv");
   EXPECT_EQ(files[0].data, "12345");
-  EXPECT_TRUE(report::ReadResultFiles(dir, "absent", 100, 10).empty());
-  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 4, 10), std::runtime_error);
-  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 100, 1), std::runtime_error);
+  EXPECT_TRUE(report::ReadResultFiles(dir, {"absent"}, 100, 10).empty());
+  report::WriteFileAtomically(dir / "plate_force_bare.csv", "t_s\n");
+  files = report::ReadResultFiles(dir, {"snapshots", "plate_force_bare.csv"}, 100, 10);
+  ASSERT_EQ(files.size(), 3u);
+  EXPECT_EQ(files[0].path, "plate_force_bare.csv");
+  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 4, 10), std::runtime_error);
+  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 100, 1), std::runtime_error);
   fs::create_symlink("/etc/passwd", dir / "snapshots" / "peak" / "c.csv");
-  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 1 << 20, 10), std::runtime_error);
+  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 1 << 20, 10), std::runtime_error);
   fs::remove(dir / "snapshots" / "peak" / "c.csv");
   report::WriteFileAtomically(dir / "snapshots" / "peak" / "x y.csv", "");
-  EXPECT_THROW(report::ReadResultFiles(dir, "snapshots", 1 << 20, 10), std::runtime_error);
+  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 1 << 20, 10), std::runtime_error);
 }
 
 TEST(SlurmConfig, TheSlurmTableIsReadAndChecked) {

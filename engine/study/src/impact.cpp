@@ -376,7 +376,10 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
     RunControl quiet;
     quiet.cancel = control.cancel;
     quiet.compute_reference = false;
-    summary.reference_peak_N = RunImpact(bare, quiet).peaks.p_N;
+    quiet.on_sample = control.on_reference_sample;
+    const ImpactSummary reference = RunImpact(bare, quiet);
+    summary.reference_peak_N = reference.peaks.p_N;
+    summary.reference_first_contact_time_s = reference.first_contact_time_s;
   }
   if (summary.reference_peak_N > 0.0)
     summary.lambda = (summary.reference_peak_N - summary.peaks.p_N) / summary.reference_peak_N;

@@ -70,6 +70,9 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
   j["load_duration_s"] = pk.load_duration_s;
   j["lambda"] = s.lambda;
   j["reference_peak_N"] = s.reference_peak_N;
+  j["reference_first_contact_time_s"] = s.reference_first_contact_time_s >= 0.0
+                                            ? nlohmann::json(s.reference_first_contact_time_s)
+                                            : nlohmann::json();
   j["crater_depth_m"] = s.crater_depth_m;
   j["max_overlap_ratio"] = s.max_overlap_ratio;
   j["bed_thickness_m"] = s.bed.thickness_m;
@@ -91,15 +94,13 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
   return j;
 }
 
-SampleCsvWriter::SampleCsvWriter(std::filesystem::path path)
-    : m_final(std::move(path)), m_partial(m_final.string() + ".partial") {
-  m_out.open(m_partial);
-  if (!m_out) throw std::runtime_error("cannot write " + m_partial.string());
-  m_out << "t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N\n";
-}
+namespace {
 
-void SampleCsvWriter::Write(const ImpactSample& s) {
-  char line[256];
+constexpr const char* kSampleCsvHeader =
+    "t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N\n";
+
+// One row of plate_force.csv; returns its length.
+int SampleCsvRow(const ImpactSample& s, char (&line)[256]) {
   int n =
       std::snprintf(line, sizeof line, "%.9g,%.9g,%.9g", s.t_s, s.plate_force_N, s.wall_force_z_N);
   // Scenes without a projectile leave its columns empty.
@@ -109,7 +110,28 @@ void SampleCsvWriter::Write(const ImpactSample& s) {
   } else {
     n += std::snprintf(line + n, sizeof line - n, ",,,\n");
   }
-  m_out.write(line, n);
+  return n;
+}
+
+}  // namespace
+
+SampleCsvWriter::SampleCsvWriter(std::filesystem::path path)
+    : m_final(std::move(path)), m_partial(m_final.string() + ".partial") {
+  m_out.open(m_partial);
+  if (!m_out) throw std::runtime_error("cannot write " + m_partial.string());
+  m_out << kSampleCsvHeader;
+}
+
+void SampleCsvWriter::Write(const ImpactSample& s) {
+  char line[256];
+  m_out.write(line, SampleCsvRow(s, line));
+}
+
+std::string SamplesToCsv(const std::vector<ImpactSample>& samples) {
+  std::string text = kSampleCsvHeader;
+  char line[256];
+  for (const ImpactSample& s : samples) text.append(line, SampleCsvRow(s, line));
+  return text;
 }
 
 void SampleCsvWriter::Commit() {
@@ -191,6 +213,7 @@ const std::vector<std::string>& RunOutputNames() {
                                                  "plate_force.csv",
                                                  "plate_force.csv.partial",
                                                  "plate_force.png",
+                                                 "plate_force_bare.csv",
                                                  "plate_force.gp",
                                                  "snapshots",
                                                  "scene.toml",

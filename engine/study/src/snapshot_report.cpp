@@ -202,37 +202,48 @@ void WriteResultFiles(const std::vector<ResultFile>& files, const std::filesyste
   }
 }
 
-std::vector<ResultFile> ReadResultFiles(const std::filesystem::path& dir, const std::string& folder,
+std::vector<ResultFile> ReadResultFiles(const std::filesystem::path& dir,
+                                        const std::vector<std::string>& names,
                                         std::uint64_t max_bytes, std::size_t max_files) {
   namespace fs = std::filesystem;
   std::vector<ResultFile> files;
-  const fs::path root = dir / folder;
-  if (fs::symlink_status(root).type() == fs::file_type::not_found) return files;
-  if (!fs::is_directory(fs::symlink_status(root)))
-    throw std::runtime_error(folder + " is not a folder");
   std::uint64_t total = 0;
-  for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator();
-       ++it) {
-    const fs::file_status status = it->symlink_status();
-    const std::string path = folder + "/" + it->path().lexically_relative(root).generic_string();
-    if (!IsSafeResultPath(path))
-      throw std::runtime_error("a result file or folder with a name not allowed: \"" +
-                               path.substr(0, 80) + "\"");
-    if (fs::is_directory(status)) continue;
-    if (!fs::is_regular_file(status))
-      throw std::runtime_error(path + " is not a regular file (a link?)");
+  auto read = [&](const fs::path& file, const std::string& path) {
     if (files.size() == max_files)
-      throw std::runtime_error("more than " + std::to_string(max_files) + " files in " + folder);
-    const std::uint64_t size = fs::file_size(it->path());
+      throw std::runtime_error("more than " + std::to_string(max_files) + " result files");
+    const std::uint64_t size = fs::file_size(file);
     if (size > max_bytes - total)
-      throw std::runtime_error("the files of " + folder + " pass " + std::to_string(max_bytes) +
-                               " bytes");
+      throw std::runtime_error("the result files pass " + std::to_string(max_bytes) + " bytes");
     total += size;
-    std::ifstream in(it->path(), std::ios::binary);
+    std::ifstream in(file, std::ios::binary);
     std::string data(size, '\0');
     if (!in.read(data.data(), static_cast<std::streamsize>(size)))
       throw std::runtime_error("cannot read " + path);
     files.push_back({path, std::move(data)});
+  };
+  // Links are never followed: a result file is a regular file or a folder of them.
+  auto check = [](const fs::file_status& status, const std::string& path) {
+    if (!IsSafeResultPath(path))
+      throw std::runtime_error("a result file or folder with a name not allowed: \"" +
+                               path.substr(0, 80) + "\"");
+    if (!fs::is_directory(status) && !fs::is_regular_file(status))
+      throw std::runtime_error(path + " is not a regular file or folder (a link?)");
+  };
+  for (const std::string& name : names) {
+    const fs::path root = dir / name;
+    const fs::file_status status = fs::symlink_status(root);
+    if (status.type() == fs::file_type::not_found) continue;
+    check(status, name);
+    if (fs::is_regular_file(status)) {
+      read(root, name);
+      continue;
+    }
+    for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator();
+         ++it) {
+      const std::string path = name + "/" + it->path().lexically_relative(root).generic_string();
+      check(it->symlink_status(), path);
+      if (fs::is_regular_file(it->symlink_status())) read(it->path(), path);
+    }
   }
   std::sort(files.begin(), files.end(),
             [](const ResultFile& a, const ResultFile& b) { return a.path < b.path; });

@@ -97,6 +97,8 @@ struct RunControl {
   std::function<void(const ImpactSnapshot&)> on_snapshot;  ///< scene.output snapshots
   /// Run the same projectile on the bare plate to get Pa0 for the buffer ratio lambda.
   bool compute_reference = true;
+  /// The samples of that bare-plate impact, for drawing it beside the bed's.
+  std::function<void(const ImpactSample&)> on_reference_sample;
   BedCache* beds = nullptr;  ///< where beds are found or stored (a private cache when null)
   const BedRequest* bed_request = nullptr;
   /// When set: how many engine threads the impact may use now, read every step (0: the
@@ -124,6 +126,7 @@ struct ImpactSummary {
   PeakAnalysis peaks;              ///< Pa, Pb, P, dS, dt, load duration
   double crater_depth_m = 0.0;     ///< deepest point of the projectile below the bed surface
   double reference_peak_N = 0.0;   ///< Pa0: the same impact on the bare plate
+  double reference_first_contact_time_s = -1.0;  ///< when it touched the plate (-1: not run)
   double lambda = 0.0;             ///< buffer ratio (Pa0 - P) / Pa0
   double max_overlap_ratio = 0.0;  ///< largest overlap / smaller radius during the impact
 };

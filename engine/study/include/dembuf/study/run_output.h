@@ -37,6 +37,9 @@ class SampleCsvWriter {
   std::ofstream m_out;
 };
 
+/// Samples as the text of plate_force.csv.
+std::string SamplesToCsv(const std::vector<ImpactSample>& samples);
+
 /// Samples as bytes: rows of six little-endian doubles (the columns of plate_force.csv), exact
 /// to the bit. The daemon stores series so, and a cluster job streams them so.
 std::string PackSamples(const std::vector<ImpactSample>& samples);

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "dembuf/study/program.h"
+#include "dembuf/study/scene_fields.h"
 
 namespace dembuf::cli {
 
@@ -67,6 +68,25 @@ double Number(const nlohmann::json& j, const char* key, double fallback) {
 nlohmann::json ReadJson(const fs::path& p) {
   std::ifstream in(p);
   return nlohmann::json::parse(in);
+}
+
+// An axis label for a scene field, from the field table: its help text and unit, then its
+// name ("initial downward speed V0 [m/s] (projectile.speed_m_s)").
+std::string FieldLabel(const std::string& name) {
+  const SceneField* field = FindSceneField(name);
+  if (!field) return name;
+  std::string label(field->help);
+  if (!field->unit.empty()) label += " [" + std::string(field->unit) + "]";
+  return label + " (" + name + ")";
+}
+
+// A using-expression for an error bar from column `column` times `scale`. A point of one seed
+// has no sd (an empty cell) and is drawn without a bar: gnuplot drops a row whose numeric
+// column is empty, so the cell is read as text.
+std::string ErrorBar(const std::string& column, double scale) {
+  std::ostringstream s;
+  s << "(strlen(strcol(" << column << ")) > 0 ? column(" << column << ")*" << scale << " : 0)";
+  return s.str();
 }
 
 // A number rounded for a title or a label: `digits` significant digits.
@@ -212,12 +232,13 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   const std::string field = columns.at(0);
   const bool thickness = field == "bed.thickness_m";
   const std::string x = thickness ? "($1*100)" : "1";
-  const std::string xlabel = thickness ? "bed thickness H [cm]" : field;
+  const std::string xlabel = thickness ? "bed thickness H [cm]" : FieldLabel(field);
   const fs::path data = dir / "points.csv";
   auto series = [&](const std::string& metric, double scale, const std::string& title) {
     std::ostringstream s;
-    s << Q(data) << " every ::1 using " << x << ":($" << col(metric) << "*" << scale << "):($"
-      << col(metric + "_sd") << "*" << scale << ") with yerrorlines pt 7 title " << Literal(title);
+    s << Q(data) << " every ::1 using " << x << ":($" << col(metric) << "*" << scale
+      << "):" << ErrorBar(col(metric + "_sd"), scale) << " with yerrorlines pt 7 title "
+      << Literal(title);
     return s.str();
   };
   std::ostringstream gp;
@@ -239,8 +260,9 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
     gp << "set output " << Q(dir / "sweep_ds_dt.png") << "\nset ylabel 'dS [cm]'\n"
        << "set y2label 'dt [ms]'\nset y2tics\nset title 'travel and time between Pb and Pa'\n"
        << "plot " << series("dS_m", 100, "dS") << ", " << Q(data) << " every ::1 using " << x
-       << ":($" << col("dt_peaks_s") << "*1e3):($" << col("dt_peaks_s_sd")
-       << "*1e3) axes x1y2 with yerrorlines pt 5 title 'dt'\nunset y2tics\nunset y2label\n";
+       << ":($" << col("dt_peaks_s") << "*1e3):" << ErrorBar(col("dt_peaks_s_sd"), 1e3)
+       << " axes x1y2 with yerrorlines pt 5 title 'dt'\n"
+       << "unset y2tics\nunset y2label\n";
   RunGnuplot(gp.str(), dir / "sweep.gp");
   for (const char* name : {"sweep_peaks.png", "sweep_lambda.png", "sweep_crater.png"})
     out.push_back(dir / name);

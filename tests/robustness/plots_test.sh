@@ -17,7 +17,7 @@ pwned() { [ ! -e "$work/PWNED" ] || fail "a command in $1 ran"; }
 # --- a snapshot folder's name --------------------------------------------------------------
 small_scene "$work/small.toml"
 "$dembuf" run "$work/small.toml" --set output.snapshot_at_peak=true --no-bed-cache --out "$work/run" \
-  > /dev/null 2>&1 || fail "the run with a snapshot"
+  > "$work/run.log" 2>&1 || fail "the run with a snapshot: $(tail -3 "$work/run.log")"
 mv "$work/run/snapshots/peak" "$work/run/snapshots/$hostile"
 "$dembuf" plot "$work/run" > "$work/plot.txt" 2>&1 || fail "plot: $(cat "$work/plot.txt")"
 pwned "a snapshot folder's name"

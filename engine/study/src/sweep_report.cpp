@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 
 #include "dembuf/study/run_output.h"
@@ -131,16 +132,21 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
       double mean = 0.0, var = 0.0;
       for (double x : v) mean += x / v.size();
       for (double x : v) var += (x - mean) * (x - mean);
-      const double sd = v.size() > 1 ? std::sqrt(var / (v.size() - 1)) : 0.0;
-      point[m] = {{"mean", mean}, {"sd", sd}, {"n", v.size()}};
+      // One run has no spread: its sd is left empty (null), not 0.
+      const double sd = v.size() > 1 ? std::sqrt(var / (v.size() - 1))
+                                     : std::numeric_limits<double>::quiet_NaN();
+      point[m] = {{"mean", mean},
+                  {"sd", std::isnan(sd) ? nlohmann::json() : nlohmann::json(sd)},
+                  {"n", v.size()}};
       stats[m] = {mean, sd};
     }
     point_list.push_back(point);
     for (std::size_t k = 0; k < key.size(); ++k) points_csv << (k ? "," : "") << key[k];
     for (const auto& m : SweepMetricNames()) {
       if (stats.count(m)) {
-        points_csv << "," << stats[m].first << "," << stats[m].second << ","
-                   << point[m]["n"].get<std::size_t>();
+        points_csv << "," << stats[m].first << ",";
+        if (!std::isnan(stats[m].second)) points_csv << stats[m].second;
+        points_csv << "," << point[m]["n"].get<std::size_t>();
       } else {
         points_csv << ",,,0";
       }
@@ -150,8 +156,11 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     auto ms = [&](const char* m, double scale) {
       char buf[48];
       if (!stats.count(m)) return std::string("-");
-      std::snprintf(buf, sizeof buf, "%.4g +- %.2g", stats[m].first * scale,
-                    stats[m].second * scale);
+      if (std::isnan(stats[m].second))
+        std::snprintf(buf, sizeof buf, "%.4g", stats[m].first * scale);
+      else
+        std::snprintf(buf, sizeof buf, "%.4g +- %.2g", stats[m].first * scale,
+                      stats[m].second * scale);
       return std::string(buf);
     };
     std::fprintf(

@@ -1,7 +1,7 @@
 // The files of a sweep: sweep.csv (one row per run), points.csv (mean, sd and n of each
-// metric over the runs that differ only in their bed seed), summary.json (with the critical
-// thickness Hc for a thickness sweep), and the table printed on the terminal. Written the same
-// way for a local sweep and for a sweep fetched from the daemon.
+// metric over the runs that differ only in their bed seed; the sd is empty for one run),
+// summary.json (with the critical thickness Hc for a thickness sweep), and the table printed on
+// the terminal. Written the same way for a local sweep and for a sweep fetched from the daemon.
 #pragma once
 
 #include <cstdio>

@@ -27,6 +27,7 @@
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/version.h"
+#include "compare.h"
 #include "plots.h"
 #include "progress.h"
 #if DEMBUF_SERVICE
@@ -479,6 +480,15 @@ int main(int argc, char** argv) {
   std::string plot_dir;
   plot->add_option("folder", plot_dir, "a run or sweep output folder")->required();
 
+  CLI::App* compare = app.add_subcommand(
+      "compare", "put runs or sweeps beside the paper's numbers and the Hertz bare-plate peak");
+  std::vector<std::string> compare_dirs;
+  std::string compare_out;
+  bool compare_no_plots = false;
+  compare->add_option("folders", compare_dirs, "run or sweep output folders")->required();
+  compare->add_option("--out", compare_out, "where compare.csv goes (default: the first folder)");
+  compare->add_flag("--no-plots", compare_no_plots, "do not draw compare.png");
+
   CLI::App* scene_cmd = app.add_subcommand("scene", "show a scene with every default and unit");
   add_scene_args(scene_cmd);
   bool print_flag = false;
@@ -549,6 +559,9 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (scene_cmd->parsed()) return PrintSceneCommand(opt);
+    if (compare->parsed())
+      return cli::CompareCommand({compare_dirs.begin(), compare_dirs.end()}, compare_out,
+                                 !compare_no_plots);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "dembuf: invalid scene: %s\n", e.what());
     return kExitBadInput;

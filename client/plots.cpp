@@ -300,6 +300,35 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
 
 }  // namespace
 
+std::filesystem::path PlotComparison(const fs::path& dir, double hertz_peak_N, double h_max_m) {
+  const fs::path data = dir / "compare_points.csv";
+  // The paper's E2: Pa0 13.46 kN, P 6.73 kN and lambda 50% at 0.8 cm, lambda 84% (P levels off)
+  // from Hc ~ 2 cm (MODEL.md section 5).
+  const double plateau_kN = 13.46 * (1 - 0.84);
+  std::ostringstream gp;
+  gp << kTerminal << "set terminal pngcairo size 1200,520 font 'DejaVu Sans,11'\n"
+     << "set output " << Q(dir / "compare.png") << "\n"
+     << "$paper << EOD\n0,13.46,0\n0.8,6.73,50\nEOD\n"
+     << "set multiplot layout 1,2 title 'dembuf (mean +- sd over seeds) beside the paper (E2)'\n"
+     << "set xlabel 'bed thickness H [cm]'\nset ylabel 'peak plate force P [kN]'\n"
+     << "set xrange [-0.2:" << std::max(100 * h_max_m, 2.5) + 0.3 << "]\nset yrange [0:*]\n"
+     << "plot " << Q(data) << " every ::1 using ($1*100):($2/1e3):" << ErrorBar("3", 1e-3)
+     << " with yerrorlines pt 7 lw 1.5 title 'dembuf', $paper using 1:2 with points pt 5 ps 1.6 "
+        "lc rgb '#d02000' title 'paper', "
+     << "[2:*] " << plateau_kN
+     << " with lines dt 2 lw 1.5 lc rgb '#d02000' title 'paper: plateau from Hc ~ 2 cm', "
+     << "'+' using (0):(" << hertz_peak_N / 1e3
+     << ") every ::0::0 with points pt 4 ps 1.6 lc rgb '#606060' title 'Hertz, no damping'\n"
+     << "set ylabel 'buffer ratio lambda [%]'\nset yrange [0:100]\nset key bottom right\n"
+     << "plot " << Q(data) << " every ::1 using ($1*100):($4*100):" << ErrorBar("5", 100)
+     << " with yerrorlines pt 7 lw 1.5 title 'dembuf', $paper using 1:3 with points pt 5 ps 1.6 "
+        "lc rgb '#d02000' title 'paper', [2:*] 84 with lines dt 2 lw 1.5 lc rgb '#d02000' "
+        "title 'paper: plateau'\n"
+     << "unset multiplot\n";
+  RunGnuplot(gp.str(), dir / "compare.gp");
+  return dir / "compare.png";
+}
+
 bool GnuplotAvailable() {
   return RunProgram({"gnuplot", "--version"}).exit_code == 0;
 }

@@ -14,6 +14,12 @@ bool GnuplotAvailable();
 /// runs/). Returns the PNG files written; throws std::runtime_error if gnuplot fails.
 std::vector<std::filesystem::path> PlotFolder(const std::filesystem::path& dir);
 
+/// compare.png in `dir`, from its compare_points.csv: dembuf's P(H) and lambda(H) (mean and
+/// sd over seeds) with the paper's E2 numbers and the Hertz bare-plate peak, for beds up to
+/// h_max_m. Returns the file.
+std::filesystem::path PlotComparison(const std::filesystem::path& dir, double hertz_peak_N,
+                                     double h_max_m);
+
 /// Plots a finished run or sweep folder when gnuplot is there, saying what it did; a missing
 /// gnuplot is not an error.
 void PlotIfPossible(const std::filesystem::path& dir);

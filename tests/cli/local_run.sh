@@ -63,6 +63,16 @@ if command -v gnuplot > /dev/null; then
   grep -q '^plots: 4 PNG files' "$work/bare.log" || fail "bare-plate plots: $(cat "$work/bare.log")"
   [ ! -e "$work/bare/sweep_ds_dt.png" ] || fail "a dS and dt plot without data"
 fi
+# dembuf compare: E2 on the bare plate beside the paper's Pa0 = 13.46 kN (dembuf: 13.38 kN),
+# and the speed sweep, which is not the paper's scene, with no paper numbers.
+"$dembuf" run --preset e2 --set bed.thickness_m=0 --no-plots --out "$work/e2-bare" > /dev/null 2>&1
+"$dembuf" compare "$work/e2-bare" --no-plots > "$work/compare.log" || fail "compare"
+awk -F, '$1 == "P_N" && $2 == 0 { found = 1; dev = $10 < 0 ? -$10 : $10 }
+         END { exit !(found && dev < 0.02) }' "$work/e2-bare/compare.csv" \
+  || fail "bare-plate Pa0 against the paper: $(cat "$work/e2-bare/compare.csv")"
+"$dembuf" compare "$work/sweep" --no-plots > "$work/compare.log" || fail "compare of a sweep"
+grep -q "no paper numbers.*projectile.speed_m_s" "$work/compare.log" \
+  || fail "a sweep of another scene: $(cat "$work/compare.log")"
 # A bad --vary is refused before anything runs.
 if "$dembuf" sweep --vary projectile.mass_kg=1:0:1 --out "$work/bad" 2>"$work/err"; then
   fail "bad range accepted"

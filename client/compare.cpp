@@ -1,0 +1,110 @@
+#include "compare.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "dembuf/study/paper_comparison.h"
+#include "dembuf/study/run_output.h"
+#include "plots.h"
+
+namespace dembuf::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// A summary.json is a few kB; a file far larger is no summary.
+constexpr std::uintmax_t kMaxSummaryBytes = 4 << 20;
+
+nlohmann::json ReadSummary(const fs::path& path) {
+  if (fs::file_size(path) > kMaxSummaryBytes)
+    throw std::runtime_error(path.string() + " is too large for a summary.json");
+  std::ifstream in(path);
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path.string() + " is not JSON: " + e.what());
+  }
+}
+
+struct Runs {
+  std::vector<nlohmann::json> summaries;
+  std::optional<double> hc_m;
+  double hc_sd_m = std::numeric_limits<double>::quiet_NaN();
+};
+
+// The runs of a run folder or a sweep folder (its runs/ that finished).
+void ReadFolder(const fs::path& dir, Runs& runs) {
+  if (fs::is_directory(dir / "runs")) {
+    for (const auto& entry : fs::directory_iterator(dir / "runs"))
+      if (fs::is_regular_file(entry.path() / "summary.json"))
+        runs.summaries.push_back(ReadSummary(entry.path() / "summary.json"));
+    if (fs::is_regular_file(dir / "summary.json")) {
+      const nlohmann::json sweep = ReadSummary(dir / "summary.json");
+      if (sweep.contains("Hc_m") && sweep["Hc_m"].is_number()) {
+        runs.hc_m = sweep["Hc_m"].get<double>();
+        const nlohmann::json hc = sweep.value("critical_thickness", nlohmann::json::object());
+        if (hc.is_object() && hc.contains("Hc_sd_m") && hc["Hc_sd_m"].is_number())
+          runs.hc_sd_m = hc["Hc_sd_m"].get<double>();
+      }
+    }
+    return;
+  }
+  if (fs::is_regular_file(dir / "summary.json")) {
+    runs.summaries.push_back(ReadSummary(dir / "summary.json"));
+    return;
+  }
+  throw std::runtime_error(dir.string() +
+                           " holds neither a run (summary.json) nor a sweep (runs/)");
+}
+
+// P and lambda at each thickness (mean, sd, n), for the plot; returns the largest thickness.
+double WritePoints(const std::vector<nlohmann::json>& summaries, const fs::path& path) {
+  std::map<double, std::vector<const nlohmann::json*>> by_h;
+  for (const auto& s : summaries)
+    by_h[std::round(s["scene"]["bed"]["thickness_m"].get<double>() * 1e7) / 1e7].push_back(&s);
+  std::ofstream out(path);
+  out.precision(10);
+  out << "H_m,P_N,P_N_sd,lambda,lambda_sd,n\n";
+  for (const auto& [h, runs] : by_h) {
+    auto stats = [&](const char* key) {
+      std::vector<double> v;
+      for (const auto* s : runs)
+        if (s->contains(key) && (*s)[key].is_number()) v.push_back((*s)[key].get<double>());
+      double mean = 0.0, var = 0.0;
+      for (double x : v) mean += x / v.size();
+      for (double x : v) var += (x - mean) * (x - mean);
+      std::string sd = v.size() > 1 ? std::to_string(std::sqrt(var / (v.size() - 1))) : "";
+      return std::to_string(mean) + "," + sd;
+    };
+    out << h << "," << stats("P_N") << "," << stats("lambda") << "," << runs.size() << "\n";
+  }
+  return by_h.empty() ? 0.0 : by_h.rbegin()->first;
+}
+
+}  // namespace
+
+int CompareCommand(const std::vector<fs::path>& folders, const fs::path& out_dir, bool plots) {
+  Runs runs;
+  for (const fs::path& dir : folders) ReadFolder(dir, runs);
+  if (runs.summaries.empty())
+    throw std::runtime_error("no finished run in " + folders.front().string());
+  const report::Comparison c =
+      report::CompareWithPaper(runs.summaries, runs.hc_m, runs.hc_sd_m);
+  std::printf("%zu runs beside the paper\n%s", runs.summaries.size(),
+              report::ComparisonTable(c).c_str());
+  const fs::path out = out_dir.empty() ? folders.front() : out_dir;
+  fs::create_directories(out);
+  report::WriteFileAtomically(out / "compare.csv", report::ComparisonCsv(c));
+  const double h_max = WritePoints(runs.summaries, out / "compare_points.csv");
+  std::printf("wrote %s\n", (out / "compare.csv").c_str());
+  if (plots && c.is_paper_e2 && GnuplotAvailable())
+    std::printf("wrote %s\n", PlotComparison(out, c.hertz_peak_N, h_max).c_str());
+  return 0;
+}
+
+}  // namespace dembuf::cli

@@ -1,0 +1,113 @@
+// dembuf compare's arithmetic on fixtures: summaries made by hand for the paper's E2 scene,
+// with the deviations and the range flags worked out here.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dembuf/study/paper_comparison.h"
+#include "dembuf/study/presets.h"
+#include "dembuf/study/run_output.h"
+
+namespace dembuf {
+namespace {
+
+// A run's summary.json for E2 at thickness h with the given P (N) and lambda.
+nlohmann::json E2Run(double h, double p, double lambda, Scene scene = PresetScene("e2")) {
+  scene.bed.thickness_m = h;
+  return {{"scene", report::SceneToJson(scene)},
+          {"P_N", p},
+          {"lambda", lambda},
+          {"impact_speed_m_s", 5.513}};
+}
+
+const report::ComparisonRow* Find(const report::Comparison& c, const std::string& quantity,
+                                  double h) {
+  for (const auto& row : c.rows)
+    if (row.quantity == quantity && std::abs(row.h_m - h) < 1e-9) return &row;
+  return nullptr;
+}
+
+TEST(PaperComparison, SeedsAroundThePapersNumberAreWithinRange) {
+  const auto c = report::CompareWithPaper(
+      {E2Run(0.008, 6000, 0.45), E2Run(0.008, 6500, 0.52), E2Run(0.008, 7000, 0.55)});
+  ASSERT_TRUE(c.is_paper_e2);
+  const auto* p = Find(c, "P_N", 0.008);
+  ASSERT_NE(p, nullptr);
+  EXPECT_EQ(p->n, 3);
+  EXPECT_DOUBLE_EQ(p->mean, 6500);
+  EXPECT_DOUBLE_EQ(p->sd, 500);
+  EXPECT_NEAR(p->deviation, 6500.0 / 6730.0 - 1.0, 1e-12);
+  ASSERT_TRUE(p->paper_within_range);
+  EXPECT_TRUE(*p->paper_within_range);
+  const auto* lambda = Find(c, "lambda", 0.008);
+  ASSERT_NE(lambda, nullptr);
+  EXPECT_NEAR(lambda->mean, 1.52 / 3, 1e-12);
+  EXPECT_NEAR(lambda->deviation, (1.52 / 3) / 0.50 - 1.0, 1e-12);
+  EXPECT_TRUE(*lambda->paper_within_range);
+}
+
+TEST(PaperComparison, ARunOutsideTheSpreadIsFlagged) {
+  const auto c = report::CompareWithPaper(
+      {E2Run(0.008, 4000, 0.70), E2Run(0.008, 4500, 0.66), E2Run(0.008, 5000, 0.63)});
+  const auto* p = Find(c, "P_N", 0.008);
+  ASSERT_NE(p, nullptr);
+  ASSERT_TRUE(p->paper_within_range);
+  EXPECT_FALSE(*p->paper_within_range);  // 6.73 kN is above all three
+  EXPECT_NE(report::ComparisonTable(c).find("NO: outside"), std::string::npos);
+  // One run has no range: nothing is claimed either way.
+  const auto one = report::CompareWithPaper({E2Run(0.008, 4000, 0.70)});
+  EXPECT_FALSE(Find(one, "P_N", 0.008)->paper_within_range);
+  EXPECT_TRUE(std::isnan(Find(one, "P_N", 0.008)->sd));
+}
+
+TEST(PaperComparison, TheFitsBetweenThePeaksAndTheBarePlate) {
+  nlohmann::json thick = E2Run(0.04, 2000, 0.85);
+  thick["dS_m"] = 0.03;
+  thick["dt_peaks_s"] = 0.02;
+  const auto c = report::CompareWithPaper({E2Run(0.0, 13380, 0.0), thick});
+  EXPECT_NEAR(Find(c, "P_N", 0.0)->deviation, 13380.0 / 13460.0 - 1.0, 1e-12);
+  // dS = 0.91 H - 0.32 = 3.32 cm; dt above 3.5 cm = 10.36 H - 21.61 = 19.83 ms (H = 4 cm).
+  EXPECT_NEAR(Find(c, "dS_m", 0.04)->paper, 0.0332, 1e-12);
+  EXPECT_NEAR(Find(c, "dt_peaks_s", 0.04)->paper, 0.01983, 1e-12);
+  EXPECT_NEAR(Find(c, "lambda", 0.04)->paper, 0.84, 1e-12);  // the plateau
+}
+
+TEST(PaperComparison, HcWithItsUncertainty) {
+  const auto c = report::CompareWithPaper({E2Run(0.03, 2000, 0.85)}, 0.025, 0.002);
+  const auto* hc = Find(c, "Hc_m", 0.0);
+  ASSERT_NE(hc, nullptr);
+  EXPECT_NEAR(hc->deviation, 0.25, 1e-12);
+  EXPECT_FALSE(*hc->paper_within_range);  // 2 cm is outside 2.5 +- 2 x 0.2 cm
+}
+
+TEST(PaperComparison, AnotherSceneGetsNoPaperNumbers) {
+  Scene other = PresetScene("e2");
+  other.material.friction_bead_bead = 0.2;
+  const auto c = report::CompareWithPaper({E2Run(0.008, 6500, 0.5, other)});
+  EXPECT_FALSE(c.is_paper_e2);
+  EXPECT_TRUE(c.rows.empty());
+  ASSERT_EQ(c.differs.size(), 1u);
+  EXPECT_EQ(c.differs[0], "material.friction_bead_bead");
+  // The accuracy, the seed and the cut do not change what is compared.
+  Scene knobs = PresetScene("e2");
+  knobs.time.alpha = 0.05;
+  knobs.bed.seed = 7;
+  knobs.bed.cut = "tops";
+  EXPECT_TRUE(report::CompareWithPaper({E2Run(0.008, 6500, 0.5, knobs)}).is_paper_e2);
+}
+
+// Hertz: the peak force F = K x^(3/2) at the deepest overlap x, where the kinetic energy is all
+// elastic, 1/2 m v^2 = 2/5 K x^(5/2). The paper's projectile on the bare plate: MODEL.md says
+// about 13.5 kN.
+TEST(PaperComparison, HertzPeakFromTheEnergyBalance) {
+  const double m = 0.3, r = 0.025, v = 5.513, e = 5e9, nu = 0.22;
+  const double e_star = e / (2 * (1 - nu * nu));
+  const double k = 4.0 / 3.0 * e_star * std::sqrt(r);
+  const double x = std::pow(0.5 * m * v * v / (0.4 * k), 0.4);
+  const double f = report::HertzImpactPeak(m, r, v, e, nu, e, nu);
+  EXPECT_NEAR(f, k * std::pow(x, 1.5), 1e-9 * f);
+  EXPECT_NEAR(f, 13.5e3, 0.01 * 13.5e3);
+}
+
+}  // namespace
+}  // namespace dembuf

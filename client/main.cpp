@@ -91,6 +91,7 @@ struct RunOptions {
   std::string bed_cache;
   bool no_bed_cache = false;
   std::vector<std::string> vary;
+  std::string find_hc;  ///< "LOW:HIGH[:TOLERANCE]" in metres: dembuf sweep --find-hc
   int seeds = 1;
   int jobs = 1;
   bool local = false;
@@ -302,9 +303,42 @@ int PrepareBedCommand(const RunOptions& opt) {
   }
 }
 
+// --find-hc LOW:HIGH[:TOL], in metres.
+HcSearchOptions ParseHcRange(const std::string& text) {
+  HcSearchOptions o;
+  std::vector<double> v;
+  std::size_t start = 0;
+  while (start <= text.size() && v.size() < 4) {
+    const std::size_t end = std::min(text.find(':', start), text.size());
+    const std::string part = text.substr(start, end - start);
+    char* rest = nullptr;
+    const double x = std::strtod(part.c_str(), &rest);
+    if (part.empty() || *rest != '\0' || !std::isfinite(x))
+      throw SceneError("--find-hc", "\"" + part.substr(0, 40) + "\" is not a number (LOW:HIGH[:TOL] in m)");
+    v.push_back(x);
+    start = end + 1;
+  }
+  if (v.size() < 2 || v.size() > 3)
+    throw SceneError("--find-hc", "\"" + text.substr(0, 60) + "\" is not LOW:HIGH[:TOL] (m)");
+  o.low_m = v[0];
+  o.high_m = v[1];
+  if (v.size() == 3) o.tolerance_m = v[2];
+  if (!(o.low_m > 0.0 && o.low_m < o.high_m && o.high_m <= 0.5))
+    throw SceneError("--find-hc", "the range must satisfy 0 < LOW < HIGH <= 0.5 (m)");
+  if (!(o.tolerance_m >= 1e-4 && o.tolerance_m < o.high_m - o.low_m))
+    throw SceneError("--find-hc", "TOL must be at least 0.0001 m and below HIGH - LOW");
+  return o;
+}
+
 int SweepCommand(const RunOptions& opt) {
   const Scene base = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   cli::SweepOptions sweep;
+  std::optional<HcSearchOptions> hc_search;
+  if (!opt.find_hc.empty()) {
+    if (!opt.vary.empty())
+      throw SceneError("--find-hc", "it varies bed.thickness_m itself; leave out --vary");
+    hc_search = ParseHcRange(opt.find_hc);
+  }
   for (const auto& spec : opt.vary) sweep.axes.push_back(ParseSweepAxis(spec));
   if (opt.seeds < 1 || opt.seeds > 1000)
     throw SceneError("--seeds", std::to_string(opt.seeds) + " is out of range: 1 to 1000");
@@ -317,10 +351,21 @@ int SweepCommand(const RunOptions& opt) {
   std::vector<Scene> scenes;
   std::vector<ResourceEstimate> costs;
   std::vector<std::string> warnings;
-  for (const SweepRun& run :
-       ExpandSweep(base, WithSeedAxis(sweep.axes, opt.seeds, base.bed.seed))) {
-    scenes.push_back(run.scene);
-    costs.push_back(EstimateResources(run.scene));
+  // The search's cost: its deepest bed for every seed, at each of the runs it may make (the
+  // two ends and each halving of the range down to the tolerance).
+  std::vector<SweepAxis> planned = sweep.axes;
+  int repeats = 1;
+  if (hc_search) {
+    planned = {MakeSweepAxis("bed.thickness_m", {std::to_string(hc_search->high_m)}, "")};
+    const int halvings = static_cast<int>(std::ceil(
+        std::log2((hc_search->high_m - hc_search->low_m) / hc_search->tolerance_m)));
+    repeats = 2 + std::min(halvings, hc_search->max_steps);
+  }
+  for (const SweepRun& run : ExpandSweep(base, WithSeedAxis(planned, opt.seeds, base.bed.seed))) {
+    for (int k = 0; k < repeats; ++k) {
+      scenes.push_back(run.scene);
+      costs.push_back(EstimateResources(run.scene));
+    }
     for (const std::string& w : SceneWarnings(run.scene))
       if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
   }
@@ -333,7 +378,13 @@ int SweepCommand(const RunOptions& opt) {
   // An existing folder is resumed: runs whose summary.json matches their scene are kept.
   CatchInterrupts();
   sweep.cancel = &g_interrupted;
-  const int failed = cli::RunSweep(base, sweep, beds);
+  int failed = 0;
+  try {
+    failed = hc_search ? cli::RunHcSearch(base, sweep, *hc_search, beds)
+                       : cli::RunSweep(base, sweep, beds);
+  } catch (const Cancelled&) {
+    // The search stops between its steps: reported below as any interrupted sweep.
+  }
   if (g_interrupted) {
     const nlohmann::json incomplete = {{"interrupted_by", SignalName()}, {"complete", false}};
     report::WriteFileAtomically(sweep.out_dir / "incomplete.json", incomplete.dump(2) + "\n");
@@ -405,6 +456,9 @@ int main(int argc, char** argv) {
       ->add_option("--vary", opt.vary,
                    "dotted.field=START:STOP:STEP or dotted.field=v1,v2,... (repeatable)")
       ->allow_extra_args(false);
+  sweep->add_option("--find-hc", opt.find_hc,
+                    "LOW:HIGH[:TOL] (m): find Hc by bisection of bed.thickness_m in that range "
+                    "(P within 10% of its value at HIGH), to TOL (default 0.001)");
   sweep->add_option("--seeds", opt.seeds,
                     "N bed seeds for every point, from bed.seed on (default 1)");
   sweep->add_option("--jobs", opt.jobs,

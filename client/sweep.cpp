@@ -34,7 +34,8 @@ struct RunResult {
 
 }  // namespace
 
-int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
+int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
+             std::vector<report::SweepRunReport>* reports_out) {
   const std::vector<SweepAxis> axes = WithSeedAxis(options.axes, options.seeds, base.bed.seed);
   // Every scene is checked before the first run starts.
   const std::vector<SweepRun> runs = ExpandSweep(base, axes);
@@ -159,12 +160,75 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds) {
   };
   const nlohmann::json summary =
       report::WriteSweepReport(options.out_dir, axes, reports, extra, stdout);
+  if (reports_out) reports_out->insert(reports_out->end(), reports.begin(), reports.end());
   int interrupted = 0;
   for (const RunResult& r : results) interrupted += r.interrupted || (!r.ok && r.error.empty());
   const int failed = summary["failed"].get<int>() - interrupted;
   std::printf("wrote %s and %s (%d failed) in %.0f s\n", (options.out_dir / "sweep.csv").c_str(),
               (options.out_dir / "summary.json").c_str(), failed,
               summary["wall_time_s"].get<double>());
+  return failed;
+}
+
+int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOptions& search,
+                BedCache& beds) {
+  std::vector<report::SweepRunReport> all;
+  std::vector<std::string> thicknesses;
+  int failed = 0;
+  auto peak_forces_at = [&](double h) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.6g", h);
+    std::printf("\nHc search: H = %.4g cm\n", 100 * h);
+    SweepOptions step = options;
+    step.axes = {MakeSweepAxis("bed.thickness_m", {text}, "")};
+    std::vector<report::SweepRunReport> reports;
+    failed += RunSweep(base, step, beds, &reports);
+    if (options.cancel && options.cancel->load()) throw Cancelled();
+    thicknesses.push_back(text);
+    std::vector<double> p;
+    for (const report::SweepRunReport& r : reports) {
+      if (!r.ok) throw std::runtime_error("a run at H = " + std::string(text) + " m failed (" +
+                                          r.error + "): Hc cannot be bracketed past it");
+      p.push_back(r.summary["P_N"].get<double>());
+    }
+    all.insert(all.end(), reports.begin(), reports.end());
+    return p;
+  };
+  const HcSearchResult hc = FindCriticalThickness(peak_forces_at, search);
+  // The report of every run, as one sweep over the thicknesses visited.
+  std::sort(thicknesses.begin(), thicknesses.end(),
+            [](const std::string& a, const std::string& b) { return std::stod(a) < std::stod(b); });
+  const std::vector<SweepAxis> axes = WithSeedAxis(
+      {MakeSweepAxis("bed.thickness_m", thicknesses, "")}, options.seeds, base.bed.seed);
+  std::printf("\nall %zu runs of the search:", all.size());
+  nlohmann::json summary = report::WriteSweepReport(options.out_dir, axes, all, nlohmann::json::object(), stdout);
+  nlohmann::json points = nlohmann::json::array();
+  for (const HcPoint& p : hc.points)
+    points.push_back({{"H_m", p.h_m}, {"P_N", p.p_N}, {"mean_P_N", p.mean_N}});
+  summary["Hc_m"] = hc.hc_m;
+  summary["critical_thickness"] = {
+      {"Hc_m", hc.hc_m},
+      {"Hc_sd_m", hc.hc_sd_m},
+      {"seed_scatter_included", hc.seed_scatter_included},
+      {"plateau_P_N", hc.plateau_N},
+      {"threshold_P_N", hc.threshold_N},
+      {"bracket_m", {hc.bracket_low_m, hc.bracket_high_m}},
+      {"method", "bisection"},
+      {"rule", "the thickness where mean P falls to (1 + margin) times the plateau, the mean P "
+               "at the deep end of the range"},
+      {"margin", search.margin},
+      {"range_m", {search.low_m, search.high_m}},
+      {"tolerance_m", search.tolerance_m},
+      {"note", hc.note},
+      {"steps", points}};
+  report::WriteFileAtomically(options.out_dir / "summary.json", summary.dump(2) + "\n");
+  std::printf(
+      "\nHc = %.2f +- %.2f cm (bisection: P within %.0f%% of the plateau P = %.4g N at H = %.3g "
+      "cm; bracket %.2f-%.2f cm; %s)\n",
+      100 * hc.hc_m, 100 * hc.hc_sd_m, 100 * search.margin, hc.plateau_N, 100 * search.high_m,
+      100 * hc.bracket_low_m, 100 * hc.bracket_high_m,
+      hc.seed_scatter_included ? "seed scatter included" : "one seed: bracket width only");
+  if (!hc.note.empty()) std::printf("note: %s\n", hc.note.c_str());
   return failed;
 }
 

@@ -9,7 +9,9 @@
 
 #include "dembuf/study/bed.h"
 #include "dembuf/study/scene.h"
+#include "dembuf/study/critical_thickness_search.h"
 #include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/sweep_report.h"
 
 namespace dembuf::cli {
 
@@ -25,6 +27,16 @@ struct SweepOptions {
 
 /// Runs the sweep; writes out_dir/sweep.csv, out_dir/summary.json and out_dir/runs/<job>/.
 /// Returns the number of failed jobs (runs stopped by the cancel flag are not failures).
-int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds);
+/// `reports`, when given, receives every run's report.
+int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
+             std::vector<report::SweepRunReport>* reports = nullptr);
+
+/// dembuf sweep --find-hc: Hc by bisection over bed.thickness_m (critical_thickness_search.h),
+/// every thickness run for every seed (options.seeds, options.jobs at once) into
+/// options.out_dir/runs/ as a sweep's runs; then the sweep's report over all of them, with the
+/// bisection's Hc and its uncertainty in summary.json. Returns the number of failed runs
+/// (a failed run stops the search).
+int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOptions& search,
+                BedCache& beds);
 
 }  // namespace dembuf::cli

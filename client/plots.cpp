@@ -96,6 +96,131 @@ std::string Rounded(double v, int digits = 3) {
   return buf;
 }
 
+// When a snapshot was taken, for its pictures' titles, from its snapshot.json: "0.5 ms after
+// the first contact", "at the peak plate force, 1.41 ms after the first contact", "at t = 57.2
+// ms"; else its folder's name.
+std::string SnapshotTitle(const fs::path& snap) {
+  nlohmann::json j;
+  try {
+    j = ReadJson(snap / "snapshot.json");
+  } catch (const std::exception&) {
+    return "(" + snap.filename().string() + ")";
+  }
+  const bool peak = j.value("label", "") == "peak";
+  const double after = Number(j, "t_after_contact_s", std::nan(""));
+  std::string text = peak ? "at the peak plate force" : "";
+  if (std::isfinite(after))
+    return text + (peak ? ", " : "") + Rounded(after * 1e3) + " ms after the first contact";
+  return text + (peak ? ", " : "") + "at t = " + Rounded(Number(j, "t_s", 0.0) * 1e3) + " ms";
+}
+
+// The bead-bead contacts of a snapshot: how many, their mean and largest normal force, and the
+// highest bead centre among them (the bed's top, for the picture's frame).
+struct ChainStats {
+  long count = 0;
+  double mean_N = 0.0, max_N = 0.0, top_m = 0.0;
+};
+
+ChainStats ReadChainStats(const fs::path& contacts_csv) {
+  ChainStats stats;
+  std::ifstream in(contacts_csv);
+  std::string line;
+  std::getline(in, line);
+  double sum = 0.0;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::istringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    auto is_bead = [](const std::string& id) {
+      return !id.empty() && std::all_of(id.begin(), id.end(), ::isdigit);
+    };
+    if (cells.size() < 15 || !is_bead(cells[0]) || !is_bead(cells[1])) continue;
+    const double f = std::atof(cells[8].c_str());
+    sum += f;
+    ++stats.count;
+    stats.max_N = std::max(stats.max_N, f);
+    stats.top_m = std::max({stats.top_m, std::atof(cells[11].c_str()), std::atof(cells[14].c_str())});
+  }
+  stats.mean_N = stats.count ? sum / stats.count : 0.0;
+  return stats;
+}
+
+// Force chains as the paper draws them: bead-bead contacts above the mean force, as lines
+// between the bead centres, coloured by force and wider by force class, (left) in a vertical
+// slice through the axis of width `slab` and (right) seen from above. The projectile's
+// contacts are drawn apart, black and dashed, outside the colour scale (they carry hundreds of
+// newtons against a bead mean near one); the projectile is its outline in the slice.
+std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, double radius,
+                             double slab, const std::string& when) {
+  nlohmann::json j;
+  try {
+    j = ReadJson(snap / "snapshot.json");
+  } catch (const std::exception&) {
+  }
+  const nlohmann::json proj = j.value("projectile", nlohmann::json::object());
+  const bool has_projectile = proj.is_object() && proj.contains("z_m");
+  const double R = 100 * radius, half = 50 * slab, mean = chains.mean_N;
+  const double top = 100 * chains.top_m + 0.5;
+  const double pz = 100 * Number(proj, "z_m", 0.0), pr = 100 * Number(proj, "radius_m", 0.0);
+  const double z_max = std::max(top, has_projectile ? std::min(pz + pr, top + 2 * pr) : top);
+  const std::string data = Q(snap / "contacts.csv");
+  // Bead-bead rows only: a column that is not a number ("projectile", "plate") drops the row.
+  const std::string bead_pair = "($1 >= 0 && $2 >= 0)";
+  const std::string in_slab = "(abs($11*100) < " + Rounded(half, 6) + " && abs($14*100) < " +
+                              Rounded(half, 6) + ")";
+  // Force classes by multiples of the mean: 1-2, 2-3, 3-5, above 5.
+  const double bounds[] = {1, 2, 3, 5, 1e300};
+  // The slice above the top view, each panel as tall as its frame is for the same width, so
+  // that no canvas is left blank: panel heights in pixels (plot area plus labels).
+  constexpr double kWidth = 1000, kPlotWidth = 760, kPanelMargin = 95, kTitle = 60;
+  const double slice_px = kPlotWidth * z_max / (2 * R) + kPanelMargin;
+  const double top_px = kPlotWidth + kPanelMargin;
+  const double height = slice_px + top_px + kTitle;
+  std::ostringstream gp;
+  gp << kTerminal << "set terminal pngcairo size " << kWidth << ","
+     << static_cast<int>(height) << " font 'DejaVu Sans,11'\nset output "
+     << Q(snap / "force_chains.png") << "\n"
+     << "set multiplot title "
+     << Literal("force chains " + when) << " . \"\\n\" . "
+     << Literal("bead-bead contacts above the mean " + Rounded(mean, 2) + " N (largest " +
+                Rounded(chains.max_N, 3) + " N); the projectile's contacts dashed")
+     << "\nset size ratio -1\nset key off\nset cblabel 'normal force [N]'\n"
+     << "set cbrange [" << mean << ":" << chains.max_N << "]\n"
+     << "set palette defined (0 '#f2c14e', 0.4 '#e07020', 0.75 '#b01010', 1 '#300000')\n";
+  auto layers = [&](const std::string& x, const std::string& y, const std::string& dx,
+                    const std::string& dy, const std::string& keep) {
+    std::ostringstream p;
+    for (int k = 0; k < 4; ++k)
+      p << (k ? ", " : "") << data << " every ::1 using ((" << bead_pair << " && " << keep
+        << " && $9 > " << bounds[k] * mean << " && $9 <= " << bounds[k + 1] * mean << ") ? " << x
+        << " : 1/0):" << y << ":" << dx << ":" << dy << ":9 with vectors nohead lw "
+        << 0.8 + 1.1 * k << " lc palette";
+    return p.str();
+  };
+  // Left: the slice, x against z.
+  gp << "set origin 0," << top_px / height << "\nset size 1," << slice_px / height << "\n"
+     << "set title " << Literal("vertical slice through the axis, |y| < " + Rounded(half, 2) + " cm")
+     << "\nset xlabel 'x [cm]'\nset ylabel 'z [cm]'\n"
+     << "set xrange [" << -R << ":" << R << "]\nset yrange [0:" << z_max << "]\n";
+  if (has_projectile && pz - pr < z_max)
+    gp << "set object 1 circle at " << 100 * Number(proj, "x_m", 0.0) << "," << pz << " size "
+       << pr << " front fs empty border lc rgb '#000000' lw 1.5\n";
+  gp << "plot " << layers("($10*100)", "($12*100)", "(($13-$10)*100)", "(($15-$12)*100)", in_slab)
+     << ", " << data
+     << " every ::1 using (strcol(1) eq 'projectile' && abs($14*100) < " << Rounded(half, 6)
+     << " ? $10*100 : 1/0):($12*100):(($13-$10)*100):(($15-$12)*100) with vectors nohead lw 1.5 "
+        "dt 2 lc rgb '#000000'\n"
+     << "unset object 1\n";
+  // Right: the top view, x against y, every depth.
+  gp << "set origin 0,0\nset size 1," << top_px / height << "\n"
+     << "set title 'seen from above (all depths)'\nset xlabel 'x [cm]'\nset ylabel 'y [cm]'\n"
+     << "set xrange [" << -R << ":" << R << "]\nset yrange [" << -R << ":" << R << "]\n"
+     << "set object 2 circle at 0,0 size " << R << " fs empty border lc rgb '#808080'\n"
+     << "plot " << layers("($10*100)", "($11*100)", "(($13-$10)*100)", "(($14-$11)*100)", "1")
+     << "\nunset multiplot\n";
+  return gp.str();
+}
+
 // F(t) around the impact, in ms after the first contact and kN, with the peaks marked, and the
 // same impact on the bare plate (run for lambda) beside it when the run has a bed.
 std::vector<fs::path> PlotRun(const fs::path& dir) {
@@ -136,45 +261,20 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
   RunGnuplot(gp.str(), dir / "plate_force.gp");
   out.push_back(dir / "plate_force.png");
 
-  // Snapshots: force chains (x-z view, contacts above the mean force, width by force), the
+  // Snapshots: force chains (a vertical slice through the axis and a top view), the
   // contact-force PDF and the radial plate load.
   if (fs::is_directory(dir / "snapshots")) {
+    const nlohmann::json scene = s.value("scene", nlohmann::json::object());
+    const double radius = Number(scene.value("cylinder", nlohmann::json::object()), "radius_m", 0.1);
+    const double slab =
+        Number(scene.value("output", nlohmann::json::object()), "chain_slab_width_m", 0.009);
     for (const auto& entry : fs::directory_iterator(dir / "snapshots")) {
       const fs::path snap = entry.path();
       if (!fs::exists(snap / "contacts.csv")) continue;
-      // The mean bead-bead normal force, for the threshold and the line widths.
-      std::ifstream contacts(snap / "contacts.csv");
-      std::string line;
-      std::getline(contacts, line);
-      double sum = 0.0;
-      long n = 0;
-      while (std::getline(contacts, line)) {
-        if (line.rfind("plate", 0) == 0 || line.find(",plate,") != std::string::npos ||
-            line.find(",wall,") != std::string::npos)
-          continue;
-        std::istringstream cells(line);
-        std::string cell;
-        for (int k = 0; k < 9 && std::getline(cells, cell, ','); ++k) {
-        }
-        sum += std::atof(cell.c_str());
-        ++n;
-      }
-      const double mean = n ? sum / n : 1.0;
-      const std::string name = snap.filename().string();
-      std::ostringstream chains;
-      chains << kTerminal << "set terminal pngcairo size 900,900\nset output "
-             << Q(snap / "force_chains.png") << "\nset size ratio -1\nunset key\n"
-             << "set xlabel 'x [cm]'\nset ylabel 'z [cm]'\n"
-             << "set title " << Literal("force chains " + name) << " . ' (contacts above the mean "
-             << mean << " N)'\n"
-             << "set cblabel 'normal force [N]'\nset palette defined (0 '#b0b0b0', 1 '#f0a000', 2 "
-                "'#d02000', 3 '#400000')\n"
-             << "plot " << Q(snap / "contacts.csv") << " every ::1 using ($10*100):($12*100):"
-             << "(($13-$10)*100):(($15-$12)*100):($9 > " << mean
-             << " ? $9 : 1/0) with vectors nohead lw 1.5 lc palette\n";
+      const std::string when = SnapshotTitle(snap);
       // Without bead contacts (a bare plate) there are no chains and no force statistics.
-      if (n > 0) {
-        RunGnuplot(chains.str(), snap / "force_chains.gp");
+      if (const ChainStats chains = ReadChainStats(snap / "contacts.csv"); chains.count > 0) {
+        RunGnuplot(ForceChainScript(snap, chains, radius, slab, when), snap / "force_chains.gp");
         out.push_back(snap / "force_chains.png");
       }
 
@@ -182,7 +282,7 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
         std::ostringstream pdf;
         pdf << kTerminal << "set output " << Q(snap / "force_pdf.png") << "\n"
             << "set xlabel 'f / <f>'\nset ylabel 'probability density'\nset logscale y\n"
-            << "set title " << Literal("contact-force PDF " + name) << "\n"
+            << "set title " << Literal("bead-bead contact forces " + when) << "\n"
             << "plot " << Q(snap / "force_pdf.csv")
             << " every ::1 using 1:($2 > 0 ? $2 : 1/0) with linespoints pt 7 title 'bead-bead'\n";
         RunGnuplot(pdf.str(), snap / "force_pdf.gp");
@@ -192,7 +292,7 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
       std::ostringstream radial;
       radial << kTerminal << "set output " << Q(snap / "plate_radial.png") << "\n"
              << "set xlabel 'radius [cm]'\nset ylabel 'plate pressure [kPa]'\n"
-             << "set title " << Literal("plate load by ring " + name) << "\n"
+             << "set title " << Literal("load on the bottom plate by ring " + when) << "\n"
              << "plot " << Q(snap / "plate_radial.csv")
              << " every ::1 using (($1+$2)*50):($4/1e3) with histeps lw 2 title 'pressure'\n";
       RunGnuplot(radial.str(), snap / "plate_radial.gp");

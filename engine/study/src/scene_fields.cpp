@@ -165,6 +165,9 @@ const std::vector<SceneField>& FieldTable() {
        DEMBUF_FIELD(output.snapshot_after_contact_s), 0.0, 1e3},
       {"output.snapshot_at_peak", "", "also snapshot at the peak plate force (runs twice)",
        DEMBUF_FIELD(output.snapshot_at_peak)},
+      {"output.chain_slab_width_m", "m",
+       "width of the vertical slice through the axis drawn in force-chain pictures",
+       DEMBUF_FIELD(output.chain_slab_width_m), 0.0, 10.0, true},
   };
   return table;
 }

@@ -43,6 +43,11 @@ std::string Metadata(const ImpactSnapshot& s) {
                       {"contacts", s.contacts.size()},
                       {"bead_bead_contacts", bead_pairs}};
   if (std::isfinite(s.t_after_contact_s)) j["t_after_contact_s"] = s.t_after_contact_s;
+  if (s.projectile) {
+    const dem::Vec3& x = s.projectile->position;
+    j["projectile"] = {{"x_m", x.x()}, {"y_m", x.y()}, {"z_m", x.z()},
+                       {"radius_m", s.projectile->radius}};
+  }
   return j.dump(2) + "\n";
 }
 

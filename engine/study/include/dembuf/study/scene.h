@@ -114,6 +114,9 @@ struct OutputSpec {
   std::vector<double> snapshot_after_contact_s;
   /// Also record them at the instant of the peak plate force (runs the impact twice).
   bool snapshot_at_peak = false;
+  /// Width of the vertical slice through the axis that force-chain pictures draw (two mean
+  /// bead diameters by default: a chain in the slice is one layer of beads deep).
+  double chain_slab_width_m = 0.009;
 };
 
 struct Scene {

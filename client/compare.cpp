@@ -93,8 +93,7 @@ int CompareCommand(const std::vector<fs::path>& folders, const fs::path& out_dir
   for (const fs::path& dir : folders) ReadFolder(dir, runs);
   if (runs.summaries.empty())
     throw std::runtime_error("no finished run in " + folders.front().string());
-  const report::Comparison c =
-      report::CompareWithPaper(runs.summaries, runs.hc_m, runs.hc_sd_m);
+  const report::Comparison c = report::CompareWithPaper(runs.summaries, runs.hc_m, runs.hc_sd_m);
   std::printf("%zu runs beside the paper\n%s", runs.summaries.size(),
               report::ComparisonTable(c).c_str());
   const fs::path out = out_dir.empty() ? folders.front() : out_dir;

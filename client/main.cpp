@@ -17,17 +17,17 @@
 #include <optional>
 #include <thread>
 
+#include "compare.h"
 #include "cost_check.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/study/run_output.h"
-#include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/scene_fields.h"
+#include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/version.h"
-#include "compare.h"
 #include "plots.h"
 #include "progress.h"
 #if DEMBUF_SERVICE
@@ -314,7 +314,8 @@ HcSearchOptions ParseHcRange(const std::string& text) {
     char* rest = nullptr;
     const double x = std::strtod(part.c_str(), &rest);
     if (part.empty() || *rest != '\0' || !std::isfinite(x))
-      throw SceneError("--find-hc", "\"" + part.substr(0, 40) + "\" is not a number (LOW:HIGH[:TOL] in m)");
+      throw SceneError("--find-hc",
+                       "\"" + part.substr(0, 40) + "\" is not a number (LOW:HIGH[:TOL] in m)");
     v.push_back(x);
     start = end + 1;
   }
@@ -357,8 +358,8 @@ int SweepCommand(const RunOptions& opt) {
   int repeats = 1;
   if (hc_search) {
     planned = {MakeSweepAxis("bed.thickness_m", {std::to_string(hc_search->high_m)}, "")};
-    const int halvings = static_cast<int>(std::ceil(
-        std::log2((hc_search->high_m - hc_search->low_m) / hc_search->tolerance_m)));
+    const int halvings = static_cast<int>(
+        std::ceil(std::log2((hc_search->high_m - hc_search->low_m) / hc_search->tolerance_m)));
     repeats = 2 + std::min(halvings, hc_search->max_steps);
   }
   for (const SweepRun& run : ExpandSweep(base, WithSeedAxis(planned, opt.seeds, base.bed.seed))) {

@@ -139,7 +139,8 @@ ChainStats ReadChainStats(const fs::path& contacts_csv) {
     sum += f;
     ++stats.count;
     stats.max_N = std::max(stats.max_N, f);
-    stats.top_m = std::max({stats.top_m, std::atof(cells[11].c_str()), std::atof(cells[14].c_str())});
+    stats.top_m =
+        std::max({stats.top_m, std::atof(cells[11].c_str()), std::atof(cells[14].c_str())});
   }
   stats.mean_N = stats.count ? sum / stats.count : 0.0;
   return stats;
@@ -166,8 +167,8 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
   const std::string data = Q(snap / "contacts.csv");
   // Bead-bead rows only: a column that is not a number ("projectile", "plate") drops the row.
   const std::string bead_pair = "($1 >= 0 && $2 >= 0)";
-  const std::string in_slab = "(abs($11*100) < " + Rounded(half, 6) + " && abs($14*100) < " +
-                              Rounded(half, 6) + ")";
+  const std::string in_slab =
+      "(abs($11*100) < " + Rounded(half, 6) + " && abs($14*100) < " + Rounded(half, 6) + ")";
   // Force classes by multiples of the mean: 1-2, 2-3, 3-5, above 5.
   const double bounds[] = {1, 2, 3, 5, 1e300};
   // The slice above the top view, each panel as tall as its frame is for the same width, so
@@ -177,11 +178,9 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
   const double top_px = kPlotWidth + kPanelMargin;
   const double height = slice_px + top_px + kTitle;
   std::ostringstream gp;
-  gp << kTerminal << "set terminal pngcairo size " << kWidth << ","
-     << static_cast<int>(height) << " font 'DejaVu Sans,11'\nset output "
-     << Q(snap / "force_chains.png") << "\n"
-     << "set multiplot title "
-     << Literal("force chains " + when) << " . \"\\n\" . "
+  gp << kTerminal << "set terminal pngcairo size " << kWidth << "," << static_cast<int>(height)
+     << " font 'DejaVu Sans,11'\nset output " << Q(snap / "force_chains.png") << "\n"
+     << "set multiplot title " << Literal("force chains " + when) << " . \"\\n\" . "
      << Literal("bead-bead contacts above the mean " + Rounded(mean, 2) + " N (largest " +
                 Rounded(chains.max_N, 3) + " N); the projectile's contacts dashed")
      << "\nset size ratio -1\nset key off\nset cblabel 'normal force [N]'\n"
@@ -199,15 +198,16 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
   };
   // Left: the slice, x against z.
   gp << "set origin 0," << top_px / height << "\nset size 1," << slice_px / height << "\n"
-     << "set title " << Literal("vertical slice through the axis, |y| < " + Rounded(half, 2) + " cm")
+     << "set title "
+     << Literal("vertical slice through the axis, |y| < " + Rounded(half, 2) + " cm")
      << "\nset xlabel 'x [cm]'\nset ylabel 'z [cm]'\n"
      << "set xrange [" << -R << ":" << R << "]\nset yrange [0:" << z_max << "]\n";
   if (has_projectile && pz - pr < z_max)
-    gp << "set object 1 circle at " << 100 * Number(proj, "x_m", 0.0) << "," << pz << " size "
-       << pr << " front fs empty border lc rgb '#000000' lw 1.5\n";
+    gp << "set object 1 circle at " << 100 * Number(proj, "x_m", 0.0) << "," << pz << " size " << pr
+       << " front fs empty border lc rgb '#000000' lw 1.5\n";
   gp << "plot " << layers("($10*100)", "($12*100)", "(($13-$10)*100)", "(($15-$12)*100)", in_slab)
-     << ", " << data
-     << " every ::1 using (strcol(1) eq 'projectile' && abs($14*100) < " << Rounded(half, 6)
+     << ", " << data << " every ::1 using (strcol(1) eq 'projectile' && abs($14*100) < "
+     << Rounded(half, 6)
      << " ? $10*100 : 1/0):($12*100):(($13-$10)*100):(($15-$12)*100) with vectors nohead lw 1.5 "
         "dt 2 lc rgb '#000000'\n"
      << "unset object 1\n";
@@ -232,11 +232,11 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
   const double P = Number(s, "P_N", 0.0), P0 = Number(s, "reference_peak_N", 0.0);
   const fs::path bare = dir / "plate_force_bare.csv";
   const bool with_bare = H > 0.0 && HasRows(bare);
-  std::string title = H > 0.0 ? "impact on a " + Rounded(100 * H) + " cm bed: P = " +
-                                    Rounded(P / 1e3) + " kN, bare plate " + Rounded(P0 / 1e3) +
-                                    " kN, lambda = " + Rounded(100 * Number(s, "lambda", 0.0), 2) +
-                                    "%"
-                              : "impact on the bare plate: P = " + Rounded(P / 1e3) + " kN";
+  std::string title = H > 0.0
+                          ? "impact on a " + Rounded(100 * H) + " cm bed: P = " + Rounded(P / 1e3) +
+                                " kN, bare plate " + Rounded(P0 / 1e3) +
+                                " kN, lambda = " + Rounded(100 * Number(s, "lambda", 0.0), 2) + "%"
+                          : "impact on the bare plate: P = " + Rounded(P / 1e3) + " kN";
   std::ostringstream gp;
   gp << kTerminal << "set output " << Q(dir / "plate_force.png") << "\n"
      << "set xlabel 'time after first contact [ms]'\nset ylabel 'bottom-plate force [kN]'\n"
@@ -265,7 +265,8 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
   // contact-force PDF and the radial plate load.
   if (fs::is_directory(dir / "snapshots")) {
     const nlohmann::json scene = s.value("scene", nlohmann::json::object());
-    const double radius = Number(scene.value("cylinder", nlohmann::json::object()), "radius_m", 0.1);
+    const double radius =
+        Number(scene.value("cylinder", nlohmann::json::object()), "radius_m", 0.1);
     const double slab =
         Number(scene.value("output", nlohmann::json::object()), "chain_slab_width_m", 0.009);
     for (const auto& entry : fs::directory_iterator(dir / "snapshots")) {

@@ -187,8 +187,9 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
     thicknesses.push_back(text);
     std::vector<double> p;
     for (const report::SweepRunReport& r : reports) {
-      if (!r.ok) throw std::runtime_error("a run at H = " + std::string(text) + " m failed (" +
-                                          r.error + "): Hc cannot be bracketed past it");
+      if (!r.ok)
+        throw std::runtime_error("a run at H = " + std::string(text) + " m failed (" + r.error +
+                                 "): Hc cannot be bracketed past it");
       p.push_back(r.summary["P_N"].get<double>());
     }
     all.insert(all.end(), reports.begin(), reports.end());
@@ -201,7 +202,8 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
   const std::vector<SweepAxis> axes = WithSeedAxis(
       {MakeSweepAxis("bed.thickness_m", thicknesses, "")}, options.seeds, base.bed.seed);
   std::printf("\nall %zu runs of the search:", all.size());
-  nlohmann::json summary = report::WriteSweepReport(options.out_dir, axes, all, nlohmann::json::object(), stdout);
+  nlohmann::json summary =
+      report::WriteSweepReport(options.out_dir, axes, all, nlohmann::json::object(), stdout);
   nlohmann::json points = nlohmann::json::array();
   for (const HcPoint& p : hc.points)
     points.push_back({{"H_m", p.h_m}, {"P_N", p.p_N}, {"mean_P_N", p.mean_N}});
@@ -214,8 +216,9 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
       {"threshold_P_N", hc.threshold_N},
       {"bracket_m", {hc.bracket_low_m, hc.bracket_high_m}},
       {"method", "bisection"},
-      {"rule", "the thickness where mean P falls to (1 + margin) times the plateau, the mean P "
-               "at the deep end of the range"},
+      {"rule",
+       "the thickness where mean P falls to (1 + margin) times the plateau, the mean P "
+       "at the deep end of the range"},
       {"margin", search.margin},
       {"range_m", {search.low_m, search.high_m}},
       {"tolerance_m", search.tolerance_m},

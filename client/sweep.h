@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "dembuf/study/bed.h"
-#include "dembuf/study/scene.h"
 #include "dembuf/study/critical_thickness_search.h"
+#include "dembuf/study/scene.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/sweep_report.h"
 

@@ -104,12 +104,12 @@ void CheckServerScene(const Scene& scene) {
                                 scene.output.snapshot_after_contact_s.size() +
                                 (scene.output.snapshot_at_peak ? 1 : 0);
   if (snapshots > kMaxServerSnapshots)
-    throw SceneError(scene.output.snapshot_times_s.size() >
-                             scene.output.snapshot_after_contact_s.size()
-                         ? "output.snapshot_times_s"
-                         : "output.snapshot_after_contact_s",
-                     std::to_string(snapshots) + " snapshots; a server job takes at most " +
-                         std::to_string(kMaxServerSnapshots));
+    throw SceneError(
+        scene.output.snapshot_times_s.size() > scene.output.snapshot_after_contact_s.size()
+            ? "output.snapshot_times_s"
+            : "output.snapshot_after_contact_s",
+        std::to_string(snapshots) + " snapshots; a server job takes at most " +
+            std::to_string(kMaxServerSnapshots));
 }
 
 }  // namespace dembuf::server

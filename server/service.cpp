@@ -606,8 +606,7 @@ Status DembufService::FetchResults(grpc::ServerContext* context,
   });
 }
 
-Status DembufService::FetchFiles(grpc::ServerContext* context,
-                                 const v1::FetchFilesRequest* request,
+Status DembufService::FetchFiles(grpc::ServerContext* context, const v1::FetchFilesRequest* request,
                                  grpc::ServerWriter<v1::FileChunk>* writer) {
   return Guard("FetchFiles", [&]() -> Status {
     Caller caller;
@@ -616,9 +615,9 @@ Status DembufService::FetchFiles(grpc::ServerContext* context,
     if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
     if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
     if (!IsFinal(job->state))
-      return Status(StatusCode::FAILED_PRECONDITION,
-                    "id: job " + std::to_string(job->id) + " is " + StateName(job->state) +
-                        "; its files come when it ends");
+      return Status(StatusCode::FAILED_PRECONDITION, "id: job " + std::to_string(job->id) + " is " +
+                                                         StateName(job->state) +
+                                                         "; its files come when it ends");
     // Piece by piece from the store: a file of any size is sent without holding it whole.
     constexpr std::int64_t kChunkBytes = 1 << 20;
     for (const JobFileInfo& file : m_store.JobFiles(job->id)) {

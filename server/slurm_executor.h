@@ -32,7 +32,7 @@ namespace dembuf::server {
 struct SlurmExecutorOptions {
   slurm::Settings slurm;
   int queue_limit = 1000;
-  std::string dembuf;  ///< the dembuf program the nodes run (resolved)
+  std::string dembuf;                           ///< the dembuf program the nodes run (resolved)
   std::uint64_t max_result_bytes = UINT64_MAX;  ///< a job's result files read back, at most
 };
 

@@ -506,8 +506,8 @@ void Store::PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultF
 
 std::vector<JobFileInfo> Store::JobFiles(std::int64_t id) {
   std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare(
-      "SELECT path, length(data) FROM job_files WHERE job_id = ? ORDER BY path");
+  Statement& s =
+      m_db->Prepare("SELECT path, length(data) FROM job_files WHERE job_id = ? ORDER BY path");
   s.Bind(id);
   std::vector<JobFileInfo> files;
   while (s.Step()) files.push_back({s.Text(0), s.Int(1)});
@@ -518,8 +518,8 @@ std::string Store::ReadJobFile(std::int64_t id, const std::string& path, std::in
                                std::int64_t max) {
   std::lock_guard lock(m_mutex);
   // substr counts bytes of a blob from 1.
-  Statement& s = m_db->Prepare(
-      "SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
+  Statement& s =
+      m_db->Prepare("SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
   s.Bind(offset, max, id, path);
   std::string data = s.Step() ? s.Blob(0) : std::string();
   s.Run();

@@ -228,8 +228,8 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     std::vector<ImpactSample> bare;  // the bare-plate impact run for lambda: a few hundred
     control.on_reference_sample = [&](const ImpactSample& s) { bare.push_back(s); };
     control.on_snapshot = [&](const ImpactSnapshot& snap) {
-      m_store.PutJobFiles(id, report::SnapshotFiles(snap, scene.cylinder.radius_m,
-                                                    scene.beads.diameter_max_m));
+      m_store.PutJobFiles(
+          id, report::SnapshotFiles(snap, scene.cylinder.radius_m, scene.beads.diameter_max_m));
     };
     control.progress_every_steps = kProgressEverySteps;
     control.cancel = &live->cancel;
@@ -239,7 +239,8 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     const ImpactSummary summary = RunImpact(std::move(world), scene, control);
     const std::string summary_json = report::SummaryToJson(summary, scene).dump(2) + "\n";
     JobResults results = Rest(*live, summary_json);
-    if (!bare.empty()) results.files.push_back({"plate_force_bare.csv", report::SamplesToCsv(bare)});
+    if (!bare.empty())
+      results.files.push_back({"plate_force_bare.csv", report::SamplesToCsv(bare)});
     m_store.FinishJob(id, JobState::kDone, "", results);
     live->End(JobState::kDone);
     m_log->info("job {}: done in {:.1f} s: P = {:.5g} N, lambda = {:.3f}", id,

@@ -127,7 +127,7 @@ TEST(BedPreparation, TheTwoCutsPutTheSurfaceAtHOrEveryTopBelowIt) {
   tops_scene.bed.cut = "tops";
   const PreparedBed tops = GetBed(tops_scene, cache);
   EXPECT_EQ(cache.prepared_counts().at("source"), 1);  // one settling for both
-  EXPECT_NEAR(surface.surface_m, H, 0.2 * r_mean);  // the cut bed sinks a little as it relaxes
+  EXPECT_NEAR(surface.surface_m, H, 0.2 * r_mean);     // the cut bed sinks a little as it relaxes
   double highest_top = 0.0;
   for (std::size_t i = 0; i < tops.beads.size(); ++i)
     highest_top = std::max(highest_top, tops.beads.position[i].z() + tops.beads.radius[i]);
@@ -312,8 +312,7 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
   projectile.time.end_s = 0.1;
   EXPECT_EQ(BedHash(projectile), BedHash(s));
-  for (const char* field :
-       {"seed", "prep", "thickness", "mu", "alpha", "quench", "local", "cut"}) {
+  for (const char* field : {"seed", "prep", "thickness", "mu", "alpha", "quench", "local", "cut"}) {
     Scene other = s;
     if (std::string(field) == "cut") other.bed.cut = "tops";
     if (std::string(field) == "quench") other.bed.quench_cut_relaxation = true;

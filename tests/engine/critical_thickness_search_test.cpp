@@ -71,9 +71,8 @@ TEST(HcSearch, ARangeWithoutACrossingSaysSo) {
   EXPECT_FALSE(r.note.empty());
   EXPECT_DOUBLE_EQ(r.hc_m, 0.04);
   o.low_m = 0.07;  // above the deep end
-  EXPECT_THROW(
-      FindCriticalThickness([](double h) { return std::vector<double>{SmoothP(h)}; }, o),
-      std::invalid_argument);
+  EXPECT_THROW(FindCriticalThickness([](double h) { return std::vector<double>{SmoothP(h)}; }, o),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -151,8 +151,8 @@ TEST(SampleStream, AFollowerReadsWholeSamplesExactlyAsTheyCome) {
 }
 
 TEST(ResultFiles, OnlyPlainRelativePathsAreAccepted) {
-  for (const char* good : {"snapshots/peak/contacts.csv", "snapshots/after_contact_0.5ms/x.vtk",
-                           "a", "a.b-c_d"})
+  for (const char* good :
+       {"snapshots/peak/contacts.csv", "snapshots/after_contact_0.5ms/x.vtk", "a", "a.b-c_d"})
     EXPECT_TRUE(report::IsSafeResultPath(good)) << good;
   for (const char* bad : {"", "/etc/passwd", "../x", "snapshots/../../x", "a//b", "a/", "./a",
                           "a/./b", "a b", "a\\b", "a;b", "a/b/c/d", "snapshots/$(id)/x"})

@@ -521,8 +521,8 @@ PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const Bed
 
 // Keeps the beads whose centre lies below the height that puts the measured surface at H
 // (bed.cut = "surface"), or those whose top is below H (bed.cut = "tops").
-std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius,
-                          double thickness, const std::string& convention) {
+std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius, double thickness,
+                          const std::string& convention) {
   if (convention == "tops") {
     std::vector<bool> keep(beads.size());
     for (std::size_t i = 0; i < beads.size(); ++i)

@@ -18,8 +18,8 @@ HcPoint Evaluate(const PeakForcesAt& peak_forces_at, double h) {
   for (double p : point.p_N) point.mean_N += p / n;
   double var = 0.0;
   for (double p : point.p_N) var += (p - point.mean_N) * (p - point.mean_N);
-  point.sd_N = point.p_N.size() > 1 ? std::sqrt(var / (n - 1))
-                                    : std::numeric_limits<double>::quiet_NaN();
+  point.sd_N =
+      point.p_N.size() > 1 ? std::sqrt(var / (n - 1)) : std::numeric_limits<double>::quiet_NaN();
   return point;
 }
 
@@ -30,8 +30,7 @@ double StandardError(const HcPoint& p) {
 
 }  // namespace
 
-HcSearchResult FindCriticalThickness(const PeakForcesAt& peak_forces_at,
-                                     const HcSearchOptions& o) {
+HcSearchResult FindCriticalThickness(const PeakForcesAt& peak_forces_at, const HcSearchOptions& o) {
   if (!(o.low_m >= 0.0 && o.low_m < o.high_m))
     throw std::invalid_argument("the range's shallow end must be below its deep end");
   if (!(o.tolerance_m > 0.0) || !(o.margin > 0.0) || o.max_steps < 1)
@@ -47,8 +46,9 @@ HcSearchResult FindCriticalThickness(const PeakForcesAt& peak_forces_at,
   if (low.mean_N <= r.threshold_N) {
     r.hc_m = o.low_m;
     r.bracket_low_m = r.bracket_high_m = o.low_m;
-    r.note = "P at the shallow end of the range is already within the margin of the plateau: "
-             "Hc is at most there";
+    r.note =
+        "P at the shallow end of the range is already within the margin of the plateau: "
+        "Hc is at most there";
     return r;
   }
   for (int step = 0; step < o.max_steps && high.h_m - low.h_m > o.tolerance_m; ++step) {

@@ -18,11 +18,18 @@ namespace {
 // Fields that do not change the physics the paper describes: the thickness (compared point by
 // point), the seed, the cut convention, the accuracy knobs, the outputs.
 bool IgnoredField(const std::string& name) {
-  static const std::set<std::string> ignored = {
-      "bed.thickness_m",      "bed.seed",          "bed.cut",
-      "bed.source_thickness_m", "bed.settle_tolerance", "bed.friction_settle_tolerance",
-      "bed.quench_cut_relaxation", "bed.local_settling", "bed.max_settle_s",
-      "bed.friction_ramp_s",  "bed.import",        "bed.import_overlaps"};
+  static const std::set<std::string> ignored = {"bed.thickness_m",
+                                                "bed.seed",
+                                                "bed.cut",
+                                                "bed.source_thickness_m",
+                                                "bed.settle_tolerance",
+                                                "bed.friction_settle_tolerance",
+                                                "bed.quench_cut_relaxation",
+                                                "bed.local_settling",
+                                                "bed.max_settle_s",
+                                                "bed.friction_ramp_s",
+                                                "bed.import",
+                                                "bed.import_overlaps"};
   return ignored.count(name) > 0 || name.rfind("time.", 0) == 0 || name.rfind("output.", 0) == 0;
 }
 
@@ -114,8 +121,8 @@ std::string Format(const char* format, double v) {
 
 }  // namespace
 
-double HertzImpactPeak(double mass_kg, double radius_m, double speed_m_s, double e1_Pa,
-                       double nu1, double e2_Pa, double nu2) {
+double HertzImpactPeak(double mass_kg, double radius_m, double speed_m_s, double e1_Pa, double nu1,
+                       double e2_Pa, double nu2) {
   const double e_star = 1.0 / ((1 - nu1 * nu1) / e1_Pa + (1 - nu2 * nu2) / e2_Pa);
   const double k = 4.0 / 3.0 * e_star * std::sqrt(radius_m);
   return std::pow(k, 0.4) * std::pow(1.25 * mass_kg * speed_m_s * speed_m_s, 0.6);
@@ -145,10 +152,10 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
     const nlohmann::json& w = scene["walls"];
     const bool from_beads = w.value("material_from_beads", true);
     const double e = Number(m, "youngs_modulus_Pa"), nu = Number(m, "poisson_ratio");
-    c.hertz_peak_N = HertzImpactPeak(
-        Number(scene["projectile"], "mass_kg"), 0.5 * Number(scene["projectile"], "diameter_m"),
-        speed, e, nu, from_beads ? e : Number(w, "youngs_modulus_Pa"),
-        from_beads ? nu : Number(w, "poisson_ratio"));
+    c.hertz_peak_N = HertzImpactPeak(Number(scene["projectile"], "mass_kg"),
+                                     0.5 * Number(scene["projectile"], "diameter_m"), speed, e, nu,
+                                     from_beads ? e : Number(w, "youngs_modulus_Pa"),
+                                     from_beads ? nu : Number(w, "poisson_ratio"));
   }
   if (!c.is_paper_e2) return c;
   for (const auto& [h, runs] : by_thickness) {
@@ -161,7 +168,8 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
     }
   }
   if (hc_m) {
-    ComparisonRow row = MakeRow({"Hc_m", "Hc [cm]", 100, 0.02, "E2 where P levels off"}, 0.0, {*hc_m});
+    ComparisonRow row =
+        MakeRow({"Hc_m", "Hc [cm]", 100, 0.02, "E2 where P levels off"}, 0.0, {*hc_m});
     row.sd = hc_sd_m;
     if (std::isfinite(hc_sd_m)) {
       // Within the uncertainty of the bisection: the mean +- 2 sd.
@@ -192,9 +200,9 @@ std::string ComparisonTable(const Comparison& c) {
     std::string dembuf = Format("%.4g", r.mean * r.scale);
     if (std::isfinite(r.sd)) dembuf += " +- " + Format("%.2g", r.sd * r.scale);
     if (r.n > 1)
-      dembuf += " [" + Format("%.3g", r.min * r.scale) + ", " + Format("%.3g", r.max * r.scale) +
-                "]";
-    const std::string within = !r.paper_within_range ? "- (n = " + std::to_string(r.n) + ")"
+      dembuf +=
+          " [" + Format("%.3g", r.min * r.scale) + ", " + Format("%.3g", r.max * r.scale) + "]";
+    const std::string within = !r.paper_within_range   ? "- (n = " + std::to_string(r.n) + ")"
                                : *r.paper_within_range ? "yes"
                                                        : "NO: outside";
     std::snprintf(line, sizeof line, "%-22s %6s %9.4g %28s %+9.1f%%  %s\n", r.label.c_str(),
@@ -210,16 +218,16 @@ std::string ComparisonCsv(const Comparison& c) {
   out.precision(10);
   out << "quantity,H_m,paper,source,n,mean,sd,min,max,deviation,paper_within_range\n";
   for (const ComparisonRow& r : c.rows) {
-    out << r.quantity << "," << r.h_m << "," << r.paper << ",\"" << r.source << "\"," << r.n
-        << "," << r.mean << ",";
+    out << r.quantity << "," << r.h_m << "," << r.paper << ",\"" << r.source << "\"," << r.n << ","
+        << r.mean << ",";
     if (std::isfinite(r.sd)) out << r.sd;
     out << "," << r.min << "," << r.max << "," << r.deviation << ",";
     if (r.paper_within_range) out << (*r.paper_within_range ? "yes" : "no");
     out << "\n";
   }
   // The analytic value in the mean's column: it is no measurement of the paper.
-  out << "hertz_peak_N,,,\"elastic sphere on the bare plate, no damping\",,"
-      << c.hertz_peak_N << ",,,,,\n";
+  out << "hertz_peak_N,,,\"elastic sphere on the bare plate, no damping\",," << c.hertz_peak_N
+      << ",,,,,\n";
   return out.str();
 }
 

@@ -45,8 +45,8 @@ std::string Metadata(const ImpactSnapshot& s) {
   if (std::isfinite(s.t_after_contact_s)) j["t_after_contact_s"] = s.t_after_contact_s;
   if (s.projectile) {
     const dem::Vec3& x = s.projectile->position;
-    j["projectile"] = {{"x_m", x.x()}, {"y_m", x.y()}, {"z_m", x.z()},
-                       {"radius_m", s.projectile->radius}};
+    j["projectile"] = {
+        {"x_m", x.x()}, {"y_m", x.y()}, {"z_m", x.z()}, {"radius_m", s.projectile->radius}};
   }
   return j.dump(2) + "\n";
 }
@@ -172,12 +172,10 @@ std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinde
                                       double bead_diameter_m) {
   const std::string folder = "snapshots/" + SafeLabel(snap.label) + "/";
   auto [radial, map] = PlateLoad(snap, cylinder_radius_m, bead_diameter_m);
-  return {{folder + "snapshot.json", Metadata(snap)},
-          {folder + "network.vtk", Vtk(snap)},
-          {folder + "contacts.csv", Contacts(snap)},
-          {folder + "plate_radial.csv", std::move(radial)},
-          {folder + "plate_map.csv", std::move(map)},
-          {folder + "force_pdf.csv", ForcePdf(snap)}};
+  return {
+      {folder + "snapshot.json", Metadata(snap)}, {folder + "network.vtk", Vtk(snap)},
+      {folder + "contacts.csv", Contacts(snap)},  {folder + "plate_radial.csv", std::move(radial)},
+      {folder + "plate_map.csv", std::move(map)}, {folder + "force_pdf.csv", ForcePdf(snap)}};
 }
 
 bool IsSafeResultPath(std::string_view path) {

@@ -133,8 +133,8 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
       for (double x : v) mean += x / v.size();
       for (double x : v) var += (x - mean) * (x - mean);
       // One run has no spread: its sd is left empty (null), not 0.
-      const double sd = v.size() > 1 ? std::sqrt(var / (v.size() - 1))
-                                     : std::numeric_limits<double>::quiet_NaN();
+      const double sd =
+          v.size() > 1 ? std::sqrt(var / (v.size() - 1)) : std::numeric_limits<double>::quiet_NaN();
       point[m] = {{"mean", mean},
                   {"sd", std::isnan(sd) ? nlohmann::json() : nlohmann::json(sd)},
                   {"n", v.size()}};

@@ -17,11 +17,11 @@
 namespace dembuf {
 
 struct HcSearchOptions {
-  double low_m = 0.005;   ///< shallow end: P must be above the threshold here
-  double high_m = 0.06;   ///< deep end: its P is the plateau
+  double low_m = 0.005;        ///< shallow end: P must be above the threshold here
+  double high_m = 0.06;        ///< deep end: its P is the plateau
   double tolerance_m = 0.001;  ///< stop when the bracket is narrower
-  double margin = 0.10;   ///< P within this fraction above the plateau counts as on it
-  int max_steps = 12;     ///< bisection steps at most (the tolerance usually stops it first)
+  double margin = 0.10;        ///< P within this fraction above the plateau counts as on it
+  int max_steps = 12;          ///< bisection steps at most (the tolerance usually stops it first)
 };
 
 /// One thickness run: the peak force of each seed.

@@ -123,11 +123,11 @@ struct ImpactSummary {
   std::string end_reason;
 
   BedSummary bed;
-  PeakAnalysis peaks;              ///< Pa, Pb, P, dS, dt, load duration
-  double crater_depth_m = 0.0;     ///< deepest point of the projectile below the bed surface
-  double reference_peak_N = 0.0;   ///< Pa0: the same impact on the bare plate
+  PeakAnalysis peaks;             ///< Pa, Pb, P, dS, dt, load duration
+  double crater_depth_m = 0.0;    ///< deepest point of the projectile below the bed surface
+  double reference_peak_N = 0.0;  ///< Pa0: the same impact on the bare plate
   double reference_first_contact_time_s = -1.0;  ///< when it touched the plate (-1: not run)
-  double lambda = 0.0;             ///< buffer ratio (Pa0 - P) / Pa0
+  double lambda = 0.0;                           ///< buffer ratio (Pa0 - P) / Pa0
   double max_overlap_ratio = 0.0;  ///< largest overlap / smaller radius during the impact
 };
 

@@ -49,8 +49,8 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
 
 /// The peak force of an elastic sphere (mass, radius, E and nu) hitting a flat elastic body
 /// (E and nu) at `speed`: F = K^(2/5) (5/4 m v^2)^(3/5), K = 4/3 E* sqrt(R) (Hertz).
-double HertzImpactPeak(double mass_kg, double radius_m, double speed_m_s, double e1_Pa,
-                       double nu1, double e2_Pa, double nu2);
+double HertzImpactPeak(double mass_kg, double radius_m, double speed_m_s, double e1_Pa, double nu1,
+                       double e2_Pa, double nu2);
 
 /// The rows as text for a terminal, and as CSV (compare.csv).
 std::string ComparisonTable(const Comparison& comparison);

@@ -586,19 +586,26 @@ Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobR
   });
 }
 
+Status DembufService::FinishedJobOfCaller(grpc::ServerContext* context, std::int64_t id,
+                                          std::optional<JobRecord>* job) {
+  Caller caller;
+  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+  *job = m_store.GetJob(id);
+  if (!*job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id));
+  if (Status s = CheckAccess(caller, **job); !s.ok()) return s;
+  if (!IsFinal((*job)->state))
+    return Status(StatusCode::FAILED_PRECONDITION,
+                  "id: job " + std::to_string(id) + " is " + StateName((*job)->state) +
+                      "; results come when it ends (watch it meanwhile)");
+  return Status::OK;
+}
+
 Status DembufService::FetchResults(grpc::ServerContext* context,
                                    const v1::FetchResultsRequest* request,
                                    v1::FetchResultsResponse* response) {
   return Guard("FetchResults", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-    const auto job = m_store.GetJob(request->id());
-    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
-    if (!IsFinal(job->state))
-      return Status(StatusCode::FAILED_PRECONDITION,
-                    "id: job " + std::to_string(job->id) + " is " + StateName(job->state) +
-                        "; results come when it ends (watch it meanwhile)");
+    std::optional<JobRecord> job;
+    if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
     FillJob(*job, true, response->mutable_job());
     if (auto results = m_store.GetResults(job->id))
       for (const ImpactSample& s : results->samples) FillSample(s, response->add_samples());
@@ -609,15 +616,8 @@ Status DembufService::FetchResults(grpc::ServerContext* context,
 Status DembufService::FetchFiles(grpc::ServerContext* context, const v1::FetchFilesRequest* request,
                                  grpc::ServerWriter<v1::FileChunk>* writer) {
   return Guard("FetchFiles", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
-    const auto job = m_store.GetJob(request->id());
-    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
-    if (!IsFinal(job->state))
-      return Status(StatusCode::FAILED_PRECONDITION, "id: job " + std::to_string(job->id) + " is " +
-                                                         StateName(job->state) +
-                                                         "; its files come when it ends");
+    std::optional<JobRecord> job;
+    if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
     // Piece by piece from the store: a file of any size is sent without holding it whole.
     constexpr std::int64_t kChunkBytes = 1 << 20;
     for (const JobFileInfo& file : m_store.JobFiles(job->id)) {

@@ -66,6 +66,10 @@ class DembufService final : public v1::Dembuf::Service {
                             Caller* caller);
   /// A job of another user is refused unless the caller is an admin.
   grpc::Status CheckAccess(const Caller& caller, const JobRecord& job);
+  /// Job `id`, when it exists, the caller may see it, and it has ended (its results are
+  /// there): NOT_FOUND, PERMISSION_DENIED or FAILED_PRECONDITION otherwise.
+  grpc::Status FinishedJobOfCaller(grpc::ServerContext* context, std::int64_t id,
+                                   std::optional<JobRecord>* job);
   /// The per-user quota of queued jobs.
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
   /// The per-job limits, against the job's resource estimate.

@@ -523,12 +523,16 @@ TEST(SmallBedImpact, SnapshotsAreTakenWhenAskedAndBalance) {
   // The flight-time snapshot shows the bed at rest: its plate load is the resting load (as
   // recorded before the residual jitter, below the rest tolerance, was zeroed: within 0.1%).
   const ImpactSnapshot& rest = snaps.front();
-  EXPECT_EQ(rest.label, "t=0.001");
+  EXPECT_EQ(rest.label, "t_1ms");
+  EXPECT_TRUE(std::isnan(rest.t_after_contact_s));  // taken before the contact
   double rest_plate = 0.0;
   for (const auto& c : rest.contacts)
     if (c.b == dem::kPlate) rest_plate += c.normal_N;
   EXPECT_NEAR(rest_plate / summary.bed.rest_plate_force_N, 1.0, 1e-3);
   EXPECT_NEAR(snaps[1].t_s, summary.first_contact_time_s + 0.0002, 2 * summary.dt_s);
+  // Snapshots after contact are named by that time, and know it.
+  EXPECT_EQ(snaps[1].label, "after_contact_0.2ms");
+  EXPECT_NEAR(snaps[1].t_after_contact_s, 0.0002, 2 * summary.dt_s);
 }
 
 }  // namespace

@@ -373,6 +373,9 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
     bare.bed.thickness_m = 0.0;
     bare.bed.import.clear();
     bare.output = OutputSpec{};
+    // Its peak is the first impact: the bare run ends when the sphere bounces clear, however
+    // long the scene's own run goes on (time.end_s).
+    bare.time.end_s = 0.0;
     RunControl quiet;
     quiet.cancel = control.cancel;
     quiet.compute_reference = false;

@@ -199,6 +199,11 @@ ResourceEstimate EstimateResources(const Scene& scene) {
   e.output_bytes_max = kRunFileBytes + e.samples_max * kBytesPerSample +
                        e.snapshots * (e.impact_beads * kSnapshotFileBytesPerBead +
                                       plate_cells * kSnapshotFileBytesPerCell);
+  // The bare-plate impact's samples (plate_force_bare.csv), over one impact window at most.
+  if (e.impact_beads > 0 && p.enabled)
+    e.output_bytes_max +=
+        (std::floor(scene.time.impact_window_s / scene.time.output_interval_s) + 2) *
+        kBytesPerSample;
 
   double settling = 0.0, cached = 0.0;
   for (const StageEstimate& s : e.stages) {

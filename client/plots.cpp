@@ -161,6 +161,8 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
   const nlohmann::json proj = j.value("projectile", nlohmann::json::object());
   const bool has_projectile = proj.is_object() && proj.contains("z_m");
   const double R = 100 * radius, half = 50 * slab, mean = chains.mean_N;
+  const bool capped = chains.max_N > 8 * mean;
+  const double scale_top = capped ? 8 * mean : chains.max_N;
   const double top = 100 * chains.top_m + 0.5;
   const double pz = 100 * Number(proj, "z_m", 0.0), pr = 100 * Number(proj, "radius_m", 0.0);
   const double z_max = std::max(top, has_projectile ? std::min(pz + pr, top + 2 * pr) : top);
@@ -183,8 +185,11 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
      << "set multiplot title " << Literal("force chains " + when) << " . \"\\n\" . "
      << Literal("bead-bead contacts above the mean " + Rounded(mean, 2) + " N (largest " +
                 Rounded(chains.max_N, 3) + " N); the projectile's contacts dashed")
-     << "\nset size ratio -1\nset key off\nset cblabel 'normal force [N]'\n"
-     << "set cbrange [" << mean << ":" << chains.max_N << "]\n"
+     << "\nset size ratio -1\nset key off\n"
+     // The scale ends at 8 times the mean (or the largest force): a few contacts of tens of
+     // means would otherwise leave every other chain the same pale colour.
+     << "set cblabel " << Literal("normal force [N]" + std::string(capped ? ", capped" : ""))
+     << "\nset cbrange [" << mean << ":" << scale_top << "]\n"
      << "set palette defined (0 '#f2c14e', 0.4 '#e07020', 0.75 '#b01010', 1 '#300000')\n";
   auto layers = [&](const std::string& x, const std::string& y, const std::string& dx,
                     const std::string& dy, const std::string& keep) {
@@ -242,21 +247,30 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
      << "set xlabel 'time after first contact [ms]'\nset ylabel 'bottom-plate force [kN]'\n"
      << "set title " << Literal(title) << "\n"
      << "set xrange [-0.5:" << (end - contact) * 1e3 << "]\n";
+  // Every peak is marked; the largest Pa and the largest Pb (the summary's) are labelled.
   const nlohmann::json peaks = s.value("peaks", nlohmann::json::array());
   for (const auto& p : peaks.is_array() ? peaks : nlohmann::json::array()) {
     if (!p.is_object() || !p.contains("kind") || !p["kind"].is_string()) continue;
+    const std::string kind = p["kind"].get<std::string>();
     const double force = Number(p, "force_N", 0.0);
-    gp << "set label " << Literal(p["kind"].get<std::string>() + " " + Rounded(force / 1e3) + " kN")
+    const bool main_peak = force == Number(s, (kind + "_N").c_str(), -1.0);
+    gp << "set label " << Literal(main_peak ? kind + " " + Rounded(force / 1e3) + " kN" : "")
        << " at " << (Number(p, "time_s", 0.0) - contact) * 1e3 << "," << force / 1e3
-       << " offset 0.6,0.6 point pt 7 ps 1.2\n";
+       << " offset 0.6,0.6 point pt 7 ps " << (main_peak ? 1.2 : 0.7) << "\n";
   }
+  // A bed that takes most of the force: the bare plate's spike would flatten its curve, so the
+  // scale follows the bed's and the spike runs off it.
+  const bool bare_off_scale = with_bare && P < 0.3 * P0;
+  if (bare_off_scale) gp << "set yrange [0:" << 1.5 * P / 1e3 << "]\n";
   gp << "plot " << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact
      << ")*1e3):($2/1e3) with lines lw 2 lc rgb '#1f4e9c' title "
      << Literal(H > 0.0 ? "on the bed" : "bare plate");
   if (with_bare)
     gp << ", " << Q(bare) << " every ::1 using (($1-"
        << Number(s, "reference_first_contact_time_s", contact)
-       << ")*1e3):($2/1e3) with lines lw 1.5 dt 2 lc rgb '#808080' title 'bare plate'";
+       << ")*1e3):($2/1e3) with lines lw 1.5 dt 2 lc rgb '#808080' title "
+       << Literal(bare_off_scale ? "bare plate (peak " + Rounded(P0 / 1e3) + " kN, off the scale)"
+                                 : "bare plate");
   gp << "\n";
   RunGnuplot(gp.str(), dir / "plate_force.gp");
   out.push_back(dir / "plate_force.png");

@@ -201,30 +201,30 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
             [](const std::string& a, const std::string& b) { return std::stod(a) < std::stod(b); });
   const std::vector<SweepAxis> axes = WithSeedAxis(
       {MakeSweepAxis("bed.thickness_m", thicknesses, "")}, options.seeds, base.bed.seed);
-  std::printf("\nall %zu runs of the search:", all.size());
-  nlohmann::json summary =
-      report::WriteSweepReport(options.out_dir, axes, all, nlohmann::json::object(), stdout);
   nlohmann::json points = nlohmann::json::array();
   for (const HcPoint& p : hc.points)
     points.push_back({{"H_m", p.h_m}, {"P_N", p.p_N}, {"mean_P_N", p.mean_N}});
-  summary["Hc_m"] = hc.hc_m;
-  summary["critical_thickness"] = {
+  // The search's Hc stands in the report instead of the fixed-grid rule's.
+  const nlohmann::json extra = {
       {"Hc_m", hc.hc_m},
-      {"Hc_sd_m", hc.hc_sd_m},
-      {"seed_scatter_included", hc.seed_scatter_included},
-      {"plateau_P_N", hc.plateau_N},
-      {"threshold_P_N", hc.threshold_N},
-      {"bracket_m", {hc.bracket_low_m, hc.bracket_high_m}},
-      {"method", "bisection"},
-      {"rule",
-       "the thickness where mean P falls to (1 + margin) times the plateau, the mean P "
-       "at the deep end of the range"},
-      {"margin", search.margin},
-      {"range_m", {search.low_m, search.high_m}},
-      {"tolerance_m", search.tolerance_m},
-      {"note", hc.note},
-      {"steps", points}};
-  report::WriteFileAtomically(options.out_dir / "summary.json", summary.dump(2) + "\n");
+      {"critical_thickness",
+       {{"Hc_m", hc.hc_m},
+        {"Hc_sd_m", hc.hc_sd_m},
+        {"seed_scatter_included", hc.seed_scatter_included},
+        {"plateau_P_N", hc.plateau_N},
+        {"threshold_P_N", hc.threshold_N},
+        {"bracket_m", {hc.bracket_low_m, hc.bracket_high_m}},
+        {"method", "bisection"},
+        {"rule",
+         "the thickness where mean P falls to (1 + margin) times the plateau, the mean P "
+         "at the deep end of the range"},
+        {"margin", search.margin},
+        {"range_m", {search.low_m, search.high_m}},
+        {"tolerance_m", search.tolerance_m},
+        {"note", hc.note},
+        {"steps", points}}}};
+  std::printf("\nall %zu runs of the search:", all.size());
+  report::WriteSweepReport(options.out_dir, axes, all, extra, stdout);
   std::printf(
       "\nHc = %.2f +- %.2f cm (bisection: P within %.0f%% of the plateau P = %.4g N at H = %.3g "
       "cm; bracket %.2f-%.2f cm; %s)\n",

@@ -182,7 +182,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   summary.update(extra);
   for (const auto& axis : axes)
     summary["axes"].push_back({{"field", axis.field}, {"values", axis.values}});
-  if (!h_to_p.empty()) {
+  if (!h_to_p.empty() && !summary.contains("critical_thickness")) {
     const nlohmann::json hc = CriticalThickness(h_to_p);
     if (!hc.is_null()) {
       summary["Hc_m"] = hc["Hc_m"];

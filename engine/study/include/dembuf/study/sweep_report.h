@@ -32,7 +32,8 @@ const std::vector<std::string>& SweepMetricNames();
 nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h_to_p);
 
 /// Writes dir/sweep.csv, dir/points.csv and dir/summary.json (the returned document, with
-/// `extra` merged in) and prints the table of points to `table`.
+/// `extra` merged in) and prints the table of points to `table`. A thickness sweep gets Hc by
+/// CriticalThickness unless `extra` brings its own "critical_thickness".
 nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                                 const std::vector<SweepAxis>& axes,
                                 const std::vector<SweepRunReport>& runs,

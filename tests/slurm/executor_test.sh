@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The Slurm executor on the one-node Slurm of deploy/slurm/, against real dembufd daemons:
 #   1. a three-point sweep through executor = "slurm" gives the thread executor's results, bit
-#      for bit (summaries but for their wall time, the stored series, the snapshots), its two bed
+#      for bit (summaries but for their wall time, the stored series, the result files), its two bed
 #      stages each prepared by one Slurm job, and a second user's sweep prepares none;
 #   2. watch shows a Slurm job's samples while it runs, and cancel ends it in Slurm;
 #   3. kill -9 of dembufd mid-sweep, and a restart: every job submitted once, all finish;
@@ -99,8 +99,11 @@ assert len(slurm) == 3 and slurm.keys() == threads.keys(), (slurm.keys(), thread
 for job in slurm:
     assert slurm[job][0] == threads[job][0], f"job {job}: summaries differ"
     assert slurm[job][1] == threads[job][1] and slurm[job][1], f"job {job}: series differ"
-    assert slurm[job][2] == threads[job][2] and len(slurm[job][2]) == 6, f"job {job}: snapshots"
-print("3 jobs: summaries, series and snapshot files identical;",
+    # The snapshot's six files and the bare-plate series run for lambda.
+    paths = [path for path, _ in slurm[job][2]]
+    assert slurm[job][2] == threads[job][2] and len(paths) == 7 and \
+        "plate_force_bare.csv" in paths, f"job {job}: result files {paths}"
+print("3 jobs: summaries, series, snapshot and bare-plate files identical;",
       sum(len(v[1]) for v in slurm.values()) // 48, "samples compared")
 PY
 

@@ -70,7 +70,8 @@ double WritePoints(const std::vector<nlohmann::json>& summaries, const fs::path&
   std::ofstream out(path);
   out.precision(10);
   out << "H_m,P_N,P_N_sd,lambda,lambda_sd,n\n";
-  for (const auto& [h, runs] : by_h) {
+  for (const auto& point : by_h) {
+    const std::vector<const nlohmann::json*>& runs = point.second;
     auto stats = [&](const char* key) {
       std::vector<double> v;
       for (const auto* s : runs)
@@ -81,7 +82,8 @@ double WritePoints(const std::vector<nlohmann::json>& summaries, const fs::path&
       std::string sd = v.size() > 1 ? std::to_string(std::sqrt(var / (v.size() - 1))) : "";
       return std::to_string(mean) + "," + sd;
     };
-    out << h << "," << stats("P_N") << "," << stats("lambda") << "," << runs.size() << "\n";
+    out << point.first << "," << stats("P_N") << "," << stats("lambda") << "," << runs.size()
+        << "\n";
   }
   return by_h.empty() ? 0.0 : by_h.rbegin()->first;
 }

@@ -1,43 +1,53 @@
 #!/usr/bin/env bash
 # Set-up command 2: install, build, and run every test: the GoogleTest and CTest suites, the
 # same suites built with AddressSanitizer and UndefinedBehaviorSanitizer, the threaded parts
-# under ThreadSanitizer, and the fuzzers for a bounded time. FUZZ_SECONDS (default 60) sets the fuzzing time per target; SANITIZE=0 and
-# FUZZ_SECONDS=0 skip those stages.
+# under ThreadSanitizer, and the fuzzers for a bounded time. FUZZ_SECONDS (default 30) sets the
+# fuzzing time per target; SANITIZE=0 and FUZZ_SECONDS=0 skip those stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/build.sh
-# ctest runs two test programs at once; OpenMP threads that spin while waiting would then
-# steal each other's cores.
+# ctest runs as many test programs at once as there are cores. The engine's threads meet at a
+# barrier several times a step, so a run of two threads beside another test, each waiting for
+# the other's core, goes three times slower than alone: the tests run the engine on one thread
+# (OMP_NUM_THREADS), but those about threads, which say how many cores they take (PROCESSORS).
+# OpenMP threads that spin while waiting would also steal each other's cores.
 export OMP_WAIT_POLICY=passive
-(cd build && ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
+(cd build && OMP_NUM_THREADS=1 ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
 
+sanitizer_opt_flags="-O2 -gline-tables-only -DNDEBUG"
 if [ "${SANITIZE:-1}" != 0 ]; then
   echo "== the unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
   # One clang build serves these tests and the fuzzers below (tests/fuzz/run.sh): everything
   # in it is built with both sanitizers (and libFuzzer's coverage, which does not change what
   # the tests check), so the sources are compiled once for the two stages.
+  # Line tables are all a sanitizer's report needs of the debugging information, and they
+  # compile faster.
   CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DDEMBUF_FUZZ=ON > /dev/null
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$sanitizer_opt_flags" -DDEMBUF_FUZZ=ON > /dev/null
   cmake --build build-fuzz --parallel "$(nproc)" --target engine_tests server_tests
   export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
-  # The GoogleTest suites only (the script tests need the other binaries), each binary in one
-  # process. Tests that prepare beds or integrate long fine-step runs are left to the optimised
-  # suite above: under the sanitizers each takes one to three minutes and adds no code path
-  # (bed files are also written and read by the store tests, imported bed files parsed by their
-  # fuzzer below, with the sanitizers). Local settling's test stays
-  # (about 3 minutes, with the whole-bed settling it compares with): it alone goes through the
-  # settling regions' copying and renumbering.
-  build-fuzz/tests/engine_tests --gtest_brief=1 \
-    --gtest_filter='-BedPreparation.EndsAtRest*:BedPreparation.CachedBed*:BedPreparation.KineticDamping*:SmallBedImpact.*:Regression.*:Determinism.*:Energy.*:Restitution.*:HertzElastic.*:HardCase.SingleBeadLayer*:HardCase.ImportedBedWithSmall*:HardCase.Restitution*:HardCase.SizeRatio*:HardCase.ProjectileGrazing*:HardCase.BedImpact*:HardCase.AMillion*:ResourceEstimate.CountsTheBeds*:BedImport.ASettledBeds*:BedImport.LargerOverlapsAreSeparated*:BedImport.ABedSettledByLammps*' &
-  engine=$!
+  # The GoogleTest suites only (the script tests need the other binaries); the engine's in two
+  # shards, one per core, as each test runs on one thread. Tests that prepare beds or integrate
+  # long fine-step runs are left to the optimised suite above: under the sanitizers each takes
+  # one to three minutes and adds no code path (bed files are also written and read by the
+  # store tests, imported bed files parsed by their fuzzer below, with the sanitizers). Local
+  # settling's test stays (about 3 minutes, with the whole-bed settling it compares with): it
+  # alone goes through the settling regions' copying and renumbering.
+  engine_filter='-BedPreparation.EndsAtRest*:BedPreparation.CachedBed*:BedPreparation.KineticDamping*:SmallBedImpact.*:Regression.*:Determinism.*:Energy.*:Restitution.*:HertzElastic.*:HardCase.SingleBeadLayer*:HardCase.ImportedBedWithSmall*:HardCase.Restitution*:HardCase.SizeRatio*:HardCase.ProjectileGrazing*:HardCase.BedImpact*:HardCase.AMillion*:ResourceEstimate.CountsTheBeds*:BedImport.ASettledBeds*:BedImport.LargerOverlapsAreSeparated*:BedImport.ABedSettledByLammps*'
+  shards=()
+  for shard in 0 1; do
+    GTEST_TOTAL_SHARDS=2 GTEST_SHARD_INDEX=$shard build-fuzz/tests/engine_tests --gtest_brief=1 \
+      --gtest_filter="$engine_filter" &
+    shards+=($!)
+  done
   build-fuzz/tests/server_tests --gtest_brief=1
-  wait "$engine"
+  for pid in "${shards[@]}"; do wait "$pid"; done
 
   echo "== the threaded parts under ThreadSanitizer"
   # clang with LLVM's OpenMP runtime, whose Archer tool shows ThreadSanitizer OpenMP's barriers
   # (without it, or with GCC's libgomp, every parallel loop would be reported as a race).
   CC=clang CXX=clang++ cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DDEMBUF_SANITIZE=thread > /dev/null
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$sanitizer_opt_flags" -DDEMBUF_SANITIZE=thread > /dev/null
   cmake --build build-tsan --parallel "$(nproc)" --target engine_tests dembuf dembufd
   OMP_TOOL_LIBRARIES="$(dirname "$(readlink -f "$(command -v clang)")")/../lib/libarcher.so"
   export OMP_TOOL_LIBRARIES
@@ -56,11 +66,13 @@ if [ "${SANITIZE:-1}" != 0 ]; then
     --vary projectile.speed_m_s=1,2,3 --jobs 2 --local --bed-cache "$tsan_sweep/beds" \
     --out "$tsan_sweep/sweep" > "$tsan_sweep/log" || { cat "$tsan_sweep/log"; exit 1; }
   rm -rf "$tsan_sweep"
-  bash tests/server/service_test.sh build-tsan/client/dembuf build-tsan/server/dembufd
+  # The daemon's threads only: the local runs it compares with are left to the build above.
+  DEMBUF_TEST_SKIP_LOCAL=1 bash tests/server/service_test.sh build-tsan/client/dembuf \
+    build-tsan/server/dembufd
   unset OMP_TOOL_LIBRARIES TSAN_OPTIONS
 fi
 
-if [ "${FUZZ_SECONDS:-60}" != 0 ]; then
+if [ "${FUZZ_SECONDS:-30}" != 0 ]; then
   echo "== fuzzing"
-  bash tests/fuzz/run.sh "${FUZZ_SECONDS:-60}"
+  bash tests/fuzz/run.sh "${FUZZ_SECONDS:-30}"
 fi

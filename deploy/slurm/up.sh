@@ -35,11 +35,12 @@ if ! pgrep -x munged > /dev/null; then
   touch "$dir/munged.started-here"
 fi
 
+# The machine's cores: nproc alone would follow an OMP_NUM_THREADS set for the caller.
+cpus=$(env -u OMP_NUM_THREADS -u OMP_THREAD_LIMIT nproc)
 if running "$dir/slurmctld.pid" && running "$dir/slurmd.pid"; then
   echo "slurm: already running from $dir"
 else
   node=$(hostname -s)
-  cpus=$(nproc)
   # Leave a fifth of the memory to the machine; jobs get 512 MB a CPU unless they ask.
   memory_mb=$(awk '/MemTotal/ { print int($2 / 1024 * 0.8) }' /proc/meminfo)
   sed -e "s|@DIR@|$dir|g" -e "s|@NODE@|$node|g" -e "s|@CPUS@|$cpus|g" \
@@ -56,7 +57,7 @@ for _ in $(seq 60); do
   state=$(sinfo -h -N -o '%T' 2> /dev/null | head -1 || true)
   case "$state" in
     idle* | mixed* | allocated*)
-      echo "slurm: node $(hostname -s) $state, $(nproc) CPUs; export SLURM_CONF=$conf"
+      echo "slurm: node $(hostname -s) $state, $cpus CPUs; export SLURM_CONF=$conf"
       exit 0
       ;;
   esac

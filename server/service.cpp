@@ -13,6 +13,7 @@
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/version.h"
+#include "job_feed.h"
 #include "scene_request.h"
 
 namespace dembuf::server {
@@ -144,10 +145,11 @@ Status DembufService::Authenticate(const grpc::ServerContext* context, const std
   const std::string prefix = "Bearer ";
   if (value.rfind(prefix, 0) != 0)
     return Status(StatusCode::UNAUTHENTICATED, "authorization: expected \"Bearer TOKEN\"");
-  const auto user = m_store.FindUserByTokenHash(HashToken(value.substr(prefix.size())));
-  if (!user) return Status(StatusCode::UNAUTHENTICATED, "token: not known to this server");
+  const std::optional<Caller> holder = CallerOfToken(m_store, value.substr(prefix.size()));
+  if (!holder) return Status(StatusCode::UNAUTHENTICATED, "token: not known to this server");
+  *caller = *holder;
   // An admin may act for another owner; anyone else is who the token says.
-  *caller = {user->admin && !owner.empty() ? owner : user->name, user->admin, true};
+  if (holder->admin && !owner.empty()) caller->name = owner;
   return Status::OK;
 }
 
@@ -162,7 +164,7 @@ Status DembufService::CheckQueuedQuota(const std::string& owner, std::size_t mor
 }
 
 Status DembufService::CheckAccess(const Caller& caller, const JobRecord& job) {
-  if (caller.admin || job.owner == caller.name) return Status::OK;
+  if (MaySee(caller, job.owner)) return Status::OK;
   return Status(StatusCode::PERMISSION_DENIED,
                 "id: job " + std::to_string(job.id) + " belongs to " + job.owner);
 }
@@ -192,7 +194,12 @@ Status DembufService::Guard(const char* rpc, Handler&& handler) {
 
 DembufService::DembufService(Store& store, Executor& executor, ServiceInfo info,
                              std::shared_ptr<spdlog::logger> log)
-    : m_store(store), m_executor(executor), m_info(std::move(info)), m_log(std::move(log)) {}
+    : m_store(store),
+      m_executor(executor),
+      m_info(std::move(info)),
+      m_log(std::move(log)),
+      m_watch_streams(m_info.max_watch_streams_per_user, m_info.max_watch_streams, "watch streams",
+                      "max_watch_streams") {}
 
 void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out) {
   out->set_id(r.id);
@@ -211,18 +218,8 @@ void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out)
   out->set_host(r.host);
   out->set_code_version(r.code_version);
   out->set_slurm_job_id(r.slurm_id);
-  JobState state = r.state;
-  JobProgress progress;
-  if (auto live = m_executor.Live(r.id)) {
-    progress = live->Progress();
-  } else if (r.state == JobState::kDone) {
-    progress.stage = "done";
-    progress.fraction = 1.0;
-  } else {
-    progress.stage = StateName(r.state);
-  }
-  out->set_state(ToProto(state));
-  FillProgress(progress, out->mutable_progress());
+  out->set_state(ToProto(r.state));
+  FillProgress(ProgressOf(r, m_executor), out->mutable_progress());
   if (with_details) {
     out->set_scene_toml(r.scene_toml);
     for (const auto& bed : m_store.BedsPreparedBy(r.id)) out->add_beds_prepared(bed);
@@ -231,8 +228,7 @@ void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out)
       info->set_path(file.path);
       info->set_size(file.size);
     }
-    if (r.state == JobState::kDone)
-      if (auto results = m_store.GetResults(r.id)) out->set_summary_json(results->summary_json);
+    if (r.state == JobState::kDone) out->set_summary_json(m_store.Summary(r.id));
   }
 }
 
@@ -379,7 +375,7 @@ Status DembufService::GetSweep(grpc::ServerContext* context, const v1::GetSweepR
     const auto sweep = m_store.GetSweep(request->id());
     if (!sweep)
       return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
-    if (!caller.admin && sweep->owner != caller.name)
+    if (!MaySee(caller, sweep->owner))
       return Status(StatusCode::PERMISSION_DENIED,
                     "id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
     FillSweep(*sweep, response);
@@ -454,7 +450,7 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
       if (!sweep)
         return Status(StatusCode::NOT_FOUND,
                       "sweep_id: no sweep " + std::to_string(request->sweep_id()));
-      if (!caller.admin && sweep->owner != caller.name)
+      if (!MaySee(caller, sweep->owner))
         return Status(
             StatusCode::PERMISSION_DENIED,
             "sweep_id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
@@ -480,31 +476,6 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
   });
 }
 
-bool DembufService::TakeWatch(const Caller& caller, std::string* why) {
-  std::lock_guard lock(m_watch_mutex);
-  const std::string& user = caller.name;
-  int& mine = m_watch_streams[user];
-  if (caller.token && mine >= m_info.max_watch_streams_per_user) {
-    *why = user + " has " + std::to_string(mine) + " watch streams open; at most " +
-           std::to_string(m_info.max_watch_streams_per_user) + " per user";
-  } else if (m_watch_total >= m_info.max_watch_streams) {
-    *why = "the server has " + std::to_string(m_watch_total) + " watch streams open; at most " +
-           std::to_string(m_info.max_watch_streams) + " (max_watch_streams)";
-  } else {
-    ++mine;
-    ++m_watch_total;
-    return true;
-  }
-  if (mine == 0) m_watch_streams.erase(user);
-  return false;
-}
-
-void DembufService::GiveBackWatch(const std::string& user) {
-  std::lock_guard lock(m_watch_mutex);
-  if (--m_watch_streams[user] <= 0) m_watch_streams.erase(user);
-  --m_watch_total;
-}
-
 Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                grpc::ServerWriter<v1::WatchJobResponse>* writer) {
   return Guard("WatchJob", [&]() -> Status {
@@ -512,75 +483,39 @@ Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobR
     if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
     // A stream holds a server thread while it lasts: a user may hold only a few of them.
     std::string why;
-    if (!TakeWatch(caller, &why))
+    const std::optional<StreamLimits::Place> place = m_watch_streams.Take(caller, &why);
+    if (!place)
       return Status(StatusCode::RESOURCE_EXHAUSTED,
                     "watch streams: " + why + "; close one, or wait for the jobs to end");
-    struct Place {
-      DembufService& service;
-      std::string user;
-      ~Place() { service.GiveBackWatch(user); }
-    } place{*this, caller.name};
     if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
     {
       const auto job = m_store.GetJob(request->id());
       if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
       if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
     }
-    auto next = static_cast<std::size_t>(request->from_index());
-    auto last_status = std::chrono::steady_clock::time_point{};
+    JobFeed feed(m_store, m_executor, request->id());
+    std::int64_t next = request->from_index();
+    auto last_message = std::chrono::steady_clock::time_point{};
     while (!context->IsCancelled()) {
-      // A running job is read live; else the store has the final word.
-      if (auto live = m_executor.Live(request->id())) {
-        LiveRead read = live->Read(next, kSamplesPerMessage, std::chrono::milliseconds(500));
-        if (read.stored)  // already stored by the worker: a watcher that came late or fell behind
-          read.samples = m_store.ReadSeries(request->id(), static_cast<std::int64_t>(next),
-                                            kSamplesPerMessage);
-        v1::WatchJobResponse message;
-        message.set_first_index(static_cast<std::int64_t>(next));
-        for (const ImpactSample& s : read.samples) FillSample(s, message.add_samples());
-        message.set_state(ToProto(read.state));
-        FillProgress(read.progress, message.mutable_progress());
-        next += read.samples.size();
-        if (!writer->Write(message)) return Status::OK;  // the watcher left
-        if (read.ended && IsFinal(read.state)) return Status::OK;
-        // Ended but not final: back to the queue (a shutdown); the worker lets go of it soon.
-        if (read.ended) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-        continue;
-      }
-      const auto job = m_store.GetJob(request->id());
-      if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-      if (IsFinal(job->state)) {
-        const auto results = m_store.GetResults(job->id);
-        const std::vector<ImpactSample> samples =
-            results ? results->samples : std::vector<ImpactSample>{};
-        JobProgress progress;
-        progress.stage = StateName(job->state);
-        progress.fraction = job->state == JobState::kDone ? 1.0 : 0.0;
-        for (const ImpactSample& s : samples)
-          progress.peak_plate_force_N = std::max(progress.peak_plate_force_N, s.plate_force_N);
-        do {
-          v1::WatchJobResponse message;
-          message.set_first_index(static_cast<std::int64_t>(next));
-          const std::size_t end = std::min(samples.size(), next + kSamplesPerMessage);
-          for (std::size_t k = next; k < end; ++k) FillSample(samples[k], message.add_samples());
-          next = std::max(next, end);
-          message.set_state(ToProto(job->state));
-          FillProgress(progress, message.mutable_progress());
-          if (!writer->Write(message)) return Status::OK;
-        } while (next < samples.size());
-        return Status::OK;
-      }
-      // Queued (or about to start): say so now and then, and wait for a worker.
+      const FeedRead read = feed.Read(next, kSamplesPerMessage, std::chrono::milliseconds(500));
+      if (!read.found)
+        return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
+      // Samples as they come; while a job waits in the queue, its state now and then.
       const auto now = std::chrono::steady_clock::now();
-      if (now - last_status > std::chrono::seconds(2)) {
-        v1::WatchJobResponse message;
-        message.set_first_index(static_cast<std::int64_t>(next));
-        message.set_state(ToProto(job->state));
-        message.mutable_progress()->set_stage(StateName(job->state));
-        if (!writer->Write(message)) return Status::OK;
-        last_status = now;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      const bool waiting = !IsFinal(read.state) && read.state != JobState::kRunning &&
+                           read.state != JobState::kPreparingBed;
+      if (read.samples.empty() && !read.ended && waiting &&
+          now - last_message < std::chrono::seconds(2))
+        continue;
+      v1::WatchJobResponse message;
+      message.set_first_index(next);
+      for (const ImpactSample& s : read.samples) FillSample(s, message.add_samples());
+      message.set_state(ToProto(read.state));
+      FillProgress(read.progress, message.mutable_progress());
+      next += static_cast<std::int64_t>(read.samples.size());
+      if (!writer->Write(message)) return Status::OK;  // the watcher left
+      last_message = now;
+      if (read.ended) return Status::OK;
     }
     return Status::OK;
   });

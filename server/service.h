@@ -9,9 +9,11 @@
 #include <string>
 
 #include "dembuf/study/resource_estimate.h"
+#include "auth.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "executor.h"
 #include "store.h"
+#include "stream_limits.h"
 
 namespace dembuf::server {
 
@@ -25,14 +27,6 @@ struct ServiceInfo {
   ResourceLimits job_limits;  ///< what one job may cost
   int max_watch_streams_per_user = 8;
   int max_watch_streams = 128;
-};
-
-/// Who is asking. Without a token (allowed on loopback unless tokens are required), the
-/// caller is whoever the request says, with every right: the trusted single-machine mode.
-struct Caller {
-  std::string name;
-  bool admin = false;
-  bool token = false;  ///< identified by a token (not a name the request gave)
 };
 
 class DembufService final : public v1::Dembuf::Service {
@@ -81,19 +75,11 @@ class DembufService final : public v1::Dembuf::Service {
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);
 
-  /// Takes a place for a watch stream of `caller` (false when a cap is reached: `why` says
-  /// which); GiveBackWatch returns it. Without a token there is no user to count per user:
-  /// only the total counts.
-  bool TakeWatch(const Caller& caller, std::string* why);
-  void GiveBackWatch(const std::string& user);
-
   Store& m_store;
   Executor& m_executor;
-  std::mutex m_watch_mutex;
-  std::map<std::string, int> m_watch_streams;  ///< open streams by user
-  int m_watch_total = 0;
   ServiceInfo m_info;
   std::shared_ptr<spdlog::logger> m_log;
+  StreamLimits m_watch_streams;
 };
 
 }  // namespace dembuf::server

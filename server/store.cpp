@@ -548,6 +548,56 @@ std::optional<JobResults> Store::GetResults(std::int64_t id) {
   return results;
 }
 
+std::string Store::Summary(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT summary_json FROM results WHERE job_id = ?");
+  s.Bind(id);
+  std::string summary = s.Step() ? s.Text(0) : "";
+  s.Run();
+  return summary;
+}
+
+std::vector<ImpactSample> Store::ReadResultSeries(std::int64_t id, std::int64_t from,
+                                                  std::int64_t max) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT length(series) FROM results WHERE job_id = ?");
+  s.Bind(id);
+  const bool whole = s.Step() && s.Int(0) > 0;
+  s.Run();
+  if (!whole) return ReadSeriesLocked(id, from, max);
+  // A series stored whole, by a daemon from before chunks: read it all, keep the part asked.
+  Statement& blob = m_db->Prepare("SELECT series FROM results WHERE job_id = ?");
+  blob.Bind(id);
+  blob.Step();
+  const std::vector<ImpactSample> all = report::UnpackSamples(blob.Blob(0));
+  blob.Run();
+  const auto size = static_cast<std::int64_t>(all.size());
+  const std::int64_t begin = std::clamp<std::int64_t>(from, 0, size);
+  const std::int64_t end = std::clamp<std::int64_t>(begin + std::max<std::int64_t>(max, 0), 0, size);
+  return {all.begin() + begin, all.begin() + end};
+}
+
+std::vector<SweepJobResult> Store::SweepResults(std::int64_t sweep_id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT j.id, j.sweep_index, j.sweep_values_json, j.state, j.error, "
+      "IFNULL(r.summary_json, '') FROM jobs j LEFT JOIN results r ON r.job_id = j.id "
+      "WHERE j.sweep_id = ? ORDER BY j.sweep_index, j.id");
+  s.Bind(sweep_id);
+  std::vector<SweepJobResult> jobs;
+  while (s.Step()) {
+    SweepJobResult job;
+    job.id = s.Int(0);
+    job.sweep_index = static_cast<int>(s.Int(1));
+    job.sweep_values = nlohmann::json::parse(s.Text(2)).get<std::vector<std::string>>();
+    job.state = ParseState(s.Text(3)).value_or(JobState::kFailed);
+    job.error = s.Text(4);
+    job.summary_json = s.Text(5);
+    jobs.push_back(std::move(job));
+  }
+  return jobs;
+}
+
 InterruptedJobs Store::RequeueInterrupted(const std::string& reason) {
   std::lock_guard lock(m_mutex);
   Transaction t(*m_db);

@@ -94,6 +94,16 @@ struct JobFileInfo {
   std::int64_t size = 0;
 };
 
+/// A job of a sweep with its summary, without its series (what a sweep's points are made of).
+struct SweepJobResult {
+  std::int64_t id = 0;
+  int sweep_index = 0;
+  std::vector<std::string> sweep_values;
+  JobState state = JobState::kQueued;
+  std::string error;
+  std::string summary_json;  ///< "" until it has finished
+};
+
 /// Jobs a daemon found interrupted when it started.
 struct InterruptedJobs {
   std::vector<JobRecord> requeued;  ///< queued to run again
@@ -159,6 +169,13 @@ class Store {
                  const JobResults& results);
   /// A finished job's summary and whole series; throws StoreError for a damaged series.
   std::optional<JobResults> GetResults(std::int64_t id);
+  /// A finished job's summary.json, without its series; "" when it has none.
+  std::string Summary(std::int64_t id);
+  /// Up to `max` samples of a finished job's series from index `from` on, stored in chunks or
+  /// (by a daemon before chunks) whole; throws StoreError for a damaged series.
+  std::vector<ImpactSample> ReadResultSeries(std::int64_t id, std::int64_t from, std::int64_t max);
+  /// The jobs of a sweep in sweep order, with their summaries.
+  std::vector<SweepJobResult> SweepResults(std::int64_t sweep_id);
   /// Stores result files of a running job (a snapshot as it is taken); a job's files are
   /// removed when it starts again.
   void PutJobFiles(std::int64_t id, const std::vector<report::ResultFile>& files);

@@ -18,6 +18,14 @@ std::string NumberText(double v) {
   return buf;
 }
 
+// The axes a point is made of: all but the bed seed, over which a point is averaged.
+std::vector<std::size_t> PointAxes(const std::vector<SweepAxis>& axes) {
+  std::vector<std::size_t> point_axes;
+  for (std::size_t a = 0; a < axes.size(); ++a)
+    if (axes[a].field != "bed.seed") point_axes.push_back(a);
+  return point_axes;
+}
+
 }  // namespace
 
 const std::vector<std::string>& SweepMetricNames() {
@@ -65,6 +73,40 @@ nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h
            "half of the H range"}};
 }
 
+nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
+                           const std::vector<SweepRunReport>& runs) {
+  const std::vector<std::size_t> point_axes = PointAxes(axes);
+  std::map<std::vector<std::string>, std::vector<std::size_t>> points;
+  for (std::size_t j = 0; j < runs.size(); ++j) {
+    std::vector<std::string> key;
+    for (std::size_t a : point_axes) key.push_back(runs[j].values.at(a));
+    points[key].push_back(j);
+  }
+  nlohmann::json point_list = nlohmann::json::array();
+  for (const auto& [key, members] : points) {
+    nlohmann::json point;
+    for (std::size_t k = 0; k < point_axes.size(); ++k) point[axes[point_axes[k]].field] = key[k];
+    point["runs"] = members.size();
+    for (const auto& m : SweepMetricNames()) {
+      std::vector<double> v;
+      for (std::size_t j : members)
+        if (runs[j].ok && runs[j].summary.contains(m) && runs[j].summary[m].is_number())
+          v.push_back(runs[j].summary[m].get<double>());
+      if (v.empty()) continue;
+      double mean = 0.0, var = 0.0;
+      for (double x : v) mean += x / v.size();
+      for (double x : v) var += (x - mean) * (x - mean);
+      // One run has no spread: its sd is left empty (null), not 0.
+      point[m] = {{"mean", mean},
+                  {"sd", v.size() > 1 ? nlohmann::json(std::sqrt(var / (v.size() - 1)))
+                                      : nlohmann::json()},
+                  {"n", v.size()}};
+    }
+    point_list.push_back(point);
+  }
+  return point_list;
+}
+
 nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                                 const std::vector<SweepAxis>& axes,
                                 const std::vector<SweepRunReport>& runs,
@@ -95,17 +137,8 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     failed += !r.ok;
   }
 
-  // Points: the runs that differ only in their seed, with mean and sample standard deviation.
-  std::map<std::vector<std::string>, std::vector<std::size_t>> points;
-  std::vector<std::size_t> point_axes;
-  for (std::size_t a = 0; a < axes.size(); ++a)
-    if (axes[a].field != "bed.seed") point_axes.push_back(a);
-  for (std::size_t j = 0; j < runs.size(); ++j) {
-    std::vector<std::string> key;
-    for (std::size_t a : point_axes) key.push_back(runs[j].values[a]);
-    points[key].push_back(j);
-  }
-  nlohmann::json point_list = nlohmann::json::array();
+  const std::vector<std::size_t> point_axes = PointAxes(axes);
+  const nlohmann::json point_list = SweepPoints(axes, runs);
   std::vector<std::pair<double, double>> h_to_p;
   // points.csv: one row per point, each metric's mean, sd and n (what the plots read).
   std::ofstream points_csv(dir / "points.csv");
@@ -119,28 +152,16 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   for (std::size_t a : point_axes) std::fprintf(table, "%-22s", axes[a].field.c_str());
   std::fprintf(table, "%4s %22s %18s %16s %8s\n", "n", "P [N] mean +- sd", "lambda [%]",
                "crater [cm]", "C0");
-  for (const auto& [key, members] : points) {
-    nlohmann::json point;
-    for (std::size_t k = 0; k < point_axes.size(); ++k) point[axes[point_axes[k]].field] = key[k];
-    std::map<std::string, std::pair<double, double>> stats;  // mean, sd
-    for (const auto& m : SweepMetricNames()) {
-      std::vector<double> v;
-      for (std::size_t j : members)
-        if (runs[j].ok && runs[j].summary[m].is_number())
-          v.push_back(runs[j].summary[m].get<double>());
-      if (v.empty()) continue;
-      double mean = 0.0, var = 0.0;
-      for (double x : v) mean += x / v.size();
-      for (double x : v) var += (x - mean) * (x - mean);
-      // One run has no spread: its sd is left empty (null), not 0.
-      const double sd =
-          v.size() > 1 ? std::sqrt(var / (v.size() - 1)) : std::numeric_limits<double>::quiet_NaN();
-      point[m] = {{"mean", mean},
-                  {"sd", std::isnan(sd) ? nlohmann::json() : nlohmann::json(sd)},
-                  {"n", v.size()}};
-      stats[m] = {mean, sd};
-    }
-    point_list.push_back(point);
+  for (const nlohmann::json& point : point_list) {
+    std::vector<std::string> key;
+    for (std::size_t a : point_axes) key.push_back(point[axes[a].field].get<std::string>());
+    // mean and sd (NaN for one run) of the metrics that have values
+    std::map<std::string, std::pair<double, double>> stats;
+    for (const auto& m : SweepMetricNames())
+      if (point.contains(m))
+        stats[m] = {point[m]["mean"].get<double>(),
+                    point[m]["sd"].is_null() ? std::numeric_limits<double>::quiet_NaN()
+                                             : point[m]["sd"].get<double>()};
     for (std::size_t k = 0; k < key.size(); ++k) points_csv << (k ? "," : "") << key[k];
     for (const auto& m : SweepMetricNames()) {
       if (stats.count(m)) {
@@ -164,7 +185,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
       return std::string(buf);
     };
     std::fprintf(
-        table, "%4zu %22s %18s %16s %8s\n", members.size(), ms("P_N", 1).c_str(),
+        table, "%4zu %22s %18s %16s %8s\n", point["runs"].get<std::size_t>(), ms("P_N", 1).c_str(),
         ms("lambda", 100).c_str(), ms("crater_depth_m", 100).c_str(),
         stats.count("C0") ? NumberText(std::round(stats["C0"].first * 1000) / 1000).c_str() : "-");
     if (point_axes.size() == 1 && axes[point_axes[0]].field == "bed.thickness_m" &&

@@ -26,6 +26,13 @@ struct SweepRunReport {
 /// The summary fields a sweep tabulates, in column order.
 const std::vector<std::string>& SweepMetricNames();
 
+/// The sweep's points: the runs that differ only in their bed seed, each with the values of
+/// the other axes (by field name) and, per metric of SweepMetricNames, the mean, the sample
+/// standard deviation (null for one run) and n over the runs that ended well. Runs still
+/// missing or failed count in no metric, so a sweep under way has points of fewer runs.
+nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
+                           const std::vector<SweepRunReport>& runs);
+
 /// Hc: the plateau is the mean P of the points in the upper half of the thickness range; Hc is
 /// the smallest thickness from which every point's mean P stays within 10% of the plateau.
 /// Null for fewer than three thicknesses. `h_to_p` is sorted by thickness.

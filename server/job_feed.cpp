@@ -64,9 +64,8 @@ FeedRead JobFeed::Read(std::int64_t from, std::size_t max, std::chrono::millisec
     }
     // Queued, or about to start: wait for a worker, in short naps so that its start is seen.
     if (std::chrono::steady_clock::now() >= deadline) return out;
-    std::this_thread::sleep_for(
-        std::min<std::chrono::steady_clock::duration>(std::chrono::milliseconds(100),
-                                                      deadline - std::chrono::steady_clock::now()));
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(
+        std::chrono::milliseconds(100), deadline - std::chrono::steady_clock::now()));
   }
 }
 

@@ -8,8 +8,8 @@
 #include <mutex>
 #include <string>
 
-#include "dembuf/study/resource_estimate.h"
 #include "auth.h"
+#include "dembuf/study/resource_estimate.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "executor.h"
 #include "store.h"

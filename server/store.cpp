@@ -573,7 +573,8 @@ std::vector<ImpactSample> Store::ReadResultSeries(std::int64_t id, std::int64_t 
   blob.Run();
   const auto size = static_cast<std::int64_t>(all.size());
   const std::int64_t begin = std::clamp<std::int64_t>(from, 0, size);
-  const std::int64_t end = std::clamp<std::int64_t>(begin + std::max<std::int64_t>(max, 0), 0, size);
+  const std::int64_t end =
+      std::clamp<std::int64_t>(begin + std::max<std::int64_t>(max, 0), 0, size);
   return {all.begin() + begin, all.begin() + end};
 }
 

@@ -97,10 +97,10 @@ nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
       for (double x : v) mean += x / v.size();
       for (double x : v) var += (x - mean) * (x - mean);
       // One run has no spread: its sd is left empty (null), not 0.
-      point[m] = {{"mean", mean},
-                  {"sd", v.size() > 1 ? nlohmann::json(std::sqrt(var / (v.size() - 1)))
-                                      : nlohmann::json()},
-                  {"n", v.size()}};
+      point[m] = {
+          {"mean", mean},
+          {"sd", v.size() > 1 ? nlohmann::json(std::sqrt(var / (v.size() - 1))) : nlohmann::json()},
+          {"n", v.size()}};
     }
     point_list.push_back(point);
   }
@@ -159,9 +159,9 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     std::map<std::string, std::pair<double, double>> stats;
     for (const auto& m : SweepMetricNames())
       if (point.contains(m))
-        stats[m] = {point[m]["mean"].get<double>(),
-                    point[m]["sd"].is_null() ? std::numeric_limits<double>::quiet_NaN()
-                                             : point[m]["sd"].get<double>()};
+        stats[m] = {point[m]["mean"].get<double>(), point[m]["sd"].is_null()
+                                                        ? std::numeric_limits<double>::quiet_NaN()
+                                                        : point[m]["sd"].get<double>()};
     for (std::size_t k = 0; k < key.size(); ++k) points_csv << (k ? "," : "") << key[k];
     for (const auto& m : SweepMetricNames()) {
       if (stats.count(m)) {

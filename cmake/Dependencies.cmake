@@ -13,6 +13,9 @@ if(DEMBUF_SERVICE)
   find_package(SQLite3 REQUIRED)
   find_package(spdlog 1.8 REQUIRED CONFIG)
   find_package(OpenSSL REQUIRED)  # SHA-256 of API tokens
+  # The web pages' HTTP server (Debian's libcpp-httplib-dev, built with OpenSSL: HTTPS).
+  find_package(PkgConfig REQUIRED)
+  pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib>=0.11)
 endif()
 if(DEMBUF_BUILD_TESTS)
   find_package(GTest REQUIRED CONFIG)

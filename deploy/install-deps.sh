@@ -10,6 +10,7 @@ packages=("$@")
   g++ cmake ninja-build pkg-config
   # service
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libsqlite3-dev libssl-dev
+  libcpp-httplib-dev
   openssl
   # engine and tools
   libeigen3-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev

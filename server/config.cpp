@@ -73,6 +73,9 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"max_watch_streams_per_user", &config.max_watch_streams_per_user},
       {"max_watch_streams", &config.max_watch_streams},
       {"max_request_kb", &config.max_request_kb},
+      {"http", &config.http},
+      {"http_max_streams_per_user", &config.http_max_streams_per_user},
+      {"http_max_streams", &config.http_max_streams},
       {"executor", &config.executor},
       {"slurm.partition", &config.slurm.partition},
       {"slurm.account", &config.slurm.account},
@@ -140,6 +143,21 @@ int ListenPort(const std::string& listen) {
   return value;
 }
 
+std::string HttpAddress(const std::string& http) {
+  const bool port_alone = !http.empty() && http.size() <= 5 &&
+                          http.find_first_not_of("0123456789") == std::string::npos;
+  const std::string address = port_alone ? "127.0.0.1:" + http : http;
+  const auto colon = address.rfind(':');
+  const std::string port = colon == std::string::npos ? "" : address.substr(colon + 1);
+  const bool digits = !port.empty() && port.size() <= 5 &&
+                      port.find_first_not_of("0123456789") == std::string::npos;
+  if (colon == 0 || colon == std::string::npos || !digits || std::stoi(port) > 65535)
+    throw ConfigError("http: \"" + http +
+                      "\" must be HOST:PORT (such as 127.0.0.1:8080 or 0.0.0.0:8080) or a port "
+                      "0 to 65535 alone (on loopback; 0: any free port)");
+  return address;
+}
+
 void ValidateConfig(ServerConfig& config) {
   auto require = [](bool ok, const std::string& what) {
     if (!ok) throw ConfigError(what);
@@ -171,6 +189,14 @@ void ValidateConfig(ServerConfig& config) {
               std::to_string(config.max_watch_streams) + ")");
   require(config.max_request_kb >= 16 && config.max_request_kb <= 1 << 20,
           "max_request_kb: must be 16 to 1048576");
+  if (!config.http.empty()) config.http = HttpAddress(config.http);
+  require(config.http_max_streams >= 1 && config.http_max_streams <= 10000,
+          "http_max_streams: must be 1 to 10000, not " + std::to_string(config.http_max_streams));
+  require(config.http_max_streams_per_user >= 1 &&
+              config.http_max_streams_per_user <= config.http_max_streams,
+          "http_max_streams_per_user: must be 1 to http_max_streams (" +
+              std::to_string(config.http_max_streams) + "), not " +
+              std::to_string(config.http_max_streams_per_user));
   for (const auto& [name, value] : {std::pair{"quota_beads", config.quota_beads},
                                     {"quota_steps", config.quota_steps},
                                     {"quota_bead_steps", config.quota_bead_steps},

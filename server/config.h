@@ -29,6 +29,13 @@ struct ServerConfig {
   int max_watch_streams_per_user = 8;
   int max_watch_streams = 128;
   int max_request_kb = 1024;  ///< the largest request read (a scene file is a few kB)
+  /// The web pages and their JSON API (read-only), "HOST:PORT" or a port alone (on
+  /// loopback); "" for none. Beyond loopback they need a user's token, as gRPC does.
+  std::string http;
+  /// Event streams of the web pages open at once, per user and in all: each holds one of the
+  /// web server's threads, and its pool is sized above the total.
+  int http_max_streams_per_user = 8;
+  int http_max_streams = 64;
   // Per job, against its resource estimate (dembuf/study/resource_estimate.h) before it is
   // accepted; 0: no limit. The defaults pass the paper's experiments at the reference
   // accuracy with room to spare and refuse what would take the server for days.
@@ -70,6 +77,10 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
 /// The port of a listen address "HOST:PORT" or "[IPv6]:PORT" (0: any free port); -1 for a
 /// "unix:PATH" socket. Throws ConfigError naming `listen` for anything else.
 int ListenPort(const std::string& listen);
+
+/// The web side's address: "HOST:PORT", or "127.0.0.1:PORT" for a port alone. Throws
+/// ConfigError naming `http` for anything else.
+std::string HttpAddress(const std::string& http);
 
 /// Checks ranges; throws ConfigError naming the setting.
 void ValidateConfig(ServerConfig& config);

@@ -29,6 +29,7 @@
 #include "slurm_executor.h"
 #include "store.h"
 #include "thread_executor.h"
+#include "web_server.h"
 
 using namespace dembuf::server;
 
@@ -86,6 +87,9 @@ int main(int argc, char** argv) {
                                "seconds SIGTERM waits for running jobs before requeueing them");
   auto* retry = app.add_option("--storage-retry", flags.storage_retry_s,
                                "seconds to wait before the next job once the disk was full");
+  auto* http = app.add_option("--http", flags.http,
+                              "also serve the web pages on HOST:PORT (a port alone: on "
+                              "loopback); off unless set");
   auto* executor = app.add_option("--executor", flags.executor,
                                   "where jobs run: threads (this machine) or slurm (the cluster "
                                   "of the configuration's [slurm] table)");
@@ -117,6 +121,7 @@ int main(int argc, char** argv) {
     if (*grace) config.shutdown_grace_s = flags.shutdown_grace_s;
     if (*retry) config.storage_retry_s = flags.storage_retry_s;
     if (*executor) config.executor = flags.executor;
+    if (*http) config.http = flags.http;
     ValidateConfig(config);
   } catch (const ConfigError& e) {
     std::cerr << "dembufd: " << e.what() << "\n";
@@ -280,6 +285,38 @@ int main(int argc, char** argv) {
       config.listen.substr(0, config.listen.rfind(':') + 1) + std::to_string(port);
   lock->Describe("process " + std::to_string(getpid()) + ", listening on " + address + ", since " +
                  info.started_at);
+  // The web pages: the same store and running jobs, on an address of their own.
+  std::unique_ptr<web::WebServer> web_server;
+  if (!config.http.empty()) {
+    web::WebOptions options;
+    options.listen = config.http;
+    options.require_tokens = config.require_tokens || !IsLoopback(config.http);
+    options.tls_cert = config.tls_cert;
+    options.tls_key = config.tls_key;
+    options.max_streams_per_user = config.http_max_streams_per_user;
+    options.max_streams = config.http_max_streams;
+    options.host = info.host;
+    options.started_at = info.started_at;
+    web_server = std::make_unique<web::WebServer>(*store, scheduler, options, log);
+    try {
+      web_server->Start();
+    } catch (const std::exception& e) {
+      const int wanted = std::stoi(config.http.substr(config.http.rfind(':') + 1));
+      const std::string holder = wanted > 0 ? PortHolder(wanted) : "";
+      log->critical("{}{}", e.what(), holder.empty() ? "" : ": in use by " + holder);
+      server->Shutdown();
+      return kExitRuntime;
+    }
+    const std::string web_address =
+        config.http.substr(0, config.http.rfind(':') + 1) + std::to_string(web_server->port());
+    if (config.tls_cert.empty() && !IsLoopback(config.http))
+      log->warn(
+          "web pages on {} without TLS: tokens and data cross the network in clear text "
+          "(set tls_cert and tls_key)",
+          web_address);
+    log->info("web pages on {}://{}/{}", config.tls_cert.empty() ? "http" : "https", web_address,
+              options.require_tokens ? " (tokens required)" : "");
+  }
   scheduler.Start();
   log->info("dembufd {} listening on {} (port {}), database {}{}{}", dembuf::kVersion,
             config.listen, port, config.db, config.tls_cert.empty() ? "" : ", TLS",
@@ -290,6 +327,7 @@ int main(int argc, char** argv) {
   log->info("{}: shutting down: no new requests; running jobs get {} s", strsignal(signal),
             config.shutdown_grace_s);
   // Watch streams end when their job ends or the deadline passes.
+  if (web_server) web_server->Stop();
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   scheduler.Shutdown(std::chrono::seconds(config.shutdown_grace_s));
   store.reset();

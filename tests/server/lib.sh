@@ -32,6 +32,11 @@ start_daemon() {
   export DEMBUF_SERVER=127.0.0.1:$port
 }
 
+# web_base LOG: the address of the web pages of the daemon started last ("http://HOST:PORT").
+web_base() {
+  tail -n 200 "$1" | sed -n 's|.*web pages on \(https\{0,1\}://[^/]*\)/.*|\1|p' | tail -1
+}
+
 stop_daemon() {
   kill -TERM "$daemon_pid" 2>/dev/null || true
   wait "$daemon_pid" 2>/dev/null || true

@@ -1,0 +1,278 @@
+// The web side's pieces without the network: the job feed that both the gRPC watch and the
+// pages' event streams read (stored, live and queued jobs), the JSON of jobs and sweeps (a
+// sweep's points so far, from its jobs' summaries), login sessions, stream caps, and the
+// --http address.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <thread>
+
+#include "config.h"
+#include "job_feed.h"
+#include "sessions.h"
+#include "store.h"
+#include "stream_limits.h"
+#include "web_views.h"
+
+namespace dembuf::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// An executor that runs nothing: the tests set which jobs are live.
+class FakeExecutor final : public Executor {
+ public:
+  void Start() override {}
+  void Admit(std::size_t, const std::function<std::vector<JobRecord>()>& add) override { add(); }
+  bool Cancel(std::int64_t) override { return false; }
+  std::shared_ptr<LiveJob> Live(std::int64_t id) override {
+    const auto found = live.find(id);
+    return found == live.end() ? nullptr : found->second;
+  }
+  int queued() const override { return 0; }
+  int running() const override { return static_cast<int>(live.size()); }
+  ExecutorInfo info() const override { return {"fake", 1, 1, 10}; }
+  void Shutdown(std::chrono::seconds) override {}
+
+  std::map<std::int64_t, std::shared_ptr<LiveJob>> live;
+};
+
+ImpactSample Sample(int k) {
+  const double t = 1e-5 * k;
+  return {t, 1000.0 * std::sin(0.01 * k) + k * 1e-3, -0.5 * k, 0.1 - t, -2.0, 3.0};
+}
+
+class JobFeedTest : public testing::Test {
+ protected:
+  fs::path path =
+      fs::path(testing::TempDir()) /
+      ("feed-" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()) +
+       ".db");
+  void SetUp() override {
+    for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(path.string() + suffix);
+    store = std::make_unique<Store>(path.string(), StoreOptions{1000, 0});
+  }
+  std::int64_t AddJob() {
+    JobRecord job;
+    job.owner = "ada";
+    job.name = "feed";
+    job.scene_toml = "gravity_m_s2 = 9.81\n";
+    store->AddJob(job);
+    return job.id;
+  }
+  std::unique_ptr<Store> store;
+  FakeExecutor executor;
+};
+
+TEST_F(JobFeedTest, AnEndedJobIsReadInPiecesToItsEnd) {
+  const std::int64_t id = AddJob();
+  std::vector<ImpactSample> samples;
+  double peak = 0.0;
+  for (int k = 0; k < 10'000; ++k) {
+    samples.push_back(Sample(k));
+    peak = std::max(peak, samples.back().plate_force_N);
+  }
+  store->MarkStarted(id, JobState::kRunning, "host", "0.1.0");
+  store->FinishJob(id, JobState::kDone, "", {"{}\n", samples, 0, {}});
+  JobFeed feed(*store, executor, id);
+  std::vector<ImpactSample> read;
+  for (int piece = 0;; ++piece) {
+    ASSERT_LT(piece, 10) << "the feed never ended";
+    const FeedRead r =
+        feed.Read(static_cast<std::int64_t>(read.size()), 4096, std::chrono::milliseconds(0));
+    ASSERT_TRUE(r.found);
+    EXPECT_EQ(r.state, JobState::kDone);
+    EXPECT_EQ(r.progress.peak_plate_force_N, peak);  // over the whole series, not the piece
+    read.insert(read.end(), r.samples.begin(), r.samples.end());
+    if (r.ended) break;
+    EXPECT_EQ(r.samples.size(), 4096u);  // (a piece short of the maximum is the last)
+  }
+  ASSERT_EQ(read.size(), samples.size());
+  for (std::size_t k = 0; k < read.size(); ++k)
+    ASSERT_EQ(read[k].plate_force_N, samples[k].plate_force_N) << k;
+}
+
+TEST_F(JobFeedTest, ARunningJobIsReadFromTheStoreThenLiveThenToItsEnd) {
+  const std::int64_t id = AddJob();
+  store->MarkStarted(id, JobState::kRunning, "host", "0.1.0");
+  auto live = std::make_shared<LiveJob>(id);
+  live->SetState(JobState::kRunning);
+  executor.live[id] = live;
+  // 1500 samples: the first 1000 already stored by the worker, the rest still in memory.
+  for (int k = 0; k < 1500; ++k) live->Append(Sample(k));
+  auto [first, unstored] = live->UnstoredSamples();
+  store->AppendSeries(id, first, {unstored.begin(), unstored.begin() + 1000});
+  live->Stored(1000);
+
+  JobFeed feed(*store, executor, id);
+  FeedRead r = feed.Read(0, 4096, std::chrono::milliseconds(0));
+  EXPECT_EQ(r.state, JobState::kRunning);
+  ASSERT_EQ(r.samples.size(), 1000u);  // the stored ones, from the store
+  EXPECT_FALSE(r.ended);
+  r = feed.Read(1000, 4096, std::chrono::milliseconds(0));
+  ASSERT_EQ(r.samples.size(), 500u);  // the rest, live
+  EXPECT_EQ(r.samples.front().plate_force_N, Sample(1000).plate_force_N);
+  EXPECT_FALSE(r.ended);
+
+  // Nothing new: the read waits, and returns as soon as a sample comes.
+  std::jthread worker([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    live->Append(Sample(1500));
+  });
+  const auto before = std::chrono::steady_clock::now();
+  r = feed.Read(1500, 4096, std::chrono::seconds(10));
+  EXPECT_LT(std::chrono::steady_clock::now() - before, std::chrono::seconds(5));
+  ASSERT_EQ(r.samples.size(), 1u);
+  worker.join();
+
+  // The end: stored, then the live job dropped, as the executor does.
+  auto [rest_first, rest] = live->UnstoredSamples();
+  store->FinishJob(id, JobState::kDone, "", {"{}\n", rest, rest_first, {}});
+  live->End(JobState::kDone);
+  r = feed.Read(1501, 4096, std::chrono::milliseconds(0));
+  EXPECT_TRUE(r.ended);
+  EXPECT_EQ(r.state, JobState::kDone);
+  executor.live.clear();
+  r = feed.Read(0, 4096, std::chrono::milliseconds(0));
+  EXPECT_EQ(r.samples.size(), 1501u);
+  EXPECT_TRUE(r.ended);
+}
+
+TEST_F(JobFeedTest, AQueuedJobWaitsAndAMissingOneIsNotFound) {
+  const std::int64_t id = AddJob();
+  JobFeed feed(*store, executor, id);
+  const auto before = std::chrono::steady_clock::now();
+  FeedRead r = feed.Read(0, 10, std::chrono::milliseconds(300));
+  EXPECT_GE(std::chrono::steady_clock::now() - before, std::chrono::milliseconds(300));
+  EXPECT_TRUE(r.found);
+  EXPECT_EQ(r.state, JobState::kQueued);
+  EXPECT_TRUE(r.samples.empty());
+  EXPECT_FALSE(r.ended);
+  JobFeed none(*store, executor, id + 100);
+  EXPECT_FALSE(none.Read(0, 10, std::chrono::milliseconds(0)).found);
+}
+
+TEST(WebViews, ASweepsPointsAreItsDoneJobsOverTheSeeds) {
+  SweepRecord sweep{
+      7, "ada", "speeds", {{"projectile.speed_m_s", {"1", "2"}}, {"bed.seed", {"1", "2"}}}, ""};
+  auto done = [](std::int64_t id, std::string speed, std::string seed, double p) {
+    return SweepJobResult{id,
+                          0,
+                          {speed, seed},
+                          JobState::kDone,
+                          "",
+                          "{\"P_N\": " + std::to_string(p) + ", \"lambda\": 0.5}"};
+  };
+  const std::vector<SweepJobResult> jobs = {done(1, "1", "1", 100.0),
+                                            done(2, "1", "2", 110.0),
+                                            done(3, "2", "1", 300.0),
+                                            {4, 3, {"2", "2"}, JobState::kRunning, "", ""}};
+  const nlohmann::json json = web::SweepJson(sweep, jobs);
+  EXPECT_EQ(json["jobs_total"], 4);
+  EXPECT_EQ(json["jobs_by_state"]["done"], 3);
+  EXPECT_EQ(json["jobs_by_state"]["running"], 1);
+  EXPECT_EQ(json["axes"][0]["unit"], "m/s");
+  ASSERT_EQ(json["points"].size(), 2u);
+  const nlohmann::json& slow = json["points"][0];
+  EXPECT_EQ(slow["projectile.speed_m_s"], "1");
+  EXPECT_EQ(slow["runs"], 2);
+  EXPECT_DOUBLE_EQ(slow["P_N"]["mean"].get<double>(), 105.0);
+  EXPECT_NEAR(slow["P_N"]["sd"].get<double>(), std::sqrt(50.0), 1e-9);  // sample sd of 100, 110
+  EXPECT_EQ(slow["P_N"]["n"], 2);
+  // The running job counts among the point's runs, in no metric: one done, no spread yet.
+  const nlohmann::json& fast = json["points"][1];
+  EXPECT_EQ(fast["runs"], 2);
+  EXPECT_EQ(fast["P_N"]["n"], 1);
+  EXPECT_TRUE(fast["P_N"]["sd"].is_null());
+}
+
+TEST(WebViews, AJobsPeakIsItsSummarysOrElseTheRunningJobs) {
+  JobRecord job;
+  job.id = 3;
+  job.state = JobState::kRunning;
+  JobProgress progress;
+  EXPECT_TRUE(web::JobJson(job, progress, "")["peak_plate_force_N"].is_null());
+  progress.peak_plate_force_N = 12.5;
+  EXPECT_EQ(web::JobJson(job, progress, "")["peak_plate_force_N"], 12.5);
+  job.state = JobState::kDone;
+  const nlohmann::json json =
+      web::JobJson(job, progress, "{\"peak_plate_force_N\": 13.25, \"P_N\": 13.0}");
+  EXPECT_EQ(json["peak_plate_force_N"], 13.25);
+  EXPECT_EQ(json["P_N"], 13.0);
+  EXPECT_EQ(json["state"], "done");
+  EXPECT_TRUE(web::ParseSummary("{not json").is_null());
+  EXPECT_TRUE(web::ParseSummary("[1, 2]").is_null());
+
+  // The batch's text is JSON, every double exact, a value that is not finite null.
+  ImpactSample odd = Sample(42);
+  odd.projectile_z_m = std::nan("");
+  odd.wall_force_z_N = 1.0 / 3.0;
+  const nlohmann::json batch =
+      nlohmann::json::parse(web::SamplesJson(40, {Sample(40), Sample(41), odd}));
+  EXPECT_EQ(batch["first"], 40);
+  ASSERT_EQ(batch["t_s"].size(), 3u);
+  EXPECT_EQ(batch["t_s"][1].get<double>(), Sample(41).t_s);
+  EXPECT_EQ(batch["plate_force_N"][0].get<double>(), Sample(40).plate_force_N);
+  EXPECT_EQ(batch["wall_force_z_N"][2].get<double>(), 1.0 / 3.0);
+  EXPECT_TRUE(batch["proj_z_m"][2].is_null());
+  EXPECT_EQ(batch["proj_force_z_N"][0].get<double>(), Sample(40).projectile_force_z_N);
+  EXPECT_EQ(nlohmann::json::parse(web::SamplesJson(0, {}))["t_s"].size(), 0u);
+}
+
+TEST(WebSessions, ASessionNamesItsTokenUntilClosedOrExpired) {
+  web::Sessions sessions(std::chrono::seconds(3600), 2);
+  const std::string a = sessions.Open("hash-a");
+  EXPECT_EQ(a.size(), 64u);
+  EXPECT_EQ(sessions.TokenHash(a), "hash-a");
+  EXPECT_FALSE(sessions.TokenHash("a guess"));
+  sessions.Close(a);
+  EXPECT_FALSE(sessions.TokenHash(a));
+  // Full: the oldest session goes.
+  const std::string b = sessions.Open("hash-b");
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  const std::string c = sessions.Open("hash-c");
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  const std::string d = sessions.Open("hash-d");
+  EXPECT_FALSE(sessions.TokenHash(b));
+  EXPECT_EQ(sessions.TokenHash(c), "hash-c");
+  EXPECT_EQ(sessions.TokenHash(d), "hash-d");
+  web::Sessions brief(std::chrono::seconds(0));
+  EXPECT_FALSE(brief.TokenHash(brief.Open("hash")));
+}
+
+TEST(StreamLimits, PerUserAndInAllAndGivenBack) {
+  StreamLimits limits(2, 3, "event streams", "http_max_streams");
+  const Caller ada{"ada", false, true}, local{"local", true, false};
+  std::string why;
+  auto first = limits.Take(ada, &why);
+  auto second = limits.Take(ada, &why);
+  ASSERT_TRUE(first && second);
+  EXPECT_FALSE(limits.Take(ada, &why));
+  EXPECT_NE(why.find("at most 2 per user"), std::string::npos) << why;
+  auto third = limits.Take(local, &why);  // no token: only the total counts
+  ASSERT_TRUE(third);
+  EXPECT_FALSE(limits.Take(local, &why));
+  EXPECT_NE(why.find("http_max_streams"), std::string::npos) << why;
+  EXPECT_EQ(limits.open(), 3);
+  first.reset();
+  EXPECT_EQ(limits.open(), 2);
+  EXPECT_TRUE(limits.Take(ada, &why));
+}
+
+TEST(HttpAddress, APortAloneIsOnLoopbackAndAnythingElseIsNamed) {
+  EXPECT_EQ(HttpAddress("8080"), "127.0.0.1:8080");
+  EXPECT_EQ(HttpAddress("0.0.0.0:8080"), "0.0.0.0:8080");
+  EXPECT_EQ(HttpAddress("[::1]:0"), "[::1]:0");
+  for (const char* bad : {"", "x", ":8080", "host:", "host:99999", "123456", "host:8o"}) {
+    try {
+      HttpAddress(bad);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("http: ", 0), 0u) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace dembuf::server

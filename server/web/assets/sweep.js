@@ -16,7 +16,7 @@ function axisOf(axis) {
     field: axis.field,
     numeric,
     scale: cm ? 100 : 1,
-    label: `${axis.field}${cm ? " [cm]" : axis.unit ? ` [${axis.unit}]` : ""}`,
+    label: cm ? `${axis.field}, in cm` : `${axis.field}${axis.unit ? ` [${axis.unit}]` : ""}`,
     values: axis.values,
   };
 }

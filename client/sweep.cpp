@@ -100,6 +100,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
       control.on_sample = [&](const ImpactSample& s) { csv.Write(s); };
       const ImpactSummary summary = RunImpact(job.scene, control);
       csv.Commit();
+      if (options.on_run_done) options.on_run_done(job, summary);
       result.summary = report::SummaryToJson(summary, job.scene);
       report::WriteFileAtomically(dir / "summary.json", result.summary.dump(2) + "\n");
       result.ok = true;

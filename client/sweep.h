@@ -4,11 +4,13 @@
 
 #include <atomic>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "dembuf/study/bed.h"
 #include "dembuf/study/critical_thickness_search.h"
+#include "dembuf/study/impact.h"
 #include "dembuf/study/scene.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/sweep_report.h"
@@ -23,6 +25,9 @@ struct SweepOptions {
   /// Raised to stop (SIGINT, SIGTERM): the runs going stop within a second, no more start,
   /// and the report of the runs done is written.
   const std::atomic<bool>* cancel = nullptr;
+  /// Called (from the run's worker) with each run's result as it ends well, e.g. for a
+  /// benchmark's account of where the time went.
+  std::function<void(const SweepRun&, const ImpactSummary&)> on_run_done;
 };
 
 /// Runs the sweep; writes out_dir/sweep.csv, out_dir/summary.json and out_dir/runs/<job>/.

@@ -1,7 +1,8 @@
 // dembuf's benchmark: what a step costs and how that scales. Prints tables and writes JSON.
 //
 //   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick]
-//                [--sweep draft|standard|reference] [--sweep-local-settling] [--sweep-out DIR]
+//                [--sweep draft|standard|reference] [--sweep-seeds N] [--sweep-set FIELD=VALUE]...
+//                [--sweep-out DIR]
 //
 // 0. One thread on each core: the fastest runs every one-thread figure (and LAMMPS).
 // 1. Impact throughput on a dense settled bed (the E2 scene at H = 2.5 cm, about 8,000 beads,
@@ -15,9 +16,11 @@
 // 5. Time per step against bead count from 1,000 to 100,000 beads (beds tiled from copies of
 //    the settled one, side by side), with the exponent of a power-law fit; memory per bead.
 // 6. With --sweep: the wall time of the paper's whole thickness sweep (E2, H = 0 to 8 cm in
-//    0.5 cm steps, one seed) at that accuracy, beds prepared from nothing in an empty store,
-//    one run per core at a time, as `dembuf sweep --jobs N` runs it. --sweep-local-settling
-//    prepares its beds with bed.local_settling.
+//    0.5 cm steps, --sweep-seeds seeds, default one) at that accuracy, beds prepared from
+//    nothing in an empty store, one run per core at a time, as `dembuf sweep --jobs N` runs
+//    it, and where its time went: inserting and settling the source beds, relaxing the cut
+//    beds, the impacts and the stages of their steps. --sweep-set changes a scene field (a
+//    lever, e.g. bed.local_settling=false for the sweep as it was before).
 #include <sched.h>
 #include <unistd.h>
 
@@ -29,6 +32,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <regex>
@@ -53,8 +58,10 @@ struct Options {
   fs::path bed_cache;
   int steps = 2000;
   bool quick = false;
+  bool sweep_only = false;     ///< section 6 alone
   std::string sweep_accuracy;  ///< empty: no sweep
-  bool sweep_local_settling = false;
+  int sweep_seeds = 1;
+  std::vector<std::string> sweep_set;  ///< "field=value" on top of the preset
   fs::path sweep_out;  ///< where the sweep writes its results; empty: a temporary folder
 };
 
@@ -123,6 +130,7 @@ struct Timing {
   double seconds = 0.0;
   std::size_t beads = 0;
   int steps = 0;
+  dem::StageTimes stages;  ///< where the steps' time went (dembuf's runs)
   double NsPerBeadStep() const { return 1e9 * seconds / (static_cast<double>(beads) * steps); }
 };
 
@@ -137,7 +145,24 @@ Timing TimeSteps(const World& world, int steps, int threads, bool with_projectil
   sim.RefreshForces();
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < steps; ++k) sim.Step();
-  return {Seconds(std::chrono::steady_clock::now() - start), world.beads.size(), steps};
+  return {Seconds(std::chrono::steady_clock::now() - start), world.beads.size(), steps,
+          sim.stage_times()};
+}
+
+// The stages of a step as shares of their sum, and as JSON.
+void PrintStages(const dem::StageTimes& t) {
+  const double sum = t.integration_s + t.neighbours_s + t.forces_s;
+  if (sum <= 0) return;
+  std::printf(
+      "  %-44s integration %.0f%%, neighbours %.0f%% (%lld list builds), force pass %.0f%%\n",
+      "dembuf's step, by stage:", 100 * t.integration_s / sum, 100 * t.neighbours_s / sum,
+      static_cast<long long>(t.list_builds), 100 * t.forces_s / sum);
+}
+nlohmann::json StagesJson(const dem::StageTimes& t) {
+  return {{"integration_s", t.integration_s},
+          {"neighbours_s", t.neighbours_s},
+          {"force_pass_s", t.forces_s},
+          {"list_builds", t.list_builds}};
 }
 
 Timing Best(int repeats, const std::function<Timing()>& run) {
@@ -317,37 +342,10 @@ nlohmann::json TimingJson(const Timing& t) {
           {"bead_steps_per_s", 1e9 / t.NsPerBeadStep()}};
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options opt;
-  CLI::App app{"dembuf's speed benchmark: what a step costs, against LAMMPS, and how it scales"};
-  app.add_option("--out", opt.out, "JSON file to write")->capture_default_str();
-  app.add_option("--bed-cache", opt.bed_cache, "prepared beds (default ~/.cache/dembuf/beds)");
-  app.add_option("--steps", opt.steps, "impact steps per timing")
-      ->capture_default_str()
-      ->check(CLI::Range(10, 1000000));
-  app.add_flag("--quick", opt.quick, "one repeat per timing and fewer bed sizes");
-  std::vector<std::string> accuracies;
-  for (const AccuracyPreset& p : AccuracyPresets()) accuracies.emplace_back(p.name);
-  app.add_option("--sweep", opt.sweep_accuracy,
-                 "also time the whole E2 thickness sweep at this accuracy, beds included")
-      ->check(CLI::IsMember(accuracies));
-  app.add_flag("--sweep-local-settling", opt.sweep_local_settling,
-               "prepare the sweep's beds with local settling (bed.local_settling)")
-      ->needs("--sweep");
-  app.add_option("--sweep-out", opt.sweep_out,
-                 "keep the sweep's results (sweep.csv, runs) in this folder; it must not exist")
-      ->check(CLI::NonexistentPath);
-  CLI11_PARSE(app, argc, argv);
-  if (opt.bed_cache.empty()) {
-    const char* home = std::getenv("HOME");
-    opt.bed_cache = fs::path(home ? home : ".") / ".cache" / "dembuf" / "beds";
-  }
+// Sections 0 to 5: what a step costs, against LAMMPS, with each effect, on threads, and with
+// the bead count.
+void BenchSteps(const Options& opt, nlohmann::json& report) {
   const int repeats = opt.quick ? 1 : 3;
-  nlohmann::json report = {{"machine_cores", std::thread::hardware_concurrency()},
-                           {"steps", opt.steps}};
-
   std::printf("preparing (or loading) the benchmark bed: E2 scene, H = 2.5 cm ...\n");
   std::fflush(stdout);
   const Scene scene = BenchScene();
@@ -398,11 +396,13 @@ int main(int argc, char** argv) {
       const double s =
           RunLammps(lammps_input, work / "bed.data", world, scene, opt.steps, work / "log.lammps");
       if (s > 0 && (theirs.seconds == 0 || s < theirs.seconds))
-        theirs = {s, world.beads.size() + 1, opt.steps};
+        theirs = {s, world.beads.size() + 1, opt.steps, {}};
     }
   }
   PrintRow("dembuf (full contact law, projectile)", ours);
+  PrintStages(ours.stages);
   report["impact_one_thread"] = TimingJson(ours);
+  report["impact_one_thread"]["stages"] = StagesJson(ours.stages);
   if (theirs.seconds > 0) {
     PrintRow("LAMMPS GRANULAR, same bed and steps", theirs);
     const double ratio = theirs.NsPerBeadStep() / ours.NsPerBeadStep();
@@ -510,38 +510,147 @@ int main(int argc, char** argv) {
   report["sizes"] = sizes;
   report["size_exponent"] = exponent;
   report["bytes_per_bead"] = bytes_per_bead;
+}
 
-  // 6. The whole E2 sweep, on request (minutes to tens of minutes).
-  if (!opt.sweep_accuracy.empty()) {
-    const int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+// Section 6: the whole E2 sweep from an empty bed store, and where its time went.
+void BenchSweep(const Options& opt, nlohmann::json& report) {
+  const int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  Scene e2 = PresetScene("e2");
+  ApplyAccuracy(e2, opt.sweep_accuracy);
+  for (const std::string& assignment : opt.sweep_set) ApplyOverride(e2, assignment);
+  std::string changes;
+  for (const std::string& assignment : opt.sweep_set) changes += ", " + assignment;
+  std::printf(
+      "6. the E2 thickness sweep, H = 0 to 8 cm in 0.5 cm steps, %d seed%s, accuracy %s%s, "
+      "beds prepared from nothing, %d runs at a time\n",
+      opt.sweep_seeds, opt.sweep_seeds > 1 ? "s" : "", opt.sweep_accuracy.c_str(), changes.c_str(),
+      jobs);
+  std::fflush(stdout);
+  cli::SweepOptions sweep;
+  sweep.axes = {ParseSweepAxis("bed.thickness_m=0:0.08:0.005")};
+  sweep.seeds = opt.sweep_seeds;
+  sweep.jobs = jobs;
+  const fs::path scratch =
+      fs::temp_directory_path() / ("dembuf-bench-sweep-" + std::to_string(getpid()));
+  sweep.out_dir = opt.sweep_out.empty() ? scratch / "out" : opt.sweep_out;
+  BedCache empty_store(scratch / "beds");
+  // Where the time goes: the beds this sweep prepared, and its runs' impacts.
+  std::mutex account_mutex;
+  std::map<std::string, std::pair<int, double>> bed_stages;  // stage: count, seconds
+  double insert_s = 0.0, impact_s = 0.0;
+  std::int64_t source_steps = 0, impact_steps = 0;
+  dem::StageTimes step_stages;
+  int impacts = 0;
+  empty_store.OnPrepared([&](const PreparedBed& bed) {
+    std::lock_guard lock(account_mutex);
+    auto& [count, seconds] = bed_stages[bed.stage];
+    ++count;
+    seconds += bed.wall_time_s - bed.insert_time_s;
+    insert_s += bed.insert_time_s;
+    if (bed.stage == "source") source_steps += bed.settle_steps;
+  });
+  sweep.on_run_done = [&](const SweepRun&, const ImpactSummary& summary) {
+    std::lock_guard lock(account_mutex);
+    ++impacts;
+    impact_s += summary.wall_time_s;
+    impact_steps += summary.steps;
+    step_stages.integration_s += summary.stage_times.integration_s;
+    step_stages.neighbours_s += summary.stage_times.neighbours_s;
+    step_stages.forces_s += summary.stage_times.forces_s;
+    step_stages.list_builds += summary.stage_times.list_builds;
+  };
+  const auto start = std::chrono::steady_clock::now();
+  const int failed = cli::RunSweep(e2, sweep, empty_store);
+  const double seconds = Seconds(std::chrono::steady_clock::now() - start);
+  fs::remove_all(scratch);
+  std::printf("  E2 sweep (%s, %d seed%s): %.0f s wall, %d failed runs\n",
+              opt.sweep_accuracy.c_str(), opt.sweep_seeds, opt.sweep_seeds > 1 ? "s" : "", seconds,
+              failed);
+  auto stage = [&](const char* name) {
+    return bed_stages.count(name) ? bed_stages[name] : std::pair<int, double>{0, 0.0};
+  };
+  const double stepped =
+      step_stages.integration_s + step_stages.neighbours_s + step_stages.forces_s;
+  std::printf(
+      "  where it went, in computing seconds (a stage on 2 threads counts its wall time):\n");
+  std::printf("    %-44s %8.0f s\n", "bed generation (inserting the source beads)", insert_s);
+  std::printf("    %-44s %8.0f s  (%d beds, %lld steps)\n", "settling the source beds",
+              stage("source").second, stage("source").first, static_cast<long long>(source_steps));
+  std::printf("    %-44s %8.0f s  (%d beds)\n", "cutting and relaxing the cut beds",
+              stage("cut").second, stage("cut").first);
+  if (stage("friction").first > 0)
+    std::printf("    %-44s %8.0f s  (%d beds)\n", "changing the friction", stage("friction").second,
+                stage("friction").first);
+  std::printf("    %-44s %8s\n", "free fall", "computed, not stepped");
+  std::printf("    %-44s %8.0f s  (%d runs, %lld steps)\n", "impacts", impact_s, impacts,
+              static_cast<long long>(impact_steps));
+  if (stepped > 0)
     std::printf(
-        "6. the E2 thickness sweep, H = 0 to 8 cm in 0.5 cm steps, accuracy %s, "
-        "beds prepared from nothing%s, %d runs at a time\n",
-        opt.sweep_accuracy.c_str(), opt.sweep_local_settling ? " with local settling" : "", jobs);
-    std::fflush(stdout);
-    Scene e2 = PresetScene("e2");
-    ApplyAccuracy(e2, opt.sweep_accuracy);
-    e2.bed.local_settling = opt.sweep_local_settling;
-    cli::SweepOptions sweep;
-    sweep.axes = {ParseSweepAxis("bed.thickness_m=0:0.08:0.005")};
-    sweep.jobs = jobs;
-    const fs::path scratch =
-        fs::temp_directory_path() / ("dembuf-bench-sweep-" + std::to_string(getpid()));
-    sweep.out_dir = opt.sweep_out.empty() ? scratch / "out" : opt.sweep_out;
-    BedCache empty_store(scratch / "beds");
-    const auto start = std::chrono::steady_clock::now();
-    const int failed = cli::RunSweep(e2, sweep, empty_store);
-    const double seconds = Seconds(std::chrono::steady_clock::now() - start);
-    fs::remove_all(scratch);
-    std::printf("  E2 sweep (%s): %.0f s wall, %d failed runs\n\n", opt.sweep_accuracy.c_str(),
-                seconds, failed);
-    report["e2_sweep"] = {{"accuracy", opt.sweep_accuracy},
-                          {"local_settling", opt.sweep_local_settling},
-                          {"runs", ExpandSweep(e2, sweep.axes).size()},
-                          {"jobs", jobs},
-                          {"failed", failed},
-                          {"seconds", seconds}};
+        "      of their steps: integration %.0f%%, neighbours %.0f%% (%lld list builds), "
+        "force pass %.0f%%\n",
+        100 * step_stages.integration_s / stepped, 100 * step_stages.neighbours_s / stepped,
+        static_cast<long long>(step_stages.list_builds), 100 * step_stages.forces_s / stepped);
+  std::printf("\n");
+  report["e2_sweep"] = {
+      {"accuracy", opt.sweep_accuracy},
+      {"set", opt.sweep_set},
+      {"seeds", opt.sweep_seeds},
+      {"runs", ExpandSweep(e2, WithSeedAxis(sweep.axes, opt.sweep_seeds, e2.bed.seed)).size()},
+      {"jobs", jobs},
+      {"failed", failed},
+      {"seconds", seconds},
+      {"phases_s",
+       {{"insert", insert_s},
+        {"source_settling", stage("source").second},
+        {"cut_relaxation", stage("cut").second},
+        {"friction", stage("friction").second},
+        {"impacts", impact_s},
+        {"impact_integration", step_stages.integration_s},
+        {"impact_neighbours", step_stages.neighbours_s},
+        {"impact_force_pass", step_stages.forces_s}}},
+      {"beds_prepared",
+       {{"source", stage("source").first},
+        {"cut", stage("cut").first},
+        {"friction", stage("friction").first}}}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  CLI::App app{"dembuf's speed benchmark: what a step costs, against LAMMPS, and how it scales"};
+  app.add_option("--out", opt.out, "JSON file to write")->capture_default_str();
+  app.add_option("--bed-cache", opt.bed_cache, "prepared beds (default ~/.cache/dembuf/beds)");
+  app.add_option("--steps", opt.steps, "impact steps per timing")
+      ->capture_default_str()
+      ->check(CLI::Range(10, 1000000));
+  app.add_flag("--quick", opt.quick, "one repeat per timing and fewer bed sizes");
+  std::vector<std::string> accuracies;
+  for (const AccuracyPreset& p : AccuracyPresets()) accuracies.emplace_back(p.name);
+  app.add_option("--sweep", opt.sweep_accuracy,
+                 "also time the whole E2 thickness sweep at this accuracy, beds included")
+      ->check(CLI::IsMember(accuracies));
+  app.add_option("--sweep-seeds", opt.sweep_seeds, "bed seeds of the sweep (1, 2, ...)")
+      ->check(CLI::Range(1, 100))
+      ->needs("--sweep");
+  app.add_option("--sweep-set", opt.sweep_set,
+                 "a scene field of the sweep, FIELD=VALUE (as dembuf run --set)")
+      ->needs("--sweep");
+  app.add_flag("--sweep-only", opt.sweep_only, "time the sweep alone, not the steps")
+      ->needs("--sweep");
+  app.add_option("--sweep-out", opt.sweep_out,
+                 "keep the sweep's results (sweep.csv, runs) in this folder; it must not exist")
+      ->check(CLI::NonexistentPath);
+  CLI11_PARSE(app, argc, argv);
+  if (opt.bed_cache.empty()) {
+    const char* home = std::getenv("HOME");
+    opt.bed_cache = fs::path(home ? home : ".") / ".cache" / "dembuf" / "beds";
   }
+  nlohmann::json report = {{"machine_cores", std::thread::hardware_concurrency()},
+                           {"steps", opt.steps}};
+
+  if (!opt.sweep_only) BenchSteps(opt, report);
+  if (!opt.sweep_accuracy.empty()) BenchSweep(opt, report);
 
   std::ofstream(opt.out) << report.dump(2) << "\n";
   std::printf("wrote %s\n", opt.out.c_str());

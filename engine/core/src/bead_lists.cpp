@@ -144,6 +144,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
   s.lists.max_bead_displacement = 0.0;
   s.lists.projectile_list_displacement = 0.0;
   s.lists.valid = true;
+  ++s.lists.builds;
 }
 
 // A fast projectile outruns its list long before the beads outrun theirs: rebuild only its

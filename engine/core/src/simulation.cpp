@@ -7,6 +7,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 
 #include "bead_lists.h"
 #include "force_pass.h"
@@ -46,9 +47,22 @@ Simulation::~Simulation() = default;
 Simulation::Simulation(Simulation&&) noexcept = default;
 Simulation& Simulation::operator=(Simulation&&) noexcept = default;
 
+namespace {
+
+// Seconds since `since`, and `since` moved to now: the stages are timed one after the other.
+double Lap(std::chrono::steady_clock::time_point& since) {
+  const auto now = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(now - since).count();
+  since = now;
+  return seconds;
+}
+
+}  // namespace
+
 void Simulation::Step() {
   Impl& s = *m_impl;
   if (!s.forces_valid) RefreshForces();  // after a change from outside
+  auto clock = std::chrono::steady_clock::now();
 
   // 1. Kick and drift: the last step's pending closing half kick, this step's opening one, and
   // the drift to t + dt, in one pass over the beads; the projectile on its own.
@@ -67,10 +81,17 @@ void Simulation::Step() {
 
   // 2. Check: a non-finite or escaped body stops the run with the reason.
   CheckConditions();
+  m_stage_times.integration_s += Lap(clock);
 
   // 3. Neighbours and 4. forces, then 5. check the overlaps.
-  ComputeForces();
+  const std::int64_t builds = s.lists.builds;
+  detail::UpdateLists(m_params, m_beads, m_projectile, s);
+  m_stage_times.list_builds += s.lists.builds - builds;
+  m_stage_times.neighbours_s += Lap(clock);
+  detail::ComputeForcePass(m_params, m_beads, m_projectile, s, m_observables);
+  s.forces_valid = true;
   CheckConditions();
+  m_stage_times.forces_s += Lap(clock);
 
   // 6. Closing half kick with the new forces: left pending for the beads (the next step does
   // it in its first pass over them, or CompleteKick when anything reads them first).
@@ -78,6 +99,7 @@ void Simulation::Step() {
   if (m_projectile) detail::HalfKickProjectile(m_params, s.Rotating(), *m_projectile);
   m_time_s += m_params.dt_s;
   ++m_steps;
+  m_stage_times.integration_s += Lap(clock);
 }
 
 void Simulation::ComputeForces() {

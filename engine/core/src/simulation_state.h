@@ -81,6 +81,7 @@ struct NeighbourLists {
   // max_bead_displacement when the projectile's list was last built (0: with the bead lists).
   double projectile_list_displacement = 0.0;
   bool valid = false;
+  std::int64_t builds = 0;  // bead list builds so far
 };
 
 // The tangential histories of contacts with the plate and the side wall (those of bead pairs

@@ -507,11 +507,14 @@ dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::
 
 PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  dem::Simulation sim =
-      BedSimulation(scene, nullptr, InsertBeads(scene, request), scene.bed.prep_friction);
+  dem::ParticleState inserted = InsertBeads(scene, request);
+  const double insert_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  dem::Simulation sim = BedSimulation(scene, nullptr, std::move(inserted), scene.bed.prep_friction);
   const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s,
                                 scene.bed.settle_tolerance, {}, false, scene.bed.local_settling);
   PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
+  bed.insert_time_s = insert_time;
   if (bed.surface_m < scene.bed.thickness_m)
     throw dem::SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
                                    " m thick, less than bed.thickness_m",

@@ -67,6 +67,7 @@ std::string SerializeBed(const PreparedBed& bed) {
       << "settle_time_s=" << Exact(bed.settle_time_s) << "\n"
       << "settle_steps=" << bed.settle_steps << "\n"
       << "wall_time_s=" << Exact(bed.wall_time_s) << "\n"
+      << "insert_time_s=" << Exact(bed.insert_time_s) << "\n"
       << "note=" << bed.note << "\n"
       << "data\n";
   Checksum sum;
@@ -122,6 +123,8 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
       bed.settle_steps = std::stoll(value);
     else if (key == "wall_time_s")
       bed.wall_time_s = std::stod(value);
+    else if (key == "insert_time_s")
+      bed.insert_time_s = std::stod(value);
     else if (key == "note")
       bed.note = value;
   }

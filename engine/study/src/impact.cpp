@@ -344,6 +344,7 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
                summary.beads > 0 ? scene.beads.MeanDiameter() : 0.0});
   summary.crater_depth_m = std::isfinite(crater) ? crater : 0.0;
   summary.steps = sim.steps();
+  summary.stage_times = sim.stage_times();
   summary.end_time_s = sim.time_s();
   summary.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -58,6 +58,15 @@ struct ContactSnapshot {
   double normal_N;
 };
 
+/// Where a simulation's computing time went, summed over its steps (seconds of wall clock;
+/// read by benchmarks to name the next bottleneck).
+struct StageTimes {
+  double integration_s = 0.0;  ///< kick and drift of the beads and the projectile
+  double neighbours_s = 0.0;   ///< list builds, and the checks whether one is due
+  double forces_s = 0.0;       ///< the contact force pass
+  std::int64_t list_builds = 0;
+};
+
 /// Energy bookkeeping (for tests and stability checks).
 struct EnergyBreakdown {
   double kinetic_J = 0.0;    ///< translational + rotational
@@ -118,6 +127,9 @@ class Simulation {
   /// (large beds are reordered in memory; RemoveBeads drops the indices of removed beads).
   const std::vector<std::uint32_t>& BeadOrigins() const;
 
+  /// The time spent in each stage of the steps so far.
+  const StageTimes& stage_times() const { return m_stage_times; }
+
   /// Sets the clock (e.g. to continue a run that went on in another simulation).
   void SetClock(double time_s, std::int64_t steps);
 
@@ -146,6 +158,7 @@ class Simulation {
   StepObservables m_observables;
   double m_time_s = 0.0;
   std::int64_t m_steps = 0;
+  StageTimes m_stage_times;
   std::unique_ptr<Impl> m_impl;
 };
 

@@ -129,6 +129,8 @@ struct ImpactSummary {
   double reference_first_contact_time_s = -1.0;  ///< when it touched the plate (-1: not run)
   double lambda = 0.0;                           ///< buffer ratio (Pa0 - P) / Pa0
   double max_overlap_ratio = 0.0;  ///< largest overlap / smaller radius during the impact
+  /// Where the stepped impact's computing time went (benchmarks; not in summary.json).
+  dem::StageTimes stage_times;
 };
 
 /// Runs the scene. Throws SceneError for a bad scene, SimulationError when the run becomes

@@ -5,7 +5,11 @@
 # fuzzing time per target; SANITIZE=0 and FUZZ_SECONDS=0 skip those stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each stage says when it starts, so that a slow one is named in the log.
+stage() { echo "== $* (at $((SECONDS / 60)) min $((SECONDS % 60)) s)"; }
+stage "installing and building"
 bash deploy/build.sh
+stage "the test suites"
 # ctest runs as many test programs at once as there are cores. The engine's threads meet at a
 # barrier several times a step, so a run of two threads beside another test, each waiting for
 # the other's core, goes three times slower than alone: the tests run the engine on one thread
@@ -16,7 +20,7 @@ export OMP_WAIT_POLICY=passive
 
 sanitizer_opt_flags="-O2 -gline-tables-only -DNDEBUG"
 if [ "${SANITIZE:-1}" != 0 ]; then
-  echo "== the unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
+  stage "the unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
   # One clang build serves these tests and the fuzzers below (tests/fuzz/run.sh): everything
   # in it is built with both sanitizers (and libFuzzer's coverage, which does not change what
   # the tests check), so the sources are compiled once for the two stages.
@@ -26,29 +30,27 @@ if [ "${SANITIZE:-1}" != 0 ]; then
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$sanitizer_opt_flags" -DDEMBUF_FUZZ=ON > /dev/null
   cmake --build build-fuzz --parallel "$(nproc)" --target engine_tests server_tests
   export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
-  # The GoogleTest suites only (the script tests need the other binaries); the engine's in two
-  # shards, one per core, as each test runs on one thread. Tests that prepare beds or integrate
-  # long fine-step runs are left to the optimised suite above: under the sanitizers each takes
-  # one to three minutes and adds no code path (bed files are also written and read by the
-  # store tests, imported bed files parsed by their fuzzer below, with the sanitizers). Local
-  # settling's test stays (about 3 minutes, with the whole-bed settling it compares with): it
-  # alone goes through the settling regions' copying and renumbering.
-  engine_filter='-BedPreparation.EndsAtRest*:BedPreparation.CachedBed*:BedPreparation.KineticDamping*:SmallBedImpact.*:Regression.*:Determinism.*:Energy.*:Restitution.*:HertzElastic.*:HardCase.SingleBeadLayer*:HardCase.ImportedBedWithSmall*:HardCase.Restitution*:HardCase.SizeRatio*:HardCase.ProjectileGrazing*:HardCase.BedImpact*:HardCase.AMillion*:ResourceEstimate.CountsTheBeds*:BedImport.ASettledBeds*:BedImport.LargerOverlapsAreSeparated*:BedImport.ABedSettledByLammps*'
-  shards=()
-  for shard in 0 1; do
-    GTEST_TOTAL_SHARDS=2 GTEST_SHARD_INDEX=$shard build-fuzz/tests/engine_tests --gtest_brief=1 \
-      --gtest_filter="$engine_filter" &
-    shards+=($!)
-  done
+  # The GoogleTest suites only (the script tests need the other binaries), in two processes,
+  # one per core: the bed preparation tests, which share one settled bed (settling is the
+  # longest part under the sanitizers), and the rest of the engine's then the service's.
+  # Tests that prepare beds of their own or integrate long fine-step runs are left to the
+  # optimised suite above: under the sanitizers each takes one to three minutes and adds no
+  # code path (bed files are also written and read by the store tests, imported bed files
+  # parsed by their fuzzer below, with the sanitizers). Local settling's test stays: it alone
+  # goes through the settling regions' copying and renumbering.
+  engine_long='BedPreparation.CachedBed*:BedPreparation.KineticDamping*:SmallBedImpact.*:Regression.*:Determinism.*:Energy.*:Restitution.*:HertzElastic.*:HardCase.SingleBeadLayer*:HardCase.ImportedBedWithSmall*:HardCase.Restitution*:HardCase.SizeRatio*:HardCase.ProjectileGrazing*:HardCase.BedImpact*:HardCase.AMillion*:ResourceEstimate.CountsTheBeds*:BedImport.ASettledBeds*:BedImport.LargerOverlapsAreSeparated*:BedImport.ABedSettledByLammps*'
+  build-fuzz/tests/engine_tests --gtest_brief=1 --gtest_filter="BedPreparation.*-$engine_long" &
+  bed_tests=$!
+  build-fuzz/tests/engine_tests --gtest_brief=1 --gtest_filter="*-BedPreparation.*:$engine_long"
   build-fuzz/tests/server_tests --gtest_brief=1
-  for pid in "${shards[@]}"; do wait "$pid"; done
+  wait "$bed_tests"
 
-  echo "== the threaded parts under ThreadSanitizer"
+  stage "the threaded parts under ThreadSanitizer"
   # clang with LLVM's OpenMP runtime, whose Archer tool shows ThreadSanitizer OpenMP's barriers
   # (without it, or with GCC's libgomp, every parallel loop would be reported as a race).
   CC=clang CXX=clang++ cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$sanitizer_opt_flags" -DDEMBUF_SANITIZE=thread > /dev/null
-  cmake --build build-tsan --parallel "$(nproc)" --target engine_tests dembuf dembufd
+  cmake --build build-tsan --parallel "$(nproc)" --target engine_thread_tests dembuf dembufd
   OMP_TOOL_LIBRARIES="$(dirname "$(readlink -f "$(command -v clang)")")/../lib/libarcher.so"
   export OMP_TOOL_LIBRARIES
   export TSAN_OPTIONS="halt_on_error=1 ignore_noninstrumented_modules=1 second_deadlock_stack=1"
@@ -57,7 +59,7 @@ if [ "${SANITIZE:-1}" != 0 ]; then
   # shared by threads, the run queue, a local sweep running two jobs at once on one bed, and
   # the daemon end to end: its scheduler, worker pool, live streaming and cancellation (the
   # service test with both binaries built for TSan).
-  build-tsan/tests/engine_tests --gtest_brief=1 \
+  build-tsan/tests/engine_thread_tests --gtest_brief=1 \
     --gtest_filter='Determinism.*:BedCacheThreads.*:PairList.*:RunQueue.*'
   tsan_sweep=$(mktemp -d)
   build-tsan/client/dembuf sweep --set cylinder.radius_m=0.015 --set bed.thickness_m=0.008 \
@@ -73,6 +75,7 @@ if [ "${SANITIZE:-1}" != 0 ]; then
 fi
 
 if [ "${FUZZ_SECONDS:-30}" != 0 ]; then
-  echo "== fuzzing"
+  stage "fuzzing"
   bash tests/fuzz/run.sh "${FUZZ_SECONDS:-30}"
 fi
+stage "all passed"

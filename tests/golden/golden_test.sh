@@ -9,15 +9,17 @@
 # (one after contact and one at the peak).
 # Only the computing time and the version are left out of the comparison.
 #
-# Usage: golden_test.sh DEMBUF_BINARY GOLDEN_DIR [THREADS...]   (THREADS default: 1 2)
-# With DEMBUF_UPDATE_GOLDEN=1 it writes GOLDEN_DIR (from the 1-thread runs) instead; say why
-# in the commit.
+# Usage: golden_test.sh DEMBUF_BINARY GOLDEN_DIR [THREADS [PRESET...]]
+#   (THREADS default 1, PRESET default all five)
+# With DEMBUF_UPDATE_GOLDEN=1 and one thread it writes GOLDEN_DIR instead; say why in the
+# commit.
 set -eu
 dembuf=$1
 golden=$2
-shift 2
-thread_counts=("$@")
-[ ${#thread_counts[@]} -gt 0 ] || thread_counts=(1 2)
+threads=${3:-1}
+shift $(($# < 3 ? $# : 3))
+presets=("$@")
+[ ${#presets[@]} -gt 0 ] || presets=(e1 e2 e3 e4 e5)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
@@ -49,38 +51,35 @@ json.dump(summary, sys.stdout, indent=1, sort_keys=True)
 print()' "$1"
 }
 
-for threads in "${thread_counts[@]}"; do
-  cache="$work/beds-$threads"  # each thread count prepares its own beds
-  for preset in e1 e2 e3 e4 e5; do
-    out="$work/$threads/$preset"
-    # shellcheck disable=SC2086  # extra holds whole arguments
-    OMP_NUM_THREADS=$threads "$dembuf" run --preset "$preset" "${small[@]}" ${extra[$preset]} \
-      --bed-cache "$cache" --out "$out" > "$work/log" 2>&1 || { cat "$work/log"; fail "$preset"; }
-    normalise_summary "$out/summary.json" > "$out/summary.normal.json"
-    rm "$out/summary.json"
-    if [ "${DEMBUF_UPDATE_GOLDEN:-0}" = 1 ]; then
-      if [ "$threads" = 1 ]; then
-        rm -rf "${golden:?}/$preset"
-        mkdir -p "$golden/$preset"
-        comparable "$out" | while read -r file; do
-          mkdir -p "$golden/$preset/$(dirname "$file")"
-          cp "$out/$file" "$golden/$preset/$file"
-        done
-      fi
-      continue
-    fi
-    [ -d "$golden/$preset" ] || fail "no golden outputs for $preset in $golden"
-    if [ "$(comparable "$out")" != "$(comparable "$golden/$preset")" ]; then
-      diff <(comparable "$golden/$preset") <(comparable "$out") || true
-      fail "$preset at $threads threads: other files than the golden ones"
-    fi
-    while read -r file; do
-      cmp -s "$golden/$preset/$file" "$out/$file" || {
-        diff "$golden/$preset/$file" "$out/$file" | head -20
-        fail "$preset at $threads threads: $file differs from the golden one"
-      }
-    done < <(comparable "$out")
-    echo "$preset at $threads threads: $(comparable "$out" | wc -l) files identical"
-  done
+cache="$work/beds"
+for preset in "${presets[@]}"; do
+  out="$work/$threads/$preset"
+  # shellcheck disable=SC2086  # extra holds whole arguments
+  OMP_NUM_THREADS=$threads "$dembuf" run --preset "$preset" "${small[@]}" ${extra[$preset]} \
+    --bed-cache "$cache" --out "$out" > "$work/log" 2>&1 || { cat "$work/log"; fail "$preset"; }
+  normalise_summary "$out/summary.json" > "$out/summary.normal.json"
+  rm "$out/summary.json"
+  if [ "${DEMBUF_UPDATE_GOLDEN:-0}" = 1 ]; then
+    [ "$threads" = 1 ] || fail "the golden outputs are written from one thread"
+    rm -rf "${golden:?}/$preset"
+    mkdir -p "$golden/$preset"
+    comparable "$out" | while read -r file; do
+      mkdir -p "$golden/$preset/$(dirname "$file")"
+      cp "$out/$file" "$golden/$preset/$file"
+    done
+    continue
+  fi
+  [ -d "$golden/$preset" ] || fail "no golden outputs for $preset in $golden"
+  if [ "$(comparable "$out")" != "$(comparable "$golden/$preset")" ]; then
+    diff <(comparable "$golden/$preset") <(comparable "$out") || true
+    fail "$preset at $threads threads: other files than the golden ones"
+  fi
+  while read -r file; do
+    cmp -s "$golden/$preset/$file" "$out/$file" || {
+      diff "$golden/$preset/$file" "$out/$file" | head -20
+      fail "$preset at $threads threads: $file differs from the golden one"
+    }
+  done < <(comparable "$out")
+  echo "$preset at $threads threads: $(comparable "$out" | wc -l) files identical"
 done
 if [ "${DEMBUF_UPDATE_GOLDEN:-0}" = 1 ]; then echo "wrote $golden"; fi

@@ -129,7 +129,10 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
   // The daemon's queue and rule: runs in plan order (interleaved by source bed), a run that
   // would only wait for a bed another worker prepares passed over, the cores shared.
   RunQueue queue(beds, std::max(omp_get_max_threads(), options.jobs), options.cancel);
-  beds.OnPrepared([&](const PreparedBed&) { queue.Wake(); });
+  beds.OnPrepared([&](const PreparedBed& bed) {
+    if (options.on_bed_prepared) options.on_bed_prepared(bed);
+    queue.Wake();
+  });
   for (const std::size_t k : InterleaveBySourceBed(runs))
     queue.Push(static_cast<RunQueue::Id>(k), runs[k].beds);
   queue.Close();

@@ -28,6 +28,8 @@ struct SweepOptions {
   /// Called (from the run's worker) with each run's result as it ends well, e.g. for a
   /// benchmark's account of where the time went.
   std::function<void(const SweepRun&, const ImpactSummary&)> on_run_done;
+  /// Called (from the preparing worker) with each bed the sweep prepared (not found).
+  std::function<void(const PreparedBed&)> on_bed_prepared;
 };
 
 /// Runs the sweep; writes out_dir/sweep.csv, out_dir/summary.json and out_dir/runs/<job>/.

@@ -541,14 +541,14 @@ void BenchSweep(const Options& opt, nlohmann::json& report) {
   std::int64_t source_steps = 0, impact_steps = 0;
   dem::StageTimes step_stages;
   int impacts = 0;
-  empty_store.OnPrepared([&](const PreparedBed& bed) {
+  sweep.on_bed_prepared = [&](const PreparedBed& bed) {
     std::lock_guard lock(account_mutex);
     auto& [count, seconds] = bed_stages[bed.stage];
     ++count;
     seconds += bed.wall_time_s - bed.insert_time_s;
     insert_s += bed.insert_time_s;
     if (bed.stage == "source") source_steps += bed.settle_steps;
-  });
+  };
   sweep.on_run_done = [&](const SweepRun&, const ImpactSummary& summary) {
     std::lock_guard lock(account_mutex);
     ++impacts;

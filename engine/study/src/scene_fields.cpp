@@ -128,7 +128,7 @@ const std::vector<SceneField>& FieldTable() {
        "relax a cut bed with kinetic damping (zero velocities at each kinetic-energy peak)",
        DEMBUF_FIELD(bed.quench_cut_relaxation)},
       {"bed.local_settling", "",
-       "settle beds by stepping only the last moving beads' neighbourhood (faster, looser top)",
+       "settle beds by stepping only the last moving beads' neighbourhood (false: every bead)",
        DEMBUF_FIELD(bed.local_settling)},
       {"bed.max_settle_s", "s", "simulated time allowed for settling before giving up",
        DEMBUF_FIELD(bed.max_settle_s), 0.0, 1e3, true},

@@ -6,6 +6,7 @@
 // Exit codes: 0 success; 1 a runtime failure (files, the server); 2 bad input (a scene, a
 // request, the arguments); 3 a simulation failed (unstable) or a remote job failed; 130 and
 // 143 interrupted by SIGINT and SIGTERM.
+#include <fcntl.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 #include <atomic>
@@ -101,7 +102,43 @@ struct RunOptions {
   bool source_only = false;  ///< prepare-bed: only the source bed
   bool dry_run = false;      ///< print the estimate and stop
   bool yes = false;          ///< run even past this machine's limits
+  bool json = false;         ///< print the result as JSON on stdout, the rest on stderr
 };
+
+// Where the report for people goes: stdout (the default), stderr (with --json, so that
+// stdout carries the JSON alone) or nowhere (-q); the report's own prints and gnuplot's too.
+class ReportDestination {
+ public:
+  enum class To { kStdout, kStderr, kNowhere };
+  explicit ReportDestination(To to) {
+    if (to == To::kStdout) return;
+    std::fflush(stdout);
+    const int target = to == To::kStderr ? dup(STDERR_FILENO) : open("/dev/null", O_WRONLY);
+    if (target < 0) return;
+    m_saved = dup(STDOUT_FILENO);
+    if (m_saved >= 0) dup2(target, STDOUT_FILENO);
+    close(target);
+  }
+  ReportDestination(const ReportDestination&) = delete;
+  ReportDestination& operator=(const ReportDestination&) = delete;
+  ~ReportDestination() { Restore(); }
+  /// Stdout is stdout again (for the JSON).
+  void Restore() {
+    if (m_saved < 0) return;
+    std::fflush(stdout);
+    dup2(m_saved, STDOUT_FILENO);
+    close(m_saved);
+    m_saved = -1;
+  }
+
+ private:
+  int m_saved = -1;
+};
+
+ReportDestination::To ReportTo(const RunOptions& opt) {
+  if (cli::GetVerbosity() == cli::Verbosity::kQuiet) return ReportDestination::To::kNowhere;
+  return opt.json ? ReportDestination::To::kStderr : ReportDestination::To::kStdout;
+}
 
 int Cores() {
   return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -122,13 +159,6 @@ fs::path BedCacheDir(const RunOptions& opt) {
 
 void PrintWarnings(const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "dembuf: warning: %s\n", w.c_str());
-}
-
-void PrintBedProgress(const BedProgress& p) {
-  if (!isatty(fileno(stderr))) return;
-  std::fprintf(stderr, "\r%s: %zu beads, t = %.1f ms, kinetic %.2g m g d, balance %.2g%%   ",
-               p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, p.balance_error * 100);
-  std::fflush(stderr);
 }
 
 void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
@@ -167,10 +197,15 @@ void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
 }
 
 int RunLocal(const RunOptions& opt) {
+  ReportDestination report(ReportTo(opt));
   // Everything about the scene, its cost and its folder is checked before anything is
   // prepared or written.
   Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   PrintWarnings(SceneWarnings(scene));
+  if (cli::GetVerbosity() == cli::Verbosity::kVerbose) {
+    std::cerr << "# the resolved scene\n";
+    PrintScene(scene, std::cerr);
+  }
   BedCache beds(BedCacheDir(opt));
   const ResourceEstimate cost = EstimateResources(scene);
   if (opt.dry_run) {
@@ -202,10 +237,11 @@ int RunLocal(const RunOptions& opt) {
   try {
     BedRequest bed_request;
     bed_request.cancel = &g_interrupted;
-    bed_request.on_progress = PrintBedProgress;
+    cli::BedProgressLine bed_progress(stderr);
+    bed_request.on_progress = [&](const BedProgress& p) { bed_progress.Update(p); };
     World world = BuildWorld(scene, &beds, &bed_request);
     for (const auto& [stage, count] : beds.prepared_counts())
-      std::fprintf(stderr, "%sprepared %d %s bed(s)\n", isatty(fileno(stderr)) ? "\n" : "", count,
+      std::fprintf(stderr, "%sprepared %d %s bed(s)\n", bed_progress.open() ? "\n" : "", count,
                    stage.c_str());
     if (!world.bed.note.empty()) std::fprintf(stderr, "imported bed: %s\n", world.bed.note.c_str());
 
@@ -232,12 +268,19 @@ int RunLocal(const RunOptions& opt) {
     if (!bare.empty())
       report::WriteFileAtomically(dir / "plate_force_bare.csv", report::SamplesToCsv(bare));
     if (stream) stream->Close();
-    report::WriteFileAtomically(dir / "summary.json",
-                                report::SummaryToJson(summary, scene).dump(2) + "\n");
+    const nlohmann::json summary_json = report::SummaryToJson(summary, scene);
+    report::WriteFileAtomically(dir / "summary.json", summary_json.dump(2) + "\n");
     PrintSummary(summary, dir);
     phase = "plots";
     if (!opt.no_plots) cli::PlotIfPossible(dir);
     if (g_interrupted) throw Cancelled();  // during the plots: the results are complete
+    if (opt.json) {
+      report.Restore();
+      std::printf("%s\n",
+                  nlohmann::json{{"out_dir", fs::absolute(dir).string()}, {"summary", summary_json}}
+                      .dump(2)
+                      .c_str());
+    }
     return 0;
   } catch (const dem::SimulationError& e) {
     progress.Finish();
@@ -287,10 +330,12 @@ int PrepareBedCommand(const RunOptions& opt) {
   CatchInterrupts();
   BedRequest request;
   request.cancel = &g_interrupted;
-  request.on_progress = PrintBedProgress;
+  cli::BedProgressLine progress(stderr);
+  request.on_progress = [&](const BedProgress& p) { progress.Update(p); };
   try {
     const PreparedBed bed =
         opt.source_only ? GetSourceBed(scene, beds, request) : GetBed(scene, beds, request);
+    if (progress.open()) std::fprintf(stderr, "\n");
     std::printf("%s bed %s: %zu beads, H = %.5f m, C0 = %.4f, in %s\n", bed.stage.c_str(),
                 bed.hash.c_str(), bed.beads.size(), bed.surface_m, bed.solid_fraction, dir.c_str());
     return 0;
@@ -332,6 +377,7 @@ HcSearchOptions ParseHcRange(const std::string& text) {
 }
 
 int SweepCommand(const RunOptions& opt) {
+  ReportDestination report(ReportTo(opt));
   const Scene base = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   cli::SweepOptions sweep;
   std::optional<HcSearchOptions> hc_search;
@@ -397,6 +443,16 @@ int SweepCommand(const RunOptions& opt) {
   }
   std::filesystem::remove(sweep.out_dir / "incomplete.json");
   cli::PlotIfPossible(sweep.out_dir);
+  if (opt.json) {
+    report.Restore();
+    std::ifstream summary_file(sweep.out_dir / "summary.json");
+    const nlohmann::json summary = nlohmann::json::parse(summary_file, nullptr, false);
+    std::printf("%s\n", nlohmann::json{{"out_dir", fs::absolute(sweep.out_dir).string()},
+                                       {"failed", failed},
+                                       {"summary", summary}}
+                            .dump(2)
+                            .c_str());
+  }
   return failed == 0 ? 0 : kExitUnstable;
 }
 
@@ -413,6 +469,14 @@ int main(int argc, char** argv) {
   CLI::App app{"dembuf: DEM simulation of impacts on granular buffer layers"};
   app.set_version_flag("--version", std::string("dembuf ") + kVersion);
   app.require_subcommand(1);
+  // Options of the program work after the command too: dembuf run -q, dembuf list --server A.
+  app.fallthrough();
+  bool quiet = false, verbose = false;
+  CLI::Option* quiet_flag = app.add_flag(
+      "-q,--quiet", quiet, "no progress and no report: errors, warnings and results only");
+  app.add_flag("-v,--verbose", verbose,
+               "also the resolved scene before a run, and progress every second in a log")
+      ->excludes(quiet_flag);
 
   RunOptions opt;
   auto add_scene_args = [&](CLI::App* cmd) {
@@ -439,6 +503,9 @@ int main(int argc, char** argv) {
                 "cached beds) and stop");
   run->add_flag("--yes", opt.yes, "run even when the estimate passes this machine's limits");
   run->add_flag("--no-plots", opt.no_plots, "do not draw plots");
+  run->add_flag("--json", opt.json,
+                "print the output folder and summary.json as JSON on stdout, the report on "
+                "stderr");
   run->add_option("--samples-out", opt.samples_out,
                   "also stream the samples to this file as they come, as rows of six "
                   "little-endian doubles (for a daemon following a cluster job)");
@@ -472,6 +539,9 @@ int main(int argc, char** argv) {
   sweep->add_flag("--yes", opt.yes, "run even when the estimate passes this machine's limits");
 
   sweep->add_flag("--local", opt.local, "run here even when a server is configured");
+  sweep->add_flag("--json", opt.json,
+                  "print the result as JSON on stdout (locally: the folder, the failed runs and "
+                  "summary.json; on a server: the sweep and its job ids), the report on stderr");
   sweep->add_option("--name", opt.name, "a name for the sweep (remote)");
 
 #if DEMBUF_SERVICE
@@ -499,12 +569,15 @@ int main(int argc, char** argv) {
   list->add_option("--sweep", list_options.sweep, "only this sweep's jobs");
   list->add_option("--limit", list_options.limit, "at most this many (default 20)");
   list->add_flag("--sweeps", list_options.sweeps, "list sweeps instead of jobs");
+  list->add_flag("--json", list_options.json, "print JSON (docs/service.md) instead of a table");
 
   std::int64_t id = 0;
   bool is_sweep = false;
   CLI::App* status = app.add_subcommand("status", "a job's state, progress and results");
   status->add_option("id", id, "job id (or sweep id with --sweep)")->required();
   status->add_flag("--sweep", is_sweep, "the id is a sweep's");
+  bool json = false;
+  status->add_flag("--json", json, "print JSON (docs/service.md) instead of text");
 
   bool watch_csv = false;
   std::int64_t watch_from = 0;
@@ -529,6 +602,7 @@ int main(int argc, char** argv) {
   cancel->add_flag("--sweep", is_sweep, "cancel every unfinished job of the sweep");
 
   CLI::App* info = app.add_subcommand("server-info", "the server's version, workers and queue");
+  info->add_flag("--json", json, "print JSON (docs/service.md) instead of text");
 #endif
 
   CLI::App* plot = app.add_subcommand("plot", "draw PNG plots of a run or sweep folder (gnuplot)");
@@ -589,25 +663,28 @@ int main(int argc, char** argv) {
   }
   const cli::RemoteScene remote_scene{opt.scene_file, opt.preset, opt.accuracy, opt.overrides};
 #endif
+  cli::SetVerbosity(quiet     ? cli::Verbosity::kQuiet
+                    : verbose ? cli::Verbosity::kVerbose
+                              : cli::Verbosity::kNormal);
   try {
     if (run->parsed()) return RunLocal(opt);
     if (prepare_bed->parsed()) return PrepareBedCommand(opt);
     if (sweep->parsed()) {
 #if DEMBUF_SERVICE
       if (!opt.local && cli::ServerGiven(server_flag))
-        return cli::RemoteSweep(remote, remote_scene, opt.vary, opt.seeds, opt.name);
+        return cli::RemoteSweep(remote, remote_scene, opt.vary, opt.seeds, opt.name, opt.json);
 #endif
       return SweepCommand(opt);
     }
 #if DEMBUF_SERVICE
     if (submit->parsed()) return cli::RemoteSubmit(remote, remote_scene, opt.name);
     if (list->parsed()) return cli::RemoteList(remote, list_options);
-    if (status->parsed()) return cli::RemoteStatus(remote, id, is_sweep);
+    if (status->parsed()) return cli::RemoteStatus(remote, id, is_sweep, json);
     if (watch->parsed()) return cli::RemoteWatch(remote, id, watch_csv, watch_from);
     if (fetch->parsed())
       return cli::RemoteFetch(remote, id, is_sweep, fetch_dir, !no_plots, fetch_force);
     if (cancel->parsed()) return cli::RemoteCancel(remote, id, is_sweep);
-    if (info->parsed()) return cli::RemoteServerInfo(remote);
+    if (info->parsed()) return cli::RemoteServerInfo(remote, json);
 #endif
     if (plot->parsed()) {
       for (const auto& file : cli::PlotFolder(plot_dir)) std::printf("%s\n", file.c_str());

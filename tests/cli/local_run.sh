@@ -24,6 +24,23 @@ awk -v p="$peak" 'BEGIN { exit !(p > 13190.8 && p < 13729.2) }' || fail "peak $p
 csv_peak=$(awk -F, 'NR > 1 && $2 > m { m = $2 } END { print m }' "$work/run/plate_force.csv")
 awk -v c="$csv_peak" -v p="$peak" 'BEGIN { exit !(c <= p && c > 0.98 * p) }' || fail "CSV peak $csv_peak vs $peak"
 
+# Progress to a log file (stderr not a terminal): plain lines, none redrawn in place, of the
+# bed's settling and of the impact with the percentage, the rate and the time left, then a
+# last line (here every 0.1 s; a small E2 bed from an empty cache, about ten seconds).
+small_bed=(--preset e2 --set cylinder.radius_m=0.045 --set bed.source_thickness_m=0.025
+           --set bed.thickness_m=0.018 --set projectile.diameter_m=0.025
+           --set projectile.mass_kg=0.03 --set projectile.height_m=0.05)
+DEMBUF_PROGRESS_S=0.1 "$dembuf" run "${small_bed[@]}" --bed-cache "$work/beds" --no-plots \
+  --out "$work/logged" > /dev/null 2> "$work/progress.log" || fail "logged run"
+if grep -q $'\r' "$work/progress.log"; then fail "progress redrawn in a log file"; fi
+grep -Eq '^settling( \(locally\))?: [0-9]+ beads, t = [0-9.]+ ms, kinetic' "$work/progress.log" ||
+  { cat "$work/progress.log"; fail "no settling line in the log"; }
+# (A line before the end, below 100%; the time left is known after half a second.)
+grep -Eq '^impact: +[0-9]{1,2}%, [0-9.]+ of [0-9.]+ ms \(at most\), [0-9]+ steps, [0-9.e+]+ steps/s, ([0-9]+:[0-9]{2}|--:--) left' \
+  "$work/progress.log" || { cat "$work/progress.log"; fail "no impact line in the log"; }
+tail -1 "$work/progress.log" | grep -Eq '^impact: ended at [0-9.]+ ms, [0-9]+ steps in [0-9]+:[0-9]{2}$' ||
+  { cat "$work/progress.log"; fail "no last progress line"; }
+
 # A second run into the same folder is refused unless --force.
 if "$dembuf" run "${e2[@]}" --out "$work/run" 2>/dev/null; then fail "overwrote without --force"; fi
 "$dembuf" run "${e2[@]}" --out "$work/run" --force > /dev/null || fail "--force"

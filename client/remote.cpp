@@ -6,6 +6,7 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -21,6 +22,8 @@
 #include "dembuf/study/sweep_report.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "plots.h"
+#include "progress.h"
+#include "remote_json.h"
 
 namespace dembuf::cli {
 
@@ -130,22 +133,21 @@ int Report(const Remote& remote, const grpc::Status& status) {
   }
 }
 
-// "queued", "preparing_bed", ...: the enum's own name without its prefix, as the daemon
-// stores and filters states.
-std::string StateText(v1::JobState s) {
-  std::string name = v1::JobState_Name(s);
-  const std::string prefix = "JOB_STATE_";
-  if (name.rfind(prefix, 0) == 0) name = name.substr(prefix.size());
-  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return name;
-}
-
 bool Ended(v1::JobState s) {
   return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
 }
 
 void PrintWarnings(const google::protobuf::RepeatedPtrField<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "dembuf: warning: %s\n", w.c_str());
+}
+
+// What a command tells people besides its result (on stderr; not with -q).
+__attribute__((format(printf, 1, 2))) void Note(const char* format, ...) {
+  if (GetVerbosity() == Verbosity::kQuiet) return;
+  std::va_list args;
+  va_start(args, format);
+  std::vfprintf(stderr, format, args);
+  va_end(args);
 }
 
 v1::SceneSpec MakeSceneSpec(const RemoteScene& scene) {
@@ -274,14 +276,15 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::stri
   if (!status.ok()) return Report(remote, status);
   PrintWarnings(response.warnings());
   std::printf("%lld\n", static_cast<long long>(response.job().id()));
-  std::fprintf(stderr, "job %lld queued on %s; watch it with: dembuf watch %lld\n",
-               static_cast<long long>(response.job().id()), remote.address.c_str(),
-               static_cast<long long>(response.job().id()));
+  Note("job %lld queued on %s; watch it with: dembuf watch %lld\n",
+       static_cast<long long>(response.job().id()), remote.address.c_str(),
+       static_cast<long long>(response.job().id()));
   return 0;
 }
 
 int RemoteSweep(const Remote& remote, const RemoteScene& scene,
-                const std::vector<std::string>& vary, int seeds, const std::string& name) {
+                const std::vector<std::string>& vary, int seeds, const std::string& name,
+                bool json) {
   v1::SubmitSweepRequest request;
   *request.mutable_base() = MakeSceneSpec(scene);
   for (const std::string& spec : vary) {
@@ -301,16 +304,21 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   if (!status.ok()) return Report(remote, status);
   const v1::Sweep& sweep = response.sweep();
   PrintWarnings(response.warnings());
+  if (json) {
+    const std::vector<std::int64_t> job_ids(response.job_ids().begin(), response.job_ids().end());
+    std::printf("%s\n",
+                nlohmann::json{{"sweep", SweepJson(sweep)}, {"job_ids", job_ids}}.dump(2).c_str());
+    return 0;
+  }
   std::printf("%lld\n", static_cast<long long>(sweep.id()));
-  std::fprintf(stderr, "sweep %lld: %d jobs queued on %s (jobs %lld to %lld)\n",
-               static_cast<long long>(sweep.id()), sweep.jobs_total(), remote.address.c_str(),
-               static_cast<long long>(response.job_ids(0)),
-               static_cast<long long>(response.job_ids(response.job_ids_size() - 1)));
-  for (const auto& axis : sweep.axes()) std::fprintf(stderr, "  %s\n", AxisText(axis).c_str());
-  std::fprintf(stderr,
-               "follow it with: dembuf status --sweep %lld; fetch it with: dembuf fetch "
-               "--sweep %lld --out DIR\n",
-               static_cast<long long>(sweep.id()), static_cast<long long>(sweep.id()));
+  Note("sweep %lld: %d jobs queued on %s (jobs %lld to %lld)\n", static_cast<long long>(sweep.id()),
+       sweep.jobs_total(), remote.address.c_str(), static_cast<long long>(response.job_ids(0)),
+       static_cast<long long>(response.job_ids(response.job_ids_size() - 1)));
+  for (const auto& axis : sweep.axes()) Note("  %s\n", AxisText(axis).c_str());
+  Note(
+      "follow it with: dembuf status --sweep %lld; fetch it with: dembuf fetch --sweep %lld "
+      "--out DIR\n",
+      static_cast<long long>(sweep.id()), static_cast<long long>(sweep.id()));
   return 0;
 }
 
@@ -325,6 +333,12 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
     v1::ListSweepsResponse response;
     const grpc::Status status = stub->ListSweeps(&context, request, &response);
     if (!status.ok()) return Report(remote, status);
+    if (options.json) {
+      nlohmann::json sweeps = nlohmann::json::array();
+      for (const auto& s : response.sweeps()) sweeps.push_back(SweepJson(s));
+      std::printf("%s\n", nlohmann::json{{"sweeps", sweeps}}.dump(2).c_str());
+      return 0;
+    }
     std::printf("%6s  %-12s %-20s %6s %6s %6s %6s  %s\n", "SWEEP", "OWNER", "NAME", "JOBS", "DONE",
                 "FAILED", "BEDS", "CREATED");
     for (const auto& s : response.sweeps()) {
@@ -359,6 +373,12 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
   v1::ListJobsResponse response;
   const grpc::Status status = stub->ListJobs(&context, request, &response);
   if (!status.ok()) return Report(remote, status);
+  if (options.json) {
+    nlohmann::json jobs = nlohmann::json::array();
+    for (const auto& j : response.jobs()) jobs.push_back(JobJson(j, false));
+    std::printf("%s\n", nlohmann::json{{"jobs", jobs}}.dump(2).c_str());
+    return 0;
+  }
   std::printf("%6s  %-13s %-12s %6s  %-34s %-18s %s\n", "JOB", "STATE", "OWNER", "SWEEP", "NAME",
               "PROGRESS", "CREATED");
   for (const auto& j : response.jobs()) {
@@ -371,7 +391,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
   return 0;
 }
 
-int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
+int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   auto stub = Connect(remote);
   grpc::ClientContext context;
   Prepare(context, remote);
@@ -381,6 +401,10 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
     v1::Sweep s;
     const grpc::Status status = stub->GetSweep(&context, request, &s);
     if (!status.ok()) return Report(remote, status);
+    if (json) {
+      std::printf("%s\n", SweepJson(s).dump(2).c_str());
+      return 0;
+    }
     std::printf("sweep %lld  %s  owner %s  created %s\n", static_cast<long long>(s.id()),
                 s.name().c_str(), s.owner().c_str(), s.created_at().c_str());
     for (const auto& axis : s.axes()) std::printf("  %s\n", AxisText(axis).c_str());
@@ -396,6 +420,10 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep) {
   v1::Job j;
   const grpc::Status status = stub->GetJob(&context, request, &j);
   if (!status.ok()) return Report(remote, status);
+  if (json) {
+    std::printf("%s\n", JobJson(j, true).dump(2).c_str());
+    return j.state() == v1::JOB_STATE_FAILED ? kExitJobFailed : 0;
+  }
   std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), j.name().c_str(),
               StateText(j.state()).c_str());
   std::printf("owner %s, sweep %s, attempts %d\n", j.owner().c_str(),
@@ -493,8 +521,8 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   if (tty) std::printf("\n\n");
   if (!status.ok()) return Report(remote, status);
   if (!csv && !tty) std::printf("%s\n", last_line.c_str());
-  std::fprintf(stderr, "job %lld %s; %lld samples received\n", static_cast<long long>(id),
-               StateText(state).c_str(), static_cast<long long>(received));
+  Note("job %lld %s; %lld samples received\n", static_cast<long long>(id), StateText(state).c_str(),
+       static_cast<long long>(received));
   if (state == v1::JOB_STATE_DONE) return 0;
   return state == v1::JOB_STATE_FAILED ? kExitJobFailed : kExitError;
 }
@@ -675,12 +703,16 @@ int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {
   return 0;
 }
 
-int RemoteServerInfo(const Remote& remote) {
+int RemoteServerInfo(const Remote& remote, bool json) {
   v1::ServerInfoResponse info;
   grpc::ClientContext context;
   Prepare(context, remote, 10);
   const grpc::Status status = Connect(remote)->ServerInfo(&context, {}, &info);
   if (!status.ok()) return Report(remote, status);
+  if (json) {
+    std::printf("%s\n", ServerInfoJson(info, remote.address).dump(2).c_str());
+    return 0;
+  }
   std::printf("dembufd %s at %s (host %s, up since %s)\n", info.version().c_str(),
               remote.address.c_str(), info.host().c_str(), info.started_at().c_str());
   if (info.executor() == "slurm")

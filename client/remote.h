@@ -28,17 +28,20 @@ struct Remote {
 };
 
 int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name);
+/// Prints the sweep's id (with `json`: the sweep and its job ids as JSON).
 int RemoteSweep(const Remote& remote, const RemoteScene& scene,
-                const std::vector<std::string>& vary, int seeds, const std::string& name);
+                const std::vector<std::string>& vary, int seeds, const std::string& name,
+                bool json);
 struct ListOptions {
   std::string state;
   std::string owner;
   std::int64_t sweep = 0;
   int limit = 20;
   bool sweeps = false;  ///< list sweeps instead of jobs
+  bool json = false;    ///< print JSON (remote_json.h) instead of a table
 };
 int RemoteList(const Remote& remote, const ListOptions& options);
-int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep);
+int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json);
 /// Live view of a job; `csv` prints every sample as a CSV row instead.
 int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index);
 /// A job's files (or, with `sweep`, every job's and the sweep's tables) into `out_dir`, which
@@ -46,6 +49,6 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
                 bool plots, bool force);
 int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep);
-int RemoteServerInfo(const Remote& remote);
+int RemoteServerInfo(const Remote& remote, bool json);
 
 }  // namespace dembuf::cli

@@ -1,0 +1,113 @@
+#include "remote_json.h"
+
+#include <cctype>
+#include <map>
+#include <vector>
+
+namespace dembuf::cli {
+
+std::string StateText(v1::JobState state) {
+  // The enum's own name without its prefix, as the daemon stores and filters states.
+  std::string name = v1::JobState_Name(state);
+  const std::string prefix = "JOB_STATE_";
+  if (name.rfind(prefix, 0) == 0) name = name.substr(prefix.size());
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return name;
+}
+
+namespace {
+
+// A summary.json text as an object (null when there is none or it does not parse).
+nlohmann::json ParsedSummary(const std::string& text) {
+  if (text.empty()) return nullptr;
+  nlohmann::json summary = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  return summary.is_object() ? summary : nlohmann::json();
+}
+
+std::vector<std::string> Strings(const google::protobuf::RepeatedPtrField<std::string>& list) {
+  return {list.begin(), list.end()};
+}
+
+// An empty time (not started, not finished) as null.
+nlohmann::json Time(const std::string& iso) {
+  return iso.empty() ? nlohmann::json() : nlohmann::json(iso);
+}
+
+}  // namespace
+
+nlohmann::json JobJson(const v1::Job& job, bool details) {
+  const nlohmann::json summary = ParsedSummary(job.summary_json());
+  const v1::Progress& p = job.progress();
+  nlohmann::json out = {
+      {"id", job.id()},
+      {"name", job.name()},
+      {"owner", job.owner()},
+      {"state", StateText(job.state())},
+      {"error", job.error()},
+      {"sweep_id", job.sweep_id() ? nlohmann::json(job.sweep_id()) : nlohmann::json()},
+      {"sweep_index", job.sweep_index()},
+      {"sweep_values", Strings(job.sweep_values())},
+      {"attempts", job.attempts()},
+      {"created_at", Time(job.created_at())},
+      {"started_at", Time(job.started_at())},
+      {"finished_at", Time(job.finished_at())},
+      {"host", job.host()},
+      {"code_version", job.code_version()},
+      {"progress",
+       {{"stage", p.stage()},
+        {"fraction", p.fraction()},
+        {"sim_time_s", p.sim_time_s()},
+        {"steps", p.steps()},
+        {"peak_plate_force_N", p.peak_plate_force_n()}}},
+      {"peak_plate_force_N", summary.is_object() && summary.contains("peak_plate_force_N")
+                                 ? summary["peak_plate_force_N"]
+                                 : nlohmann::json()},
+      {"P_N", summary.is_object() && summary.contains("P_N") ? summary["P_N"] : nlohmann::json()},
+      {"slurm_job_id", job.slurm_job_id() ? nlohmann::json(job.slurm_job_id()) : nlohmann::json()},
+  };
+  if (!details) return out;
+  out["scene_toml"] = job.scene_toml();
+  out["scene_hash"] = job.scene_hash();
+  out["bed_hash"] = job.bed_hash();
+  out["summary"] = summary;
+  nlohmann::json files = nlohmann::json::array();
+  for (const v1::ResultFileInfo& f : job.files())
+    files.push_back({{"path", f.path()}, {"size", f.size()}});
+  out["files"] = files;
+  out["beds_prepared"] = Strings(job.beds_prepared());
+  return out;
+}
+
+nlohmann::json SweepJson(const v1::Sweep& sweep) {
+  nlohmann::json axes = nlohmann::json::array();
+  for (const v1::SweepAxis& axis : sweep.axes())
+    axes.push_back(
+        {{"field", axis.field()}, {"values", Strings(axis.values())}, {"range", axis.range()}});
+  // Sorted by state name, so that the output does not depend on the map's order.
+  const std::map<std::string, int> by_state(sweep.jobs_by_state().begin(),
+                                            sweep.jobs_by_state().end());
+  return {{"id", sweep.id()},
+          {"name", sweep.name()},
+          {"owner", sweep.owner()},
+          {"created_at", sweep.created_at()},
+          {"axes", axes},
+          {"jobs_total", sweep.jobs_total()},
+          {"jobs_by_state", by_state},
+          {"beds_prepared", sweep.beds_prepared()}};
+}
+
+nlohmann::json ServerInfoJson(const v1::ServerInfoResponse& info, const std::string& address) {
+  return {{"version", info.version()},
+          {"address", address},
+          {"host", info.host()},
+          {"started_at", info.started_at()},
+          {"executor", info.executor()},
+          {"workers", info.workers()},
+          {"threads_per_job", info.threads_per_job()},
+          {"running", info.running()},
+          {"queue_depth", info.queue_depth()},
+          {"queue_limit", info.queue_limit()},
+          {"database", info.database()}};
+}
+
+}  // namespace dembuf::cli

@@ -16,6 +16,8 @@ packages=("$@")
   libeigen3-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev
   # tests, fuzzers (clang's libFuzzer and OpenMP) and plots
   libgtest-dev libgmock-dev clang libclang-rt-dev libomp-dev gnuplot-nox python3
+  # gRPC from Python (the tests' health check); the manual pages
+  python3-grpcio help2man
 )
 
 sudo_cmd=()

@@ -70,6 +70,7 @@ int main(int argc, char** argv) {
   ServerConfig config;
   std::string config_file;
   CLI::App app{"dembufd: the dembuf daemon (gRPC API, job queue, SQLite store)"};
+  app.set_version_flag("--version", std::string("dembufd ") + dembuf::kVersion);
   app.add_option("--config", config_file, "TOML configuration file (flags override it)")
       ->check(CLI::ExistingFile);
   // Flags are read into a second copy so that only the given ones override the file.
@@ -281,6 +282,9 @@ int main(int argc, char** argv) {
                                   : "not an address this machine can listen on");
     return kExitRuntime;
   }
+  // Health answers for the service's name too (grpc_health_probe -service=dembuf.v1.Dembuf),
+  // not only for the server as a whole ("").
+  server->GetHealthCheckService()->SetServingStatus(dembuf::v1::Dembuf::service_full_name(), true);
   const std::string address =
       config.listen.substr(0, config.listen.rfind(':') + 1) + std::to_string(port);
   lock->Describe("process " + std::to_string(getpid()) + ", listening on " + address + ", since " +

@@ -1,0 +1,51 @@
+# Bash completion for dembuf and dembufd: commands and options are read from the programs'
+# own --help when Tab is pressed, so they follow the binaries installed. Install with
+#   cp deploy/dembuf-completion.bash /usr/share/bash-completion/completions/dembuf
+#   ln -s dembuf /usr/share/bash-completion/completions/dembufd
+# or source it from ~/.bashrc.
+
+# The commands of PROGRAM (the first words of the lines under "Subcommands:").
+_dembuf_commands() {
+  "$1" --help 2>/dev/null | awk '/^Subcommands:/ { in_list = 1; next }
+                                 in_list && /^  [a-z]/ { print $1 }
+                                 in_list && /^$/ { in_list = 0 }'
+}
+
+# The options in a --help text ("  -q,--quiet ..." gives -q and --quiet).
+_dembuf_options() {
+  sed -n 's/^  \(-[^ ]*\).*/\1/p' | tr ',' '\n'
+}
+
+# The options in a --help text that take a value ("  --server TEXT ...").
+_dembuf_valued_options() {
+  sed -n 's/^  \(-[^ ]*\) [A-Z][A-Z]*.*/\1/p' | tr ',' '\n'
+}
+
+_dembuf() {
+  local program=${COMP_WORDS[0]} current=${COMP_WORDS[COMP_CWORD]} command="" word previous=""
+  local commands valued
+  commands=$(_dembuf_commands "$program")
+  valued=$("$program" --help 2>/dev/null | _dembuf_valued_options)
+  # The command is the first word that names one, not the value of an option before it.
+  for word in "${COMP_WORDS[@]:1:COMP_CWORD-1}"; do
+    if ! grep -qxF -- "$previous" <<< "$valued" && grep -qxF -- "$word" <<< "$commands"; then
+      command=$word
+      break
+    fi
+    previous=$word
+  done
+  local words
+  if [[ $current == -* ]]; then
+    if [ -n "$command" ]; then
+      words=$("$program" "$command" --help 2>/dev/null | _dembuf_options)
+    else
+      words=$("$program" --help 2>/dev/null | _dembuf_options)
+    fi
+  elif [ -z "$command" ] && [ -n "$commands" ]; then
+    words=$commands
+  else
+    return 0  # scene files, folders, ids: bash's own completion (-o default)
+  fi
+  mapfile -t COMPREPLY < <(compgen -W "$words" -- "$current")
+}
+complete -o default -F _dembuf dembuf dembufd

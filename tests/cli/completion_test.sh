@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# The bash completion (deploy/dembuf-completion.bash) completes commands and options from the
+# binaries' --help, and the manual pages (deploy/man.sh) are made from it and render.
+# Usage: completion_test.sh DEMBUF DEMBUFD SOURCE_DIR
+set -eu
+dembuf=$1
+dembufd=$2
+src=$3
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+
+# shellcheck source=/dev/null
+. "$src/deploy/dembuf-completion.bash"
+# complete WORDS...: what Tab offers after the words (the last one is being typed).
+complete_words() {
+  COMP_WORDS=("$@")
+  COMP_CWORD=$((${#COMP_WORDS[@]} - 1))
+  COMPREPLY=()
+  _dembuf
+  printf '%s\n' "${COMPREPLY[@]}"
+}
+[ "$(complete_words "$dembuf" ru)" = run ] || fail "dembuf ru<Tab>: $(complete_words "$dembuf" ru)"
+complete_words "$dembuf" s | grep -qx sweep || fail "dembuf s<Tab> lacks sweep"
+complete_words "$dembuf" s | grep -qx server-info || fail "dembuf s<Tab> lacks server-info"
+complete_words "$dembuf" run --o | grep -qx -- --out || fail "dembuf run --o<Tab> lacks --out"
+complete_words "$dembuf" run --j | grep -qx -- --json || fail "dembuf run --j<Tab> lacks --json"
+# An option's value before the command is not taken for the command.
+complete_words "$dembuf" --server run list --st | grep -qx -- --state ||
+  fail "dembuf --server run list --st<Tab> lacks --state"
+if complete_words "$dembuf" list --st | grep -qx -- --out; then fail "list offers run's --out"; fi
+complete_words "$dembufd" --ht | grep -qx -- --http || fail "dembufd --ht<Tab> lacks --http"
+complete_words "$dembufd" token | grep -qx token-create || fail "dembufd token<Tab>"
+
+# The manual pages: one per program, every command's options in dembuf's.
+bash "$src/deploy/man.sh" "$dembuf" "$dembufd" "$work/man" > /dev/null
+for page in dembuf dembufd; do
+  [ -s "$work/man/$page.1" ] || fail "no $page.1"
+  MANWIDTH=100 man -l "$work/man/$page.1" > "$work/$page.txt" 2> "$work/$page.err" ||
+    fail "$page.1 does not render: $(cat "$work/$page.err")"
+done
+for text in "--find-hc" "--json" "DEMBUF_PROGRESS_S" "SIGTERM" "Usage: dembuf run"; do
+  grep -qF -- "$text" "$work/dembuf.txt" || fail "dembuf.1 lacks $text"
+done
+grep -qF -- "token-create" "$work/dembufd.txt" || fail "dembufd.1 lacks token-create"
+echo "completion: commands and options from --help; manual pages render"

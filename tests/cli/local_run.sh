@@ -26,10 +26,11 @@ awk -v c="$csv_peak" -v p="$peak" 'BEGIN { exit !(c <= p && c > 0.98 * p) }' || 
 
 # Progress to a log file (stderr not a terminal): plain lines, none redrawn in place, of the
 # bed's settling and of the impact with the percentage, the rate and the time left, then a
-# last line (here every 0.1 s; a small E2 bed from an empty cache, about ten seconds).
-small_bed=(--preset e2 --set cylinder.radius_m=0.045 --set bed.source_thickness_m=0.025
-           --set bed.thickness_m=0.018 --set projectile.diameter_m=0.025
-           --set projectile.mass_kg=0.03 --set projectile.height_m=0.05)
+# last line (here every 0.1 s; the engine tests' small bed from an empty cache, and a fine
+# step so that the impact lasts about a second).
+small_bed=(--set cylinder.radius_m=0.02 --set bed.thickness_m=0.01 --set bed.source_thickness_m=0.015
+           --set projectile.diameter_m=0.012 --set projectile.mass_kg=0.01
+           --set projectile.speed_m_s=2 --set projectile.height_m=0.02 --set time.alpha=0.05)
 DEMBUF_PROGRESS_S=0.1 "$dembuf" run "${small_bed[@]}" --bed-cache "$work/beds" --no-plots \
   --out "$work/logged" > /dev/null 2> "$work/progress.log" || fail "logged run"
 if grep -q $'\r' "$work/progress.log"; then fail "progress redrawn in a log file"; fi

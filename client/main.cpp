@@ -21,6 +21,7 @@
 #include "compare.h"
 #include "cost_check.h"
 #include "dembuf/study/bed.h"
+#include "dembuf/study/bed_export.h"
 #include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/resource_estimate.h"
@@ -99,10 +100,13 @@ struct RunOptions {
   std::string name;
   std::string samples_out;  ///< also stream the samples, packed, to this file
   bool no_plots = false;
-  bool source_only = false;  ///< prepare-bed: only the source bed
-  bool dry_run = false;      ///< print the estimate and stop
-  bool yes = false;          ///< run even past this machine's limits
-  bool json = false;         ///< print the result as JSON on stdout, the rest on stderr
+  bool source_only = false;   ///< prepare-bed: only the source bed
+  bool dry_run = false;       ///< print the estimate and stop
+  bool yes = false;           ///< run even past this machine's limits
+  bool json = false;          ///< print the result as JSON on stdout, the rest on stderr
+  std::string command_line;   ///< this program's arguments, for the results' provenance
+  std::string export_format;  ///< bed export: text, lammps or vtp
+  std::string export_out;     ///< bed export: the file
 };
 
 // Where the report for people goes: stdout (the default), stderr (with --json, so that
@@ -220,6 +224,14 @@ int RunLocal(const RunOptions& opt) {
                  dir.c_str());
     return kExitRuntime;
   }
+  if (std::error_code same; !opt.scene_file.empty() && fs::exists(dir / "scene.toml") &&
+                            fs::equivalent(opt.scene_file, dir / "scene.toml", same)) {
+    std::fprintf(stderr,
+                 "dembuf: error: the scene file %s is where the run writes its resolved scene; "
+                 "copy it elsewhere or choose another --out\n",
+                 opt.scene_file.c_str());
+    return kExitRuntime;
+  }
   cli::CheckLocalCost({scene}, {cost}, dir, 1, beds, opt.yes);
   // The run before (replaced, or one that failed or was interrupted) goes first: whatever
   // happens to this one, nothing of that one is left to be taken for its result.
@@ -227,6 +239,9 @@ int RunLocal(const RunOptions& opt) {
     report::RemoveRunOutputs(dir);
   const bool new_folder = !fs::exists(dir);
   fs::create_directories(dir);
+  // The resolved scene beside the results: what ran, in a file that runs it again.
+  report::WriteFileAtomically(dir / "scene.toml", report::SceneText(scene));
+  report::RunContext context = report::RunStartingNow(opt.command_line);
   CatchInterrupts();
 
   std::string phase = "bed preparation";
@@ -258,9 +273,12 @@ int RunLocal(const RunOptions& opt) {
     control.on_reference_sample = [&](const ImpactSample& s) { bare.push_back(s); };
     control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
     control.cancel = &g_interrupted;
+    report::ParaViewFiles paraview(scene.cylinder.radius_m, scene.beads.diameter_max_m);
     control.on_snapshot = [&](const ImpactSnapshot& snap) {
-      report::WriteResultFiles(
-          report::SnapshotFiles(snap, scene.cylinder.radius_m, scene.beads.diameter_max_m), dir);
+      report::WriteResultFiles(paraview.AddSnapshot(snap), dir);
+    };
+    control.on_frame = [&](const ImpactSnapshot& frame) {
+      report::WriteResultFiles(paraview.AddFrame(frame), dir);
     };
     ImpactSummary summary = RunImpact(std::move(world), scene, control);
     progress.Finish();
@@ -268,7 +286,8 @@ int RunLocal(const RunOptions& opt) {
     if (!bare.empty())
       report::WriteFileAtomically(dir / "plate_force_bare.csv", report::SamplesToCsv(bare));
     if (stream) stream->Close();
-    const nlohmann::json summary_json = report::SummaryToJson(summary, scene);
+    context.finished_at = report::UtcNow();
+    const nlohmann::json summary_json = report::SummaryToJson(summary, scene, context);
     report::WriteFileAtomically(dir / "summary.json", summary_json.dump(2) + "\n");
     PrintSummary(summary, dir);
     phase = "plots";
@@ -321,8 +340,14 @@ int RunLocal(const RunOptions& opt) {
 
 // Prepares a scene's bed (or only its source bed) into the bed cache, and nothing else: a
 // cluster runs this as a job of its own that the impacts cutting the bed wait for.
+// prepare-bed, and bed export (which writes the bed too).
 int PrepareBedCommand(const RunOptions& opt) {
   const Scene scene = cli::ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
+  if (!opt.export_out.empty() && fs::exists(opt.export_out) && !opt.force) {
+    std::fprintf(stderr, "dembuf: error: %s exists; choose another --out or pass --force\n",
+                 opt.export_out.c_str());
+    return kExitRuntime;
+  }
   const fs::path dir = BedCacheDir(opt);
   if (dir.empty())
     throw SceneError("--bed-cache", "prepare-bed keeps the bed in a bed cache: give a folder");
@@ -338,6 +363,14 @@ int PrepareBedCommand(const RunOptions& opt) {
     if (progress.open()) std::fprintf(stderr, "\n");
     std::printf("%s bed %s: %zu beads, H = %.5f m, C0 = %.4f, in %s\n", bed.stage.c_str(),
                 bed.hash.c_str(), bed.beads.size(), bed.surface_m, bed.solid_fraction, dir.c_str());
+    if (!opt.export_out.empty()) {
+      char title[160];
+      std::snprintf(title, sizeof title, "dembuf %s bed %s, %zu beads, H = %.5f m",
+                    bed.stage.c_str(), bed.hash.c_str(), bed.beads.size(), bed.surface_m);
+      report::WriteFileAtomically(
+          opt.export_out, ExportBed(bed.beads, scene, *ParseBedFormat(opt.export_format), title));
+      std::printf("wrote %s (%s)\n", opt.export_out.c_str(), opt.export_format.c_str());
+    }
     return 0;
   } catch (const dem::SimulationError& e) {
     std::fprintf(stderr, "dembuf: bed preparation failed: %s\n", e.what());
@@ -393,6 +426,7 @@ int SweepCommand(const RunOptions& opt) {
     throw SceneError("--jobs", std::to_string(opt.jobs) + " is out of range: 1 to 256");
   sweep.seeds = opt.seeds;
   sweep.jobs = opt.jobs;
+  sweep.command_line = opt.command_line;
   sweep.out_dir = opt.out_dir.empty() ? DefaultOutputDir("sweep") : fs::path(opt.out_dir);
   BedCache beds(BedCacheDir(opt));
   std::vector<Scene> scenes;
@@ -479,6 +513,7 @@ int main(int argc, char** argv) {
       ->excludes(quiet_flag);
 
   RunOptions opt;
+  opt.command_line = report::ShellCommandLine(argc, argv);
   auto add_scene_args = [&](CLI::App* cmd) {
     cmd->add_option("scene", opt.scene_file,
                     "scene file (TOML); default: the paper's Table 1 scene");
@@ -517,6 +552,26 @@ int main(int argc, char** argv) {
                           "folder of prepared beds (default ~/.cache/dembuf/beds)");
   prepare_bed->add_flag("--source-only", opt.source_only,
                         "only the settled source bed that the bed is cut from");
+
+  CLI::App* bed = app.add_subcommand("bed", "beds for other programs");
+  bed->require_subcommand(1);
+  CLI::App* bed_export = bed->add_subcommand(
+      "export",
+      "write a scene's bed (from the bed cache, prepared first if need be) for ParaView, "
+      "LAMMPS or Yade, or to import again");
+  add_scene_args(bed_export);
+  bed_export->add_option("--bed-cache", opt.bed_cache,
+                         "folder of prepared beds (default ~/.cache/dembuf/beds)");
+  bed_export->add_flag("--source-only", opt.source_only,
+                       "the settled source bed that the bed is cut from");
+  bed_export
+      ->add_option("--format", opt.export_format,
+                   "text (x y z radius, as bed.import reads), lammps (a data file for "
+                   "read_data, atom_style sphere) or vtp (VTK XML, for ParaView)")
+      ->check(CLI::IsMember({"text", "lammps", "vtp"}))
+      ->required();
+  bed_export->add_option("--out", opt.export_out, "the file to write")->required();
+  bed_export->add_flag("--force", opt.force, "replace the file if it exists");
 
   CLI::App* sweep = app.add_subcommand("sweep", "run a scene over ranges of fields and seeds");
   add_scene_args(sweep);
@@ -650,6 +705,7 @@ int main(int argc, char** argv) {
 
 #if DEMBUF_SERVICE
   remote.address = cli::ServerAddress(server_flag);
+  remote.command_line = opt.command_line;
   auto from_env = [](std::string& value, const char* name) {
     if (const char* env = std::getenv(name); value.empty() && env && *env) value = env;
   };
@@ -668,7 +724,7 @@ int main(int argc, char** argv) {
                               : cli::Verbosity::kNormal);
   try {
     if (run->parsed()) return RunLocal(opt);
-    if (prepare_bed->parsed()) return PrepareBedCommand(opt);
+    if (prepare_bed->parsed() || bed_export->parsed()) return PrepareBedCommand(opt);
     if (sweep->parsed()) {
 #if DEMBUF_SERVICE
       if (!opt.local && cli::ServerGiven(server_flag))

@@ -35,6 +35,8 @@ constexpr const char* kDefaultServer = "127.0.0.1:50051";
 constexpr int kExitError = 1;
 constexpr int kExitInvalid = 2;
 constexpr int kExitJobFailed = 3;
+// What the daemon keeps of a command line (longer ones are refused, so cut here).
+constexpr std::size_t kMaxCommandLine = 4096;
 
 std::unique_ptr<v1::Dembuf::Stub> Connect(const Remote& remote) {
   grpc::ChannelArguments args;
@@ -269,6 +271,7 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::stri
   *request.mutable_scene() = MakeSceneSpec(scene);
   request.set_name(name);
   request.set_owner(remote.owner);
+  request.set_command_line(remote.command_line.substr(0, kMaxCommandLine));
   v1::SubmitJobResponse response;
   grpc::ClientContext context;
   Prepare(context, remote);
@@ -297,6 +300,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   request.set_seeds(seeds);
   request.set_name(name);
   request.set_owner(remote.owner);
+  request.set_command_line(remote.command_line.substr(0, kMaxCommandLine));
   v1::SubmitSweepResponse response;
   grpc::ClientContext context;
   Prepare(context, remote);

@@ -22,9 +22,10 @@ struct RemoteScene {
 
 struct Remote {
   std::string address;
-  std::string owner;   ///< --owner, else $USER (a token's user overrides it on the server)
-  std::string token;   ///< --token, else $DEMBUF_TOKEN: sent as "authorization: Bearer ..."
-  std::string tls_ca;  ///< --tls-ca, else $DEMBUF_TLS_CA: PEM file; speak TLS trusting it
+  std::string owner;         ///< --owner, else $USER (a token's user overrides it on the server)
+  std::string token;         ///< --token, else $DEMBUF_TOKEN: sent as "authorization: Bearer ..."
+  std::string tls_ca;        ///< --tls-ca, else $DEMBUF_TLS_CA: PEM file; speak TLS trusting it
+  std::string command_line;  ///< this program's arguments, sent with jobs as provenance
 };
 
 int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name);

@@ -53,6 +53,7 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
       {"finished_at", Time(job.finished_at())},
       {"host", job.host()},
       {"code_version", job.code_version()},
+      {"command_line", job.command_line()},
       {"progress",
        {{"stage", p.stage()},
         {"fraction", p.fraction()},

@@ -91,6 +91,8 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
     };
     try {
       std::filesystem::create_directories(dir);
+      report::WriteFileAtomically(dir / "scene.toml", report::SceneText(job.scene));
+      report::RunContext context = report::RunStartingNow(options.command_line);
       report::SampleCsvWriter csv(dir / "plate_force.csv");
       RunControl control;
       control.beds = &beds;
@@ -101,7 +103,9 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
       const ImpactSummary summary = RunImpact(job.scene, control);
       csv.Commit();
       if (options.on_run_done) options.on_run_done(job, summary);
-      result.summary = report::SummaryToJson(summary, job.scene);
+      context.threads = threads->load();
+      context.finished_at = report::UtcNow();
+      result.summary = report::SummaryToJson(summary, job.scene, context);
       report::WriteFileAtomically(dir / "summary.json", result.summary.dump(2) + "\n");
       result.ok = true;
     } catch (const Cancelled&) {

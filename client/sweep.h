@@ -22,6 +22,7 @@ struct SweepOptions {
   int seeds = 1;  ///< bed seeds 1..seeds, unless bed.seed is varied
   int jobs = 1;   ///< runs at once
   std::filesystem::path out_dir;
+  std::string command_line;  ///< what asked for the sweep, for each run's provenance
   /// Raised to stop (SIGINT, SIGTERM): the runs going stop within a second, no more start,
   /// and the report of the runs done is written.
   const std::atomic<bool>* cancel = nullptr;

@@ -18,6 +18,10 @@ packages=("$@")
   libgtest-dev libgmock-dev clang libclang-rt-dev libomp-dev gnuplot-nox python3
   # gRPC from Python (the tests' health check); the manual pages
   python3-grpcio help2man
+  # the Python package: data frames, the worked example's plots, VTK to read files back
+  python3-pandas python3-matplotlib python3-vtk9
+  # LAMMPS: the peer of the speed benchmark, and the reader of exported beds
+  lammps
 )
 
 sudo_cmd=()

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <stdexcept>
 
-#include "digest.h"
+#include "dembuf/study/provenance.h"
 #include "store.h"
 
 namespace dembuf::server {
@@ -25,7 +25,7 @@ std::string NewToken() {
 }
 
 std::string HashToken(const std::string& token) {
-  return Sha256Hex(token);
+  return report::Sha256Hex(token);
 }
 
 std::string UserNameProblem(const std::string& name) {

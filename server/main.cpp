@@ -23,6 +23,7 @@
 
 #include "auth.h"
 #include "config.h"
+#include "dembuf/study/provenance.h"
 #include "dembuf/study/version.h"
 #include "instance.h"
 #include "service.h"
@@ -55,12 +56,6 @@ std::string BesideThisProgram(const std::string& name) {
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
   if (!error && std::filesystem::exists(self.parent_path() / name))
     return (self.parent_path() / name).string();
-  return name;
-}
-
-std::string HostName() {
-  char name[256] = {};
-  gethostname(name, sizeof name - 1);
   return name;
 }
 
@@ -207,14 +202,14 @@ int main(int argc, char** argv) {
     options.threads_per_job = config.threads_per_job;
     options.queue_limit = config.queue_limit;
     options.storage_retry = std::chrono::seconds(config.storage_retry_s);
-    options.host = HostName();
+    options.host = dembuf::report::HostName();
     executor_ptr = std::make_unique<ThreadExecutor>(*store, options, log);
   }
   Executor& scheduler = *executor_ptr;
   ServiceInfo info;
   info.database = config.db;
-  info.host = HostName();
-  info.started_at = UtcNow();
+  info.host = dembuf::report::HostName();
+  info.started_at = dembuf::report::UtcNow();
   info.max_sweep_jobs = config.max_sweep_jobs;
   // Beyond loopback, every request must name its user.
   info.require_tokens = config.require_tokens || !IsLoopback(config.listen);

@@ -10,6 +10,7 @@
 #include "dembuf/study/content_hash.h"
 #include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
+#include "dembuf/study/provenance.h"
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/version.h"
@@ -24,6 +25,8 @@ using grpc::Status;
 using grpc::StatusCode;
 
 constexpr std::size_t kSamplesPerMessage = 512;
+// A client's command line, kept as provenance: a long one is cut by the client, not stored.
+constexpr std::size_t kMaxCommandLine = 4096;
 
 Status Invalid(const std::string& field, const std::string& message) {
   return Status(StatusCode::INVALID_ARGUMENT, field.empty() ? message : field + ": " + message);
@@ -109,17 +112,11 @@ Status CheckOwner(const std::string& owner) {
   return problem.empty() ? Status::OK : Invalid("owner", problem);
 }
 
-std::string SceneText(const Scene& scene) {
-  std::ostringstream text;
-  PrintScene(scene, text);
-  return text.str();
-}
-
 JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std::string& name) {
   JobRecord job;
   job.owner = owner.empty() ? "anonymous" : owner;
   job.name = name;
-  job.scene_toml = SceneText(scene);
+  job.scene_toml = report::SceneText(scene);
   job.scene_hash = ContentHash(job.scene_toml);
   const BedNeeds beds = BedNeedsOf(scene);
   job.bed_hash = beds.bed_hash;
@@ -217,6 +214,7 @@ void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out)
   out->set_finished_at(r.finished_at);
   out->set_host(r.host);
   out->set_code_version(r.code_version);
+  out->set_command_line(r.command_line);
   out->set_slurm_job_id(r.slurm_id);
   out->set_state(ToProto(r.state));
   FillProgress(ProgressOf(r, m_executor), out->mutable_progress());
@@ -258,6 +256,8 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     Caller caller;
     if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
+    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
+      return s;
     JobRecord job;
     std::vector<std::string> warnings;
     try {
@@ -269,6 +269,7 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
       if (name.empty())
         name = request->scene().preset().empty() ? "job" : request->scene().preset();
       job = MakeJobRecord(scene, caller.name, name);
+      job.command_line = request->command_line();
     } catch (const SceneError& e) {
       return FromSceneError(e);
     }
@@ -299,6 +300,8 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     Caller caller;
     if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
+    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
+      return s;
     if (request->axes().empty() && request->seeds() <= 1)
       return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
     if (request->seeds() < 0 || request->seeds() > 1000)
@@ -329,6 +332,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
         JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
         job.sweep_index = static_cast<int>(runs[k].index);
         job.sweep_values = runs[k].values;
+        job.command_line = request->command_line();
         jobs.push_back(std::move(job));
       }
     } catch (const SceneError& e) {
@@ -544,6 +548,32 @@ Status DembufService::FetchResults(grpc::ServerContext* context,
     FillJob(*job, true, response->mutable_job());
     if (auto results = m_store.GetResults(job->id))
       for (const ImpactSample& s : results->samples) FillSample(s, response->add_samples());
+    return Status::OK;
+  });
+}
+
+Status DembufService::FetchSeries(grpc::ServerContext* context,
+                                  const v1::FetchSeriesRequest* request,
+                                  grpc::ServerWriter<v1::SeriesChunk>* writer) {
+  return Guard("FetchSeries", [&]() -> Status {
+    if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
+    std::optional<JobRecord> job;
+    if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
+    // Piece by piece from the store, as FetchFiles: any length is sent without holding it.
+    constexpr std::int64_t kSamplesPerChunk = 8192;
+    const std::int64_t total = m_store.ResultSeriesLength(job->id);
+    std::int64_t next = std::min(request->from_index(), total);
+    do {
+      if (context->IsCancelled()) return Status(StatusCode::CANCELLED, "the client left");
+      v1::SeriesChunk chunk;
+      chunk.set_first_index(next);
+      chunk.set_total(total);
+      for (const ImpactSample& s : m_store.ReadResultSeries(job->id, next, kSamplesPerChunk))
+        FillSample(s, chunk.add_samples());
+      next += chunk.samples_size();
+      if (!writer->Write(chunk)) return Status(StatusCode::CANCELLED, "the client left");
+      if (chunk.samples_size() == 0) break;  // the end, or a series shorter than counted
+    } while (next < total);
     return Status::OK;
   });
 }

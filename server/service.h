@@ -49,6 +49,8 @@ class DembufService final : public v1::Dembuf::Service {
                         grpc::ServerWriter<v1::WatchJobResponse>*) override;
   grpc::Status FetchResults(grpc::ServerContext*, const v1::FetchResultsRequest*,
                             v1::FetchResultsResponse*) override;
+  grpc::Status FetchSeries(grpc::ServerContext*, const v1::FetchSeriesRequest*,
+                           grpc::ServerWriter<v1::SeriesChunk>*) override;
   grpc::Status FetchFiles(grpc::ServerContext*, const v1::FetchFilesRequest*,
                           grpc::ServerWriter<v1::FileChunk>*) override;
   grpc::Status ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,

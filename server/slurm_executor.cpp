@@ -37,9 +37,10 @@ nlohmann::json ReadRunJson(const fs::path& path) {
 constexpr std::uint64_t kMaxSamplesPerRead = 1 << 20;
 
 // Result files read back from a job's folder at most: a server job takes at most
-// kMaxServerSnapshots snapshots of report::SnapshotFiles' six files each, and the bare-plate
-// series.
-constexpr std::size_t kMaxResultFiles = 6 * kMaxServerSnapshots + 1;
+// kMaxServerSnapshots snapshots of report::SnapshotFiles' seven files each and their .pvd,
+// kMaxAnimationFrames frames and theirs, and the bare-plate series.
+constexpr std::size_t kMaxResultFiles =
+    7 * kMaxServerSnapshots + 1 + static_cast<std::size_t>(kMaxAnimationFrames) + 1 + 1;
 
 // Why Slurm ended a job that left no result, in words, with Slurm's state name in them.
 std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int64_t slurm_id) {
@@ -492,8 +493,9 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
   } else if (fs::exists(out / "summary.json")) {
     try {
       summary = ReadRunJson(out / "summary.json").dump(2) + "\n";
-      files = report::ReadResultFiles(out, {"plate_force_bare.csv", "snapshots"},
-                                      m_options.max_result_bytes, kMaxResultFiles);
+      files = report::ReadResultFiles(
+          out, {"plate_force_bare.csv", "snapshots", "snapshots.pvd", "frames", "frames.pvd"},
+          m_options.max_result_bytes, kMaxResultFiles);
       state = JobState::kDone;
     } catch (const std::exception& e) {
       error = std::string("the run ended, but its results cannot be read: ") + e.what();

@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "dembuf/study/provenance.h"
 #include "dembuf/study/run_output.h"
-#include "digest.h"
 #include "fault_injection.h"
 
 namespace dembuf::server {
@@ -130,6 +130,10 @@ CREATE TABLE job_files (
   PRIMARY KEY (job_id, path)
 );
 )sql",
+    R"sql(
+-- Provenance: the command that asked for the job (the client's, as it sent it).
+ALTER TABLE jobs ADD COLUMN command_line TEXT NOT NULL DEFAULT '';
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 
@@ -149,7 +153,9 @@ std::vector<SweepAxis> AxesFromJson(const std::string& text) {
 const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
-    "finished_at, host, code_version, slurm_id, cancel_requested";
+    "finished_at, host, code_version, slurm_id, cancel_requested, command_line";
+// How many kJobColumns names: a column selected after them has this index.
+constexpr int kJobColumnCount = 21;
 
 }  // namespace
 
@@ -176,15 +182,6 @@ std::optional<JobState> ParseState(const std::string& name) {
                      JobState::kDone, JobState::kFailed, JobState::kCancelled})
     if (name == StateName(s)) return s;
   return std::nullopt;
-}
-
-std::string UtcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
 }
 
 Store::Store(const std::string& path, StoreOptions options) : m_options(options) {
@@ -259,23 +256,24 @@ JobRecord Store::ReadJob(Statement& s) {
   j.code_version = s.Text(17);
   j.slurm_id = s.Int(18);
   j.cancel_requested = s.Int(19) != 0;
+  j.command_line = s.Text(kJobColumnCount - 1);
   return j;
 }
 
 void Store::InsertJobLocked(JobRecord& job) {
-  job.created_at = UtcNow();
+  job.created_at = report::UtcNow();
   Statement& s = m_db->Prepare(
       "INSERT INTO jobs (sweep_id, sweep_index, sweep_values_json, owner, name, state, "
-      "scene_toml, scene_hash, bed_hash, source_hash, created_at) "
-      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      "scene_toml, scene_hash, bed_hash, source_hash, created_at, command_line) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (job.sweep_id != 0) {
     s.Bind(job.sweep_id, job.sweep_index, nlohmann::json(job.sweep_values).dump(), job.owner,
            job.name, StateName(job.state), job.scene_toml, job.scene_hash, job.bed_hash,
-           job.source_hash, job.created_at);
+           job.source_hash, job.created_at, job.command_line);
   } else {
     s.Bind(std::nullopt, job.sweep_index, nlohmann::json(job.sweep_values).dump(), job.owner,
            job.name, StateName(job.state), job.scene_toml, job.scene_hash, job.bed_hash,
-           job.source_hash, job.created_at);
+           job.source_hash, job.created_at, job.command_line);
   }
   s.Run();
   job.id = m_db->LastInsertId();
@@ -284,7 +282,7 @@ void Store::InsertJobLocked(JobRecord& job) {
 void Store::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs) {
   std::lock_guard lock(m_mutex);
   Transaction t(*m_db);
-  sweep.created_at = UtcNow();
+  sweep.created_at = report::UtcNow();
   m_db->Prepare("INSERT INTO sweeps (owner, name, axes_json, created_at) VALUES (?, ?, ?, ?)")
       .Bind(sweep.owner, sweep.name, AxesToJson(sweep.axes).dump(), sweep.created_at)
       .Run();
@@ -393,7 +391,7 @@ void Store::MarkStarted(std::int64_t id, JobState state, const std::string& host
   m_db->Prepare(
           "UPDATE jobs SET state = ?, started_at = ?, host = ?, code_version = ?, "
           "attempts = attempts + 1 WHERE id = ?")
-      .Bind(StateName(state), UtcNow(), host, code_version, id)
+      .Bind(StateName(state), report::UtcNow(), host, code_version, id)
       .Run();
   m_db->Prepare("DELETE FROM series_chunks WHERE job_id = ?").Bind(id).Run();
   m_db->Prepare("DELETE FROM job_files WHERE job_id = ?").Bind(id).Run();
@@ -417,7 +415,7 @@ void Store::AppendSeriesLocked(std::int64_t id, std::int64_t first,
             "INSERT OR REPLACE INTO series_chunks (job_id, first_index, sample_count, data, "
             "sha256) VALUES (?, ?, ?, ?, ?)")
         .Bind(id, first + static_cast<std::int64_t>(begin), static_cast<std::int64_t>(end - begin),
-              Statement::Bytes{bytes}, Sha256Hex(bytes))
+              Statement::Bytes{bytes}, report::Sha256Hex(bytes))
         .Run();
   }
 }
@@ -451,7 +449,7 @@ std::vector<ImpactSample> Store::ReadSeriesLocked(std::int64_t id, std::int64_t 
     if (first > from && next < 0)
       throw damaged("samples " + std::to_string(from) + " to " + std::to_string(first - 1) +
                     " are missing");
-    if (Sha256Hex(bytes) != s.Text(3) ||
+    if (report::Sha256Hex(bytes) != s.Text(3) ||
         bytes.size() != static_cast<std::size_t>(count) * report::kPackedSampleBytes)
       throw damaged("the chunk from sample " + std::to_string(first) +
                     " does not match its checksum");
@@ -485,7 +483,7 @@ void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
   PutJobFilesLocked(id, results.files);
   FaultPoint("kill-during-result-write");  // the series is written, the job not yet done
   m_db->Prepare("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?")
-      .Bind(StateName(state), error, UtcNow(), id)
+      .Bind(StateName(state), error, report::UtcNow(), id)
       .Run();
   t.Commit();
 }
@@ -578,6 +576,15 @@ std::vector<ImpactSample> Store::ReadResultSeries(std::int64_t id, std::int64_t 
   return {all.begin() + begin, all.begin() + end};
 }
 
+std::int64_t Store::ResultSeriesLength(std::int64_t id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT sample_count FROM results WHERE job_id = ?");
+  s.Bind(id);
+  const std::int64_t count = s.Step() ? s.Int(0) : 0;
+  s.Run();
+  return count;
+}
+
 std::vector<SweepJobResult> Store::SweepResults(std::int64_t sweep_id) {
   std::lock_guard lock(m_mutex);
   Statement& s = m_db->Prepare(
@@ -606,7 +613,7 @@ InterruptedJobs Store::RequeueInterrupted(const std::string& reason) {
                                ", crashes FROM jobs WHERE state IN ('preparing_bed', 'running')");
   s.Bind();
   std::vector<std::pair<JobRecord, std::int64_t>> found;
-  while (s.Step()) found.push_back({ReadJob(s), s.Int(20)});
+  while (s.Step()) found.push_back({ReadJob(s), s.Int(kJobColumnCount)});
   InterruptedJobs out;
   for (const auto& [job, crashes] : found) {
     // The second time: this job may be what brought the daemon down; running it again could
@@ -621,7 +628,9 @@ InterruptedJobs Store::RequeueInterrupted(const std::string& reason) {
         .Run();
     m_db->Prepare("DELETE FROM series_chunks WHERE job_id = ?").Bind(job.id).Run();
     if (poison) {
-      m_db->Prepare("UPDATE jobs SET finished_at = ? WHERE id = ?").Bind(UtcNow(), job.id).Run();
+      m_db->Prepare("UPDATE jobs SET finished_at = ? WHERE id = ?")
+          .Bind(report::UtcNow(), job.id)
+          .Run();
       m_db->Prepare(
               "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series) "
               "VALUES (?, '', 0, zeroblob(0))")
@@ -629,7 +638,7 @@ InterruptedJobs Store::RequeueInterrupted(const std::string& reason) {
           .Run();
     }
     m_db->Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")
-        .Bind(job.id, UtcNow(), note)
+        .Bind(job.id, report::UtcNow(), note)
         .Run();
     (poison ? out.poisoned : out.requeued).push_back(job);
   }
@@ -641,7 +650,7 @@ void Store::RecordBedPreparation(const std::string& hash, const std::string& sta
                                  std::int64_t job_id) {
   std::lock_guard lock(m_mutex);
   m_db->Prepare("INSERT INTO bed_preparations (hash, stage, job_id, at) VALUES (?, ?, ?, ?)")
-      .Bind(hash, stage, job_id, UtcNow())
+      .Bind(hash, stage, job_id, report::UtcNow())
       .Run();
 }
 
@@ -735,14 +744,14 @@ void Store::PutSlurmBed(const SlurmBedJob& bed) {
   m_db->Prepare(
           "INSERT OR REPLACE INTO slurm_beds (hash, stage, slurm_id, state, error, job_id, "
           "submitted_at) VALUES (?, ?, ?, ?, ?, ?, ?)")
-      .Bind(bed.hash, bed.stage, bed.slurm_id, bed.state, bed.error, bed.job_id, UtcNow())
+      .Bind(bed.hash, bed.stage, bed.slurm_id, bed.state, bed.error, bed.job_id, report::UtcNow())
       .Run();
 }
 
 void Store::LogEvent(std::int64_t job_id, const std::string& message) {
   std::lock_guard lock(m_mutex);
   m_db->Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")
-      .Bind(job_id, UtcNow(), message)
+      .Bind(job_id, report::UtcNow(), message)
       .Run();
 }
 
@@ -752,7 +761,7 @@ void Store::SetUser(const std::string& name, const std::string& token_hash, bool
           "INSERT INTO users (name, token_hash, admin, created_at) VALUES (?, ?, ?, ?) "
           "ON CONFLICT(name) DO UPDATE SET token_hash = excluded.token_hash, "
           "admin = excluded.admin")
-      .Bind(name, token_hash, admin ? 1 : 0, UtcNow())
+      .Bind(name, token_hash, admin ? 1 : 0, report::UtcNow())
       .Run();
 }
 
@@ -817,7 +826,7 @@ void Store::Beds::Save(const PreparedBed& bed) {
           "INSERT OR REPLACE INTO beds (hash, stage, beads, data, created_at) "
           "VALUES (?, ?, ?, ?, ?)")
       .Bind(bed.hash, bed.stage, static_cast<std::int64_t>(bed.beads.size()),
-            Statement::Bytes{bytes}, UtcNow())
+            Statement::Bytes{bytes}, report::UtcNow())
       .Run();
 }
 

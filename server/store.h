@@ -49,6 +49,7 @@ struct JobRecord {
   std::string code_version;
   std::int64_t slurm_id = 0;  ///< the cluster job running it (the Slurm executor); 0: none
   bool cancel_requested = false;
+  std::string command_line;  ///< what asked for it, as the client sent it ("" if it did not)
 };
 
 /// A cluster job preparing a bed (the Slurm executor): one per bed hash, shared by every job
@@ -123,9 +124,6 @@ struct User {
   bool admin = false;
 };
 
-/// The current UTC time as "2026-11-22T05:50:00Z".
-std::string UtcNow();
-
 class StoreError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -174,6 +172,8 @@ class Store {
   /// Up to `max` samples of a finished job's series from index `from` on, stored in chunks or
   /// (by a daemon before chunks) whole; throws StoreError for a damaged series.
   std::vector<ImpactSample> ReadResultSeries(std::int64_t id, std::int64_t from, std::int64_t max);
+  /// How many samples a finished job's series has (0 without results).
+  std::int64_t ResultSeriesLength(std::int64_t id);
   /// The jobs of a sweep in sweep order, with their summaries.
   std::vector<SweepJobResult> SweepResults(std::int64_t sweep_id);
   /// Stores result files of a running job (a snapshot as it is taken); a job's files are

@@ -197,6 +197,7 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     return;
   }
   const auto started = std::chrono::steady_clock::now();
+  const std::string started_at = report::UtcNow();
   const bool needs_bed = !job->bed_hash.empty() && !m_beds.Contains(job->bed_hash);
   const JobState first_state = needs_bed ? JobState::kPreparingBed : JobState::kRunning;
   m_store.MarkStarted(id, first_state, m_options.host, kVersion);
@@ -227,9 +228,12 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     };
     std::vector<ImpactSample> bare;  // the bare-plate impact run for lambda: a few hundred
     control.on_reference_sample = [&](const ImpactSample& s) { bare.push_back(s); };
+    report::ParaViewFiles paraview(scene.cylinder.radius_m, scene.beads.diameter_max_m);
     control.on_snapshot = [&](const ImpactSnapshot& snap) {
-      m_store.PutJobFiles(
-          id, report::SnapshotFiles(snap, scene.cylinder.radius_m, scene.beads.diameter_max_m));
+      m_store.PutJobFiles(id, paraview.AddSnapshot(snap));
+    };
+    control.on_frame = [&](const ImpactSnapshot& frame) {
+      m_store.PutJobFiles(id, paraview.AddFrame(frame));
     };
     control.progress_every_steps = kProgressEverySteps;
     control.cancel = &live->cancel;
@@ -237,7 +241,9 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     control.beds = &m_beds;
     control.bed_request = &bed_request;
     const ImpactSummary summary = RunImpact(std::move(world), scene, control);
-    const std::string summary_json = report::SummaryToJson(summary, scene).dump(2) + "\n";
+    const report::RunContext context{job->command_line, m_options.host, started_at,
+                                     report::UtcNow(), live->threads.load()};
+    const std::string summary_json = report::SummaryToJson(summary, scene, context).dump(2) + "\n";
     JobResults results = Rest(*live, summary_json);
     if (!bare.empty())
       results.files.push_back({"plate_force_bare.csv", report::SamplesToCsv(bare)});

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The layers' rule, checked on the sources: engine/core includes nothing of engine/study, the
 # service or the client; engine/study nothing of the service or the client; neither needs
-# gRPC, Protobuf, SQLite or a TOML parser in core.
+# gRPC, Protobuf, SQLite or a TOML parser in core, nor OpenSSL (which engine/study uses for
+# SHA-256 and base64).
 # Usage: dependency_check.sh SOURCE_DIR
 set -eu
 root=$1
@@ -27,7 +28,10 @@ forbidden engine/core "dembuf/study/" "includes engine/study"
 forbidden engine/core "toml|nlohmann/" "parses files (that is engine/study's work)"
 forbidden engine/core "$service" "needs the service's libraries"
 forbidden engine/core "($own)\"" "includes a header of server/ or client/"
-forbidden engine/study "$service" "needs the service's libraries"
+# OpenSSL's libcrypto is no service library to engine/study: its SHA-256 and base64 serve the
+# results' provenance and VTK files of local runs too. The core needs it not.
+forbidden engine/core "openssl/" "needs OpenSSL"
+forbidden engine/study "${service%|openssl/}" "needs the service's libraries"
 forbidden engine/study "($own)\"" "includes a header of server/ or client/"
 
 # The core's names live in dembuf::dem (and its detail), so that code above says where they

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "auth.h"
-#include "digest.h"
+#include "dembuf/study/provenance.h"
 
 namespace dembuf::server::web {
 
@@ -18,13 +18,13 @@ std::string Sessions::Open(const std::string& token_hash) {
         [](const auto& a, const auto& b) { return a.second.expires < b.second.expires; });
     m_sessions.erase(oldest);
   }
-  m_sessions[Sha256Hex(id)] = {token_hash, now + m_lifetime};
+  m_sessions[report::Sha256Hex(id)] = {token_hash, now + m_lifetime};
   return id;
 }
 
 std::optional<std::string> Sessions::TokenHash(const std::string& session_id) {
   std::lock_guard lock(m_mutex);
-  const auto found = m_sessions.find(Sha256Hex(session_id));
+  const auto found = m_sessions.find(report::Sha256Hex(session_id));
   if (found == m_sessions.end()) return std::nullopt;
   if (found->second.expires <= Clock::now()) {
     m_sessions.erase(found);
@@ -35,7 +35,7 @@ std::optional<std::string> Sessions::TokenHash(const std::string& session_id) {
 
 void Sessions::Close(const std::string& session_id) {
   std::lock_guard lock(m_mutex);
-  m_sessions.erase(Sha256Hex(session_id));
+  m_sessions.erase(report::Sha256Hex(session_id));
 }
 
 }  // namespace dembuf::server::web

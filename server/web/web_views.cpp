@@ -50,6 +50,7 @@ nlohmann::json JobJson(const JobRecord& job, const JobProgress& progress,
           {"finished_at", job.finished_at},
           {"host", job.host},
           {"code_version", job.code_version},
+          {"command_line", job.command_line},
           {"progress", ProgressObject(progress)},
           {"peak_plate_force_N", peak},
           {"P_N", p_n}};

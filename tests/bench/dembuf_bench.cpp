@@ -42,6 +42,7 @@
 #include <thread>
 
 #include "dembuf/study/bed.h"
+#include "dembuf/study/bed_export.h"
 #include "dembuf/study/impact.h"
 #include "dembuf/study/presets.h"
 #include "dembuf/study/scene_fields.h"
@@ -178,35 +179,6 @@ Timing Best(int repeats, const std::function<Timing()>& run) {
 
 bool LammpsAvailable() {
   return std::system("command -v lmp > /dev/null 2>&1") == 0;
-}
-
-// The bed and projectile as a LAMMPS data file (atom_style sphere: id type diameter density
-// x y z), with velocities.
-void WriteLammpsData(const World& world, const Scene& scene, const fs::path& path) {
-  std::ofstream out(path);
-  out.precision(17);
-  const double r = scene.cylinder.radius_m + 0.005;
-  const dem::RigidSphere& p = *world.projectile;
-  out << "dembuf benchmark bed\n\n"
-      << world.beads.size() + 1 << " atoms\n2 atom types\n\n"
-      << -r << " " << r << " xlo xhi\n"
-      << -r << " " << r << " ylo yhi\n"
-      << -0.001 << " " << p.position.z() + p.radius + 0.01 << " zlo zhi\n\nAtoms # sphere\n\n";
-  const dem::ParticleState& b = world.beads;
-  for (std::size_t i = 0; i < b.size(); ++i) {
-    const double d = 2.0 * b.radius[i];
-    const double density = b.mass[i] / (std::numbers::pi / 6.0 * d * d * d);
-    out << i + 1 << " 1 " << d << " " << density << " " << b.position[i].x() << " "
-        << b.position[i].y() << " " << b.position[i].z() << "\n";
-  }
-  const double dp = 2.0 * p.radius;
-  out << b.size() + 1 << " 2 " << dp << " " << p.mass / (std::numbers::pi / 6.0 * dp * dp * dp)
-      << " " << p.position.x() << " " << p.position.y() << " " << p.position.z() << "\n";
-  out << "\nVelocities\n\n";
-  for (std::size_t i = 0; i < b.size(); ++i)
-    out << i + 1 << " " << b.velocity[i].x() << " " << b.velocity[i].y() << " " << b.velocity[i].z()
-        << " 0 0 0\n";
-  out << b.size() + 1 << " 0 0 " << p.velocity.z() << " 0 0 0\n";
 }
 
 // Runs LAMMPS on the data file; returns its loop time, or a negative number on failure.
@@ -386,7 +358,10 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
   const fs::path work = fs::temp_directory_path() / ("dembuf-bench-" + std::to_string(getpid()));
   fs::create_directories(work);
   const fs::path lammps_input = fs::path(DEMBUF_BENCH_DIR) / "lammps" / "in.impact";
-  if (lammps) WriteLammpsData(world, scene, work / "bed.data");
+  if (lammps) {
+    std::ofstream(work / "bed.data") << ExportBed(world.beads, scene, BedFormat::kLammps,
+                                                  "dembuf benchmark bed", world.projectile);
+  }
   Timing ours, theirs;
   for (int r = 0; r < repeats; ++r) {
     const Timing t = TimeSteps(world, opt.steps, 1);

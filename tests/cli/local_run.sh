@@ -42,6 +42,34 @@ grep -Eq '^impact: +[0-9]{1,2}%, [0-9.]+ of [0-9.]+ ms \(at most\), [0-9]+ steps
 tail -1 "$work/progress.log" | grep -Eq '^impact: ended at [0-9.]+ ms, [0-9]+ steps in [0-9]+:[0-9]{2}$' ||
   { cat "$work/progress.log"; fail "no last progress line"; }
 
+# Provenance: the run's folder holds its resolved scene (which reads back, and whose SHA-256
+# the summary gives), and summary.json says what built the program, what it ran on (the
+# bed's SHA-256: the same for a second run on the cached bed), where, when, on how many
+# threads, and the command, which the shell reads back into the same arguments.
+"$dembuf" scene --print "$work/logged/scene.toml" | cmp -s - "$work/logged/scene.toml" ||
+  fail "scene.toml does not read back"
+odd_out="$work/it's a "$'folder\twith a tab'
+"$dembuf" run "${small_bed[@]}" --bed-cache "$work/beds" --no-plots --out "$odd_out" \
+  > /dev/null 2>&1 || fail "second run on the cached bed"
+python3 - "$work/logged" "$odd_out" "$(hostname)" <<'PY' || fail "provenance"
+import hashlib, json, re, sys
+first, second, host = sys.argv[1:]
+p = json.load(open(f"{first}/summary.json"))["provenance"]
+q = json.load(open(f"{second}/summary.json"))["provenance"]
+scene = open(f"{first}/scene.toml", "rb").read()
+assert p["scene_sha256"] == hashlib.sha256(scene).hexdigest(), p
+assert re.fullmatch(r"[0-9a-f]{64}", p["bed_sha256"]) and p["bed_sha256"] == q["bed_sha256"], (p, q)
+assert re.fullmatch(r"([0-9a-f]{40}(-dirty)?|unknown)", p["build_commit"]), p
+assert p["build_type"] and p["dembuf_version"] and p["threads"] >= 1 and p["seed"] == 1, p
+assert p["host"] == host, (p["host"], host)
+iso = r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ"
+assert re.fullmatch(iso, p["started_at"]) and p["started_at"] <= p["finished_at"], p
+assert "--out " in p["command_line"] and "time.alpha=0.05" in p["command_line"], p
+open(f"{second}/../command_line", "w").write(q["command_line"])
+PY
+eval "words=($(cat "$work/command_line"))"
+[ "${words[-1]}" = "$odd_out" ] && [ "${words[1]}" = run ] || fail "command line does not read back: ${words[*]}"
+
 # A second run into the same folder is refused unless --force.
 if "$dembuf" run "${e2[@]}" --out "$work/run" 2>/dev/null; then fail "overwrote without --force"; fi
 "$dembuf" run "${e2[@]}" --out "$work/run" --force > /dev/null || fail "--force"

@@ -48,10 +48,19 @@ if [ "${DEMBUF_TEST_SKIP_LOCAL:-0}" != 1 ]; then
   "$dembuf" run "$work/small.toml" --set bed.seed=3 --set time.end_s=0.04 --no-bed-cache \
     --out "$work/local" > /dev/null 2>&1
   cmp "$work/local/plate_force.csv" "$work/fetched/plate_force.csv" || fail "series differ from local"
-  # Identical summaries but for the wall time (summary.json has one field per line).
-  grep -v '"wall_time_s"' "$work/local/summary.json" > "$work/local.summary"
-  grep -v '"wall_time_s"' "$work/fetched/summary.json" > "$work/fetched.summary"
-  cmp -s "$work/local.summary" "$work/fetched.summary" || fail "summaries differ from local"
+  # Identical summaries but for the wall time and where, when and how each ran; the scene's
+  # and the bed's SHA-256 are the same.
+  python3 - "$work/local/summary.json" "$work/fetched/summary.json" <<'PY' ||
+import json, sys
+local, fetched = (json.load(open(path)) for path in sys.argv[1:])
+for key in ("scene_sha256", "bed_sha256", "bed_hash", "seed"):
+    assert local["provenance"][key] == fetched["provenance"][key], key
+for summary in (local, fetched):
+    for key in ("wall_time_s", "provenance"):
+        summary.pop(key)
+assert local == fetched
+PY
+    fail "summaries differ from local"
 fi
 
 # --- E5 on the service: the snapshots are stored with the job and fetched with it -------------
@@ -63,12 +72,14 @@ wait_state "$e5" "done failed cancelled" 300
 "$dembuf" status "$e5" | grep -q "^result files: [1-9]" || fail "status shows no result files"
 "$dembuf" fetch "$e5" --out "$work/e5-fetched" --no-plots > /dev/null || fail "fetch of E5"
 [ -f "$work/e5-fetched/snapshots/peak/contacts.csv" ] || fail "no peak snapshot fetched"
-[ -f "$work/e5-fetched/snapshots/after_contact_0.5ms/network.vtk" ] || fail "no 0.5 ms snapshot"
+[ -f "$work/e5-fetched/snapshots/after_contact_0.5ms/beads.vtp" ] || fail "no 0.5 ms snapshot"
+[ -f "$work/e5-fetched/snapshots.pvd" ] || fail "no snapshots.pvd fetched"
 if [ "${DEMBUF_TEST_SKIP_LOCAL:-0}" != 1 ]; then
   "$dembuf" run --preset e5 "$work/small.toml" --set bed.seed=3 --no-bed-cache --no-plots \
     --out "$work/e5-local" > /dev/null 2>&1 || fail "local E5"
   diff -r "$work/e5-local/snapshots" "$work/e5-fetched/snapshots" > "$work/e5.diff" \
     || fail "fetched snapshots differ from a local run's: $(head -5 "$work/e5.diff")"
+  cmp -s "$work/e5-local/snapshots.pvd" "$work/e5-fetched/snapshots.pvd" || fail "snapshots.pvd differs"
 fi
 
 # --- a sweep of 6 jobs on one bed: the bed is prepared once -----------------------------------

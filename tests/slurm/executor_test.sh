@@ -87,6 +87,7 @@ def results(path):
     for job, summary in db.execute("SELECT job_id, summary_json FROM results WHERE job_id <= 3"):
         s = json.loads(summary)
         s.pop("wall_time_s")
+        s.pop("provenance")  # where and when it ran
         # The series' bytes: rows of six doubles, whatever the chunks they were stored in.
         series = b"".join(row[0] for row in db.execute(
             "SELECT data FROM series_chunks WHERE job_id = ? ORDER BY first_index", (job,)))
@@ -99,9 +100,9 @@ assert len(slurm) == 3 and slurm.keys() == threads.keys(), (slurm.keys(), thread
 for job in slurm:
     assert slurm[job][0] == threads[job][0], f"job {job}: summaries differ"
     assert slurm[job][1] == threads[job][1] and slurm[job][1], f"job {job}: series differ"
-    # The snapshot's six files and the bare-plate series run for lambda.
+    # The snapshot's seven files, its snapshots.pvd and the bare-plate series run for lambda.
     paths = [path for path, _ in slurm[job][2]]
-    assert slurm[job][2] == threads[job][2] and len(paths) == 7 and \
+    assert slurm[job][2] == threads[job][2] and len(paths) == 9 and \
         "plate_force_bare.csv" in paths, f"job {job}: result files {paths}"
 print("3 jobs: summaries, series, snapshot and bare-plate files identical;",
       sum(len(v[1]) for v in slurm.values()) // 48, "samples compared")

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "dembuf/study/bed.h"
+#include "dembuf/study/provenance.h"
 
 namespace dembuf {
 
@@ -89,6 +90,13 @@ std::string SerializeBed(const PreparedBed& bed) {
   const std::uint64_t check = sum.value();
   out.write(reinterpret_cast<const char*>(&check), sizeof check);
   return std::move(out).str();
+}
+
+std::string BedContentSha256(const PreparedBed& bed) {
+  const std::string bytes = SerializeBed(bed);
+  constexpr std::string_view kDataLine = "\ndata\n";
+  const std::size_t data = bytes.find(kDataLine);
+  return report::Sha256Hex(std::string_view(bytes).substr(data + kDataLine.size()));
 }
 
 PreparedBed ParseBed(const std::string& bytes, const std::string& name) {

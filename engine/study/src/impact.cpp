@@ -62,12 +62,13 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
     BedCache private_cache;
     PreparedBed bed =
         GetBed(scene, cache ? *cache : private_cache, request ? *request : BedRequest{});
+    const std::string sha256 = BedContentSha256(bed);
     world.beads = std::move(bed.beads);
     world.history = std::move(bed.history);
     world.bed_surface_m = bed.surface_m;
-    world.bed = BedSummary{bed.hash,          bed.surface_m,      bed.solid_fraction,
-                           bed.plate_force_N, bed.wall_force_z_N, bed.weight_N,
-                           bed.note};
+    world.bed = BedSummary{
+        bed.hash,           sha256,       bed.surface_m, bed.solid_fraction, bed.plate_force_N,
+        bed.wall_force_z_N, bed.weight_N, bed.note};
   }
   double min_radius = 0.5 * scene.beads.diameter_min_m;
   for (double r : world.beads.radius) min_radius = std::min(min_radius, r);
@@ -134,14 +135,18 @@ ImpactSummary RunImpact(const Scene& scene, const RunControl& control) {
 
 namespace {
 
-ImpactSnapshot TakeSnapshot(const dem::Simulation& sim, const std::string& label) {
+ImpactSnapshot TakeSnapshot(const dem::Simulation& sim, const std::string& label,
+                            bool with_contacts = true) {
   ImpactSnapshot snap;
   snap.label = label;
   snap.t_s = sim.time_s();
   snap.positions = sim.beads().position;
   snap.radii = sim.beads().radius;
+  snap.velocities = sim.beads().velocity;
+  snap.forces = sim.beads().force;
+  snap.ids = sim.BeadOrigins();
   snap.projectile = sim.projectile();
-  snap.contacts = sim.Contacts();
+  if (with_contacts) snap.contacts = sim.Contacts();
   return snap;
 }
 
@@ -257,6 +262,20 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
   double rest_since = -1.0;  // when the projectile last became slow
   const double slow_speed = 0.01 * std::max(summary.impact_speed_m_s, 1e-3);
   std::int64_t next_progress = control.progress_every_steps;
+  // Animation frames from the start of the impact on, every output.animation_interval_s.
+  const double frame_interval = scene.output.animation_interval_s;
+  const bool animate = control.on_frame && frame_interval > 0.0;
+  std::int64_t frames = 0;
+  auto frame_due = [&](double t) {
+    return animate && frames < kMaxAnimationFrames && t >= series_start + frames * frame_interval;
+  };
+  auto take_frame = [&] {
+    char label[32];
+    std::snprintf(label, sizeof label, "frame_%05lld", static_cast<long long>(frames));
+    control.on_frame(TakeSnapshot(sim, label, false));
+    ++frames;
+  };
+  if (frame_due(series_start)) take_frame();
   while (true) {
     if (sim.time_s() >= t_limit) {
       summary.end_reason = "reached time.end_s";
@@ -291,6 +310,11 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot].t_s <= t)
       snapshot(TakeSnapshot(sim, snapshot_times[next_snapshot++].label));
     if (sim.steps() == peak_step) snapshot(TakeSnapshot(sim, "peak"));
+    if (frame_due(t)) {
+      take_frame();
+      // A step longer than the interval skips the frames it jumped over.
+      while (frame_due(t)) ++frames;
+    }
     // Every step: a step of a large bed takes milliseconds, a cancel must act within a second.
     if (control.cancel && control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
     if (sim.steps() >= next_progress) {

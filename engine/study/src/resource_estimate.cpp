@@ -11,6 +11,7 @@
 #include "dembuf/study/bed_io.h"
 #include "dembuf/study/errors.h"
 #include "dembuf/study/impact.h"
+#include "dembuf/study/vtk_files.h"
 
 namespace dembuf {
 
@@ -44,6 +45,8 @@ constexpr double kBytesPerSample = 90;
 constexpr double kRunFileBytes = 1e6;
 constexpr double kSnapshotFileBytesPerBead = 750;
 constexpr double kSnapshotFileBytesPerCell = 30;
+// An animation frame: its beads (vtk_files.h) and its line in frames.pvd.
+constexpr double kPvdBytesPerEntry = 100;
 
 // A settled bed's solid fraction is 0.60 to 0.64 (docs/reproduction.md); the upper end
 // counts the beads of a cut bed.
@@ -195,10 +198,16 @@ ResourceEstimate EstimateResources(const Scene& scene) {
                                     scene.output.snapshot_after_contact_s.size() +
                                     (scene.output.snapshot_at_peak ? 1 : 0));
 
+  if (scene.output.animation_interval_s > 0.0)
+    e.animation_frames =
+        std::min(std::floor(duration / scene.output.animation_interval_s) + 1, kMaxAnimationFrames);
+
   const double plate_cells = std::pow(std::ceil(2.0 * scene.cylinder.radius_m / 0.01), 2);
-  e.output_bytes_max = kRunFileBytes + e.samples_max * kBytesPerSample +
-                       e.snapshots * (e.impact_beads * kSnapshotFileBytesPerBead +
-                                      plate_cells * kSnapshotFileBytesPerCell);
+  e.output_bytes_max =
+      kRunFileBytes + e.samples_max * kBytesPerSample +
+      e.snapshots *
+          (e.impact_beads * kSnapshotFileBytesPerBead + plate_cells * kSnapshotFileBytesPerCell) +
+      e.animation_frames * ((e.impact_beads + 1) * report::kVtpBytesPerBead + kPvdBytesPerEntry);
   // The bare-plate impact's samples (plate_force_bare.csv), over one impact window at most.
   if (e.impact_beads > 0 && p.enabled)
     e.output_bytes_max +=
@@ -217,7 +226,7 @@ ResourceEstimate EstimateResources(const Scene& scene) {
       e.impact_beads * kSimulationBytesPerBead +
       (scene.output.snapshot_at_peak ? e.impact_beads * kCachedBytesPerBead : 0.0) +
       window_steps * kSeriesBytesPerStep +
-      (e.snapshots > 0 ? e.impact_beads * kSnapshotBytesPerBead : 0.0);
+      (e.snapshots + e.animation_frames > 0 ? e.impact_beads * kSnapshotBytesPerBead : 0.0);
   e.memory_bytes_max = kProcessBytes + std::max(settling, impact) + cached;
   return e;
 }
@@ -260,13 +269,18 @@ void CheckResources(const ResourceEstimate& e, const ResourceLimits& limits, con
                         "the run would write up to " + Short(e.samples_max) + " force samples; " +
                             who + " limit is " + Short(limits.samples) +
                             " per run: raise the interval or shorten the run");
-  if (over(e.output_bytes_max, limits.output_bytes))
-    throw ResourceError(
-        e.snapshots > 0 && e.samples_max * kBytesPerSample < 0.5 * e.output_bytes_max
-            ? "output.snapshot_times_s"
-            : "time.output_interval_s",
-        "the run would write up to " + HumanBytes(e.output_bytes_max) + "; " + who + " limit is " +
-            HumanBytes(limits.output_bytes) + ": fewer snapshots or samples");
+  if (over(e.output_bytes_max, limits.output_bytes)) {
+    // The field of the largest part of the files.
+    const double samples = e.samples_max * kBytesPerSample;
+    const double frames = e.animation_frames * (e.impact_beads + 1) * report::kVtpBytesPerBead;
+    const double snapshots = e.snapshots > 0 ? e.output_bytes_max - samples - frames : 0.0;
+    const char* field = frames >= std::max(samples, snapshots) ? "output.animation_interval_s"
+                        : snapshots > samples                  ? "output.snapshot_times_s"
+                                                               : "time.output_interval_s";
+    throw ResourceError(field, "the run would write up to " + HumanBytes(e.output_bytes_max) +
+                                   "; " + who + " limit is " + HumanBytes(limits.output_bytes) +
+                                   ": fewer snapshots, frames or samples");
+  }
   if (over(e.memory_bytes_max, limits.memory_bytes))
     throw ResourceError(bed ? "bed.thickness_m" : "time.impact_window_s",
                         "the run would need up to " + HumanBytes(e.memory_bytes_max) +
@@ -295,6 +309,7 @@ std::string DescribeEstimate(const ResourceEstimate& e, const std::vector<std::s
       << " bead-steps\n";
   out << "output: at most " << Short(e.samples_max) << " force samples";
   if (e.snapshots > 0) out << ", " << Short(e.snapshots) << " snapshots";
+  if (e.animation_frames > 0) out << ", " << Short(e.animation_frames) << " animation frames";
   out << ", " << HumanBytes(e.output_bytes_max) << " of files\n";
   out << "memory: at most " << HumanBytes(e.memory_bytes_max) << "\n";
   out << "predicted wall time: about " << HumanSeconds(e.PredictedSeconds(threads, cached))

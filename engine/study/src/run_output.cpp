@@ -28,7 +28,7 @@ nlohmann::json SceneToJson(const Scene& scene) {
   return out;
 }
 
-nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
+nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const RunContext& run) {
   nlohmann::json curve = nlohmann::json::array();
   for (const auto& point : s.damping.restitution_curve)
     curve.push_back({{"speed_m_s", point.speed_m_s}, {"restitution", point.restitution}});
@@ -55,6 +55,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene) {
       {"end_reason", s.end_reason},
       {"scene", SceneToJson(scene)},
       {"warnings", SceneWarnings(scene)},
+      {"provenance", ProvenanceJson(run, scene, s.bed)},
   };
   // The paper's measurements (docs/model.md section 6).
   const PeakAnalysis& pk = s.peaks;
@@ -216,6 +217,9 @@ const std::vector<std::string>& RunOutputNames() {
                                                  "plate_force_bare.csv",
                                                  "plate_force.gp",
                                                  "snapshots",
+                                                 "snapshots.pvd",
+                                                 "frames",
+                                                 "frames.pvd",
                                                  "scene.toml",
                                                  "job.json"};
   return names;

@@ -168,6 +168,10 @@ const std::vector<SceneField>& FieldTable() {
       {"output.chain_slab_width_m", "m",
        "width of the vertical slice through the axis drawn in force-chain pictures",
        DEMBUF_FIELD(output.chain_slab_width_m), 0.0, 10.0, true},
+      {"output.animation_interval_s", "s",
+       "spacing of animation frames of the beads during the impact (frames/, for ParaView); "
+       "0 = none",
+       DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
   };
   return table;
 }
@@ -566,6 +570,16 @@ void ValidateScene(const Scene& scene) {
                FormatShort(plan.column_top_m) +
                " m high, above cylinder.height_m = " + FormatShort(scene.cylinder.height_m) +
                " (raise the wall, or lower bed.source_thickness_m or bed.thickness_m)");
+  }
+  if (const double interval = scene.output.animation_interval_s; interval > 0.0) {
+    // The impact lasts until time.end_s, or at most the impact window after the first contact.
+    const double impact_s = scene.time.end_s > 0.0 ? scene.time.end_s : scene.time.impact_window_s;
+    if (impact_s / interval + 1 > kMaxAnimationFrames)
+      fail("output.animation_interval_s",
+           FormatShort(interval) + " s gives " + FormatShort(std::floor(impact_s / interval) + 1) +
+               " frames over the impact's " + FormatShort(impact_s) + " s; at most " +
+               FormatShort(kMaxAnimationFrames) + " (at least " +
+               FormatShort(impact_s / (kMaxAnimationFrames - 1)) + " s)");
   }
   if (!scene.bed.import.empty() && !IsRegularFile(scene.bed.import))
     fail("bed.import", "file \"" + scene.bed.import + "\" does not exist or is not a file");

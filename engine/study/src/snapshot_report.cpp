@@ -51,37 +51,6 @@ std::string Metadata(const ImpactSnapshot& s) {
   return j.dump(2) + "\n";
 }
 
-bool IsBodyPair(const dem::ContactSnapshot& c) {
-  return dem::IsBead(c.b);
-}
-
-std::string Vtk(const ImpactSnapshot& s) {
-  std::ostringstream out = TextFile();
-  const std::size_t n = s.positions.size();
-  const std::size_t points = n + (s.projectile ? 1 : 0);
-  out << "# vtk DataFile Version 3.0\ndembuf force network " << s.label << "\nASCII\n"
-      << "DATASET POLYDATA\nPOINTS " << points << " double\n";
-  for (const dem::Vec3& x : s.positions) out << x.x() << " " << x.y() << " " << x.z() << "\n";
-  if (s.projectile)
-    out << s.projectile->position.x() << " " << s.projectile->position.y() << " "
-        << s.projectile->position.z() << "\n";
-  std::size_t lines = 0;
-  for (const auto& c : s.contacts) lines += IsBodyPair(c);
-  out << "LINES " << lines << " " << 3 * lines << "\n";
-  for (const auto& c : s.contacts) {
-    if (!IsBodyPair(c)) continue;
-    const std::size_t a = c.a == dem::kProjectile ? n : static_cast<std::size_t>(c.a);
-    out << "2 " << a << " " << c.b << "\n";
-  }
-  out << "CELL_DATA " << lines << "\nSCALARS normal_force_N double 1\nLOOKUP_TABLE default\n";
-  for (const auto& c : s.contacts)
-    if (IsBodyPair(c)) out << c.normal_N << "\n";
-  out << "POINT_DATA " << points << "\nSCALARS radius_m double 1\nLOOKUP_TABLE default\n";
-  for (double r : s.radii) out << r << "\n";
-  if (s.projectile) out << s.projectile->radius << "\n";
-  return out.str();
-}
-
 std::string Contacts(const ImpactSnapshot& s) {
   std::ostringstream out = TextFile();
   out << "a,b,x_m,y_m,z_m,fx_N,fy_N,fz_N,normal_N,ax_m,ay_m,az_m,bx_m,by_m,bz_m\n";
@@ -173,9 +142,25 @@ std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinde
   const std::string folder = "snapshots/" + SafeLabel(snap.label) + "/";
   auto [radial, map] = PlateLoad(snap, cylinder_radius_m, bead_diameter_m);
   return {
-      {folder + "snapshot.json", Metadata(snap)}, {folder + "network.vtk", Vtk(snap)},
-      {folder + "contacts.csv", Contacts(snap)},  {folder + "plate_radial.csv", std::move(radial)},
-      {folder + "plate_map.csv", std::move(map)}, {folder + "force_pdf.csv", ForcePdf(snap)}};
+      {folder + "snapshot.json", Metadata(snap)},       {folder + "beads.vtp", BeadsVtp(snap)},
+      {folder + "contacts.vtp", ContactsVtp(snap)},     {folder + "contacts.csv", Contacts(snap)},
+      {folder + "plate_radial.csv", std::move(radial)}, {folder + "plate_map.csv", std::move(map)},
+      {folder + "force_pdf.csv", ForcePdf(snap)}};
+}
+
+std::vector<ResultFile> ParaViewFiles::AddSnapshot(const ImpactSnapshot& snap) {
+  std::vector<ResultFile> files = SnapshotFiles(snap, m_cylinder_radius_m, m_bead_diameter_m);
+  const std::string folder = "snapshots/" + SafeLabel(snap.label) + "/";
+  m_snapshots.push_back({snap.t_s, 0, folder + "beads.vtp"});
+  m_snapshots.push_back({snap.t_s, 1, folder + "contacts.vtp"});
+  files.push_back({"snapshots.pvd", Pvd(m_snapshots)});
+  return files;
+}
+
+std::vector<ResultFile> ParaViewFiles::AddFrame(const ImpactSnapshot& frame) {
+  const std::string path = "frames/" + SafeLabel(frame.label) + ".vtp";
+  m_frames.push_back({frame.t_s, 0, path});
+  return {{path, BeadsVtp(frame)}, {"frames.pvd", Pvd(m_frames)}};
 }
 
 bool IsSafeResultPath(std::string_view path) {

@@ -136,6 +136,10 @@ class BedCache {
 std::string SerializeBed(const PreparedBed& bed);
 PreparedBed ParseBed(const std::string& bytes, const std::string& name);
 
+/// The SHA-256 of a bed's contents: the data of its bytes (beads and springs, exact), not the
+/// header (which holds how long it took to make).
+std::string BedContentSha256(const PreparedBed& bed);
+
 /// Writes / reads one bed file (binary, exact). Load throws std::runtime_error on a damaged
 /// or foreign file.
 void SaveBed(const PreparedBed& bed, const std::filesystem::path& path);

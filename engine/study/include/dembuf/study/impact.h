@@ -29,7 +29,8 @@ ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m);
 
 /// What the run reports of its bed.
 struct BedSummary {
-  std::string hash;
+  std::string hash;             ///< the cache key: of the scene fields that make the bed
+  std::string sha256;           ///< of the bed itself, its beads and springs (BedContentSha256)
   double thickness_m = 0.0;     ///< measured H
   double solid_fraction = 0.0;  ///< measured C0
   double rest_plate_force_N = 0.0;
@@ -78,8 +79,11 @@ struct ImpactSnapshot {
   double t_after_contact_s = std::numeric_limits<double>::quiet_NaN();  ///< NaN: before contact
   std::vector<dem::Vec3> positions;
   std::vector<double> radii;
+  std::vector<dem::Vec3> velocities;
+  std::vector<dem::Vec3> forces;   ///< each bead's contact force (gravity apart)
+  std::vector<std::uint32_t> ids;  ///< each bead's index in the bed (stable from frame to frame)
   std::optional<dem::RigidSphere> projectile;
-  std::vector<dem::ContactSnapshot> contacts;
+  std::vector<dem::ContactSnapshot> contacts;  ///< none in an animation frame
 };
 
 struct ImpactProgress {
@@ -95,6 +99,9 @@ struct RunControl {
   std::int64_t progress_every_steps = 4096;
   const std::atomic<bool>* cancel = nullptr;               ///< checked every step; throws Cancelled
   std::function<void(const ImpactSnapshot&)> on_snapshot;  ///< scene.output snapshots
+  /// Animation frames, every output.animation_interval_s of the impact (the beads' states,
+  /// no contacts), labelled "frame_00000", "frame_00001", ...
+  std::function<void(const ImpactSnapshot&)> on_frame;
   /// Run the same projectile on the bare plate to get Pa0 for the buffer ratio lambda.
   bool compute_reference = true;
   /// The samples of that bare-plate impact, for drawing it beside the bed's.

@@ -33,6 +33,7 @@ struct ResourceEstimate {
   double impact_steps_max = 0.0;      ///< steps from the end of the flight to the end
   double samples_max = 0.0;           ///< force samples written (at most one a step)
   double snapshots = 0.0;             ///< snapshots written
+  double animation_frames = 0.0;      ///< animation frames written (output.animation_interval_s)
   double output_bytes_max = 0.0;      ///< the files of a local run
   double memory_bytes_max = 0.0;      ///< the run's peak memory (the daemon's per job)
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "dembuf/study/impact.h"
+#include "dembuf/study/provenance.h"
 #include "dembuf/study/scene.h"
 
 namespace dembuf::report {
@@ -19,8 +20,9 @@ namespace dembuf::report {
 /// The scene as nested JSON: {"projectile": {"mass_kg": 0.167, ...}, ...}.
 nlohmann::json SceneToJson(const Scene& scene);
 
-/// The summary.json document of a finished run.
-nlohmann::json SummaryToJson(const ImpactSummary& summary, const Scene& scene);
+/// The summary.json document of a finished run, with its provenance (provenance.h).
+nlohmann::json SummaryToJson(const ImpactSummary& summary, const Scene& scene,
+                             const RunContext& run);
 
 /// Streams samples to CSV. Writes to NAME.partial and renames to NAME on Commit(), so that a
 /// file with the final name is always complete.

@@ -118,7 +118,13 @@ struct OutputSpec {
   /// Width of the vertical slice through the axis that force-chain pictures draw (two mean
   /// bead diameters by default: a chain in the slice is one layer of beads deep).
   double chain_slab_width_m = 0.009;
+  /// Spacing of the animation frames of the beads during the impact (frames/*.vtp and
+  /// frames.pvd, for ParaView); 0: none.
+  double animation_interval_s = 0.0;
 };
+
+/// The most animation frames a run writes (output.animation_interval_s).
+inline constexpr double kMaxAnimationFrames = 1000;
 
 struct Scene {
   CylinderSpec cylinder;

@@ -1,13 +1,16 @@
 // Files of a contact-network snapshot, in snapshots/<label>/ of a run's folder:
 //   snapshot.json     when it was taken (simulated time, time after the first contact), counts
-//   network.vtk       beads (points, radius) and bead/projectile contacts (lines, forces), for
-//                     ParaView (legacy VTK polydata)
+//   beads.vtp         beads (vertices with radius, velocity, id, force) and projectile, for
+//                     ParaView (VTK XML, vtk_files.h)
+//   contacts.vtp      bead/projectile contacts (lines between centres, normal force)
 //   contacts.csv      every contact: bodies, contact point, force vector, normal force
 //   plate_radial.csv  plate load by ring of width one bead diameter: force and pressure
 //   plate_map.csv     plate load on a square grid of 1 cm cells
 //   force_pdf.csv     probability density of bead-bead normal forces over their mean
-// They are made in memory, so that a local run writes them to its folder and the daemon
-// stores them with the job; both give the same bytes.
+// snapshots.pvd in the run's folder collects the snapshots' .vtp files with their times.
+// Animation frames (output.animation_interval_s) are frames/frame_NNNNN.vtp, collected by
+// frames.pvd. They are made in memory, so that a local run writes them to its folder and the
+// daemon stores them with the job; both give the same bytes.
 #pragma once
 
 #include <cstdint>
@@ -16,6 +19,7 @@
 #include <vector>
 
 #include "dembuf/study/impact.h"
+#include "dembuf/study/vtk_files.h"
 
 namespace dembuf::report {
 
@@ -28,6 +32,22 @@ struct ResultFile {
 /// The files of one snapshot, under "snapshots/<label>/".
 std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinder_radius_m,
                                       double bead_diameter_m);
+
+/// A run's ParaView files as they come: each snapshot or frame gives its files and the .pvd
+/// collection updated to hold it, so that the folder opens in ParaView at any moment.
+class ParaViewFiles {
+ public:
+  ParaViewFiles(double cylinder_radius_m, double bead_diameter_m)
+      : m_cylinder_radius_m(cylinder_radius_m), m_bead_diameter_m(bead_diameter_m) {}
+  /// SnapshotFiles and snapshots.pvd.
+  std::vector<ResultFile> AddSnapshot(const ImpactSnapshot& snap);
+  /// frames/<label>.vtp and frames.pvd.
+  std::vector<ResultFile> AddFrame(const ImpactSnapshot& frame);
+
+ private:
+  double m_cylinder_radius_m, m_bead_diameter_m;
+  std::vector<PvdEntry> m_snapshots, m_frames;
+};
 
 /// Whether `path` may name a result file: relative, made of folder and file names of letters,
 /// digits, '.', '-' and '_' (none of them "." or ".."), at most kMaxResultPathLength long and

@@ -1,0 +1,296 @@
+"""A connection to a dembufd: the same address, token and TLS settings as the `dembuf` CLI."""
+
+from __future__ import annotations
+
+import getpass
+import os
+import pathlib
+import re
+import sys
+import time
+import warnings
+from typing import Iterator, Mapping, NamedTuple, Sequence
+
+import grpc
+import pandas as pd
+from google.protobuf import json_format
+
+from . import frames
+from .v1 import dembuf_pb2 as pb
+from .v1 import dembuf_pb2_grpc as pb_grpc
+
+_FINAL_STATES = {pb.JOB_STATE_DONE, pb.JOB_STATE_FAILED, pb.JOB_STATE_CANCELLED}
+
+
+class DembufError(Exception):
+    """A refused or failed call: `code` is the gRPC status name ("NOT_FOUND", ...), the
+    message the daemon's reason ("id: no job 99")."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(f"{code}: {message}")
+        self.code = code
+        self.message = message
+
+
+class Sample(NamedTuple):
+    """One written sample of a run, a row of plate_force.csv (SI units)."""
+
+    t_s: float
+    plate_force_N: float
+    wall_force_z_N: float
+    proj_z_m: float
+    proj_vz_m_s: float
+    proj_force_z_N: float
+
+
+def state_name(state: int) -> str:
+    """"done", "preparing_bed", ... as the JSON output and the web API say it."""
+    return pb.JobState.Name(state).removeprefix("JOB_STATE_").lower()
+
+
+_MAX_COMMAND_LINE = 4096  # what the daemon keeps
+
+
+def _shell_word(word: str) -> str:
+    """The word as the CLI writes its own arguments: bare, '...', or $'...' with \\xHH escapes,
+    always ASCII."""
+    if word and re.fullmatch(r"[A-Za-z0-9%+,\-./:=@_]+", word):
+        return word
+    if all(" " <= c <= "~" for c in word):
+        return "'" + word.replace("'", "'\\''") + "'"
+    escaped = "".join(
+        "\\" + chr(b) if chr(b) in "\\'" else chr(b) if 0x20 <= b < 0x7f else f"\\x{b:02x}"
+        for b in word.encode("utf-8", "surrogateescape"))
+    return "$'" + escaped + "'"
+
+
+def command_line() -> str:
+    """This program's command line, sent with jobs as provenance (summary.json keeps it)."""
+    words = [sys.executable or "python3", *sys.argv] if sys.argv and sys.argv[0] else ["python3"]
+    return " ".join(_shell_word(w) for w in words)[:_MAX_COMMAND_LINE]
+
+
+def _message_dict(message) -> dict:
+    return json_format.MessageToDict(message, preserving_proto_field_name=True)
+
+
+def _sample(s: pb.ForceSample) -> Sample:
+    return Sample(s.t_s, s.plate_force_N, s.wall_force_z_N, s.proj_z_m, s.proj_vz_m_s,
+                  s.proj_force_z_N)
+
+
+class Client:
+    """A dembufd. Arguments left out come from $DEMBUF_SERVER (else 127.0.0.1:50051),
+    $DEMBUF_TOKEN and $DEMBUF_TLS_CA; without a token, jobs are filed under `owner`, else
+    $USER, as the CLI does."""
+
+    def __init__(self, address: str | None = None, token: str | None = None,
+                 tls_ca: str | os.PathLike | None = None, owner: str | None = None,
+                 timeout_s: float = 60.0):
+        self.address = address or os.environ.get("DEMBUF_SERVER") or "127.0.0.1:50051"
+        self._token = token or os.environ.get("DEMBUF_TOKEN") or ""
+        tls_ca = tls_ca or os.environ.get("DEMBUF_TLS_CA")
+        self.owner = owner or ("" if self._token else (os.environ.get("USER")
+                                                       or getpass.getuser() or "anonymous"))
+        self.timeout_s = timeout_s
+        if tls_ca:
+            pem = pathlib.Path(tls_ca).read_bytes()
+            self._channel = grpc.secure_channel(self.address, grpc.ssl_channel_credentials(pem))
+        else:
+            self._channel = grpc.insecure_channel(self.address)
+        self._stub = pb_grpc.DembufStub(self._channel)
+
+    # -- plumbing ------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        self._channel.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _metadata(self):
+        return [("authorization", "Bearer " + self._token)] if self._token else None
+
+    def _call(self, method, request, streaming: bool = False):
+        # Streams have no deadline: a watch lasts as long as its job.
+        try:
+            if streaming:
+                return method(request, metadata=self._metadata())
+            return method(request, metadata=self._metadata(), timeout=self.timeout_s)
+        except grpc.RpcError as e:
+            raise DembufError(e.code().name, e.details()) from None
+
+    def _stream(self, method, request):
+        try:
+            yield from method(request, metadata=self._metadata())
+        except grpc.RpcError as e:
+            raise DembufError(e.code().name, e.details()) from None
+
+    # -- submitting ----------------------------------------------------------------------------
+
+    @staticmethod
+    def _scene_spec(preset: str, scene: Mapping | None, toml: str | os.PathLike | None,
+                    set: Sequence[str] | Mapping[str, object] | None,
+                    accuracy: str) -> pb.SceneSpec:
+        spec = pb.SceneSpec(preset=preset, accuracy=accuracy)
+        if toml is not None:
+            # A path to a scene file, or the text of one.
+            text = str(toml)
+            path = pathlib.Path(text) if "\n" not in text and len(text) < 4096 else None
+            spec.scene_toml = path.read_text() if path and path.is_file() else text
+        if scene:
+            try:
+                json_format.ParseDict(dict(scene), spec.scene)
+            except json_format.ParseError as e:
+                raise DembufError("INVALID_ARGUMENT", f"scene: {e}") from None
+        if set:
+            items = set.items() if isinstance(set, Mapping) else (s.split("=", 1) for s in set)
+            spec.set.extend(f"{field}={value}" for field, value in items)
+        return spec
+
+    def submit(self, preset: str = "", scene: Mapping | None = None,
+               toml: str | os.PathLike | None = None,
+               set: Sequence[str] | Mapping[str, object] | None = None, accuracy: str = "",
+               name: str = "") -> int:
+        """Submits one impact; returns its job id. The scene is built as the CLI builds it:
+        the preset, the scene file (`toml`: a path or its text), the accuracy, the fields of
+        `scene` (nested as a scene file: {"bed": {"thickness_m": 0.02}}), then `set`
+        ({"time.end_s": 0.1} or ["time.end_s=0.1"]). Physically odd input comes back as
+        warnings (UserWarning)."""
+        request = pb.SubmitJobRequest(scene=self._scene_spec(preset, scene, toml, set, accuracy),
+                                      name=name, owner=self.owner, command_line=command_line())
+        answer = self._call(self._stub.SubmitJob, request)
+        for warning in answer.warnings:
+            warnings.warn(f"job {answer.job.id}: {warning}", stacklevel=2)
+        return answer.job.id
+
+    def submit_sweep(self, axes: Mapping[str, str | Sequence[object]], seeds: int = 1,
+                     preset: str = "", scene: Mapping | None = None,
+                     toml: str | os.PathLike | None = None,
+                     set: Sequence[str] | Mapping[str, object] | None = None,
+                     accuracy: str = "", name: str = "") -> int:
+        """Submits a sweep; returns its id. `axes` maps a scene field to its values, a list
+        or a "START:STOP:STEP" range (inclusive): {"bed.thickness_m": "0:0.08:0.005"}. Each
+        point runs on bed seeds 1..seeds, its jobs sharing their beds."""
+        request = pb.SubmitSweepRequest(
+            base=self._scene_spec(preset, scene, toml, set, accuracy), seeds=seeds, name=name,
+            owner=self.owner, command_line=command_line())
+        for field, values in axes.items():
+            if isinstance(values, str):
+                request.axes.add(field=field, range=values)
+            else:
+                request.axes.add(field=field, values=[str(v) for v in values])
+        answer = self._call(self._stub.SubmitSweep, request)
+        for warning in answer.warnings:
+            warnings.warn(f"sweep {answer.sweep.id}: {warning}", stacklevel=2)
+        return answer.sweep.id
+
+    def cancel(self, job: int | None = None, sweep: int | None = None) -> int:
+        """Cancels a job or every unfinished job of a sweep; returns how many."""
+        request = pb.CancelRequest(job_id=job or 0, sweep_id=sweep or 0)
+        return self._call(self._stub.Cancel, request).cancelled
+
+    # -- following -----------------------------------------------------------------------------
+
+    def job(self, job: int) -> dict:
+        """The job as the daemon knows it (state, progress, scene, summary, ...), with the
+        proto's field names; `state` as a name ("done")."""
+        message = self._call(self._stub.GetJob, pb.GetJobRequest(id=job))
+        out = _message_dict(message)
+        out["state"] = state_name(message.state)
+        return out
+
+    def jobs(self, sweep: int = 0, owner: str = "", limit: int = 100) -> pd.DataFrame:
+        """Jobs, newest first, one row each: id, name, owner, state, sweep_id, created_at..."""
+        answer = self._call(self._stub.ListJobs,
+                            pb.ListJobsRequest(sweep_id=sweep, owner=owner, limit=limit))
+        rows = [{"id": j.id, "name": j.name, "owner": j.owner, "state": state_name(j.state),
+                 "sweep_id": j.sweep_id, "created_at": j.created_at,
+                 "finished_at": j.finished_at, "error": j.error} for j in answer.jobs]
+        return pd.DataFrame(rows, columns=["id", "name", "owner", "state", "sweep_id",
+                                           "created_at", "finished_at", "error"])
+
+    def watch(self, job: int, from_index: int = 0) -> Iterator[Sample]:
+        """The job's samples: those computed so far, then the live ones as they come, until
+        the job ends. Ask wait() or job() how it ended."""
+        request = pb.WatchJobRequest(id=job, from_index=from_index)
+        for message in self._stream(self._stub.WatchJob, request):
+            for s in message.samples:
+                yield _sample(s)
+
+    def wait(self, job: int, timeout_s: float | None = None, poll_s: float = 0.5) -> str:
+        """Waits for the job to end; returns its final state ("done", "failed",
+        "cancelled"). Raises TimeoutError after timeout_s."""
+        start = time.monotonic()
+        while True:
+            message = self._call(self._stub.GetJob, pb.GetJobRequest(id=job))
+            if message.state in _FINAL_STATES:
+                return state_name(message.state)
+            if timeout_s is not None and time.monotonic() - start > timeout_s:
+                raise TimeoutError(f"job {job} is still {state_name(message.state)} "
+                                   f"after {timeout_s} s")
+            time.sleep(poll_s)
+
+    # -- results -------------------------------------------------------------------------------
+
+    def series(self, job: int) -> pd.DataFrame:
+        """A finished job's F(t): the columns of plate_force.csv, fetched in pieces (a series
+        of any length stays under gRPC's message limit)."""
+        columns: list[list[float]] = [[] for _ in frames.SERIES_COLUMNS]
+        next_index = total = 0
+        for chunk in self._stream(self._stub.FetchSeries, pb.FetchSeriesRequest(id=job)):
+            if chunk.first_index != next_index:
+                raise DembufError("DATA_LOSS", f"job {job}: samples from {chunk.first_index} "
+                                  f"came where {next_index} was due")
+            for s in chunk.samples:
+                for column, value in zip(columns, _sample(s)):
+                    column.append(value)
+            next_index += len(chunk.samples)
+            total = chunk.total
+        if next_index != total:
+            raise DembufError("DATA_LOSS", f"job {job}: {next_index} of {total} samples came")
+        return frames.series_frame(dict(zip(frames.SERIES_COLUMNS, columns)))
+
+    def fetch(self, job: int) -> frames.Run:
+        """A finished job: its series (DataFrame), its summary.json (dict; empty for a job that
+        did not finish well) and the job (dict)."""
+        info = self.job(job)
+        summary = frames.parse_summary(info.get("summary_json", ""), f"job {job} summary_json")
+        return frames.Run(series=self.series(job), summary=summary, job=info)
+
+    def sweep(self, sweep: int) -> pd.DataFrame:
+        """A sweep as sweep.csv has it, one row per job: job (its id), the swept fields,
+        status ("ok", "failed", or the state of an unfinished job), the summary's metrics,
+        error. sweep_points() averages it over the bed seeds."""
+        info = self._call(self._stub.GetSweep, pb.GetSweepRequest(id=sweep))
+        answer = self._call(self._stub.ListJobs,
+                            pb.ListJobsRequest(sweep_id=sweep, limit=info.jobs_total or 100))
+        axes = [axis.field for axis in info.axes]
+        rows = []
+        for j in sorted(answer.jobs, key=lambda j: (j.sweep_index, j.id)):
+            if len(j.sweep_values) != len(axes):
+                raise DembufError("DATA_LOSS", f"job {j.id}: {len(j.sweep_values)} sweep "
+                                  f"values for {len(axes)} axes")
+            # (A listing carries no summaries: each finished job's comes by itself.)
+            summary = {}
+            if j.state == pb.JOB_STATE_DONE:
+                full = self._call(self._stub.GetJob, pb.GetJobRequest(id=j.id))
+                summary = frames.parse_summary(full.summary_json, f"job {j.id} summary_json")
+            status = {pb.JOB_STATE_DONE: "ok", pb.JOB_STATE_FAILED: "failed",
+                      pb.JOB_STATE_CANCELLED: "failed"}.get(j.state, state_name(j.state))
+            rows.append({"job": j.id, **dict(zip(axes, (float(v) for v in j.sweep_values))),
+                         "status": status, **frames.metrics_of(summary), "error": j.error})
+        return pd.DataFrame(rows, columns=["job", *axes, "status", *frames.sweep_metric_names(),
+                                           "error"])
+
+    def server_info(self) -> dict:
+        return _message_dict(self._call(self._stub.ServerInfo, pb.ServerInfoRequest()))
+
+
+def connect(address: str | None = None, token: str | None = None,
+            tls_ca: str | os.PathLike | None = None, owner: str | None = None) -> Client:
+    """A Client (see there for the defaults from the environment)."""
+    return Client(address, token, tls_ca, owner)

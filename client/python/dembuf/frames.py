@@ -1,0 +1,123 @@
+"""Results as pandas objects, from the daemon or from the folders `dembuf run` and
+`dembuf sweep` write (and `dembuf fetch` fills)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import pathlib
+from dataclasses import dataclass, field
+
+import pandas as pd
+
+# The columns of plate_force.csv, in order.
+SERIES_COLUMNS = ["t_s", "plate_force_N", "wall_force_z_N", "proj_z_m", "proj_vz_m_s",
+                  "proj_force_z_N"]
+
+# The summary fields sweep.csv tabulates, in its column order (the engine's SweepMetricNames;
+# the Python tests compare them with a sweep.csv header).
+_SWEEP_METRICS = ["P_N", "Pa_N", "Pb_N", "lambda", "crater_depth_m", "bed_thickness_m", "C0",
+                  "dS_m", "dt_peaks_s", "load_duration_s", "peak_plate_force_N",
+                  "peak_plate_force_time_s", "reference_peak_N", "first_contact_time_s",
+                  "max_overlap_ratio", "beads", "steps", "wall_time_s"]
+
+# Bounds on what is read from a folder or an answer: a result is data, not trusted.
+_MAX_SUMMARY_BYTES = 16 << 20
+
+
+def sweep_metric_names() -> list[str]:
+    return list(_SWEEP_METRICS)
+
+
+@dataclass
+class Run:
+    """One impact run: F(t) and the rest of the written samples, the summary.json (P, Pa,
+    Pb, lambda, crater depth, ...), and, fetched from a daemon, the job."""
+
+    series: pd.DataFrame
+    summary: dict
+    job: dict = field(default_factory=dict)
+    folder: pathlib.Path | None = None
+
+
+def series_frame(columns: dict) -> pd.DataFrame:
+    """A frame of the series columns; a scene without a projectile has NaN in its columns."""
+    return pd.DataFrame({name: pd.Series(columns[name], dtype="float64")
+                         for name in SERIES_COLUMNS})
+
+
+def parse_summary(text: str, what: str) -> dict:
+    if not text:
+        return {}
+    if len(text) > _MAX_SUMMARY_BYTES:
+        raise ValueError(f"{what}: {len(text)} bytes, more than {_MAX_SUMMARY_BYTES}")
+    summary = json.loads(text)
+    if not isinstance(summary, dict):
+        raise ValueError(f"{what}: not a JSON object")
+    return summary
+
+
+def metrics_of(summary: dict) -> dict:
+    """The sweep metrics of a summary, NaN where absent or not a number."""
+    def number(value):
+        return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
+            else math.nan
+    return {m: number(summary.get(m)) for m in _SWEEP_METRICS}
+
+
+def read_run(folder: str | os.PathLike) -> Run:
+    """A run's folder (`dembuf run --out`, a sweep's runs/NAME, a `dembuf fetch`): its
+    plate_force.csv and summary.json (empty for a run that did not end well)."""
+    folder = pathlib.Path(folder)
+    csv = folder / "plate_force.csv"
+    if not csv.is_file():
+        partial = " (a run still going, or cut short, leaves plate_force.csv.partial)" \
+            if (folder / "plate_force.csv.partial").exists() else ""
+        raise FileNotFoundError(f"{csv}: no such file{partial}")
+    series = pd.read_csv(csv, dtype="float64")
+    if list(series.columns) != SERIES_COLUMNS:
+        raise ValueError(f"{csv}: columns {list(series.columns)}, expected {SERIES_COLUMNS}")
+    summary_path = folder / "summary.json"
+    summary = {}
+    if summary_path.is_file():
+        if summary_path.stat().st_size > _MAX_SUMMARY_BYTES:
+            raise ValueError(f"{summary_path}: larger than {_MAX_SUMMARY_BYTES} bytes")
+        summary = parse_summary(summary_path.read_text(), str(summary_path))
+    return Run(series=series, summary=summary, folder=folder)
+
+
+def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
+    """A sweep's folder (`dembuf sweep --out`, or a fetched sweep): sweep.csv, one row per
+    run, as Client.sweep() gives it for a sweep on the daemon (there `job` is the job's id,
+    here the run's number)."""
+    csv = pathlib.Path(folder) / "sweep.csv"
+    frame = pd.read_csv(csv, keep_default_na=False, na_values=[""])
+    missing = [c for c in ["job", "status", *_SWEEP_METRICS] if c not in frame.columns]
+    if missing:
+        raise ValueError(f"{csv}: no column {', '.join(missing)}")
+    if "error" in frame:
+        frame["error"] = frame["error"].fillna("").astype(str)
+    else:
+        frame["error"] = ""
+    return frame.drop(columns=["run_dir"], errors="ignore")
+
+
+def sweep_axes(frame: pd.DataFrame) -> list[str]:
+    """The swept fields of a sweep frame: its columns between `job` and `status`."""
+    columns = list(frame.columns)
+    return columns[columns.index("job") + 1:columns.index("status")]
+
+
+def sweep_points(frame: pd.DataFrame, metric: str = "P_N") -> pd.DataFrame:
+    """The sweep's points over the bed seeds, as points.csv: per value of the other swept
+    fields, the mean, sample standard deviation (NaN for one run) and n of `metric` over the
+    runs that ended well."""
+    axes = [a for a in sweep_axes(frame) if a != "bed.seed"]
+    ok = frame[frame["status"] == "ok"]
+    if not axes:
+        values = ok[metric]
+        return pd.DataFrame({"mean": [values.mean()], "sd": [values.std()],
+                             "n": [values.count()]})
+    return ok.groupby(axes)[metric].agg(["mean", "std", "count"]).rename(
+        columns={"std": "sd", "count": "n"}).reset_index()

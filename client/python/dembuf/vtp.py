@@ -1,0 +1,65 @@
+"""dembuf's VTK XML files as pandas objects: a snapshot's or frame's beads (.vtp) as a
+DataFrame, a .pvd collection as a list of times and files. For analysis in Python without
+VTK; ParaView opens the same files directly."""
+
+from __future__ import annotations
+
+import base64
+import os
+import pathlib
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pandas as pd
+
+_TYPES = {"Float64": "f8", "Float32": "f4", "Int32": "i4", "Int64": "i8", "UInt32": "u4"}
+_MAX_FILE_BYTES = 1 << 30  # a frame of a million beads is about 125 MB
+
+
+def _decode(array: ET.Element, order: str, path) -> np.ndarray:
+    raw = base64.b64decode(array.text or "")
+    size = int(np.frombuffer(raw[:4], dtype=order + "u4")[0])
+    if size != len(raw) - 4:
+        raise ValueError(f"{path}: array {array.get('Name')}: {len(raw) - 4} bytes, "
+                         f"its header says {size}")
+    values = np.frombuffer(raw[4:], dtype=order + _TYPES[array.get("type")])
+    components = int(array.get("NumberOfComponents", "1"))
+    return values.reshape(-1, components) if components > 1 else values
+
+
+def read_vtp(path: str | os.PathLike) -> pd.DataFrame:
+    """The points of a dembuf .vtp (beads.vtp, frames/frame_NNNNN.vtp, an exported bed): one
+    row per body with x_m, y_m, z_m and the point arrays (radius_m, velocity_m_s as vx, vy,
+    vz, id, force_N as fx, fy, fz); the projectile is the row with id -1."""
+    path = pathlib.Path(path)
+    if path.stat().st_size > _MAX_FILE_BYTES:
+        raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
+    root = ET.parse(path).getroot()
+    if root.get("type") != "PolyData":
+        raise ValueError(f"{path}: not VTK PolyData")
+    order = "<" if root.get("byte_order") == "LittleEndian" else ">"
+    piece = root.find("PolyData/Piece")
+    points = _decode(piece.find("Points/DataArray"), order, path)
+    frame = pd.DataFrame(points, columns=["x_m", "y_m", "z_m"])
+    names = {"velocity_m_s": ["vx_m_s", "vy_m_s", "vz_m_s"], "force_N": ["fx_N", "fy_N", "fz_N"]}
+    for array in piece.findall("PointData/DataArray"):
+        values = _decode(array, order, path)
+        name = array.get("Name")
+        if values.ndim == 2:
+            for k, column in enumerate(names.get(name, [f"{name}_{i}" for i in range(3)])):
+                frame[column] = values[:, k]
+        else:
+            frame[name] = values
+    return frame
+
+
+def read_pvd(path: str | os.PathLike) -> pd.DataFrame:
+    """A .pvd collection (snapshots.pvd, frames.pvd): one row per file, with its time t_s,
+    its part and its path (made absolute), in time order."""
+    path = pathlib.Path(path)
+    root = ET.parse(path).getroot()
+    if root.get("type") != "Collection":
+        raise ValueError(f"{path}: not a VTK collection")
+    rows = [{"t_s": float(d.get("timestep")), "part": int(d.get("part", "0")),
+             "file": path.parent / d.get("file")} for d in root.findall("Collection/DataSet")]
+    return pd.DataFrame(rows, columns=["t_s", "part", "file"]).sort_values("t_s", kind="stable")

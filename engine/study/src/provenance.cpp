@@ -1,0 +1,114 @@
+#include "dembuf/study/provenance.h"
+
+#include <omp.h>
+#include <openssl/evp.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <ctime>
+#include <sstream>
+#include <stdexcept>
+
+#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/version.h"
+
+namespace dembuf::report {
+
+std::string Sha256Hex(std::string_view bytes) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  if (EVP_Digest(bytes.data(), bytes.size(), digest, &length, EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("SHA-256 failed");
+  static const char* const kDigits = "0123456789abcdef";
+  std::string hex;
+  for (unsigned int i = 0; i < length; ++i) {
+    hex += kDigits[digest[i] >> 4];
+    hex += kDigits[digest[i] & 0xf];
+  }
+  return hex;
+}
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+std::string HostName() {
+  char name[256] = {};
+  if (gethostname(name, sizeof name - 1) != 0) return "";
+  return name;
+}
+
+std::string ShellCommandLine(int argc, const char* const* argv) {
+  // Words of safe characters stay bare; other printable ASCII goes in single quotes (each '
+  // as '\''); a word with control or non-ASCII bytes is written $'...' with \xHH escapes. The
+  // line is ASCII, so that it is valid UTF-8 whatever the arguments' bytes were.
+  auto safe = [](unsigned char c) {
+    return std::isalnum(c) ||
+           std::string_view("%+,-./:=@_").find(static_cast<char>(c)) != std::string_view::npos;
+  };
+  auto printable = [](unsigned char c) { return c >= 0x20 && c < 0x7f; };
+  std::string line;
+  for (int i = 0; i < argc; ++i) {
+    const std::string_view word = argv[i];
+    if (i > 0) line += ' ';
+    if (!word.empty() && std::all_of(word.begin(), word.end(), safe)) {
+      line += word;
+    } else if (std::all_of(word.begin(), word.end(), printable)) {
+      line += '\'';
+      for (char c : word) line += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      line += '\'';
+    } else {
+      line += "$'";
+      for (unsigned char c : word) {
+        char escaped[8];
+        if (c == '\\' || c == '\'') {
+          line += '\\';
+          line += static_cast<char>(c);
+        } else if (printable(c)) {
+          line += static_cast<char>(c);
+        } else {
+          std::snprintf(escaped, sizeof escaped, "\\x%02x", c);
+          line += escaped;
+        }
+      }
+      line += '\'';
+    }
+  }
+  return line;
+}
+
+RunContext RunStartingNow(std::string command_line) {
+  return {std::move(command_line), HostName(), UtcNow(), "", omp_get_max_threads()};
+}
+
+std::string SceneText(const Scene& scene) {
+  std::ostringstream text;
+  PrintScene(scene, text);
+  return text.str();
+}
+
+nlohmann::json ProvenanceJson(const RunContext& run, const Scene& scene, const BedSummary& bed) {
+  return {
+      {"dembuf_version", kVersion},
+      {"build_commit", BuildCommit()},
+      {"build_type", BuildType()},
+      {"scene_sha256", Sha256Hex(SceneText(scene))},
+      {"bed_hash", bed.hash},
+      {"bed_sha256", bed.sha256},
+      {"seed", scene.bed.seed},
+      {"threads", run.threads},
+      {"host", run.host},
+      {"started_at", run.started_at},
+      {"finished_at", run.finished_at},
+      {"command_line", run.command_line},
+  };
+}
+
+}  // namespace dembuf::report

@@ -1,0 +1,177 @@
+"""The dembuf Python package against a live dembufd (started by client_test.sh, which sets
+DEMBUF_SERVER): submit, live samples, a fetch equal to the CLI's files, a sweep, folders."""
+
+import hashlib
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import unittest
+
+import numpy as np
+import pandas as pd
+
+import dembuf
+
+CLI = os.environ["DEMBUF_CLI"]
+WORK = pathlib.Path(os.environ["DEMBUF_TEST_WORK"])
+SCENE = os.environ["DEMBUF_TEST_SCENE"]  # a 2 cm bed that settles in seconds
+EXAMPLE = pathlib.Path(__file__).parents[2] / "docs" / "examples" / "e2_curve.py"
+# About 9,200 samples after the free fall: more than one piece of the streamed fetch (8,192
+# samples); and animation frames every 20 ms.
+LONG_SERIES = {"time.end_s": 0.1, "time.output_interval_s": 1e-5,
+               "output.animation_interval_s": 0.02}
+
+
+def cli(*args):
+    return subprocess.run([CLI, *args], check=True, capture_output=True, text=True).stdout
+
+
+def csv_text(frame: pd.DataFrame) -> str:
+    """A series as plate_force.csv writes it (9 significant digits, NaN as empty)."""
+    return frame.to_csv(index=False, float_format="%.9g", lineterminator="\n")
+
+
+class ClientTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.daemon = dembuf.connect()
+        cls.job = cls.daemon.submit(toml=SCENE, set=LONG_SERIES, name="python")
+        # Watched from the start, while it prepares its bed and runs.
+        cls.watched = []
+        cls.states_seen = set()
+        for sample in cls.daemon.watch(cls.job):
+            if len(cls.watched) % 2000 == 0:
+                cls.states_seen.add(cls.daemon.job(cls.job)["state"])
+            cls.watched.append(sample)
+        cls.final_state = cls.daemon.wait(cls.job, timeout_s=300)
+        cls.fetched_dir = WORK / "fetched"
+        cli("fetch", str(cls.job), "--out", str(cls.fetched_dir), "--no-plots")
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.daemon.close()
+
+    def test_job_runs_and_samples_arrive_live(self):
+        self.assertEqual(self.final_state, "done")
+        self.assertIn("running", self.states_seen, "no sample arrived while the job ran")
+        self.assertGreater(len(self.watched), 8192)
+        times = [s.t_s for s in self.watched]
+        self.assertTrue(all(a < b for a, b in zip(times, times[1:])), "times not increasing")
+
+    def test_fetched_series_equals_the_csv(self):
+        run = self.daemon.fetch(self.job)
+        self.assertEqual(list(run.series.columns), dembuf.SERIES_COLUMNS)
+        self.assertEqual(len(run.series), len(self.watched))
+        csv_path = self.fetched_dir / "plate_force.csv"
+        self.assertEqual(csv_text(run.series), csv_path.read_text())
+        from_csv = pd.read_csv(csv_path)
+        np.testing.assert_allclose(run.series.to_numpy(), from_csv.to_numpy(), rtol=5e-9,
+                                   atol=0, equal_nan=True)
+        # The watched samples are the stored ones.
+        self.assertEqual(list(run.series["plate_force_N"]),
+                         [s.plate_force_N for s in self.watched])
+
+    def test_summary_and_job(self):
+        run = self.daemon.fetch(self.job)
+        self.assertEqual(run.summary, json.loads((self.fetched_dir / "summary.json").read_text()))
+        self.assertGreater(run.summary["P_N"], 0)
+        self.assertEqual(run.job["state"], "done")
+        self.assertEqual(run.job["name"], "python")
+
+    def test_provenance(self):
+        run = self.daemon.fetch(self.job)
+        p = run.summary["provenance"]
+        # The command that asked for it: this test's, sent by the package.
+        self.assertIn("test_client.py", p["command_line"])
+        self.assertEqual(run.job["command_line"], p["command_line"])
+        # The scene's SHA-256 is that of the scene file the fetch writes.
+        scene = (self.fetched_dir / "scene.toml").read_bytes()
+        self.assertEqual(p["scene_sha256"], hashlib.sha256(scene).hexdigest())
+        self.assertRegex(p["bed_sha256"], "^[0-9a-f]{64}$")
+        self.assertEqual(p["bed_hash"], run.job["bed_hash"])
+        self.assertRegex(p["build_commit"], "^([0-9a-f]{40}(-dirty)?|unknown)$")
+        self.assertEqual(p["host"], run.job["host"])
+        self.assertGreaterEqual(p["threads"], 1)
+        self.assertLessEqual(p["started_at"], p["finished_at"])
+        self.assertEqual(p["seed"], 1)
+
+    def test_local_folder_reads_as_fetched(self):
+        local = dembuf.read_run(self.fetched_dir)
+        fetched = self.daemon.fetch(self.job)
+        self.assertEqual(csv_text(local.series), csv_text(fetched.series))
+        self.assertEqual(local.summary, fetched.summary)
+        with self.assertRaisesRegex(FileNotFoundError, "plate_force.csv"):
+            dembuf.read_run(WORK)
+
+    def test_animation_frames_read_as_frames(self):
+        frames = dembuf.read_pvd(self.fetched_dir / "frames.pvd")
+        # From the end of the free fall to time.end_s, every 20 ms.
+        first = frames["t_s"].iloc[0]
+        self.assertEqual(len(frames), int((0.1 - first) / 0.02) + 1)
+        spacing = frames["t_s"].diff().dropna()
+        self.assertTrue(((spacing > 0.0199) & (spacing < 0.0201)).all(), list(spacing))
+        beads = dembuf.read_vtp(frames["file"].iloc[-1])
+        summary = json.loads((self.fetched_dir / "summary.json").read_text())
+        self.assertEqual(len(beads), summary["beads"] + 1)
+        self.assertEqual(sorted(beads["id"]), [-1, *range(summary["beads"])])
+        for column in ("x_m", "z_m", "radius_m", "vz_m_s", "fz_N"):
+            self.assertIn(column, beads.columns)
+        self.assertTrue((beads["radius_m"] > 0).all())
+
+    def test_a_local_run_folder(self):
+        out = WORK / "local"
+        cli("-q", "run", SCENE, "--set", "time.end_s=0.05", "--out", str(out),
+            "--no-plots")
+        run = dembuf.read_run(out)
+        self.assertEqual(len(run.series), len(pd.read_csv(out / "plate_force.csv")))
+        self.assertEqual(run.summary["steps"],
+                         json.loads((out / "summary.json").read_text())["steps"])
+
+    def test_sweep_as_a_frame(self):
+        sweep = self.daemon.submit_sweep({"bed.thickness_m": [0.008, 0.01]}, seeds=2,
+                                         toml=SCENE, set={"time.end_s": 0.05}, name="py-sweep")
+        for job in self.daemon.jobs(sweep=sweep)["id"]:
+            self.assertEqual(self.daemon.wait(int(job), timeout_s=300), "done")
+        frame = self.daemon.sweep(sweep)
+        self.assertEqual(len(frame), 4)
+        self.assertEqual(list(frame["status"]), ["ok"] * 4)
+        self.assertEqual(sorted(frame["bed.thickness_m"]), [0.008, 0.008, 0.01, 0.01])
+        for _, row in frame.iterrows():
+            self.assertEqual(row["P_N"], self.daemon.fetch(int(row["job"])).summary["P_N"])
+        # The fetched sweep folder gives the same frame (its job column counts the runs).
+        folder = WORK / "sweep"
+        cli("fetch", "--sweep", str(sweep), "--out", str(folder), "--no-plots")
+        local = dembuf.read_sweep(folder)
+        self.assertEqual(list(local.columns), list(frame.columns))
+        metrics = dembuf.frames.sweep_metric_names()
+        np.testing.assert_allclose(local[metrics].to_numpy(dtype=float),
+                                   frame[metrics].to_numpy(dtype=float), rtol=1e-6,
+                                   equal_nan=True)
+        points = dembuf.sweep_points(frame)
+        self.assertEqual(list(points["n"]), [2, 2])
+        self.assertEqual(list(points["bed.thickness_m"]), [0.008, 0.01])
+        for thickness, point in points.set_index("bed.thickness_m").iterrows():
+            values = frame[frame["bed.thickness_m"] == thickness]["P_N"]
+            self.assertAlmostEqual(point["mean"], values.mean())
+            self.assertAlmostEqual(point["sd"], values.std())
+        # The worked example of docs/python.md draws the curve, from the daemon and the folder.
+        for source in (str(sweep), str(folder)):
+            png = WORK / f"curve-{source.replace('/', '_')}.png"
+            subprocess.run([sys.executable, str(EXAMPLE), source, str(png)], check=True,
+                           capture_output=True)
+            self.assertEqual(png.read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
+
+    def test_errors_name_the_reason(self):
+        with self.assertRaises(dembuf.DembufError) as caught:
+            self.daemon.fetch(999999)
+        self.assertEqual(caught.exception.code, "NOT_FOUND")
+        with self.assertRaisesRegex(dembuf.DembufError, "thicknes_m"):
+            self.daemon.submit(scene={"bed": {"thicknes_m": 0.01}})
+        with self.assertRaisesRegex(dembuf.DembufError, "INVALID_ARGUMENT.*bed.thickness_m"):
+            self.daemon.submit(scene={"bed": {"thickness_m": -1}})
+
+
+if __name__ == "__main__":
+    unittest.main()

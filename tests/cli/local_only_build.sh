@@ -9,9 +9,11 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
 
-# Unoptimised and without debugging information (-O0 alone): it compiles fastest, and the
-# run below is a bare-plate impact.
+# Unoptimised, without debugging information (-O0 alone) and in a unity build: it compiles
+# fastest (86 s on one core here against about 160 s file by file), and the run below is a
+# bare-plate impact.
 cmake -S "$src" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-O0 \
+  -DCMAKE_UNITY_BUILD=ON \
   -DDEMBUF_SERVICE=OFF \
   -DDEMBUF_BUILD_TESTS=OFF > "$work/configure.log" 2>&1 || { cat "$work/configure.log"; fail "configure"; }
 if grep -E '^(gRPC_DIR|Protobuf_INCLUDE_DIR|SQLite3_INCLUDE_DIR)' "$work/build/CMakeCache.txt"; then

@@ -26,6 +26,7 @@
 #include "dembuf/study/provenance.h"
 #include "dembuf/study/version.h"
 #include "instance.h"
+#include "reflection_v1.h"
 #include "service.h"
 #include "slurm_executor.h"
 #include "store.h"
@@ -266,6 +267,13 @@ int main(int argc, char** argv) {
   thread_pool.SetMaxThreads(config.max_watch_streams + 64);
   builder.SetResourceQuota(thread_pool);
   builder.RegisterService(&service);
+  // Reflection v1 beside gRPC's v1alpha; a few streams at once, each holds a thread.
+  ReflectionV1Service reflection_v1(
+      {dembuf::v1::Dembuf::service_full_name(), "grpc.health.v1.Health",
+       "grpc.reflection.v1alpha.ServerReflection",
+       grpc::reflection::v1::ServerReflection::service_full_name()},
+      /*max_streams=*/16);
+  builder.RegisterService(&reflection_v1);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     const int wanted = ListenPort(config.listen);

@@ -4,7 +4,10 @@
 # balancers and grpc_health_probe -service=dembuf.v1.Dembuf ask, and NOT_FOUND for a name it
 # does not serve (asked with python3-grpcio, the request and answer written by hand: one
 # string field, one enum field, so that no health stubs are needed; Debian's python3, which
-# python3-grpcio is installed for). `--json` on list, status, server-info, run and sweep gives
+# python3-grpcio is installed for). Server reflection answers on v1 as on gRPC's v1alpha: the
+# same services, the same file for dembuf's service, its methods and its dependencies, errors
+# for names it does not know (messages from proto/grpc/reflection/v1, compiled by protoc; v1
+# and v1alpha share the wire format). `--json` on list, status, server-info, run and sweep gives
 # JSON that agrees with the text output and the result files; -q leaves the results alone.
 # Usage: conventions_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
@@ -36,6 +39,112 @@ for service, wanted in (("", "SERVING"), ("dembuf.v1.Dembuf", "SERVING"),
     if got != wanted:
         sys.exit(f"health of {service!r}: {got}, expected {wanted}")
 print("health: SERVING for the server and dembuf.v1.Dembuf, NOT_FOUND for another name")
+PY
+
+proto_dir="$(cd "$(dirname "$0")/../../proto" && pwd)"
+mkdir -p "$work/py"
+# Compiled from its own folder: a module under grpc/ would hide grpcio's package.
+protoc --proto_path="$proto_dir/grpc/reflection/v1" --python_out="$work/py" reflection.proto \
+  || fail "protoc cannot compile the reflection proto"
+PYTHONPATH="$work/py" /usr/bin/python3 - "$DEMBUF_SERVER" <<'PY' || fail "reflection answers"
+import sys
+import grpc
+from google.protobuf import descriptor_pb2
+import reflection_pb2 as rv1
+
+channel = grpc.insecure_channel(sys.argv[1])
+
+def ask(version, *requests):
+    call = channel.stream_stream(
+        f"/grpc.reflection.{version}.ServerReflection/ServerReflectionInfo",
+        request_serializer=rv1.ServerReflectionRequest.SerializeToString,
+        response_deserializer=rv1.ServerReflectionResponse.FromString)
+    answers = list(call(iter(requests), timeout=10))
+    assert len(answers) == len(requests), f"{version}: {len(answers)} answers to {len(requests)}"
+    for request, answer in zip(requests, answers):
+        assert answer.original_request == request, f"{version}: original_request differs"
+    return answers
+
+def files(answer):
+    assert answer.WhichOneof("message_response") == "file_descriptor_response", answer
+    return [descriptor_pb2.FileDescriptorProto.FromString(b)
+            for b in answer.file_descriptor_response.file_descriptor_proto]
+
+Q = rv1.ServerReflectionRequest
+questions = [Q(list_services=""), Q(file_containing_symbol="dembuf.v1.Dembuf"),
+             Q(file_containing_symbol="dembuf.v1.Dembuf.FetchSeries"),
+             Q(file_containing_symbol="dembuf.v1.Job"),
+             Q(file_by_filename="google/protobuf/api.proto"),
+             Q(file_containing_symbol="no.such.Symbol"), Q(file_by_filename="no/such.proto")]
+v1 = ask("v1", *questions)
+# gRPC 1.51's v1alpha repeats earlier answers' files in later ones on a stream, so it is asked
+# one question per stream.
+v1alpha = [ask("v1alpha", q)[0] for q in questions]
+
+services = {s.name for s in v1[0].list_services_response.service}
+assert services == {s.name for s in v1alpha[0].list_services_response.service}, (
+    services, v1alpha[0].list_services_response)
+assert {"dembuf.v1.Dembuf", "grpc.reflection.v1.ServerReflection"} <= services, services
+
+for i, file in ((1, "dembuf/v1/dembuf.proto"), (2, "dembuf/v1/dembuf.proto"),
+                (3, "dembuf/v1/dembuf.proto"), (4, "google/protobuf/api.proto")):
+    got, wanted = files(v1[i]), files(v1alpha[i])
+    assert got[0].name == file, got[0].name
+    assert {f.name for f in got} == {f.name for f in wanted}, ([f.name for f in got],
+                                                                [f.name for f in wanted])
+    assert got[0] == wanted[0], f"v1 and v1alpha describe {file} differently"
+    # Every import comes with the answer, so a client can build the types from it alone.
+    names = {f.name for f in got}
+    assert all(d in names for f in got for d in f.dependency), names
+methods = [m.name for m in files(v1[1])[0].service[0].method]
+assert "SubmitJob" in methods and "FetchSeries" in methods, methods
+
+assert len(files(v1[4])) > 1, "api.proto came without its imports"
+for answer in v1[5:]:
+    assert answer.WhichOneof("message_response") == "error_response", answer
+    assert answer.error_response.error_code == grpc.StatusCode.NOT_FOUND.value[0], answer
+assert "no.such.Symbol" in v1[5].error_response.error_message
+
+own = files(ask("v1", Q(file_by_filename="grpc/reflection/v1/reflection.proto"))[0])
+assert own[0].package == "grpc.reflection.v1" and own[0].service[0].name == "ServerReflection"
+empty = ask("v1", Q(host="anything"))[0]
+assert empty.error_response.error_code == grpc.StatusCode.INVALID_ARGUMENT.value[0], empty
+assert empty.valid_host == "anything"
+
+# Each stream holds a server thread: at most 16 at once, the 17th is refused until one closes.
+import queue
+def open_stream():
+    questions = queue.Queue()
+    def requests():
+        while (q := questions.get()) is not None:
+            yield q
+    call = channel.stream_stream(
+        "/grpc.reflection.v1.ServerReflection/ServerReflectionInfo",
+        request_serializer=rv1.ServerReflectionRequest.SerializeToString,
+        response_deserializer=rv1.ServerReflectionResponse.FromString)(requests(), timeout=30)
+    questions.put(Q(list_services=""))
+    return questions, call
+held = []
+for k in range(16):
+    questions, call = open_stream()
+    assert next(call).list_services_response.service, f"stream {k + 1} did not answer"
+    held.append((questions, call))
+questions, call = open_stream()
+try:
+    next(call)
+    sys.exit("a 17th reflection stream was served")
+except grpc.RpcError as e:
+    assert e.code() == grpc.StatusCode.RESOURCE_EXHAUSTED, e
+    assert "at most 16" in e.details(), e.details()
+questions.put(None)
+held[0][0].put(None)
+list(held[0][1])
+questions, call = open_stream()
+assert next(call).list_services_response.service, "a stream freed no place"
+for q, _ in held[1:] + [(questions, call)]:
+    q.put(None)
+print(f"reflection v1: {len(services)} services, {len(files(v1[1]))} files for dembuf.v1.Dembuf,"
+      " as v1alpha answers")
 PY
 
 # --- --json and -q ------------------------------------------------------------------------

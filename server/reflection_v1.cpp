@@ -102,8 +102,7 @@ rv1::ServerReflectionResponse ReflectionV1Service::Answer(
 
 grpc::Status ReflectionV1Service::ServerReflectionInfo(
     grpc::ServerContext* context,
-    grpc::ServerReaderWriter<rv1::ServerReflectionResponse, rv1::ServerReflectionRequest>*
-        stream) {
+    grpc::ServerReaderWriter<rv1::ServerReflectionResponse, rv1::ServerReflectionRequest>* stream) {
   std::string why;
   std::optional<StreamLimits::Place> place = m_streams.Take(Caller{}, &why);
   if (!place) return {grpc::StatusCode::RESOURCE_EXHAUSTED, why};

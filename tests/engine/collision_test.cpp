@@ -252,5 +252,32 @@ TEST(HeldBead, ABeadHittingAHeldBeadMeetsAnImmovableHertzBody) {
   EXPECT_EQ(hanging.beads().position[0], dem::Vec3(0, 0, 0.5));
 }
 
+TEST(HeldBead, TwoHeldBeadsAreNotAPairAndChangeNothingOfTheFreeOnes) {
+  // Two held beads cannot move each other, so their contact is not computed (local settling's
+  // held rim would otherwise cost as much as its free beads): the held pair feels no force,
+  // and a free bead pushing on one of them moves bit for bit as without the other.
+  const dem::WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
+  const double overlap = 0.01 * kRadius;
+  auto world = [&](bool with_a) {
+    dem::ParticleState beads;
+    if (with_a) beads.Add(dem::Vec3(-2.0 * kRadius + overlap, 0, 1), kRadius, kDensity);
+    beads.Add(dem::Vec3(0, 0, 1), kRadius, kDensity);  // B, held, touching A
+    beads.Add(dem::Vec3(2.0 * kRadius - overlap, 0, 1), kRadius, kDensity);  // C, free
+    for (std::size_t i = 0; i + 1 < beads.size(); ++i) beads.inv_mass[i] = 0.0;
+    beads.velocity.back() = dem::Vec3(-0.1, 0, 0);
+    return dem::Simulation(p, std::move(beads), std::nullopt);
+  };
+  dem::Simulation three = world(true), two = world(false);
+  for (int k = 0; k < 200; ++k) {
+    three.Step();
+    two.Step();
+    ASSERT_EQ(three.beads().position[2], two.beads().position[1]) << "step " << k;
+    ASSERT_EQ(three.beads().velocity[2], two.beads().velocity[1]) << "step " << k;
+    ASSERT_EQ(three.beads().force[0], dem::Vec3::Zero()) << "held A felt held B";
+    ASSERT_EQ(three.observables().bead_contacts, two.observables().bead_contacts);
+  }
+  EXPECT_GT(three.beads().velocity[2].x(), 0.0);  // C came off B
+}
+
 }  // namespace
 }  // namespace dembuf::test

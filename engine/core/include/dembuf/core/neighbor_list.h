@@ -131,8 +131,9 @@ struct CandidateList {
   std::vector<Vec3> shear;
 };
 
-/// Rebuilds `list` for all pairs closer than r_i + r_j + skin, keeping the history of the
-/// pairs already present. The result does not depend on `threads`.
+/// Rebuilds `list` for all pairs closer than r_i + r_j + skin, but those of two held beads
+/// (inv_mass 0), keeping the history of the pairs already present. The result does not depend
+/// on `threads`.
 void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, PairList& list,
                      int threads = 1);
 

@@ -30,7 +30,9 @@ struct ParticleState {
   std::vector<Vec3> torque;  ///< contact torque of the current step
   std::vector<double> radius;
   std::vector<double> mass;
-  std::vector<double> inv_mass;     ///< 0 holds a bead in place (mass still enters its contacts)
+  /// 0 holds a bead in place: it neither moves nor turns, its mass still enters its contacts
+  /// with free beads, and two held beads do not touch (their contact could move nothing).
+  std::vector<double> inv_mass;
   std::vector<double> inv_inertia;  ///< 1 / (2/5 m r^2), solid spheres
 
   std::size_t size() const { return position.size(); }

@@ -9,12 +9,15 @@
 //    full contact law: friction with history, rotation, damping, plate and cylinder, and the
 //    projectile arriving at its impact speed), one thread, in bead-steps per second.
 // 2. The same bed and projectile in LAMMPS (GRANULAR package, tests/bench/lammps/in.impact),
-//    when `lmp` is installed, alternating with dembuf in this run; the ratio.
+//    when `lmp` is installed, alternating with dembuf in this run; the ratio. Then both on a
+//    bed LAMMPS settled (tests/bench/lammps/in.settle, from dembuf's loose column, kept in the
+//    bed cache) and dembuf imported, with e = 0.8 and e = 1.
 // 3. What each optional effect costs: friction (with history and rotation) during the impact;
 //    the projectile, on the bed at rest (held above it against none).
 // 4. One job on 1 and 2 threads (more where the machine has them).
-// 5. Time per step against bead count from 1,000 to 100,000 beads (beds tiled from copies of
-//    the settled one, side by side), with the exponent of a power-law fit; memory per bead.
+// 5. Time per step against bead count from 1,000 to 200,000 beads (beds tiled from copies of
+//    the settled one, side by side), with the exponent of a power-law fit from 7,000 beads;
+//    memory per bead (what the simulation's arrays hold, and the resident growth).
 // 6. With --sweep: the wall time of the paper's whole thickness sweep (E2, H = 0 to 8 cm in
 //    0.5 cm steps, --sweep-seeds seeds, default one) at that accuracy, beds prepared from
 //    nothing in an empty store, one run per core at a time, as `dembuf sweep --jobs N` runs
@@ -22,6 +25,8 @@
 //    beds, the impacts and the stages of their steps. --sweep-set changes a scene field (a
 //    lever, e.g. bed.local_settling=false for the sweep as it was before).
 #include <sched.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -39,7 +44,9 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <thread>
+#include <vector>
 
 #include "dembuf/study/bed.h"
 #include "dembuf/study/bed_export.h"
@@ -177,13 +184,37 @@ Timing Best(int repeats, const std::function<Timing()>& run) {
 
 // ---- LAMMPS ----------------------------------------------------------------------------------
 
-bool LammpsAvailable() {
-  return std::system("command -v lmp > /dev/null 2>&1") == 0;
+// Runs a program with its arguments and OMP_NUM_THREADS=1, without a shell in between (no
+// word is interpreted); its exit status, or -1 when it could not be started.
+int RunProgram(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  std::vector<std::string> env_text = {"OMP_NUM_THREADS=1"};
+  for (char** e = environ; *e; ++e)
+    if (std::string_view(*e).rfind("OMP_NUM_THREADS=", 0) != 0) env_text.emplace_back(*e);
+  std::vector<char*> env;
+  for (std::string& e : env_text) env.push_back(e.data());
+  env.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), env.data()) != 0) return -1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) != pid) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-// Runs LAMMPS on the data file; returns its loop time, or a negative number on failure.
-double RunLammps(const fs::path& input, const fs::path& data, const World& world,
-                 const Scene& scene, int steps, const fs::path& log) {
+bool LammpsAvailable() {
+  const char* path = std::getenv("PATH");
+  std::istringstream dirs(path ? path : "");
+  std::string dir;
+  while (std::getline(dirs, dir, ':'))
+    if (!dir.empty() && access((fs::path(dir) / "lmp").c_str(), X_OK) == 0) return true;
+  return false;
+}
+
+// The variables in.impact and in.settle share: time step, material, contact law, container.
+// `friction` is the bead-bead friction (the preparation's for settling).
+std::vector<std::string> LammpsVariables(const World& world, const Scene& scene, double friction) {
   const double e_star = 0.75 * world.params.sphere_pair.kn_per_sqrt_r;
   const double d_mean = scene.beads.MeanDiameter();
   const double m_mean =
@@ -191,23 +222,47 @@ double RunLammps(const fs::path& input, const fs::path& data, const World& world
   // LAMMPS's viscoelastic damping force is eta0 * a * m_eff * (approach rate), a = sqrt(R d);
   // dembuf's Kuwabara-Kono term is A * 4/3 E* * a * (approach rate): equal for a mean pair.
   const double eta0 = world.params.sphere_pair.damping_A_s * 4.0 / 3.0 * e_star / (0.5 * m_mean);
-  std::ostringstream cmd;
-  cmd.precision(12);
-  cmd << "OMP_NUM_THREADS=1 lmp -nocite -screen none -log " << log << " -in " << input
-      << " -var data " << data << " -var steps " << steps << " -var dt " << world.params.dt_s
-      << " -var E " << scene.material.youngs_modulus_Pa << " -var nu "
-      << scene.material.poisson_ratio << " -var eta " << eta0 << " -var mu "
-      << scene.material.friction_bead_bead << " -var muw " << scene.material.friction_bead_wall
-      << " -var radius " << scene.cylinder.radius_m << " -var skin "
-      << world.params.skin_fraction * scene.beads.diameter_min_m << " -var g "
-      << scene.gravity_m_s2;
-  if (std::system(cmd.str().c_str()) != 0) {
-    std::ifstream in(log);
-    std::string line, tail;
-    while (std::getline(in, line)) tail = line;
-    std::fprintf(stderr, "LAMMPS failed: %s\n", tail.c_str());
-    return -1.0;
-  }
+  auto number = [](double v) {
+    std::ostringstream text;
+    text.precision(12);
+    text << v;
+    return text.str();
+  };
+  return {"-var", "dt",     number(world.params.dt_s),
+          "-var", "E",      number(scene.material.youngs_modulus_Pa),
+          "-var", "nu",     number(scene.material.poisson_ratio),
+          "-var", "eta",    number(eta0),
+          "-var", "mu",     number(friction),
+          "-var", "muw",    number(scene.material.friction_bead_wall),
+          "-var", "radius", number(scene.cylinder.radius_m),
+          "-var", "skin",   number(world.params.skin_fraction * scene.beads.diameter_min_m),
+          "-var", "g",      number(scene.gravity_m_s2)};
+}
+
+// Runs LAMMPS on `input` with the variables; false (and the log's last line on stderr) when it
+// fails.
+bool RunLammpsInput(const fs::path& input, std::vector<std::string> variables,
+                    const fs::path& log) {
+  std::vector<std::string> args = {"lmp", "-nocite", "-screen", "none", "-log", log.string(),
+                                   "-in", input.string()};
+  args.insert(args.end(), variables.begin(), variables.end());
+  if (RunProgram(args) == 0) return true;
+  std::ifstream in(log);
+  std::string line, tail;
+  while (std::getline(in, line)) tail = line;
+  std::fprintf(stderr, "LAMMPS failed: %s\n", tail.c_str());
+  return false;
+}
+
+// LAMMPS's impact (in.impact) on the data file; returns its loop time, or a negative number
+// on failure.
+double RunLammps(const fs::path& input, const fs::path& data, const World& world,
+                 const Scene& scene, int steps, const fs::path& log) {
+  std::vector<std::string> variables =
+      LammpsVariables(world, scene, scene.material.friction_bead_bead);
+  variables.insert(variables.end(),
+                   {"-var", "data", data.string(), "-var", "steps", std::to_string(steps)});
+  if (!RunLammpsInput(input, variables, log)) return -1.0;
   std::ifstream in(log);
   const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on 1 procs for (\d+) steps)");
   std::string line;
@@ -215,6 +270,66 @@ double RunLammps(const fs::path& input, const fs::path& data, const World& world
   while (std::getline(in, line))
     if (std::regex_search(line, m, loop)) return std::stod(m[1]);
   return -1.0;
+}
+
+// The loose column of the benchmark's source bed, settled by LAMMPS (in.settle) until the mean
+// kinetic energy per bead is below 1e-3 m g d (at most 0.5 s), as a bed.import file (x y z
+// radius per line) at `path`; the time it took in `seconds`. Kept at `path` for the next runs.
+// The pour and the packing are LAMMPS's; the last rolling beads come to rest in dembuf's
+// relaxation of the import (to 1e-5 m g d and the force balance), as LAMMPS would take an hour
+// of one core to bring them there at this speed.
+bool SettleInLammps(const Scene& scene, const World& world, const fs::path& work,
+                    const fs::path& path, double& seconds) {
+  const dem::ParticleState loose = InsertSourceBeads(scene);
+  std::ofstream(work / "loose.data") << ExportBed(loose, scene, BedFormat::kLammps,
+                                                  "dembuf benchmark: the loose column");
+  const double d_mean = scene.beads.MeanDiameter();
+  const double m_mean =
+      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  constexpr int kCheck = 2000;
+  const auto max_checks = static_cast<long>(0.5 / world.params.dt_s / kCheck);
+  std::vector<std::string> variables = LammpsVariables(world, scene, scene.bed.prep_friction);
+  std::ostringstream ke_rest;
+  ke_rest.precision(12);
+  ke_rest << 1e-3 * m_mean * scene.gravity_m_s2 * d_mean;
+  variables.insert(variables.end(),
+                   {"-var", "data", (work / "loose.data").string(), "-var", "out",
+                    (work / "settled.dump").string(), "-var", "check", std::to_string(kCheck),
+                    "-var", "max_checks", std::to_string(max_checks), "-var", "ke_rest",
+                    ke_rest.str()});
+  const auto start = std::chrono::steady_clock::now();
+  if (!RunLammpsInput(fs::path(DEMBUF_BENCH_DIR) / "lammps" / "in.settle", variables,
+                      work / "settle.log"))
+    return false;
+  seconds = Seconds(std::chrono::steady_clock::now() - start);
+  // The dump: ITEM lines, then "id x y z radius" per bead.
+  std::ifstream dump(work / "settled.dump");
+  std::ostringstream text;
+  text << "# dembuf benchmark bed settled by LAMMPS (tests/bench/lammps/in.settle)\n";
+  std::string line;
+  bool atoms = false;
+  std::size_t count = 0;
+  while (std::getline(dump, line)) {
+    if (line.rfind("ITEM:", 0) == 0) {
+      atoms = line.rfind("ITEM: ATOMS", 0) == 0;
+      continue;
+    }
+    if (!atoms) continue;
+    std::istringstream fields(line);
+    std::string id, x, y, z, r;
+    if (!(fields >> id >> x >> y >> z >> r)) return false;
+    text << x << " " << y << " " << z << " " << r << "\n";
+    ++count;
+  }
+  if (count != loose.size()) {
+    std::fprintf(stderr, "LAMMPS kept %zu of %zu beads\n", count, loose.size());
+    return false;
+  }
+  fs::create_directories(path.parent_path());
+  const fs::path partial = path.string() + ".partial";
+  std::ofstream(partial) << text.str();
+  fs::rename(partial, path);
+  return true;
 }
 
 // ---- beds of any size ------------------------------------------------------------------------
@@ -316,6 +431,96 @@ nlohmann::json TimingJson(const Timing& t) {
 
 // Sections 0 to 5: what a step costs, against LAMMPS, with each effect, on threads, and with
 // the bead count.
+// 2b. Both codes on a bed settled by LAMMPS from the same loose column and imported into
+// dembuf, with the paper's damping (e = 0.8) and without (e = 1): the per-core lead measured on
+// a bed that favours neither.
+void BenchLammpsSettledBed(const Options& opt, const Scene& scene, const World& world,
+                           BedCache& cache, int repeats, const fs::path& work,
+                           nlohmann::json& report) {
+  std::printf("2b. a bed settled by LAMMPS, imported; one thread, %d steps (best of %d)\n",
+              opt.steps, repeats);
+  const fs::path settled = opt.bed_cache / ("lammps-settled-" + BedSourceHash(scene) + ".txt");
+  double lammps_settle_s = -1.0;
+  if (!fs::exists(settled)) {
+    std::printf("  LAMMPS settles the loose column (once; kept in %s) ...\n", settled.c_str());
+    std::fflush(stdout);
+    const PinnedTo pin(g_single_thread_core);
+    if (!SettleInLammps(scene, world, work, settled, lammps_settle_s)) {
+      std::printf("  LAMMPS could not settle the bed (see its log)\n\n");
+      report["lammps_settled_bed"] = nullptr;
+      return;
+    }
+  }
+  Scene imported = scene;
+  imported.bed.import = settled.string();
+  imported.bed.import_overlaps = "relax";
+  const auto relax_start = std::chrono::steady_clock::now();
+  const World damped = ImpactWorld(imported, cache);
+  const double relax_s = Seconds(std::chrono::steady_clock::now() - relax_start);
+  const std::string lammps_took =
+      lammps_settle_s >= 0 ? std::to_string(std::lround(lammps_settle_s)) + " s" : "cached";
+  const std::string relax_took = std::to_string(std::lround(relax_s)) + " s";
+  std::printf("  %zu beads, H = %.2f cm, C0 = %.3f (settling in LAMMPS: %s; dembuf relaxing the "
+              "import: %s)\n",
+              damped.beads.size(), 100 * damped.bed.thickness_m, damped.bed.solid_fraction,
+              lammps_took.c_str(), relax_took.c_str());
+  // Without damping: the same bed and time step, the contact constants of e = 1.
+  Scene elastic_scene = imported;
+  elastic_scene.material.restitution = 1.0;
+  World elastic = damped;
+  double min_radius = damped.beads.radius.front();
+  for (double r : damped.beads.radius) min_radius = std::min(min_radius, r);
+  elastic.params = MakeContactSetup(elastic_scene, min_radius).params;
+  elastic.params.dt_s = damped.params.dt_s;
+
+  nlohmann::json rows = nlohmann::json::array();
+  const fs::path lammps_input = fs::path(DEMBUF_BENCH_DIR) / "lammps" / "in.impact";
+  struct Case {
+    double e;
+    const World* w;
+    const Scene* sc;
+  };
+  for (const Case& c : {Case{0.8, &damped, &imported}, Case{1.0, &elastic, &elastic_scene}}) {
+    const double e = c.e;
+    const World* w = c.w;
+    const Scene* sc = c.sc;
+    std::ofstream(work / "imported.data") << ExportBed(w->beads, *sc, BedFormat::kLammps,
+                                                       "dembuf benchmark: bed settled by LAMMPS",
+                                                       w->projectile);
+    Timing ours, theirs;
+    for (int r = 0; r < repeats; ++r) {
+      const Timing t = TimeSteps(*w, opt.steps, 1);
+      if (r == 0 || t.seconds < ours.seconds) ours = t;
+      const PinnedTo pin(g_single_thread_core);
+      const double s = RunLammps(lammps_input, work / "imported.data", *w, *sc, opt.steps,
+                                 work / "log.lammps");
+      if (s > 0 && (theirs.seconds == 0 || s < theirs.seconds))
+        theirs = Timing{s, w->beads.size() + 1, opt.steps, {}};
+    }
+    char what[64];
+    std::snprintf(what, sizeof what, "dembuf, e = %.1f", e);
+    PrintRow(what, ours);
+    std::snprintf(what, sizeof what, "LAMMPS, e = %.1f", e);
+    if (theirs.seconds <= 0) {
+      std::printf("  %s: run failed (see its log)\n", what);
+      continue;
+    }
+    PrintRow(what, theirs);
+    const double ratio = theirs.NsPerBeadStep() / ours.NsPerBeadStep();
+    std::printf("  dembuf / LAMMPS throughput, e = %.1f: %.2f\n", e, ratio);
+    rows.push_back(nlohmann::json{{"restitution", e},
+                                  {"dembuf", TimingJson(ours)},
+                                  {"lammps", TimingJson(theirs)},
+                                  {"dembuf_over_lammps", ratio}});
+  }
+  std::printf("\n");
+  report["lammps_settled_bed"] = {{"beads", damped.beads.size()},
+                                  {"thickness_m", damped.bed.thickness_m},
+                                  {"C0", damped.bed.solid_fraction},
+                                  {"lammps_settle_s", lammps_settle_s},
+                                  {"runs", rows}};
+}
+
 void BenchSteps(const Options& opt, nlohmann::json& report) {
   const int repeats = opt.quick ? 1 : 3;
   std::printf("preparing (or loading) the benchmark bed: E2 scene, H = 2.5 cm ...\n");
@@ -388,6 +593,7 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
     std::printf("  LAMMPS: %s\n\n", lammps ? "run failed (see its log)" : "not installed (lmp)");
     report["lammps_one_thread"] = nullptr;
   }
+  if (lammps) BenchLammpsSettledBed(opt, scene, world, cache, repeats, work, report);
   fs::remove_all(work);
 
   // 3. Effects.
@@ -445,29 +651,34 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
   nlohmann::json sizes = nlohmann::json::array();
   std::vector<std::pair<double, double>> points;
   const std::vector<std::size_t> counts =
-      opt.quick ? std::vector<std::size_t>{1000, 10000, 30000}
-                : std::vector<std::size_t>{1000, 3000, 10000, 30000, 100000};
+      opt.quick ? std::vector<std::size_t>{1000, 7000, 30000}
+                : std::vector<std::size_t>{1000, 7000, 20000, 60000, 200000};
+  // The fit covers 7,000 beads (a thin bed of the paper) and up; 1,000 fit in the caches.
+  constexpr std::size_t kFitFrom = 7000;
   // Every size is timed over the same first 200 steps, whose contacts per bead are alike at
   // every size (the tiles' seams and the new wall let the beads near them unload, at the same
   // pace everywhere), and repeated until it has taken about 4e6 bead-steps: best of them.
   constexpr int kSizeSteps = 200;
-  double bytes_per_bead = 0.0;
+  double bytes_per_bead = 0.0, resident_per_bead = 0.0;
   for (std::size_t n : counts) {
     const World w = TiledWorld(world, n);
     const int tries = std::max<int>(repeats, static_cast<int>(4'000'000 / (n * kSizeSteps)));
-    const double rss_before = ResidentBytes();
     const Timing t = Best(tries, [&] { return TimeSteps(w, kSizeSteps, 1); });
     const double us_per_step = 1e6 * t.seconds / kSizeSteps;
     std::printf("  %8zu beads  %10.1f us/step  %8.1f ns/bead-step\n", n, us_per_step,
                 t.NsPerBeadStep());
     std::fflush(stdout);
-    points.push_back({std::log(static_cast<double>(n)), std::log(us_per_step)});
+    if (n >= kFitFrom)
+      points.push_back({std::log(static_cast<double>(n)), std::log(us_per_step)});
     sizes.push_back({{"beads", n}, {"us_per_step", us_per_step}, {"timing", TimingJson(t)}});
     if (n == counts.back()) {
-      // Memory: a simulation of this size, alive, against the process before it.
-      dem::Simulation sim(w.params, w.beads, std::nullopt);
+      // Memory: what a simulation of this size holds, with its springs, after a few steps;
+      // and the process's resident growth while it lives (the allocator's share included).
+      const double rss_before = ResidentBytes();
+      dem::Simulation sim(w.params, w.beads, std::nullopt, w.history);
       for (int k = 0; k < 10; ++k) sim.Step();
-      bytes_per_bead = (ResidentBytes() - rss_before) / static_cast<double>(n);
+      bytes_per_bead = static_cast<double>(sim.MemoryBytes()) / static_cast<double>(n);
+      resident_per_bead = (ResidentBytes() - rss_before) / static_cast<double>(n);
     }
   }
   double sx = 0, sy = 0, sxx = 0, sxy = 0;
@@ -479,12 +690,15 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
   }
   const double np = static_cast<double>(points.size());
   const double exponent = (np * sxy - sx * sy) / (np * sxx - sx * sx);
-  std::printf("  fit: time per step ~ beads^%.3f\n", exponent);
-  std::printf("  memory: %.0f bytes per bead (resident, %zu-bead simulation)\n\n", bytes_per_bead,
-              counts.back());
+  std::printf("  fit from %zu to %zu beads: time per step ~ beads^%.3f\n", kFitFrom, counts.back(),
+              exponent);
+  std::printf("  memory: %.0f bytes per bead held by the simulation (%.0f resident growth; "
+              "%zu-bead simulation)\n\n",
+              bytes_per_bead, resident_per_bead, counts.back());
   report["sizes"] = sizes;
   report["size_exponent"] = exponent;
   report["bytes_per_bead"] = bytes_per_bead;
+  report["resident_bytes_per_bead"] = resident_per_bead;
 }
 
 // Section 6: the whole E2 sweep from an empty bed store, and where its time went.

@@ -196,6 +196,40 @@ TEST(BedPreparation, LocalSettlingReachesTheSameRest) {
   std::printf("\n");
 }
 
+TEST(Simulation, MemoryBytesCountsTheBeadsAndTheLists) {
+  // What the benchmark's bytes per bead rest on: at least the beads' own nine arrays (152 B a
+  // bead) and 40 B per pair-list entry, and it grows with the bed, not with the steps.
+  Scene scene = SmallBedScene();
+  scene.cylinder.radius_m = 0.1;
+  const double r = 0.5 * scene.beads.diameter_min_m;
+  auto lattice = [&](int side) {
+    dem::ParticleState beads;
+    for (int z = 0; z < 4; ++z)
+      for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x)  // 1% overlaps along x: one contact per neighbour
+          beads.Add(dem::Vec3((x - side / 2) * 1.98 * r, (y - side / 2) * 2.2 * r,
+                              (z + 1) * 2.2 * r),
+                    r, scene.material.density_kg_m3);
+    return dem::Simulation(MakeContactSetup(scene, r).params, beads, std::nullopt);
+  };
+  dem::Simulation small = lattice(10), large = lattice(20);
+  small.RefreshForces();
+  large.RefreshForces();
+  const std::size_t n = large.beads().size();
+  const std::size_t pairs = static_cast<std::size_t>(4 * 20 * 19);  // the x neighbours
+  EXPECT_GE(large.MemoryBytes(), n * 152 + pairs * 40);
+  // Per bead added (a fixed part, the batches of the force pass, cancels): the beads' arrays
+  // and list entries, and not much more.
+  const double added_beads = static_cast<double>(n - small.beads().size());
+  const double per_bead = (static_cast<double>(large.MemoryBytes()) - small.MemoryBytes()) /
+                          added_beads;
+  EXPECT_GE(per_bead, 152.0 + 40.0 * (pairs - 4 * 10 * 9) / added_beads);
+  EXPECT_LT(per_bead, 1000.0);
+  const std::size_t before = large.MemoryBytes();
+  for (int k = 0; k < 20; ++k) large.Step();
+  EXPECT_LE(large.MemoryBytes(), before + before / 10);
+}
+
 TEST(Simulation, BeadOriginsFollowTheReorderAndRemovals) {
   // Large beds are reordered in memory at list builds; BeadOrigins maps each bead back to the
   // state the simulation was made with, also after beads are removed.

@@ -108,77 +108,6 @@ class Uniform {
   std::mt19937_64 m_engine;
 };
 
-// ---- insertion ---------------------------------------------------------------------------------
-
-// Beads at random positions in a loose column (solid fraction about 0.3) above the plate,
-// without overlaps, as many as PlanSourceBed counts.
-dem::ParticleState InsertBeads(const Scene& scene, const BedRequest& request) {
-  const SourcePlan plan = PlanSourceBed(scene);
-  if (plan.column_top_m > scene.cylinder.height_m)
-    throw SceneError("bed.source_thickness_m",
-                     "a bed this thick needs a loose column of " +
-                         std::to_string(plan.column_top_m) +
-                         " m to settle from, higher than cylinder.height_m");
-  const double R = scene.cylinder.radius_m;
-  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
-  if (!(plan.beads <= kMaxBeads))
-    throw SceneError("beads.diameter_min_m",
-                     "the source bed would hold more than " + std::to_string(kMaxBeads) +
-                         " beads, more than a simulation can number; use larger beads or a "
-                         "thinner bed");
-  const auto count = static_cast<std::size_t>(plan.beads);
-  double column_top = plan.column_top_m;
-
-  Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
-  dem::ParticleState beads;
-  const double cell = d_max;
-  auto key = [&](int x, int y, int z) {
-    return (static_cast<std::int64_t>(z) << 32) ^ (static_cast<std::int64_t>(y + 32768) << 16) ^
-           (x + 32768);
-  };
-  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v / cell)); };
-  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
-  for (std::size_t n = 0; n < count; ++n) {
-    // A large bed takes a while to insert: look at the cancel flag now and then.
-    if (n % 4096 == 0 && request.cancel && request.cancel->load(std::memory_order_relaxed))
-      throw Cancelled();
-    const double r = 0.5 * uniform(d_min, d_max);
-    for (int attempt = 0;; ++attempt) {
-      if (attempt == 2000) {  // crowded: give the column more room
-        column_top *= 1.1;
-        if (column_top > scene.cylinder.height_m)
-          throw SceneError("bed.source_thickness_m",
-                           "cannot fit the beads for this thickness into the cylinder");
-        attempt = 0;
-      }
-      const double reach = R - r;
-      const double x = uniform(-reach, reach), y = uniform(-reach, reach);
-      if (x * x + y * y > reach * reach) continue;
-      const double z = uniform(r, column_top - r);
-      const dem::Vec3 p(x, y, z);
-      const int cx = cell_of(x), cy = cell_of(y), cz = cell_of(z);
-      bool free = true;
-      for (int dz = -1; dz <= 1 && free; ++dz)
-        for (int dy = -1; dy <= 1 && free; ++dy)
-          for (int dx = -1; dx <= 1 && free; ++dx) {
-            auto it = grid.find(key(cx + dx, cy + dy, cz + dz));
-            if (it == grid.end()) continue;
-            for (std::uint32_t j : it->second) {
-              const double reach_j = r + beads.radius[j];
-              if ((beads.position[j] - p).squaredNorm() < reach_j * reach_j) {
-                free = false;
-                break;
-              }
-            }
-          }
-      if (!free) continue;
-      grid[key(cx, cy, cz)].push_back(static_cast<std::uint32_t>(beads.size()));
-      beads.Add(p, r, scene.material.density_kg_m3);
-      break;
-    }
-  }
-  return beads;
-}
 
 // ---- settling ----------------------------------------------------------------------------------
 
@@ -507,7 +436,7 @@ dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::
 
 PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  dem::ParticleState inserted = InsertBeads(scene, request);
+  dem::ParticleState inserted = InsertSourceBeads(scene, request);
   const double insert_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   dem::Simulation sim = BedSimulation(scene, nullptr, std::move(inserted), scene.bed.prep_friction);
@@ -735,6 +664,77 @@ double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m,
   double volume = 0.0;
   for (double r : beads.radius) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
   return volume / (std::numbers::pi * cylinder_radius_m * cylinder_radius_m * thickness_m);
+}
+
+// ---- insertion ---------------------------------------------------------------------------------
+
+// A loose column of solid fraction about 0.3 above the plate.
+dem::ParticleState InsertSourceBeads(const Scene& scene, const BedRequest& request) {
+  const SourcePlan plan = PlanSourceBed(scene);
+  if (plan.column_top_m > scene.cylinder.height_m)
+    throw SceneError("bed.source_thickness_m",
+                     "a bed this thick needs a loose column of " +
+                         std::to_string(plan.column_top_m) +
+                         " m to settle from, higher than cylinder.height_m");
+  const double R = scene.cylinder.radius_m;
+  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
+  if (!(plan.beads <= kMaxBeads))
+    throw SceneError("beads.diameter_min_m",
+                     "the source bed would hold more than " + std::to_string(kMaxBeads) +
+                         " beads, more than a simulation can number; use larger beads or a "
+                         "thinner bed");
+  const auto count = static_cast<std::size_t>(plan.beads);
+  double column_top = plan.column_top_m;
+
+  Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
+  dem::ParticleState beads;
+  const double cell = d_max;
+  auto key = [&](int x, int y, int z) {
+    return (static_cast<std::int64_t>(z) << 32) ^ (static_cast<std::int64_t>(y + 32768) << 16) ^
+           (x + 32768);
+  };
+  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v / cell)); };
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
+  for (std::size_t n = 0; n < count; ++n) {
+    // A large bed takes a while to insert: look at the cancel flag now and then.
+    if (n % 4096 == 0 && request.cancel && request.cancel->load(std::memory_order_relaxed))
+      throw Cancelled();
+    const double r = 0.5 * uniform(d_min, d_max);
+    for (int attempt = 0;; ++attempt) {
+      if (attempt == 2000) {  // crowded: give the column more room
+        column_top *= 1.1;
+        if (column_top > scene.cylinder.height_m)
+          throw SceneError("bed.source_thickness_m",
+                           "cannot fit the beads for this thickness into the cylinder");
+        attempt = 0;
+      }
+      const double reach = R - r;
+      const double x = uniform(-reach, reach), y = uniform(-reach, reach);
+      if (x * x + y * y > reach * reach) continue;
+      const double z = uniform(r, column_top - r);
+      const dem::Vec3 p(x, y, z);
+      const int cx = cell_of(x), cy = cell_of(y), cz = cell_of(z);
+      bool free = true;
+      for (int dz = -1; dz <= 1 && free; ++dz)
+        for (int dy = -1; dy <= 1 && free; ++dy)
+          for (int dx = -1; dx <= 1 && free; ++dx) {
+            auto it = grid.find(key(cx + dx, cy + dy, cz + dz));
+            if (it == grid.end()) continue;
+            for (std::uint32_t j : it->second) {
+              const double reach_j = r + beads.radius[j];
+              if ((beads.position[j] - p).squaredNorm() < reach_j * reach_j) {
+                free = false;
+                break;
+              }
+            }
+          }
+      if (!free) continue;
+      grid[key(cx, cy, cz)].push_back(static_cast<std::uint32_t>(beads.size()));
+      beads.Add(p, r, scene.material.density_kg_m3);
+      break;
+    }
+  }
+  return beads;
 }
 
 }  // namespace dembuf

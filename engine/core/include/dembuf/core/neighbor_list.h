@@ -17,6 +17,12 @@ class CellGrid {
  public:
   void Build(const std::vector<Vec3>& positions, double cell_size, const Vec3& lo, const Vec3& hi);
 
+  /// Bytes its arrays hold (their capacity).
+  std::size_t MemoryBytes() const {
+    return (m_cell_start.capacity() + m_cell_beads.capacity() + m_bead_cell.capacity()) *
+           sizeof(std::uint32_t);
+  }
+
   /// Calls visit(j) for every bead in the cells overlapping the box [lo, hi].
   template <class Visit>
   void ForEachInBox(const Vec3& lo, const Vec3& hi, Visit&& visit) const {

@@ -127,6 +127,10 @@ class Simulation {
   /// (large beds are reordered in memory; RemoveBeads drops the indices of removed beads).
   const std::vector<std::uint32_t>& BeadOrigins() const;
 
+  /// Bytes the simulation's arrays hold (their capacity): beads, neighbour lists, contact
+  /// histories, the force pass's blocks and batches. What the benchmark's bytes per bead count.
+  std::size_t MemoryBytes() const;
+
   /// The time spent in each stage of the steps so far.
   const StageTimes& stage_times() const { return m_stage_times; }
 

@@ -168,6 +168,11 @@ struct SourcePlan {
 };
 SourcePlan PlanSourceBed(const Scene& scene);
 
+/// The loose column a scene's source bed settles from: PlanSourceBed's beads at random
+/// positions, without overlaps, from bed.seed (for a peer that settles it itself, as the
+/// benchmark has LAMMPS do). Throws SceneError when they do not fit the cylinder.
+dem::ParticleState InsertSourceBeads(const Scene& scene, const BedRequest& request = {});
+
 /// Whether the bed needs the friction stage: mu_pp differs from bed.prep_friction.
 bool NeedsFrictionStage(const Scene& scene);
 

@@ -185,7 +185,7 @@ void CompareWallsWithScalarLaw(bool friction) {
                                shear.front().data(),
                                params,
                                dt,
-                               box.radius_m};
+                               box};
 
   int clamped = 0, sliding = 0;
   for (const dem::BodyId wall : {dem::kPlate, dem::kSideWall}) {

@@ -76,18 +76,6 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
     partners.reserve(8 * (last - first));
     for (std::size_t i = first; i < last; ++i) {
       fresh.offsets[i] = static_cast<std::uint32_t>(partners.size());  // within the chunk
-      // Two held beads (inv_mass 0: neither moves nor turns) can change nothing by touching:
-      // their pair is left out, which spares local settling the held rim of its region.
-      if (beads.inv_mass[i] == 0.0) {
-        grid.ForEachAround(beads.position[i], [&](std::uint32_t j) {
-          const double reach = beads.radius[i] + beads.radius[j] + skin;
-          if (j > i && beads.inv_mass[j] != 0.0 &&
-              (beads.position[i] - beads.position[j]).squaredNorm() < reach * reach)
-            partners.push_back(j);
-        });
-        std::sort(partners.begin() + fresh.offsets[i], partners.end());
-        continue;
-      }
       const Vec3 xi = beads.position[i];
       const double ri = beads.radius[i];
       if (forward) {
@@ -107,15 +95,20 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
           }
           partners.resize(count);
         });
-        continue;
+      } else {
+        grid.ForEachAround(xi, [&](std::uint32_t j) {
+          if (j <= i) return;
+          const double reach = ri + beads.radius[j] + skin;
+          if ((xi - beads.position[j]).squaredNorm() < reach * reach) partners.push_back(j);
+        });
+        std::sort(partners.begin() + fresh.offsets[i], partners.end());
       }
-      auto near = [&](std::uint32_t j) {
-        if (j <= i) return;
-        const double reach = ri + beads.radius[j] + skin;
-        if ((xi - beads.position[j]).squaredNorm() < reach * reach) partners.push_back(j);
-      };
-      grid.ForEachAround(xi, near);
-      std::sort(partners.begin() + fresh.offsets[i], partners.end());
+      // Two held beads (inv_mass 0: neither moves nor turns) can change nothing by touching:
+      // their pair is left out, which spares local settling the held rim of its region.
+      if (beads.inv_mass[i] == 0.0)
+        partners.erase(std::remove_if(partners.begin() + fresh.offsets[i], partners.end(),
+                                      [&](std::uint32_t j) { return beads.inv_mass[j] == 0.0; }),
+                       partners.end());
     }
   }
   std::vector<std::uint32_t> chunk_start(chunks + 1, 0);

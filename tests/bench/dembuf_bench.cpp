@@ -216,9 +216,7 @@ bool LammpsAvailable() {
 // `friction` is the bead-bead friction (the preparation's for settling).
 std::vector<std::string> LammpsVariables(const World& world, const Scene& scene, double friction) {
   const double e_star = 0.75 * world.params.sphere_pair.kn_per_sqrt_r;
-  const double d_mean = scene.beads.MeanDiameter();
-  const double m_mean =
-      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double m_mean = scene.MeanBeadMass();
   // LAMMPS's viscoelastic damping force is eta0 * a * m_eff * (approach rate), a = sqrt(R d);
   // dembuf's Kuwabara-Kono term is A * 4/3 E* * a * (approach rate): equal for a mean pair.
   const double eta0 = world.params.sphere_pair.damping_A_s * 4.0 / 3.0 * e_star / (0.5 * m_mean);
@@ -284,8 +282,7 @@ bool SettleInLammps(const Scene& scene, const World& world, const fs::path& work
   std::ofstream(work / "loose.data") << ExportBed(loose, scene, BedFormat::kLammps,
                                                   "dembuf benchmark: the loose column");
   const double d_mean = scene.beads.MeanDiameter();
-  const double m_mean =
-      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double m_mean = scene.MeanBeadMass();
   constexpr int kCheck = 2000;
   const auto max_checks = static_cast<long>(0.5 / world.params.dt_s / kCheck);
   std::vector<std::string> variables = LammpsVariables(world, scene, scene.bed.prep_friction);

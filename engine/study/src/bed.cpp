@@ -325,8 +325,7 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
                     const std::function<void(dem::Simulation&, double)>& before_step = {},
                     bool quench = false, bool local = false) {
   const double d_mean = scene.beads.MeanDiameter();
-  const double m_mean =
-      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double m_mean = scene.MeanBeadMass();
   const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
   const double t0 = sim.time_s();
   constexpr int kCheckEvery = 200;
@@ -406,8 +405,7 @@ PreparedBed Finish(dem::Simulation& sim, const Scene& scene, const std::string& 
   bed.surface_m = MeasureSurface(bed.beads, scene.cylinder.radius_m);
   bed.solid_fraction = SolidFraction(bed.beads, scene.cylinder.radius_m, bed.surface_m);
   const double d_mean = scene.beads.MeanDiameter();
-  const double m_mean =
-      scene.material.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double m_mean = scene.MeanBeadMass();
   const RestState rest = MeasureRest(sim, m_mean * scene.gravity_m_s2 * d_mean);
   bed.weight_N = rest.weight;
   bed.kinetic_ratio = rest.kinetic_ratio;

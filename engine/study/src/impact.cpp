@@ -37,7 +37,7 @@ ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
 
   // Calibrate A on two beads of the mean diameter meeting head-on (docs/model.md section 2).
   const double d_mean = scene.beads.MeanDiameter();
-  const double bead_mass = mat.density_kg_m3 * std::numbers::pi / 6.0 * d_mean * d_mean * d_mean;
+  const double bead_mass = scene.MeanBeadMass();
   const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);
   setup.damping = dem::CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref,
                                         0.5 * bead_mass);

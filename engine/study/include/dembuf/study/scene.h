@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -136,6 +137,12 @@ struct Scene {
   TimeSpec time;
   OutputSpec output;
   double gravity_m_s2 = 9.81;
+
+  /// The mass of a bead of the mean diameter: the calibration's and the rest criterion's bead.
+  double MeanBeadMass() const {
+    const double d = beads.MeanDiameter();
+    return material.density_kg_m3 * std::numbers::pi / 6.0 * d * d * d;
+  }
 };
 
 }  // namespace dembuf

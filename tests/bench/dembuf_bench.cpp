@@ -241,8 +241,8 @@ std::vector<std::string> LammpsVariables(const World& world, const Scene& scene,
 // fails.
 bool RunLammpsInput(const fs::path& input, std::vector<std::string> variables,
                     const fs::path& log) {
-  std::vector<std::string> args = {"lmp", "-nocite", "-screen", "none", "-log", log.string(),
-                                   "-in", input.string()};
+  std::vector<std::string> args = {"lmp",  "-nocite",    "-screen", "none",
+                                   "-log", log.string(), "-in",     input.string()};
   args.insert(args.end(), variables.begin(), variables.end());
   if (RunProgram(args) == 0) return true;
   std::ifstream in(log);
@@ -279,8 +279,8 @@ double RunLammps(const fs::path& input, const fs::path& data, const World& world
 bool SettleInLammps(const Scene& scene, const World& world, const fs::path& work,
                     const fs::path& path, double& seconds) {
   const dem::ParticleState loose = InsertSourceBeads(scene);
-  std::ofstream(work / "loose.data") << ExportBed(loose, scene, BedFormat::kLammps,
-                                                  "dembuf benchmark: the loose column");
+  std::ofstream(work / "loose.data")
+      << ExportBed(loose, scene, BedFormat::kLammps, "dembuf benchmark: the loose column");
   const double d_mean = scene.beads.MeanDiameter();
   const double m_mean = scene.MeanBeadMass();
   constexpr int kCheck = 2000;
@@ -289,11 +289,10 @@ bool SettleInLammps(const Scene& scene, const World& world, const fs::path& work
   std::ostringstream ke_rest;
   ke_rest.precision(12);
   ke_rest << 1e-3 * m_mean * scene.gravity_m_s2 * d_mean;
-  variables.insert(variables.end(),
-                   {"-var", "data", (work / "loose.data").string(), "-var", "out",
-                    (work / "settled.dump").string(), "-var", "check", std::to_string(kCheck),
-                    "-var", "max_checks", std::to_string(max_checks), "-var", "ke_rest",
-                    ke_rest.str()});
+  variables.insert(variables.end(), {"-var", "data", (work / "loose.data").string(), "-var", "out",
+                                     (work / "settled.dump").string(), "-var", "check",
+                                     std::to_string(kCheck), "-var", "max_checks",
+                                     std::to_string(max_checks), "-var", "ke_rest", ke_rest.str()});
   const auto start = std::chrono::steady_clock::now();
   if (!RunLammpsInput(fs::path(DEMBUF_BENCH_DIR) / "lammps" / "in.settle", variables,
                       work / "settle.log"))
@@ -457,10 +456,11 @@ void BenchLammpsSettledBed(const Options& opt, const Scene& scene, const World& 
   const std::string lammps_took =
       lammps_settle_s >= 0 ? std::to_string(std::lround(lammps_settle_s)) + " s" : "cached";
   const std::string relax_took = std::to_string(std::lround(relax_s)) + " s";
-  std::printf("  %zu beads, H = %.2f cm, C0 = %.3f (settling in LAMMPS: %s; dembuf relaxing the "
-              "import: %s)\n",
-              damped.beads.size(), 100 * damped.bed.thickness_m, damped.bed.solid_fraction,
-              lammps_took.c_str(), relax_took.c_str());
+  std::printf(
+      "  %zu beads, H = %.2f cm, C0 = %.3f (settling in LAMMPS: %s; dembuf relaxing the "
+      "import: %s)\n",
+      damped.beads.size(), 100 * damped.bed.thickness_m, damped.bed.solid_fraction,
+      lammps_took.c_str(), relax_took.c_str());
   // Without damping: the same bed and time step, the contact constants of e = 1.
   Scene elastic_scene = imported;
   elastic_scene.material.restitution = 1.0;
@@ -481,16 +481,16 @@ void BenchLammpsSettledBed(const Options& opt, const Scene& scene, const World& 
     const double e = c.e;
     const World* w = c.w;
     const Scene* sc = c.sc;
-    std::ofstream(work / "imported.data") << ExportBed(w->beads, *sc, BedFormat::kLammps,
-                                                       "dembuf benchmark: bed settled by LAMMPS",
-                                                       w->projectile);
+    std::ofstream(work / "imported.data")
+        << ExportBed(w->beads, *sc, BedFormat::kLammps, "dembuf benchmark: bed settled by LAMMPS",
+                     w->projectile);
     Timing ours, theirs;
     for (int r = 0; r < repeats; ++r) {
       const Timing t = TimeSteps(*w, opt.steps, 1);
       if (r == 0 || t.seconds < ours.seconds) ours = t;
       const PinnedTo pin(g_single_thread_core);
-      const double s = RunLammps(lammps_input, work / "imported.data", *w, *sc, opt.steps,
-                                 work / "log.lammps");
+      const double s =
+          RunLammps(lammps_input, work / "imported.data", *w, *sc, opt.steps, work / "log.lammps");
       if (s > 0 && (theirs.seconds == 0 || s < theirs.seconds))
         theirs = Timing{s, w->beads.size() + 1, opt.steps, {}};
     }
@@ -665,8 +665,7 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
     std::printf("  %8zu beads  %10.1f us/step  %8.1f ns/bead-step\n", n, us_per_step,
                 t.NsPerBeadStep());
     std::fflush(stdout);
-    if (n >= kFitFrom)
-      points.push_back({std::log(static_cast<double>(n)), std::log(us_per_step)});
+    if (n >= kFitFrom) points.push_back({std::log(static_cast<double>(n)), std::log(us_per_step)});
     sizes.push_back({{"beads", n}, {"us_per_step", us_per_step}, {"timing", TimingJson(t)}});
     if (n == counts.back()) {
       // Memory: what a simulation of this size holds, with its springs, after a few steps;
@@ -689,9 +688,10 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
   const double exponent = (np * sxy - sx * sy) / (np * sxx - sx * sx);
   std::printf("  fit from %zu to %zu beads: time per step ~ beads^%.3f\n", kFitFrom, counts.back(),
               exponent);
-  std::printf("  memory: %.0f bytes per bead held by the simulation (%.0f resident growth; "
-              "%zu-bead simulation)\n\n",
-              bytes_per_bead, resident_per_bead, counts.back());
+  std::printf(
+      "  memory: %.0f bytes per bead held by the simulation (%.0f resident growth; "
+      "%zu-bead simulation)\n\n",
+      bytes_per_bead, resident_per_bead, counts.back());
   report["sizes"] = sizes;
   report["size_exponent"] = exponent;
   report["bytes_per_bead"] = bytes_per_bead;

@@ -46,7 +46,8 @@ mkdir -p "$work/py"
 # Compiled from its own folder: a module under grpc/ would hide grpcio's package.
 protoc --proto_path="$proto_dir/grpc/reflection/v1" --python_out="$work/py" reflection.proto \
   || fail "protoc cannot compile the reflection proto"
-PYTHONPATH="$work/py" /usr/bin/python3 - "$DEMBUF_SERVER" <<'PY' || fail "reflection answers"
+PYTHONPATH="$work/py" timeout 120 /usr/bin/python3 - "$DEMBUF_SERVER" <<'PY' \
+  || fail "reflection answers (or no exit within 120 s)"
 import sys
 import grpc
 from google.protobuf import descriptor_pb2
@@ -141,8 +142,12 @@ held[0][0].put(None)
 list(held[0][1])
 questions, call = open_stream()
 assert next(call).list_services_response.service, "a stream freed no place"
-for q, _ in held[1:] + [(questions, call)]:
+# Every stream is closed and ended before the channel: Python's exit otherwise waits on calls
+# still open.
+for q, c in held[1:] + [(questions, call)]:
     q.put(None)
+    list(c)
+channel.close()
 print(f"reflection v1: {len(services)} services, {len(files(v1[1]))} files for dembuf.v1.Dembuf,"
       " as v1alpha answers")
 PY

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <random>
 #include <set>
 #include <thread>
@@ -262,6 +263,54 @@ TEST(Simulation, BeadOriginsFollowTheReorderAndRemovals) {
   expect_origins("after removing a third");
 }
 
+TEST(Simulation, SavedHistoriesFollowTheReorder) {
+  // A saved bed's springs (the constructor's history, or those kept by RemoveBeads) belong to
+  // the beads as they were numbered then; the first list build of a large bed renumbers the
+  // beads in cell order, and every spring must land on its own contact all the same.
+  Scene scene = SmallBedScene();
+  scene.cylinder.radius_m = 0.1;
+  const double r = 0.5 * scene.beads.diameter_min_m;
+  dem::ParticleState given;  // 1,440 beads numbered from the top down, rows touching along x
+  for (int z = 9; z >= 0; --z)
+    for (int y = 11; y >= 0; --y)
+      for (int x = 11; x >= 0; --x)
+        given.Add(dem::Vec3((x - 6) * 1.98 * r, (y - 6) * 2.2 * r, 0.99 * r + z * 2.2 * r), r,
+                  scene.material.density_kg_m3);
+  auto id = [](int x, int y, int z) {
+    return static_cast<dem::BodyId>(((9 - z) * 12 + (11 - y)) * 12 + (11 - x));
+  };
+  // A spring along y (tangent to every contact here), small enough to stay under Coulomb's
+  // bound, and different for every contact so that none can stand for another.
+  std::vector<dem::ContactHistoryEntry> history;
+  for (int z = 0; z < 10; ++z)
+    for (int y = 0; y < 12; ++y)
+      for (int x = 0; x < 12; ++x) {
+        const double s = 1e-9 * (1 + (x + 12 * (y + 12 * z)) % 97);
+        if (x < 11) history.push_back({id(x, y, z), id(x + 1, y, z), dem::Vec3(0, s, 0)});
+        if (z == 0) history.push_back({id(x, y, z), dem::kPlate, dem::Vec3(0, 2 * s, 0)});
+      }
+  dem::Simulation sim(MakeContactSetup(scene, r).params, given, std::nullopt, history);
+  sim.RefreshForces();  // builds the lists, renumbers the beads, and keeps the springs
+  const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
+  std::size_t renumbered = 0;
+  for (std::size_t k = 0; k < origin.size(); ++k) renumbered += origin[k] != k;
+  ASSERT_GT(renumbered, origin.size() / 2);
+  std::map<std::pair<dem::BodyId, dem::BodyId>, dem::Vec3> found;
+  for (const dem::ContactHistoryEntry& h : sim.ExportHistory()) {
+    const dem::BodyId a = origin[h.bead];
+    const dem::BodyId b = dem::IsBead(h.other) ? origin[h.other] : h.other;
+    found[{std::min(a, b), std::max(a, b)}] = a < b ? h.shear : dem::Vec3(-h.shear);
+  }
+  ASSERT_EQ(found.size(), history.size());
+  for (const dem::ContactHistoryEntry& h : history) {
+    const auto it = found.find({std::min(h.bead, h.other), std::max(h.bead, h.other)});
+    ASSERT_NE(it, found.end()) << h.bead << "-" << h.other;
+    const dem::Vec3 wanted = h.bead < h.other ? h.shear : dem::Vec3(-h.shear);
+    EXPECT_NEAR((it->second - wanted).norm(), 0.0, 1e-6 * h.shear.norm())
+        << h.bead << "-" << h.other;
+  }
+}
+
 TEST(BedCacheThreads, ABedAskedForByManyThreadsIsMadeOnce) {
   // Workers of a sweep or of the daemon ask for the same bed at once: one prepares it, the
   // others wait and get the same bed. A preparation that fails releases the waiters, and the
@@ -345,7 +394,7 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   const Scene s = SmallBedScene();
   // A fixed value: a change here means every cached bed is invalidated (raise
   // kBedPreparationVersion instead when that is intended).
-  EXPECT_EQ(BedHash(s), "cf7c59483829c521");  // preparation version 3, local settling version 2
+  EXPECT_EQ(BedHash(s), "1d32e215d9f48b76");  // preparation version 4, local settling version 2
   Scene projectile = s;
   projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
   projectile.time.end_s = 0.1;
@@ -366,7 +415,7 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   // reused; without it the hash is that of the beds settled whole before it was the default.
   Scene whole = s;
   whole.bed.local_settling = false;
-  EXPECT_EQ(BedHash(whole), "b9619fad74a56931");  // preparation version 3
+  EXPECT_EQ(BedHash(whole), "678b0594ca8e7050");  // preparation version 4
   // Both cuts share the source bed.
   Scene tops = s;
   tops.bed.cut = "tops";

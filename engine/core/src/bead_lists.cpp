@@ -45,6 +45,12 @@ void Permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
 void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::uint32_t>& order) {
   std::vector<std::uint32_t> new_id(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) new_id[order[k]] = static_cast<std::uint32_t>(k);
+  // Histories still waiting to be applied (a saved bed's, or those RemoveBeads kept) name the
+  // beads by their old ids too.
+  for (ContactHistoryEntry& h : s.pending_history) {
+    h.bead = new_id[h.bead];
+    if (IsBead(h.other)) h.other = new_id[h.other];
+  }
   if (s.lists.pairs.offsets.size() == b.size() + 1) {
     for (std::uint32_t i = 0; i < b.size(); ++i)
       for (std::uint32_t k = s.lists.pairs.offsets[i]; k < s.lists.pairs.offsets[i + 1]; ++k)

@@ -33,8 +33,10 @@ namespace dembuf {
 
 /// Version of the preparation procedure; part of every bed hash. Raise it with any change
 /// that alters the beds the procedure makes (insertion, settling, the integrator's sums), so
-/// that stale cached beds are not reused.
-inline constexpr int kBedPreparationVersion = 3;
+/// that stale cached beds are not reused. Version 4: springs kept across a renumbering of the
+/// beads land on their own contacts (version 3 and before lost most of them at every cut and
+/// every local-settling region).
+inline constexpr int kBedPreparationVersion = 4;
 /// Version of local settling (bed.local_settling), in the hash of the beds it makes. Raise it
 /// with any change to how it settles (its thresholds among them).
 inline constexpr int kLocalSettlingVersion = 2;

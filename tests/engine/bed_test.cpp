@@ -208,9 +208,9 @@ TEST(Simulation, MemoryBytesCountsTheBeadsAndTheLists) {
     for (int z = 0; z < 4; ++z)
       for (int y = 0; y < side; ++y)
         for (int x = 0; x < side; ++x)  // 1% overlaps along x: one contact per neighbour
-          beads.Add(dem::Vec3((x - side / 2) * 1.98 * r, (y - side / 2) * 2.2 * r,
-                              (z + 1) * 2.2 * r),
-                    r, scene.material.density_kg_m3);
+          beads.Add(
+              dem::Vec3((x - side / 2) * 1.98 * r, (y - side / 2) * 2.2 * r, (z + 1) * 2.2 * r), r,
+              scene.material.density_kg_m3);
     return dem::Simulation(MakeContactSetup(scene, r).params, beads, std::nullopt);
   };
   dem::Simulation small = lattice(10), large = lattice(20);
@@ -222,8 +222,8 @@ TEST(Simulation, MemoryBytesCountsTheBeadsAndTheLists) {
   // Per bead added (a fixed part, the batches of the force pass, cancels): the beads' arrays
   // and list entries, and not much more.
   const double added_beads = static_cast<double>(n - small.beads().size());
-  const double per_bead = (static_cast<double>(large.MemoryBytes()) - small.MemoryBytes()) /
-                          added_beads;
+  const double per_bead =
+      (static_cast<double>(large.MemoryBytes()) - small.MemoryBytes()) / added_beads;
   EXPECT_GE(per_bead, 152.0 + 40.0 * (pairs - 4 * 10 * 9) / added_beads);
   EXPECT_LT(per_bead, 1000.0);
   const std::size_t before = large.MemoryBytes();

@@ -178,11 +178,13 @@ void CompareWallsWithScalarLaw(bool friction) {
   // Damping strong enough that the fastest separations clamp the normal force to 0.
   const dem::PairParams params{4.0 / 3.0 * 6.0e10, 8.0 * 2.0e10, 4e-6, 0.3};
   const double dt = 2e-7;
+  // The histories are kept per slot, not per bead: here bead k's is in slot kCount - 1 - k.
+  std::vector<dem::Vec3> shear_by_slot(shear.rbegin(), shear.rend());
   const WallBatchInputs inputs{position.front().data(),
                                velocity.front().data(),
                                angular_velocity.front().data(),
                                radius.data(),
-                               shear.front().data(),
+                               shear_by_slot.front().data(),
                                params,
                                dt,
                                box};
@@ -193,7 +195,10 @@ void CompareWallsWithScalarLaw(bool friction) {
     WallBatch batch;
     batch.Reserve(kCount);
     batch.size = 0;
-    for (int k = parity; k < kCount; k += 2) batch.bead[batch.size++] = k;
+    for (int k = parity; k < kCount; k += 2) {
+      batch.bead[batch.size] = k;
+      batch.slot[batch.size++] = kCount - 1 - k;
+    }
     ResolveWallBatch(friction, wall, inputs, batch);
 
     for (std::size_t c = 0; c < batch.size; ++c) {

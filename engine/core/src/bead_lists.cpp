@@ -10,27 +10,42 @@ namespace dembuf::dem::detail {
 
 namespace {
 
-// Restores saved tangential histories into the freshly built lists (a loaded bed, or beads
-// that were just reordered). A pair's shear belongs to its lower id; swapping flips its sign.
-void ApplyHistory(Simulation::Impl& s) {
+// Hands the wall histories, kept per near-container bead, to pending_history, so that they
+// follow the beads through a reorder and find their slots in the next near-container list.
+void PendWallHistories(Simulation::Impl& s) {
+  for (std::size_t c = 0; c < s.walls.plate.size(); ++c) {
+    const std::uint32_t i = s.lists.near_container[c];
+    if (s.walls.plate[c] != Vec3::Zero())
+      s.pending_history.push_back({i, kPlate, s.walls.plate[c]});
+    if (s.walls.side[c] != Vec3::Zero())
+      s.pending_history.push_back({i, kSideWall, s.walls.side[c]});
+  }
+  s.walls.plate.clear();
+  s.walls.side.clear();
+}
+
+// Restores the saved pair histories into the freshly built pair list (a loaded bed, or beads
+// that were just reordered) and returns the wall histories, which wait for the near-container
+// list. A pair's shear belongs to its lower id; swapping flips its sign.
+std::vector<ContactHistoryEntry> ApplyPairHistory(Simulation::Impl& s) {
+  std::vector<ContactHistoryEntry> walls;
   for (ContactHistoryEntry h : s.pending_history) {
-    if (h.other == kPlate) {
-      s.walls.plate[h.bead] = h.shear;
-    } else if (h.other == kSideWall) {
-      s.walls.side[h.bead] = h.shear;
-    } else {
-      if (h.other < h.bead) {
-        std::swap(h.bead, h.other);
-        h.shear = -h.shear;
-      }
-      const auto first = s.lists.pairs.partners.begin() + s.lists.pairs.offsets[h.bead];
-      const auto last = s.lists.pairs.partners.begin() + s.lists.pairs.offsets[h.bead + 1];
-      const auto it = std::lower_bound(first, last, h.other);
-      if (it != last && *it == h.other)
-        s.lists.pairs.shear[it - s.lists.pairs.partners.begin()] = h.shear;
+    if (h.other == kPlate || h.other == kSideWall) {
+      walls.push_back(h);
+      continue;
     }
+    if (h.other < h.bead) {
+      std::swap(h.bead, h.other);
+      h.shear = -h.shear;
+    }
+    const auto first = s.lists.pairs.partners.begin() + s.lists.pairs.offsets[h.bead];
+    const auto last = s.lists.pairs.partners.begin() + s.lists.pairs.offsets[h.bead + 1];
+    const auto it = std::lower_bound(first, last, h.other);
+    if (it != last && *it == h.other)
+      s.lists.pairs.shear[it - s.lists.pairs.partners.begin()] = h.shear;
   }
   s.pending_history.clear();
+  return walls;
 }
 
 template <class T>
@@ -80,8 +95,6 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(b.mass, order);
   Permute(b.inv_mass, order);
   Permute(b.inv_inertia, order);
-  Permute(s.walls.plate, order);
-  Permute(s.walls.side, order);
   Permute(s.origin, order);
 }
 
@@ -93,17 +106,31 @@ void PlanBlocks(Simulation::Impl& s) {
 }
 
 // The beads near the plate or the side wall (NeighbourLists::near_container), after the blocks are
-// planned and the histories applied.
-void ListNearContainer(const ParticleState& b, const Container& box, Simulation::Impl& s) {
+// planned, and their wall histories (`saved`, from ApplyPairHistory) in their slots.
+void ListNearContainer(const ParticleState& b, const Container& box,
+                       std::vector<ContactHistoryEntry> saved, Simulation::Impl& s) {
+  std::sort(
+      saved.begin(), saved.end(),
+      [](const ContactHistoryEntry& a, const ContactHistoryEntry& c) { return a.bead < c.bead; });
   s.lists.near_container.clear();
+  auto next_saved = saved.begin();
   for (std::uint32_t i = 0; i < b.size(); ++i) {
     const Vec3& x = b.position[i];
     const double r = b.radius[i];
     const double inner = box.radius_m - r - s.lists.skin;
     const bool near_plate = x.z() - r < s.lists.skin;
     const bool near_wall = inner <= 0.0 || x.x() * x.x() + x.y() * x.y() > inner * inner;
-    const bool history = s.walls.plate[i] != Vec3::Zero() || s.walls.side[i] != Vec3::Zero();
+    while (next_saved != saved.end() && next_saved->bead < i) ++next_saved;
+    const bool history = next_saved != saved.end() && next_saved->bead == i;
     if (near_plate || near_wall || history) s.lists.near_container.push_back(i);
+  }
+  s.walls.plate.assign(s.lists.near_container.size(), Vec3::Zero());
+  s.walls.side.assign(s.lists.near_container.size(), Vec3::Zero());
+  for (const ContactHistoryEntry& h : saved) {
+    const auto slot =
+        std::lower_bound(s.lists.near_container.begin(), s.lists.near_container.end(), h.bead) -
+        s.lists.near_container.begin();
+    (h.other == kPlate ? s.walls.plate : s.walls.side)[slot] = h.shear;
   }
   s.blocks.near_container_start.clear();
   for (const std::uint32_t first : s.blocks.start)
@@ -116,6 +143,8 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
                   const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
   s.blocks.start = {0, static_cast<std::uint32_t>(b.size())};
   s.blocks.contacts.clear();
+  PendWallHistories(s);
+  std::vector<ContactHistoryEntry> wall_history;
   if (b.size() > 0) {
     // The grid spans the container; beads above the wall top or outside it are clamped into
     // the border cells. Its height follows the beads, so a shallow bed has few cells.
@@ -138,14 +167,14 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
       PlanBlocks(s);
     }
     RebuildPairList(b, s.lists.grid, s.lists.skin, s.lists.pairs, s.parallel ? s.threads : 1);
-    ApplyHistory(s);
+    wall_history = ApplyPairHistory(s);
     s.lists.reference_position = b.position;
     if (projectile)
       RebuildCandidateList(b, s.lists.grid, projectile->position, projectile->radius,
                            s.lists.max_radius, s.lists.skin, s.lists.near_projectile);
   }
   WeighBlocks(s);
-  ListNearContainer(b, params.container, s);
+  ListNearContainer(b, params.container, std::move(wall_history), s);
   if (projectile) s.lists.projectile_reference = projectile->position;
   s.lists.max_bead_displacement = 0.0;
   s.lists.projectile_list_displacement = 0.0;

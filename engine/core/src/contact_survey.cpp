@@ -13,9 +13,10 @@ std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
   const Impl& s = *m_impl;
   std::vector<ContactHistoryEntry> out;
   out.insert(out.end(), s.pending_history.begin(), s.pending_history.end());
-  for (std::uint32_t i = 0; i < m_beads.size(); ++i) {
-    if (s.walls.plate[i] != Vec3::Zero()) out.push_back({i, kPlate, s.walls.plate[i]});
-    if (s.walls.side[i] != Vec3::Zero()) out.push_back({i, kSideWall, s.walls.side[i]});
+  for (std::size_t c = 0; c < s.walls.plate.size(); ++c) {
+    const std::uint32_t i = s.lists.near_container[c];
+    if (s.walls.plate[c] != Vec3::Zero()) out.push_back({i, kPlate, s.walls.plate[c]});
+    if (s.walls.side[c] != Vec3::Zero()) out.push_back({i, kSideWall, s.walls.side[c]});
   }
   if (s.lists.pairs.offsets.size() == m_beads.size() + 1) {
     for (std::uint32_t i = 0; i < m_beads.size(); ++i)
@@ -57,8 +58,14 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
     if (detail::SideWallContact(params.container, x, r, overlap, n))
       visit(id, kSideWall, n, overlap, v, r, std::sqrt(r), params.sphere_wall, wall, x);
   };
-  for (std::uint32_t i = 0; i < b.size(); ++i)
-    walls(i, b.position[i], b.velocity[i], b.radius[i], s.walls.plate[i], s.walls.side[i]);
+  // Only the near-container beads keep wall histories (in near_container order, by id).
+  const Vec3 none = Vec3::Zero();
+  for (std::uint32_t i = 0, c = 0; i < b.size(); ++i) {
+    const bool kept = c < s.walls.plate.size() && s.lists.near_container[c] == i;
+    walls(i, b.position[i], b.velocity[i], b.radius[i], kept ? s.walls.plate[c] : none,
+          kept ? s.walls.side[c] : none);
+    c += kept;
+  }
   if (projectile) {
     const RigidSphere& p = *projectile;
     walls(kProjectile, p.position, p.velocity, p.radius, s.walls.projectile_plate,

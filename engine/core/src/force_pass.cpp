@@ -127,8 +127,9 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
         const bool touching =
             plate ? Container::PlateOverlap(z, r) > 0.0 : box.TouchesSideWall(x, y, z, r);
         batch.bead[n] = i;
+        batch.slot[n] = c;
         n += touching;
-        batch.apart[m] = i;
+        batch.apart[m] = c;
         m += !touching;
       }
       batch.size = n;
@@ -146,7 +147,7 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
         b.force[i] += Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
         if constexpr (E::kFriction) {
           b.torque[i] += Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]);
-          history[i] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+          history[batch.slot[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
         }
         if constexpr (E::kRolling) {
           const Vec3& x = b.position[i];

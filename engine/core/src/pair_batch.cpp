@@ -20,6 +20,7 @@ void PairBatch::Grow(std::size_t n) {
 
 void WallBatch::Grow(std::size_t n) {
   bead.resize(n);
+  slot.resize(n);
   apart.resize(n);
   overlap.resize(n);
   normal_force.resize(n);
@@ -183,6 +184,7 @@ template <bool kFriction, bool kOnPlate>
 inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs& in,
                                                            WallBatch& batch) {
   const std::uint32_t* bead = batch.bead.data();
+  const std::uint32_t* slot = batch.slot.data();
   double* overlap_out = batch.overlap.data();
   const LawResults out{batch.force[0].data(),
                        batch.force[1].data(),
@@ -237,7 +239,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
     g.wz = g.ai * w[3 * i + 2];
     g.sqrt_r_star = std::sqrt(r);
     overlap_out[c] = g.overlap;
-    ResolveLane<kFriction, Partner::kWall>(g, params, dt, shear, i, out, c);
+    ResolveLane<kFriction, Partner::kWall>(g, params, dt, shear, slot[c], out, c);
   }
 }
 

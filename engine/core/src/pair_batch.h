@@ -58,16 +58,16 @@ struct PairBatchInputs {
 void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch);
 
 /// Contacts of beads with the plate or the side wall, batched like the pairs: the beads that
-/// touch (picked out beforehand) and the law's result for each. The histories are the beads'
-/// own (one per bead and wall).
+/// touch (picked out beforehand), where each one's history is (`slot`), and the law's result
+/// for each.
 struct WallBatch {
   static constexpr std::size_t kTarget = PairBatch::kTarget;
 
-  std::vector<std::uint32_t> bead;
+  std::vector<std::uint32_t> bead, slot;
   std::vector<double> overlap, normal_force;
   std::vector<double> force[3], torque[3], shear[3];
   std::size_t size = 0;
-  /// The beads of the batch's stretch that do not touch (their histories are cleared).
+  /// The history slots of the batch's beads that do not touch (their histories are cleared).
   std::vector<std::uint32_t> apart;
 
   void Reserve(std::size_t n) {
@@ -83,7 +83,7 @@ struct WallBatchInputs {
   const double* velocity;
   const double* angular_velocity;
   const double* radius;
-  const double* shear;  ///< per bead, 3 doubles: its history with this wall
+  const double* shear;  ///< per history slot, 3 doubles: a bead's history with this wall
   PairParams params;
   double dt;
   Container box;

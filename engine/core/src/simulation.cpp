@@ -24,8 +24,6 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
       m_projectile(std::move(projectile)),
       m_impl(std::make_unique<Impl>()) {
   Impl& s = *m_impl;
-  s.walls.plate.assign(m_beads.size(), Vec3::Zero());
-  s.walls.side.assign(m_beads.size(), Vec3::Zero());
   if (m_beads.size() > 0) {
     auto [lo, hi] = std::minmax_element(m_beads.radius.begin(), m_beads.radius.end());
     s.lists.min_radius = *lo;
@@ -185,17 +183,16 @@ std::size_t Simulation::MemoryBytes() const {
   const detail::NeighbourLists& l = s.lists;
   sum += l.grid.MemoryBytes() + Bytes(l.pairs.offsets) + Bytes(l.pairs.partners) +
          Bytes(l.pairs.owner) + Bytes(l.pairs.shear) + Bytes(l.pairs.sqrt_r_star) +
-         Bytes(l.near_projectile.beads) + Bytes(l.near_projectile.shear) +
-         Bytes(l.near_container) + Bytes(l.reference_position);
+         Bytes(l.near_projectile.beads) + Bytes(l.near_projectile.shear) + Bytes(l.near_container) +
+         Bytes(l.reference_position);
   sum += Bytes(s.walls.plate) + Bytes(s.walls.side);
   const detail::ForcePassBlocks& k = s.blocks;
   sum += Bytes(k.start) + Bytes(k.work) + Bytes(k.done) + Bytes(k.contacts) +
          Bytes(k.near_container_start) + Bytes(k.observables) + Bytes(k.conditions) +
          Bytes(k.pair_batches) + Bytes(k.wall_batches);
   for (const detail::PairBatch& p : k.pair_batches)
-    sum += Bytes(p.bead) + Bytes(p.partner) + Bytes(p.entry) + Bytes(p.overlap) +
-           Bytes(p.force) + Bytes(p.torque_bead) + Bytes(p.torque_partner) + Bytes(p.shear) +
-           Bytes(p.apart);
+    sum += Bytes(p.bead) + Bytes(p.partner) + Bytes(p.entry) + Bytes(p.overlap) + Bytes(p.force) +
+           Bytes(p.torque_bead) + Bytes(p.torque_partner) + Bytes(p.shear) + Bytes(p.apart);
   for (const detail::WallBatch& w : k.wall_batches)
     sum += Bytes(w.bead) + Bytes(w.overlap) + Bytes(w.normal_force) + Bytes(w.force) +
            Bytes(w.torque) + Bytes(w.shear) + Bytes(w.apart);
@@ -213,15 +210,12 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   std::vector<ContactHistoryEntry> history = ExportHistory();
   std::vector<std::uint32_t> new_id(m_beads.size(), kPlate);
   ParticleState kept;
-  std::vector<Vec3> plate_shear, wall_shear;
   std::vector<std::uint32_t> origin;
   for (std::size_t i = 0; i < m_beads.size(); ++i) {
     if (!keep[i]) continue;
     new_id[i] = static_cast<std::uint32_t>(kept.size());
     origin.push_back(s.origin[i]);
     kept.AddCopy(m_beads, i);
-    plate_shear.push_back(Vec3::Zero());
-    wall_shear.push_back(Vec3::Zero());
   }
   s.pending_history.clear();
   for (ContactHistoryEntry h : history) {
@@ -233,8 +227,9 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
     s.pending_history.push_back(h);
   }
   m_beads = std::move(kept);
-  s.walls.plate = std::move(plate_shear);
-  s.walls.side = std::move(wall_shear);
+  s.walls.plate.clear();  // their histories are pending, named by the new ids
+  s.walls.side.clear();
+  s.lists.near_container.clear();
   s.origin = std::move(origin);
   s.lists.pairs = detail::PairList{};
   s.lists.near_projectile = detail::CandidateList{};

@@ -85,10 +85,12 @@ struct NeighbourLists {
 };
 
 // The tangential histories of contacts with the plate and the side wall (those of bead pairs
-// and of the projectile with beads are in the lists).
+// and of the projectile with beads are in the lists). Only beads near the container can touch
+// it, so the histories are kept for them alone: plate[c] and side[c] belong to bead
+// NeighbourLists::near_container[c]. A list build hands them on through pending_history.
 struct WallHistories {
-  std::vector<Vec3> plate;  // one per bead
-  std::vector<Vec3> side;   // one per bead
+  std::vector<Vec3> plate;  // one per near-container bead
+  std::vector<Vec3> side;   // one per near-container bead
   Vec3 projectile_plate = Vec3::Zero();
   Vec3 projectile_side = Vec3::Zero();
 };

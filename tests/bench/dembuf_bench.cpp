@@ -1,6 +1,6 @@
 // dembuf's benchmark: what a step costs and how that scales. Prints tables and writes JSON.
 //
-//   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick]
+//   dembuf_bench [--out bench.json] [--bed-cache DIR] [--steps N] [--quick] [--sizes-only]
 //                [--sweep draft|standard|reference] [--sweep-seeds N] [--sweep-set FIELD=VALUE]...
 //                [--sweep-out DIR]
 //
@@ -67,6 +67,7 @@ struct Options {
   int steps = 2000;
   bool quick = false;
   bool sweep_only = false;     ///< section 6 alone
+  bool sizes_only = false;     ///< sections 0 and 5 alone
   std::string sweep_accuracy;  ///< empty: no sweep
   int sweep_seeds = 1;
   std::vector<std::string> sweep_set;  ///< "field=value" on top of the preset
@@ -518,6 +519,62 @@ void BenchLammpsSettledBed(const Options& opt, const Scene& scene, const World& 
                                   {"runs", rows}};
 }
 
+// 5. Time per step against bead count, and memory per bead.
+void BenchSizes(const Options& opt, const World& world, int repeats, nlohmann::json& report) {
+  std::printf("5. time per step against bead count (one thread)\n");
+  nlohmann::json sizes = nlohmann::json::array();
+  std::vector<std::pair<double, double>> points;
+  const std::vector<std::size_t> counts =
+      opt.quick ? std::vector<std::size_t>{1000, 7000, 30000}
+                : std::vector<std::size_t>{1000, 7000, 20000, 60000, 200000};
+  // The fit covers 7,000 beads (a thin bed of the paper) and up; 1,000 fit in the caches.
+  constexpr std::size_t kFitFrom = 7000;
+  // Every size is timed over the same first 200 steps, whose contacts per bead are alike at
+  // every size (the tiles' seams and the new wall let the beads near them unload, at the same
+  // pace everywhere), and repeated until it has taken about 4e6 bead-steps: best of them.
+  constexpr int kSizeSteps = 200;
+  double bytes_per_bead = 0.0, resident_per_bead = 0.0;
+  for (std::size_t n : counts) {
+    const World w = TiledWorld(world, n);
+    const int tries = std::max<int>(repeats, static_cast<int>(4'000'000 / (n * kSizeSteps)));
+    const Timing t = Best(tries, [&] { return TimeSteps(w, kSizeSteps, 1); });
+    const double us_per_step = 1e6 * t.seconds / kSizeSteps;
+    std::printf("  %8zu beads  %10.1f us/step  %8.1f ns/bead-step\n", n, us_per_step,
+                t.NsPerBeadStep());
+    std::fflush(stdout);
+    if (n >= kFitFrom) points.push_back({std::log(static_cast<double>(n)), std::log(us_per_step)});
+    sizes.push_back({{"beads", n}, {"us_per_step", us_per_step}, {"timing", TimingJson(t)}});
+    if (n == counts.back()) {
+      // Memory: what a simulation of this size holds, with its springs, after a few steps;
+      // and the process's resident growth while it lives (the allocator's share included).
+      const double rss_before = ResidentBytes();
+      dem::Simulation sim(w.params, w.beads, std::nullopt, w.history);
+      for (int k = 0; k < 10; ++k) sim.Step();
+      bytes_per_bead = static_cast<double>(sim.MemoryBytes()) / static_cast<double>(n);
+      resident_per_bead = (ResidentBytes() - rss_before) / static_cast<double>(n);
+    }
+  }
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const auto& [x, y] : points) {
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+  }
+  const double np = static_cast<double>(points.size());
+  const double exponent = (np * sxy - sx * sy) / (np * sxx - sx * sx);
+  std::printf("  fit from %zu to %zu beads: time per step ~ beads^%.3f\n", kFitFrom, counts.back(),
+              exponent);
+  std::printf(
+      "  memory: %.0f bytes per bead held by the simulation (%.0f resident growth; "
+      "%zu-bead simulation)\n\n",
+      bytes_per_bead, resident_per_bead, counts.back());
+  report["sizes"] = sizes;
+  report["size_exponent"] = exponent;
+  report["bytes_per_bead"] = bytes_per_bead;
+  report["resident_bytes_per_bead"] = resident_per_bead;
+}
+
 void BenchSteps(const Options& opt, nlohmann::json& report) {
   const int repeats = opt.quick ? 1 : 3;
   std::printf("preparing (or loading) the benchmark bed: E2 scene, H = 2.5 cm ...\n");
@@ -552,6 +609,7 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
   std::printf("  one-thread figures below run on core %d, LAMMPS's too\n\n", g_single_thread_core);
   report["cores"] = cores;
   report["single_thread_core"] = g_single_thread_core;
+  if (opt.sizes_only) return BenchSizes(opt, world, repeats, report);
 
   // 1 and 2: dembuf and LAMMPS, alternating.
   std::printf("1-2. impact on the settled bed, one thread, %d steps (best of %d)\n", opt.steps,
@@ -643,59 +701,7 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
   report["threads_impact"] = thread_series(world, opt.steps, true);
   std::printf("\n");
 
-  // 5. Bead count.
-  std::printf("5. time per step against bead count (one thread)\n");
-  nlohmann::json sizes = nlohmann::json::array();
-  std::vector<std::pair<double, double>> points;
-  const std::vector<std::size_t> counts =
-      opt.quick ? std::vector<std::size_t>{1000, 7000, 30000}
-                : std::vector<std::size_t>{1000, 7000, 20000, 60000, 200000};
-  // The fit covers 7,000 beads (a thin bed of the paper) and up; 1,000 fit in the caches.
-  constexpr std::size_t kFitFrom = 7000;
-  // Every size is timed over the same first 200 steps, whose contacts per bead are alike at
-  // every size (the tiles' seams and the new wall let the beads near them unload, at the same
-  // pace everywhere), and repeated until it has taken about 4e6 bead-steps: best of them.
-  constexpr int kSizeSteps = 200;
-  double bytes_per_bead = 0.0, resident_per_bead = 0.0;
-  for (std::size_t n : counts) {
-    const World w = TiledWorld(world, n);
-    const int tries = std::max<int>(repeats, static_cast<int>(4'000'000 / (n * kSizeSteps)));
-    const Timing t = Best(tries, [&] { return TimeSteps(w, kSizeSteps, 1); });
-    const double us_per_step = 1e6 * t.seconds / kSizeSteps;
-    std::printf("  %8zu beads  %10.1f us/step  %8.1f ns/bead-step\n", n, us_per_step,
-                t.NsPerBeadStep());
-    std::fflush(stdout);
-    if (n >= kFitFrom) points.push_back({std::log(static_cast<double>(n)), std::log(us_per_step)});
-    sizes.push_back({{"beads", n}, {"us_per_step", us_per_step}, {"timing", TimingJson(t)}});
-    if (n == counts.back()) {
-      // Memory: what a simulation of this size holds, with its springs, after a few steps;
-      // and the process's resident growth while it lives (the allocator's share included).
-      const double rss_before = ResidentBytes();
-      dem::Simulation sim(w.params, w.beads, std::nullopt, w.history);
-      for (int k = 0; k < 10; ++k) sim.Step();
-      bytes_per_bead = static_cast<double>(sim.MemoryBytes()) / static_cast<double>(n);
-      resident_per_bead = (ResidentBytes() - rss_before) / static_cast<double>(n);
-    }
-  }
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  for (const auto& [x, y] : points) {
-    sx += x;
-    sy += y;
-    sxx += x * x;
-    sxy += x * y;
-  }
-  const double np = static_cast<double>(points.size());
-  const double exponent = (np * sxy - sx * sy) / (np * sxx - sx * sx);
-  std::printf("  fit from %zu to %zu beads: time per step ~ beads^%.3f\n", kFitFrom, counts.back(),
-              exponent);
-  std::printf(
-      "  memory: %.0f bytes per bead held by the simulation (%.0f resident growth; "
-      "%zu-bead simulation)\n\n",
-      bytes_per_bead, resident_per_bead, counts.back());
-  report["sizes"] = sizes;
-  report["size_exponent"] = exponent;
-  report["bytes_per_bead"] = bytes_per_bead;
-  report["resident_bytes_per_bead"] = resident_per_bead;
+  BenchSizes(opt, world, repeats, report);
 }
 
 // Section 6: the whole E2 sweep from an empty bed store, and where its time went.
@@ -822,6 +828,8 @@ int main(int argc, char** argv) {
   app.add_option("--sweep-set", opt.sweep_set,
                  "a scene field of the sweep, FIELD=VALUE (as dembuf run --set)")
       ->needs("--sweep");
+  app.add_flag("--sizes-only", opt.sizes_only,
+               "of the steps, time only bead counts and memory (sections 0 and 5)");
   app.add_flag("--sweep-only", opt.sweep_only, "time the sweep alone, not the steps")
       ->needs("--sweep");
   app.add_option("--sweep-out", opt.sweep_out,

@@ -101,6 +101,25 @@ TEST(BedPreparation, DamagedFileIsRefused) {
   EXPECT_THROW(LoadBed(path), std::runtime_error);
 }
 
+TEST(BedPreparation, ContactOfABeadTheFileDoesNotHoldIsRefused) {
+  // A file whose checksum is right but whose contact names a bead beyond its beads (or a body
+  // that is no wall) is refused on loading: the simulation indexes its beads by these ids.
+  for (const auto& [bead, other] : {std::pair<dem::BodyId, dem::BodyId>{1000000, dem::kPlate},
+                                    {0, 1000000},
+                                    {0, dem::kProjectile}}) {
+    PreparedBed bed = SmallBed();
+    bed.history.push_back({bead, other, dem::Vec3(1e-9, 0, 0)});
+    const auto path = std::filesystem::path(test::TempPath("bad-contact.bed"));
+    SaveBed(bed, path);
+    try {
+      LoadBed(path);
+      ADD_FAILURE() << "contact " << bead << "-" << other << " was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("contact"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(BedPreparation, CachedBedIsReusedNotSettledAgain) {
   const auto dir = std::filesystem::path(test::TempPath("bed-cache"));
   std::filesystem::remove_all(dir);

@@ -164,6 +164,14 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
     e.bead = Get<std::uint32_t>(in, sum, name);
     e.other = Get<std::uint32_t>(in, sum, name);
     for (int d = 0; d < 3; ++d) e.shear[d] = Get<double>(in, sum, name);
+    // The simulation indexes its beads by these ids: a contact joins a bead of this file to
+    // another one or to a wall.
+    const bool wall = e.other == dem::kPlate || e.other == dem::kSideWall;
+    if (e.bead >= n || (!wall && (e.other >= n || e.other == e.bead)))
+      throw std::runtime_error(name + ": contact " + std::to_string(k) + " joins bead " +
+                               std::to_string(e.bead) + " to body " + std::to_string(e.other) +
+                               ", not two of its " + std::to_string(n) +
+                               " beads or a bead and a wall");
     bed.history.push_back(e);
   }
   std::uint64_t check = 0;

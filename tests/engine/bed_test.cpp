@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -216,6 +217,75 @@ TEST(BedPreparation, LocalSettlingReachesTheSameRest) {
   std::printf("\n");
 }
 
+// The deepest overlap between two beads or a bead and the plate, over the smaller radius.
+double DeepestOverlapRatio(const dem::ParticleState& b) {
+  double deepest = 0.0;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    deepest = std::max(deepest, (b.radius[i] - b.position[i].z()) / b.radius[i]);
+    for (std::size_t j = i + 1; j < b.size(); ++j) {
+      const double gap = (b.position[i] - b.position[j]).norm() - b.radius[i] - b.radius[j];
+      deepest = std::max(deepest, -gap / std::min(b.radius[i], b.radius[j]));
+    }
+  }
+  return deepest;
+}
+
+// The median length of the tangential springs' stretch.
+double MedianStretch(const std::vector<dem::ContactHistoryEntry>& history) {
+  std::vector<double> lengths;
+  for (const dem::ContactHistoryEntry& h : history) lengths.push_back(h.shear.norm());
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  return lengths.empty() ? 0.0 : lengths[lengths.size() / 2];
+}
+
+TEST(BedPreparation, SoftSettlingEndsWithTheTrueStiffness) {
+  // Soft settling forms the source's packing with Young's modulus divided by 100 (a ten times
+  // longer step), then restores it. The beds meet the same rest criterion, the cut's packing
+  // stays close to the one settled at the true stiffness, and the source ends with the true
+  // stiffness's overlaps (the soft ones are 100^(2/3) = 21.5 times deeper) and springs
+  // stretched as far as the true stiffness's (unscaled, they would be up to 21.5 times longer).
+  const PreparedBed& stiff = SmallBed();
+  Scene scene = SmallBedScene();
+  scene.bed.soft_settling = 100.0;
+  std::set<std::string> stages;
+  BedRequest request;
+  request.on_progress = [&](const BedProgress& p) { stages.insert(p.stage); };
+  BedCache cache;
+  const PreparedBed bed = GetBed(scene, cache, request);
+  EXPECT_NE(bed.hash, stiff.hash);
+  for (const char* stage : {"settling (soft)", "settling (stiffness restored)"})
+    EXPECT_TRUE(stages.count(stage)) << stage;
+  EXPECT_FALSE(stages.count("relaxing the cut bed (soft)"));
+  EXPECT_LT(bed.kinetic_ratio, scene.bed.settle_tolerance);
+  EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
+  EXPECT_NEAR(bed.solid_fraction / stiff.solid_fraction, 1.0, 0.015);
+  EXPECT_NEAR(bed.surface_m / stiff.surface_m, 1.0, 0.01);
+  // The source beds, which the cuts start from.
+  const PreparedBed source = cache.FindOrMake(BedSourceHash(scene), "source", [] {
+    ADD_FAILURE() << "the soft source bed is not in the cache";
+    return PreparedBed{};
+  });
+  const PreparedBed source_stiff =
+      SmallBedCache().FindOrMake(BedSourceHash(SmallBedScene()), "source", [] {
+        ADD_FAILURE() << "the stiff source bed is not in the cache";
+        return PreparedBed{};
+      });
+  const double deepest = DeepestOverlapRatio(source.beads);
+  const double deepest_stiff = DeepestOverlapRatio(source_stiff.beads);
+  EXPECT_LT(deepest, 2.0 * deepest_stiff);
+  const double stretch = MedianStretch(source.history);
+  const double stretch_stiff = MedianStretch(source_stiff.history);
+  EXPECT_LT(stretch, 3.0 * stretch_stiff);
+  EXPECT_GT(stretch, stretch_stiff / 3.0);
+  std::printf(
+      "soft: %lld steps, %.1f s, C0 %.4f, surface %.5f m, deepest overlap %.2e r, median "
+      "stretch %.2e m; stiff: %lld steps, %.1f s, C0 %.4f, surface %.5f m, deepest overlap "
+      "%.2e r, median stretch %.2e m\n",
+      static_cast<long long>(bed.settle_steps), bed.wall_time_s, bed.solid_fraction, bed.surface_m,
+      deepest, stretch, static_cast<long long>(stiff.settle_steps), stiff.wall_time_s,
+      stiff.solid_fraction, stiff.surface_m, deepest_stiff, stretch_stiff);
+}
+
 TEST(Simulation, MemoryBytesCountsTheBeadsAndTheLists) {
   // What the benchmark's bytes per bead rest on: at least the beads' own nine arrays (152 B a
   // bead) and 40 B per pair-list entry, and it grows with the bed, not with the steps.
@@ -418,8 +488,10 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
   projectile.time.end_s = 0.1;
   EXPECT_EQ(BedHash(projectile), BedHash(s));
-  for (const char* field : {"seed", "prep", "thickness", "mu", "alpha", "quench", "local", "cut"}) {
+  for (const char* field :
+       {"seed", "prep", "thickness", "mu", "alpha", "quench", "local", "cut", "soft"}) {
     Scene other = s;
+    if (std::string(field) == "soft") other.bed.soft_settling = 100.0;
     if (std::string(field) == "cut") other.bed.cut = "tops";
     if (std::string(field) == "quench") other.bed.quench_cut_relaxation = true;
     if (std::string(field) == "local") other.bed.local_settling = !s.bed.local_settling;

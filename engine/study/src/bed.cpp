@@ -57,6 +57,9 @@ std::string SourceKeyText(const Scene& scene, double source_thickness) {
   if (scene.bed.local_settling)
     key << FieldText(scene, "bed.local_settling")
         << "local_settling_version=" << kLocalSettlingVersion << "\n";
+  if (scene.bed.soft_settling != 1.0)
+    key << FieldText(scene, "bed.soft_settling") << "soft_settling_version=" << kSoftSettlingVersion
+        << "\n";
   key << "source_thickness_m="
       << FormatSceneField(
              [&] {
@@ -107,7 +110,6 @@ class Uniform {
  private:
   std::mt19937_64 m_engine;
 };
-
 
 // ---- settling ----------------------------------------------------------------------------------
 
@@ -419,8 +421,8 @@ PreparedBed Finish(dem::Simulation& sim, const Scene& scene, const std::string& 
 }
 
 // A simulation of a bed with the scene's contact law and bead friction `friction`.
-dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::ParticleState beads,
-                              double friction) {
+dem::Simulation BedSimulation(const Scene& scene, dem::ParticleState beads,
+                              std::vector<dem::ContactHistoryEntry> history, double friction) {
   double min_radius = 0.5 * scene.beads.diameter_min_m;
   for (double r : beads.radius) min_radius = std::min(min_radius, r);
   ContactSetup setup = MakeContactSetup(scene, min_radius);
@@ -428,8 +430,61 @@ dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::
   // Beds settle without rolling resistance, so that it leaves their cache keys alone: it only
   // dissipates, and a bed at rest stays at rest when the impact switches it on.
   setup.params.rolling_friction = 0.0;
-  return dem::Simulation(setup.params, std::move(beads), std::nullopt,
-                         from ? from->history : std::vector<dem::ContactHistoryEntry>{});
+  return dem::Simulation(setup.params, std::move(beads), std::nullopt, std::move(history));
+}
+
+dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::ParticleState beads,
+                              double friction) {
+  return BedSimulation(scene, std::move(beads),
+                       from ? from->history : std::vector<dem::ContactHistoryEntry>{}, friction);
+}
+
+// ---- soft settling ---------------------------------------------------------------------------
+//
+// With bed.soft_settling = s, the source bed settles with the Young's modulus of its beads and
+// walls divided by s: the time step is sqrt(s) times longer (eq. 6), the damping is calibrated
+// to the same restitution, and the overlaps at rest are s^(2/3) times deeper. Then the true
+// stiffness comes back: the overlaps push the beads apart by a few micrometres, and kinetic
+// damping brings that to rest at once. A tangential spring's stiffness goes as
+// E sqrt(overlap), so as s^(2/3) between the soft rest and the stiff one: its stretch shrinks
+// by that much, so that it pulls as before once the overlaps have followed. The cut beds
+// relax at the true stiffness: a cut releases the elastic energy of the overburden, s^(2/3)
+// times more of it in a soft bed, which tapped the thinnest beds 1.5% denser, and softening
+// a stiff bed drops every bead by its deeper overlap at once, which compacted the thick ones
+// by 0.25% (docs/accuracy-cost.md).
+
+bool SoftSettling(const Scene& scene) {
+  return scene.bed.soft_settling != 1.0;
+}
+
+// The scene a bed settles in: the scene itself, or its softened copy.
+Scene SettlingScene(const Scene& scene) {
+  Scene soft = scene;
+  soft.material.youngs_modulus_Pa /= scene.bed.soft_settling;
+  soft.walls.youngs_modulus_Pa /= scene.bed.soft_settling;
+  return soft;
+}
+
+// Settles `sim`, a bed built in SettlingScene(scene), to rest; with soft settling it then
+// becomes the same bed with the scene's stiffness, relaxed to rest with kinetic damping.
+// Returns the simulated time.
+double SettleBed(dem::Simulation& sim, const Scene& scene, const std::string& stage,
+                 const BedRequest& request) {
+  const bool soft = SoftSettling(scene);
+  const double t = SettleToRest(sim, SettlingScene(scene), soft ? stage + " (soft)" : stage,
+                                request, scene.bed.max_settle_s, scene.bed.settle_tolerance, {},
+                                false, scene.bed.local_settling);
+  if (!soft) return t;
+  std::vector<dem::ContactHistoryEntry> history = sim.ExportHistory();
+  for (dem::ContactHistoryEntry& h : history)
+    h.shear *= std::pow(scene.bed.soft_settling, -2.0 / 3.0);
+  dem::Simulation stiff =
+      BedSimulation(scene, sim.beads(), std::move(history), scene.bed.prep_friction);
+  stiff.SetClock(sim.time_s(), sim.steps());
+  sim = std::move(stiff);
+  return t + SettleToRest(sim, scene, stage + " (stiffness restored)", request,
+                          scene.bed.max_settle_s, scene.bed.settle_tolerance, {}, true,
+                          scene.bed.local_settling);
 }
 
 PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
@@ -437,9 +492,9 @@ PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const Bed
   dem::ParticleState inserted = InsertSourceBeads(scene, request);
   const double insert_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  dem::Simulation sim = BedSimulation(scene, nullptr, std::move(inserted), scene.bed.prep_friction);
-  const double t = SettleToRest(sim, scene, "settling", request, scene.bed.max_settle_s,
-                                scene.bed.settle_tolerance, {}, false, scene.bed.local_settling);
+  dem::Simulation sim =
+      BedSimulation(SettlingScene(scene), std::move(inserted), {}, scene.bed.prep_friction);
+  const double t = SettleBed(sim, scene, "settling", request);
   PreparedBed bed = Finish(sim, scene, hash, "source", t, wall_start);
   bed.insert_time_s = insert_time;
   if (bed.surface_m < scene.bed.thickness_m)

@@ -40,6 +40,8 @@ inline constexpr int kBedPreparationVersion = 4;
 /// Version of local settling (bed.local_settling), in the hash of the beds it makes. Raise it
 /// with any change to how it settles (its thresholds among them).
 inline constexpr int kLocalSettlingVersion = 2;
+/// Version of soft settling (bed.soft_settling), in the hash of the beds it makes.
+inline constexpr int kSoftSettlingVersion = 1;
 
 /// A bed at rest, with what was measured on it.
 struct PreparedBed {

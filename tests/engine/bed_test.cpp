@@ -242,8 +242,9 @@ TEST(BedPreparation, SoftSettlingEndsWithTheTrueStiffness) {
   // Soft settling forms the source's packing with Young's modulus divided by 100 (a ten times
   // longer step), then restores it. The beds meet the same rest criterion, the cut's packing
   // stays close to the one settled at the true stiffness, and the source ends with the true
-  // stiffness's overlaps (the soft ones are 100^(2/3) = 21.5 times deeper) and springs
-  // stretched as far as the true stiffness's (unscaled, they would be up to 21.5 times longer).
+  // stiffness's overlaps (the soft ones are 100^(2/3) = 21.5 times deeper) and its springs
+  // stretched about as far as the true stiffness's. (That holds even without the springs'
+  // rescaling: springs beyond Coulomb's limit at the restoring slip back to it.)
   const PreparedBed& stiff = SmallBed();
   Scene scene = SmallBedScene();
   scene.bed.soft_settling = 100.0;

@@ -447,12 +447,13 @@ dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::
 // stiffness comes back: the overlaps push the beads apart by a few micrometres, and kinetic
 // damping brings that to rest at once. A tangential spring's stiffness goes as
 // E sqrt(overlap), so as s^(2/3) between the soft rest and the stiff one: its stretch shrinks
-// by that much, so that it pulls as before once the overlaps have followed, rather than
-// s times harder at the restoring, beyond Coulomb's limit, which would make every contact slip. The
-// cut beds relax at the true stiffness: a cut releases the elastic energy of the overburden,
-// s^(2/3) times more of it in a soft bed, which tapped the thinnest beds 1.5% denser, and softening
-// a stiff bed drops every bead by its deeper overlap at once, which compacted the thick ones
-// by 0.25% (docs/accuracy-cost.md).
+// by that much, so that it pulls as before once the overlaps have followed (unscaled, it would
+// pull s times harder at the restoring, beyond Coulomb's limit, and every contact would slip).
+//
+// The cut beds relax at the true stiffness. A cut releases the elastic energy of the
+// overburden, s^(2/3) times more of it in a soft bed, which tapped the thinnest beds 1.5%
+// denser; softening a stiff bed drops every bead by its deeper overlap at once, which
+// compacted the thick ones by 0.25% (docs/accuracy-cost.md).
 
 bool SoftSettling(const Scene& scene) {
   return scene.bed.soft_settling != 1.0;

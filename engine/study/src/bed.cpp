@@ -455,10 +455,6 @@ dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::
 // denser; softening a stiff bed drops every bead by its deeper overlap at once, which
 // compacted the thick ones by 0.25% (docs/accuracy-cost.md).
 
-bool SoftSettling(const Scene& scene) {
-  return scene.bed.soft_settling != 1.0;
-}
-
 // The scene a bed settles in: the scene itself, or its softened copy.
 Scene SettlingScene(const Scene& scene) {
   Scene soft = scene;
@@ -472,7 +468,7 @@ Scene SettlingScene(const Scene& scene) {
 // Returns the simulated time.
 double SettleBed(dem::Simulation& sim, const Scene& scene, const std::string& stage,
                  const BedRequest& request) {
-  const bool soft = SoftSettling(scene);
+  const bool soft = scene.bed.soft_settling != 1.0;
   const double t = SettleToRest(sim, SettlingScene(scene), soft ? stage + " (soft)" : stage,
                                 request, scene.bed.max_settle_s, scene.bed.settle_tolerance, {},
                                 false, scene.bed.local_settling);

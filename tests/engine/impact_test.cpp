@@ -167,8 +167,9 @@ TEST(ImpactRun, AReboundInsideTheCraterEndsTheRunWhenItCannotFallBackInTheWindow
   World world = BuildWorld(scene);
   world.bed_surface_m = 0.01;
   const ImpactSummary in_crater = RunImpact(std::move(world), scene);
-  EXPECT_EQ(in_crater.end_reason, "projectile rebounded in its crater, too fast to fall back "
-                                  "within time.impact_window_s");
+  EXPECT_EQ(in_crater.end_reason,
+            "projectile rebounded in its crater, too fast to fall back "
+            "within time.impact_window_s");
   EXPECT_GE(in_crater.end_time_s, at_plate.end_time_s);
   EXPECT_LE(in_crater.end_time_s,
             at_plate.end_time_s + PeakOptions{}.smoothing_s + 1.5 * at_plate.dt_s);

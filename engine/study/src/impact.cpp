@@ -358,8 +358,8 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
       break;
     }
     const bool lands_after_window = g <= 0.0 || t + 2.0 * p.velocity.z() / g > window_end;
-    const bool snapshot_due = next_snapshot < snapshot_times.size() &&
-                              snapshot_times[next_snapshot].t_s <= window_end;
+    const bool snapshot_due =
+        next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot].t_s <= window_end;
     const bool unloaded = t - loaded_until >= peak_options.smoothing_s;
     if (rising_free && lands_after_window && unloaded && !snapshot_due && !animate) {
       summary.end_reason =

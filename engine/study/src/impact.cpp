@@ -260,8 +260,9 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
   std::int64_t peak_at_step = 0;
   double crater = -std::numeric_limits<double>::infinity();
   double rest_since = -1.0;  // when the projectile last became slow
-  // When the plate force last stood above the load duration's level (a share of the peak's
-  // excess over the resting load), as the peak analysis measures it.
+  // When the plate force last stood above the load duration's level: the peak analysis's
+  // share of the peak's excess over the resting load, here on the raw force and peak (the
+  // analysis smooths both; the E2 sweeps' durations came out the same to the bit).
   const PeakOptions peak_options;
   double loaded_until = sim.time_s();
   const double slow_speed = 0.01 * std::max(summary.impact_speed_m_s, 1e-3);
@@ -349,8 +350,8 @@ ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control
     // against peaks of 650 N and more: docs/accuracy-cost.md), and the deepest penetration is
     // behind; a slower rebound is followed through its landing. The run goes on until the
     // plate force has stayed below the load duration's level for the peak analysis's smoothing
-    // width, so that the measured duration is whole, and while snapshots are due in the window
-    // or animation frames are asked for.
+    // width, so that the measured duration is not cut short, and while snapshots are due in
+    // the window or animation frames are asked for.
     const double window_end = summary.first_contact_time_s + scene.time.impact_window_s;
     const bool rising_free = o.projectile_contacts == 0 && p.velocity.z() > 0.0;
     if (rising_free && p.position.z() - p.radius > world.bed_surface_m) {

@@ -94,8 +94,10 @@ INSTANTIATE_TEST_SUITE_P(
                  "expected true or false"},
         BadScene{"poisson_half", "[material]\npoisson_ratio = 0.5\n", "material.poisson_ratio",
                  "< 0.5"},
-        BadScene{"soft_settling_below_one", "[bed]\nsoft_settling = 0.5\n", "bed.soft_settling",
-                 "must be >= 1.0 and <= 1000.0"},
+        BadScene{"soft_settling_below_one", "[bed]\nthickness_m = 0.03\nsoft_settling = 0.5\n",
+                 "bed.soft_settling", "0 (automatic), 1 (off) or a factor above 1"},
+        BadScene{"soft_settling_negative", "[bed]\nsoft_settling = -1\n", "bed.soft_settling",
+                 "must be >= 0.0 and <= 1000.0"},
         // The paper's glass softened a thousandfold: 22% overlaps in the pour.
         BadScene{"soft_settling_too_soft", "[bed]\nthickness_m = 0.03\nsoft_settling = 1000\n",
                  "bed.soft_settling", "overlap by 22.2%"},

@@ -57,9 +57,13 @@ std::string SourceKeyText(const Scene& scene, double source_thickness) {
   if (scene.bed.local_settling)
     key << FieldText(scene, "bed.local_settling")
         << "local_settling_version=" << kLocalSettlingVersion << "\n";
-  if (scene.bed.soft_settling != 1.0)
-    key << FieldText(scene, "bed.soft_settling") << "soft_settling_version=" << kSoftSettlingVersion
-        << "\n";
+  // The factor itself, so that the automatic one and the same factor given share their beds.
+  if (const double softening = SoftSettlingFactor(scene); softening != 1.0) {
+    Scene resolved = scene;
+    resolved.bed.soft_settling = softening;
+    key << FieldText(resolved, "bed.soft_settling")
+        << "soft_settling_version=" << kSoftSettlingVersion << "\n";
+  }
   key << "source_thickness_m="
       << FormatSceneField(
              [&] {
@@ -154,6 +158,11 @@ constexpr double kLocalEnergyTarget = 0.5;
 constexpr double kRegionReach = 2.0;
 // A region is chosen again when one of its free beads has moved this many mean diameters.
 constexpr double kMaxDrift = 0.5;
+// A region whose kinetic energy has not halved in this many steps is stalled: its beads
+// are stopped. Without rolling or twisting resistance a bead held by two contacts can spin
+// about the axis through them for ever, and a small region around it never ends. (In the E2
+// sweep it stops a region in a few thin beds, which move by C0 2e-4: docs/accuracy-cost.md.)
+constexpr std::int64_t kStallSteps = 20000;
 
 double TotalKinetic(const dem::ParticleState& b) {
   double kinetic = 0.0;
@@ -187,7 +196,8 @@ bool IsWall(std::uint32_t other) {
 
 // One region: steps the free beads around `moving`, with the beads they can reach held, until
 // a free bead has drifted kMaxDrift, half of the moving beads have stopped (kinetic energy
-// below moving_energy), or the region's kinetic energy is down to energy_limit.
+// below moving_energy), the region's kinetic energy is down to energy_limit, or it has stalled
+// (kStallSteps), when its beads are stopped.
 // Writes the free beads' state and springs back into `beads` and `history`, and stops every
 // other bead. Returns the steps taken. The region's clock starts at the bed's (`time_s`,
 // `step`), so that an error in it names the bed's step and time.
@@ -234,6 +244,8 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
   // Large regions are reordered in memory at list builds; origin maps back to region order.
   const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
   std::int64_t steps = 0;
+  bool stalled = false;
+  double stall_reference = sim.BeadKineticEnergy();
   try {
     while (steps < max_steps) {
       sim.Step();
@@ -244,10 +256,17 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
         drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
       if (drifted) break;
       if (steps % 50 == 0) {
-        if (sim.BeadKineticEnergy() <= energy_limit) break;
+        const double energy = sim.BeadKineticEnergy();
+        if (energy <= energy_limit) break;
         std::size_t still = 0;
         for (std::size_t k = 0; k < b.size(); ++k) still += b.KineticEnergy(k) > moving_energy;
         if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
+      }
+      if (steps % kStallSteps == 0) {
+        const double energy = sim.BeadKineticEnergy();
+        stalled = energy > 0.5 * stall_reference;
+        if (stalled) break;
+        stall_reference = energy;
       }
     }
   } catch (const dem::SimulationError& e) {
@@ -266,6 +285,7 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
     const std::uint32_t i = bed_id[origin[k]];
     if (!free_bead[i]) continue;
     beads.position[i] = b.position[k];
+    if (stalled) continue;  // stopped, as the beads outside the region
     beads.velocity[i] = b.velocity[k];
     beads.angular_velocity[i] = b.angular_velocity[k];
   }
@@ -457,9 +477,10 @@ dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::
 
 // The scene a bed settles in: the scene itself, or its softened copy.
 Scene SettlingScene(const Scene& scene) {
+  const double softening = SoftSettlingFactor(scene);
   Scene soft = scene;
-  soft.material.youngs_modulus_Pa /= scene.bed.soft_settling;
-  soft.walls.youngs_modulus_Pa /= scene.bed.soft_settling;
+  soft.material.youngs_modulus_Pa /= softening;
+  soft.walls.youngs_modulus_Pa /= softening;
   return soft;
 }
 
@@ -468,14 +489,14 @@ Scene SettlingScene(const Scene& scene) {
 // Returns the simulated time.
 double SettleBed(dem::Simulation& sim, const Scene& scene, const std::string& stage,
                  const BedRequest& request) {
-  const bool soft = scene.bed.soft_settling != 1.0;
+  const double softening = SoftSettlingFactor(scene);
+  const bool soft = softening != 1.0;
   const double t = SettleToRest(sim, SettlingScene(scene), soft ? stage + " (soft)" : stage,
                                 request, scene.bed.max_settle_s, scene.bed.settle_tolerance, {},
                                 false, scene.bed.local_settling);
   if (!soft) return t;
   std::vector<dem::ContactHistoryEntry> history = sim.ExportHistory();
-  for (dem::ContactHistoryEntry& h : history)
-    h.shear *= std::pow(scene.bed.soft_settling, -2.0 / 3.0);
+  for (dem::ContactHistoryEntry& h : history) h.shear *= std::pow(softening, -2.0 / 3.0);
   dem::Simulation stiff =
       BedSimulation(scene, sim.beads(), std::move(history), scene.bed.prep_friction);
   stiff.SetClock(sim.time_s(), sim.steps());
@@ -613,6 +634,33 @@ SourcePlan PlanSourceBed(const Scene& scene) {
   plan.beads = std::ceil(0.66 * area * (plan.thickness_m + d_max) / plan.mean_bead_volume_m3);
   plan.column_top_m = plan.beads * plan.mean_bead_volume_m3 / (0.30 * area) + d_max;
   return plan;
+}
+
+double SoftPourOverlap(const Scene& scene, double softening) {
+  const double r = 0.5 * scene.beads.diameter_min_m;
+  const double mass = scene.material.density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  const double v2 = 2.0 * scene.gravity_m_s2 * scene.cylinder.height_m;
+  const double nu = scene.material.poisson_ratio;
+  const double e_bead = scene.material.youngs_modulus_Pa / softening / (1.0 - nu * nu);
+  const double e_wall = scene.walls.material_from_beads
+                            ? e_bead
+                            : scene.walls.youngs_modulus_Pa / softening /
+                                  (1.0 - scene.walls.poisson_ratio * scene.walls.poisson_ratio);
+  auto largest_overlap = [&](double m_star, double e_star, double r_star) {
+    return std::pow(15.0 * m_star * v2 / (16.0 * e_star * std::sqrt(r_star)), 0.4);
+  };
+  return std::max(largest_overlap(0.5 * mass, 0.5 * e_bead, 0.5 * r),
+                  largest_overlap(mass, 1.0 / (1.0 / e_bead + 1.0 / e_wall), r)) /
+         r;
+}
+
+double SoftSettlingFactor(const Scene& scene) {
+  if (scene.bed.thickness_m <= 0.0 || !scene.bed.import.empty()) return 1.0;
+  if (scene.bed.soft_settling != 0.0) return scene.bed.soft_settling;
+  // Hertz's overlap goes as E^(-2/5), so as softening^(2/5).
+  const double largest = std::pow(kMaxSoftOverlap / SoftPourOverlap(scene, 1.0), 2.5);
+  const double softening = std::floor(std::min(kAutoSoftening, largest));
+  return softening >= 2.0 ? softening : 1.0;
 }
 
 bool NeedsFrictionStage(const Scene& scene) {

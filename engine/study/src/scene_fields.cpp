@@ -131,8 +131,9 @@ const std::vector<SceneField>& FieldTable() {
        "settle beds by stepping only the last moving beads' neighbourhood (false: every bead)",
        DEMBUF_FIELD(bed.local_settling)},
       {"bed.soft_settling", "",
-       "settle the source bed with E divided by this, then restore E and relax; 1 = off",
-       DEMBUF_FIELD(bed.soft_settling), 1.0, 1000.0},
+       "settle the source bed with E divided by this, then restore E and relax; 0 = automatic "
+       "(up to 100, within the pour's overlap limit), 1 = off",
+       DEMBUF_FIELD(bed.soft_settling), 0.0, 1000.0},
       {"bed.max_settle_s", "s", "simulated time allowed for settling before giving up",
        DEMBUF_FIELD(bed.max_settle_s), 0.0, 1e3, true},
       {"bed.friction_ramp_s", "s", "duration of the slow change from prep_friction to mu_pp",
@@ -574,31 +575,21 @@ void ValidateScene(const Scene& scene) {
                " m high, above cylinder.height_m = " + FormatShort(scene.cylinder.height_m) +
                " (raise the wall, or lower bed.source_thickness_m or bed.thickness_m)");
   }
-  if (scene.bed.soft_settling > 1.0 && scene.bed.thickness_m > 0.0 && scene.bed.import.empty()) {
+  if (scene.bed.soft_settling > 0.0 && scene.bed.soft_settling < 1.0)
+    fail("bed.soft_settling",
+         FormatShort(scene.bed.soft_settling) + ": 0 (automatic), 1 (off) or a factor above 1");
+  if (const double softening = SoftSettlingFactor(scene); softening > 1.0) {
     // Softer contacts overlap more: the pour's hardest collisions (the smallest beads, falling
-    // from the top of the wall onto a bead or the plate) must stay below 10% of their radius
-    // (Hertz's largest overlap; with s = 100 on the paper's scene, 8.9%, on the plate).
-    const double s = scene.bed.soft_settling, r = 0.5 * b.diameter_min_m;
-    const double mass = scene.material.density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
-    const double v2 = 2.0 * scene.gravity_m_s2 * scene.cylinder.height_m;
-    const double nu = scene.material.poisson_ratio;
-    const double e_bead = scene.material.youngs_modulus_Pa / s / (1.0 - nu * nu);
-    const double e_wall = scene.walls.material_from_beads
-                              ? e_bead
-                              : scene.walls.youngs_modulus_Pa / s /
-                                    (1.0 - scene.walls.poisson_ratio * scene.walls.poisson_ratio);
-    auto largest_overlap = [&](double m_star, double e_star, double r_star) {
-      return std::pow(15.0 * m_star * v2 / (16.0 * e_star * std::sqrt(r_star)), 0.4);
-    };
-    const double overlap = std::max(largest_overlap(0.5 * mass, 0.5 * e_bead, 0.5 * r),
-                                    largest_overlap(mass, 1.0 / (1.0 / e_bead + 1.0 / e_wall), r)) /
-                           r;
-    if (overlap > 0.1)
+    // from the top of the wall onto a bead or the plate) must stay within kMaxSoftOverlap of
+    // their radius (with 100 on the paper's scene, 8.9%, on the plate).
+    const double overlap = SoftPourOverlap(scene, softening);
+    if (overlap > kMaxSoftOverlap)
       fail("bed.soft_settling",
-           FormatShort(s) +
+           FormatShort(softening) +
                " softens the contacts so much that the settling beads would overlap by " +
-               FormatShort(100.0 * overlap) +
-               "% of their radius; at most 10% (lower bed.soft_settling, 1 = off)");
+               FormatShort(100.0 * overlap) + "% of their radius; at most " +
+               FormatShort(100.0 * kMaxSoftOverlap) +
+               "% (lower bed.soft_settling; 0 = automatic, 1 = off)");
   }
   if (const double interval = scene.output.animation_interval_s; interval > 0.0) {
     // The impact lasts until time.end_s, or at most the impact window after the first contact.

@@ -38,8 +38,9 @@ namespace dembuf {
 /// every local-settling region).
 inline constexpr int kBedPreparationVersion = 4;
 /// Version of local settling (bed.local_settling), in the hash of the beds it makes. Raise it
-/// with any change to how it settles (its thresholds among them).
-inline constexpr int kLocalSettlingVersion = 2;
+/// with any change to how it settles (its thresholds among them). Version 3: stalled regions
+/// are stopped.
+inline constexpr int kLocalSettlingVersion = 3;
 /// Version of soft settling (bed.soft_settling), in the hash of the beds it makes.
 inline constexpr int kSoftSettlingVersion = 1;
 
@@ -171,6 +172,19 @@ struct SourcePlan {
   double column_top_m = 0.0;
 };
 SourcePlan PlanSourceBed(const Scene& scene);
+
+/// Soft settling: the source bed's pour may overlap by at most this share of the smallest
+/// bead's radius, and the automatic factor (bed.soft_settling = 0) is at most kAutoSoftening.
+inline constexpr double kMaxSoftOverlap = 0.1;
+inline constexpr double kAutoSoftening = 100.0;
+/// The largest overlap of the source bed's pour, as a share of the smallest bead's radius,
+/// with Young's modulus (beads and walls) divided by `softening`: Hertz's, for the smallest
+/// beads falling from the top of the wall onto a bead or the plate.
+double SoftPourOverlap(const Scene& scene, double softening);
+/// The factor the source bed settles with: bed.soft_settling, or for 0 (automatic) the
+/// largest whole number up to kAutoSoftening whose pour stays within kMaxSoftOverlap; 1 (the
+/// true stiffness) where that is below 2, and for a scene without a bed or with an imported one.
+double SoftSettlingFactor(const Scene& scene);
 
 /// The loose column a scene's source bed settles from: PlanSourceBed's beads at random
 /// positions, without overlaps, from bed.seed (for a peer that settles it itself, as the

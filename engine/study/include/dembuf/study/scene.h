@@ -87,9 +87,10 @@ struct BedSpec {
   bool local_settling = true;
   /// Settle the source bed with Young's modulus (beads and walls) divided by this: the time
   /// step grows by its square root. Then the true stiffness is restored and the bed relaxed to
-  /// rest again, with kinetic damping; the cut beds relax at the true stiffness. 1: the true
-  /// stiffness throughout (docs/accuracy-cost.md).
-  double soft_settling = 1.0;
+  /// rest again, with kinetic damping; the cut beds relax at the true stiffness. 0: automatic,
+  /// the largest factor up to 100 that keeps the pour's overlaps within 10% of a radius
+  /// (SoftSettlingFactor); 1: the true stiffness throughout (docs/accuracy-cost.md).
+  double soft_settling = 0.0;
   double max_settle_s = 3.0;      ///< give up settling after this much simulated time
   double friction_ramp_s = 0.01;  ///< duration of the change from prep_friction to mu_pp
 };

@@ -164,6 +164,7 @@ constexpr double kMaxDrift = 0.5;
 // three-seed E2 sweep it stopped regions in 12 of 51 beds, whose C0 moved by 2e-4 at most:
 // docs/accuracy-cost.md.)
 constexpr std::int64_t kStallSteps = 20000;
+static_assert(kStallSteps % 50 == 0, "checked with the region's energy every 50 steps");
 
 double TotalKinetic(const dem::ParticleState& b) {
   double kinetic = 0.0;
@@ -262,12 +263,11 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
         std::size_t still = 0;
         for (std::size_t k = 0; k < b.size(); ++k) still += b.KineticEnergy(k) > moving_energy;
         if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
-      }
-      if (steps % kStallSteps == 0) {
-        const double energy = sim.BeadKineticEnergy();
-        stalled = energy > 0.5 * stall_reference;
-        if (stalled) break;
-        stall_reference = energy;
+        if (steps % kStallSteps == 0) {
+          stalled = energy > 0.5 * stall_reference;
+          if (stalled) break;
+          stall_reference = energy;
+        }
       }
     }
   } catch (const dem::SimulationError& e) {

@@ -413,6 +413,37 @@ TEST(Simulation, BeadOriginsFollowTheReorderAndRemovals) {
   expect_origins("after removing a third");
 }
 
+TEST(Simulation, StopBeadsStopsThoseBeadsAlone) {
+  // Three beads falling apart, spinning: stopping the middle one zeroes its velocity and spin
+  // and nothing else; it then falls again from rest, under gravity alone.
+  Scene scene = SmallBedScene();
+  const double r = 0.5 * scene.beads.diameter_min_m;
+  dem::ParticleState beads;
+  for (int k = 0; k < 3; ++k) {
+    beads.Add(dem::Vec3((k - 1) * 4.0 * r, 0.0, 0.01), r, scene.material.density_kg_m3);
+    beads.velocity.back() = dem::Vec3(0.1 * k, 0.0, -0.2);
+    beads.angular_velocity.back() = dem::Vec3(0.0, 5.0, 0.0);
+  }
+  dem::Simulation sim(MakeContactSetup(scene, r).params, beads, std::nullopt);
+  sim.Step();
+  const dem::ParticleState before = sim.beads();
+  sim.StopBeads({1});
+  const dem::ParticleState& after = sim.beads();
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(after.position[i], before.position[i]) << i;
+    if (i == 1) continue;
+    EXPECT_EQ(after.velocity[i], before.velocity[i]) << i;
+    EXPECT_EQ(after.angular_velocity[i], before.angular_velocity[i]) << i;
+  }
+  EXPECT_EQ(after.velocity[1], dem::Vec3::Zero());
+  EXPECT_EQ(after.angular_velocity[1], dem::Vec3::Zero());
+  sim.Step();
+  const double dt = sim.params().dt_s, g = sim.params().gravity_m_s2;
+  EXPECT_NEAR(sim.beads().velocity[1].z(), -g * dt, 1e-12);
+  EXPECT_NEAR(sim.beads().velocity[1].x(), 0.0, 1e-15);
+  EXPECT_NEAR(sim.beads().position[1].z(), before.position[1].z() - 0.5 * g * dt * dt, 1e-15);
+}
+
 TEST(Simulation, SavedHistoriesFollowTheReorder) {
   // A saved bed's springs (the constructor's history, or those kept by RemoveBeads) belong to
   // the beads as they were numbered then; the first list build of a large bed renumbers the

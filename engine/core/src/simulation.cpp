@@ -149,6 +149,16 @@ void Simulation::ZeroBeadVelocities() {
   m_impl->forces_valid = false;  // the damping forces depended on the old velocities
 }
 
+void Simulation::StopBeads(const std::vector<std::uint32_t>& ids) {
+  if (ids.empty()) return;
+  CompleteKick();  // the others' pending half kick
+  for (const std::uint32_t i : ids) {
+    m_beads.velocity[i].setZero();
+    m_beads.angular_velocity[i].setZero();
+  }
+  m_impl->forces_valid = false;  // the damping forces depended on the old velocities
+}
+
 const std::vector<std::uint32_t>& Simulation::BeadOrigins() const {
   return m_impl->origin;
 }

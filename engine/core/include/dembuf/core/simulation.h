@@ -117,6 +117,9 @@ class Simulation {
   /// Stops every bead (velocities and spins to zero), keeping positions and springs.
   void ZeroBeadVelocities();
 
+  /// Stops the beads `ids` (indices of beads()), keeping positions and springs.
+  void StopBeads(const std::vector<std::uint32_t>& ids);
+
   /// Threads of the next steps (0: omp_get_max_threads()). Results do not depend on it.
   void SetThreads(int threads);
 

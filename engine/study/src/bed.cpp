@@ -84,6 +84,12 @@ struct StageKeys {
   std::string source, cut, friction;
 };
 
+// Whether the cut beds' local settling stops beads at their kinetic-energy peaks. Named in
+// the cut bed's hash only then, so that the cut beds relaxed without it keep their hashes.
+bool QuenchesCutBeads(const Scene& scene) {
+  return scene.bed.local_settling && scene.bed.quench_cut_beads;
+}
+
 StageKeys Keys(const Scene& scene) {
   StageKeys k;
   const std::string source_text = SourceKeyText(scene, SourceThickness(scene));
@@ -92,6 +98,10 @@ StageKeys Keys(const Scene& scene) {
   const std::string cut_text =
       source_text + FieldText(scene, "bed.thickness_m") +
       (scene.bed.quench_cut_relaxation ? FieldText(scene, "bed.quench_cut_relaxation") : "") +
+      (QuenchesCutBeads(scene) ? FieldText(scene, "bed.quench_cut_beads") +
+                                     "cut_bead_quench_version=" +
+                                     std::to_string(kCutBeadQuenchVersion) + "\n"
+                               : "") +
       (scene.bed.cut != "surface" ? FieldText(scene, "bed.cut") : "");
   k.cut = ContentHash(cut_text);
   k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
@@ -196,10 +206,44 @@ bool IsWall(std::uint32_t other) {
   return other == dem::kPlate || other == dem::kSideWall;
 }
 
+// Kinetic damping bead by bead (bed.quench_cut_beads): after each step, a bead whose kinetic
+// energy has passed a maximum is stopped. A bead rocking or rolling in its pocket passes its
+// maximum at the bottom, where it then stays; a bead rolling or falling onto others keeps
+// going until it meets them. (Stopping the whole bed at the maxima of its total energy, as
+// bed.quench_cut_relaxation does, cannot catch beads that rock out of step with each other.)
+class BeadQuench {
+ public:
+  // Follows the beads of `sim` through their renumbering, by BeadOrigins().
+  explicit BeadQuench(const dem::Simulation& sim)
+      : m_last_energy(sim.beads().size(), 0.0), m_rising(sim.beads().size(), 0) {}
+
+  void AfterStep(dem::Simulation& sim) {
+    const dem::ParticleState& b = sim.beads();
+    const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
+    m_stop.clear();
+    for (std::size_t k = 0; k < b.size(); ++k) {
+      const std::uint32_t i = origin[k];
+      double energy = b.KineticEnergy(k);
+      if (m_rising[i] && energy < m_last_energy[i]) {
+        m_stop.push_back(static_cast<std::uint32_t>(k));
+        energy = 0.0;
+      }
+      m_rising[i] = energy > m_last_energy[i];
+      m_last_energy[i] = energy;
+    }
+    sim.StopBeads(m_stop);
+  }
+
+ private:
+  std::vector<double> m_last_energy;  // by origin
+  std::vector<char> m_rising;         // by origin
+  std::vector<std::uint32_t> m_stop;
+};
+
 // One region: steps the free beads around `moving`, with the beads they can reach held, until
 // a free bead has drifted kMaxDrift, half of the moving beads have stopped (kinetic energy
 // below moving_energy), the region's kinetic energy is down to energy_limit, or it has stalled
-// (kStallSteps), when its beads are stopped.
+// (kStallSteps), when its beads are stopped. With `quench_beads`, BeadQuench after each step.
 // Writes the free beads' state and springs back into `beads` and `history`, and stops every
 // other bead. Returns the steps taken. The region's clock starts at the bed's (`time_s`,
 // `step`), so that an error in it names the bed's step and time.
@@ -207,7 +251,7 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
                           std::vector<dem::ContactHistoryEntry>& history,
                           const std::vector<char>& moving, double moving_energy, double d_mean,
                           double d_max, double energy_limit, std::int64_t max_steps, double time_s,
-                          std::int64_t step) {
+                          std::int64_t step, bool quench_beads) {
   const std::vector<char> free_bead = Near(beads, moving, kRegionReach * d_mean);
   const auto moving_count = static_cast<std::size_t>(std::count(moving.begin(), moving.end(), 1));
   const double drift = kMaxDrift * d_mean;
@@ -248,10 +292,13 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
   std::int64_t steps = 0;
   bool stalled = false;
   double stall_reference = sim.BeadKineticEnergy();
+  std::optional<BeadQuench> quench;
+  if (quench_beads) quench.emplace(sim);
   try {
     while (steps < max_steps) {
       sim.Step();
       ++steps;
+      if (quench) quench->AfterStep(sim);
       const dem::ParticleState& b = sim.beads();
       bool drifted = false;
       for (std::size_t k = 0; k < b.size() && !drifted; ++k)
@@ -303,9 +350,11 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
 // kinetic energy is down to kLocalEnergyTarget of the rest tolerance (`tolerance_energy` per
 // bead). Returns the bed as a new simulation, its clock advanced by the steps taken, or
 // nothing when too many beads move for it to pay. report(steps, kinetic energy) follows it.
+// With `quench_beads`, the regions stop their beads at their kinetic-energy peaks (BeadQuench).
 std::optional<dem::Simulation> SettleLocally(
     dem::Simulation& sim, double d_mean, double d_max, double tolerance_energy,
-    std::int64_t max_steps, const std::function<void(std::int64_t, double)>& report) {
+    std::int64_t max_steps, bool quench_beads,
+    const std::function<void(std::int64_t, double)>& report) {
   dem::ParticleState beads = sim.beads();
   const std::size_t n = beads.size();
   const double moving_energy = kMovingEnergy * tolerance_energy;  // per bead
@@ -325,7 +374,7 @@ std::optional<dem::Simulation> SettleLocally(
     steps +=
         SettleRegion(params, beads, history, moving, moving_energy, d_mean, d_max, energy_limit,
                      max_steps - steps, sim.time_s() + static_cast<double>(steps) * params.dt_s,
-                     sim.steps() + steps);
+                     sim.steps() + steps, quench_beads);
     count = count_moving();
     if (steps - reported >= 1000) {
       report(steps, TotalKinetic(beads));
@@ -337,22 +386,30 @@ std::optional<dem::Simulation> SettleLocally(
   return settled;
 }
 
+// How SettleToRest brings a bed to rest, besides stepping it.
+struct Relaxation {
+  // Kinetic damping first: whenever the beads' kinetic energy has passed a maximum, every
+  // bead is stopped, until the maxima of a whole check interval stay below the tolerance.
+  // Rest is judged only on intervals without quenching, so the criterion is the same.
+  bool quench = false;
+  // Local settling (above) whenever the bulk carries its weight but the bed is not yet at
+  // rest; rest is judged on the whole bed, after an interval in which every bead moves.
+  bool local = false;
+  // In local settling, each bead stopped at its kinetic-energy peaks (BeadQuench).
+  bool quench_beads = false;
+};
+
 // Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
-// With `quench`, kinetic damping first: whenever the beads' kinetic energy has passed a
-// maximum, every bead is stopped, until the maxima of a whole check interval stay below the
-// tolerance. Rest is judged only on intervals without quenching, so the criterion is the same.
-// With `local`, local settling (above) whenever the bulk carries its weight but the bed is not
-// yet at rest; rest is judged on the whole bed, after an interval in which every bead moves.
 double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string& stage,
                     const BedRequest& request, double max_time, double tolerance,
                     const std::function<void(dem::Simulation&, double)>& before_step = {},
-                    bool quench = false, bool local = false) {
+                    Relaxation relaxation = {}) {
   const double d_mean = scene.beads.MeanDiameter();
   const double m_mean = scene.MeanBeadMass();
   const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
   const double t0 = sim.time_s();
   constexpr int kCheckEvery = 200;
-  bool quenching = quench;
+  bool quenching = relaxation.quench;
   double last_energy = sim.BeadKineticEnergy();
   bool rising = false;
   while (true) {
@@ -385,7 +442,7 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
       quenching = interval_max / beads / energy_scale >= tolerance;
     } else if (ramp_done && rest.kinetic_ratio < tolerance && rest.balance_error < 0.01) {
       return t;
-    } else if (local && !before_step && rest.balance_error < 0.01) {
+    } else if (relaxation.local && !before_step && rest.balance_error < 0.01) {
       const auto max_steps = static_cast<std::int64_t>((max_time - t) / sim.params().dt_s) + 1;
       auto report = [&](std::int64_t steps, double kinetic) {
         if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
@@ -396,7 +453,8 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
                                rest.balance_error});
       };
       if (auto settled = SettleLocally(sim, d_mean, scene.beads.diameter_max_m,
-                                       tolerance * energy_scale, max_steps, report))
+                                       tolerance * energy_scale, max_steps,
+                                       relaxation.quench_beads, report))
         sim = std::move(*settled);
     }
     if (t > max_time) {
@@ -494,7 +552,7 @@ double SettleBed(dem::Simulation& sim, const Scene& scene, const std::string& st
   const bool soft = softening != 1.0;
   const double t = SettleToRest(sim, SettlingScene(scene), soft ? stage + " (soft)" : stage,
                                 request, scene.bed.max_settle_s, scene.bed.settle_tolerance, {},
-                                false, scene.bed.local_settling);
+                                {.local = scene.bed.local_settling});
   if (!soft) return t;
   std::vector<dem::ContactHistoryEntry> history = sim.ExportHistory();
   for (dem::ContactHistoryEntry& h : history) h.shear *= std::pow(softening, -2.0 / 3.0);
@@ -503,8 +561,8 @@ double SettleBed(dem::Simulation& sim, const Scene& scene, const std::string& st
   stiff.SetClock(sim.time_s(), sim.steps());
   sim = std::move(stiff);
   return t + SettleToRest(sim, scene, stage + " (stiffness restored)", request,
-                          scene.bed.max_settle_s, scene.bed.settle_tolerance, {}, true,
-                          scene.bed.local_settling);
+                          scene.bed.max_settle_s, scene.bed.settle_tolerance, {},
+                          {.quench = true, .local = scene.bed.local_settling});
 }
 
 PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
@@ -559,8 +617,10 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
       CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m, scene.bed.cut);
   sim.RemoveBeads([&](std::size_t i) { return keep[i]; });
   const double t = SettleToRest(sim, scene, "relaxing the cut bed", request, scene.bed.max_settle_s,
-                                scene.bed.settle_tolerance, {}, scene.bed.quench_cut_relaxation,
-                                scene.bed.local_settling);
+                                scene.bed.settle_tolerance, {},
+                                {.quench = scene.bed.quench_cut_relaxation,
+                                 .local = scene.bed.local_settling,
+                                 .quench_beads = QuenchesCutBeads(scene)});
   return Finish(sim, scene, hash, "cut", t, wall_start);
 }
 

@@ -26,6 +26,7 @@ bool IgnoredField(const std::string& name) {
                                                 "bed.friction_settle_tolerance",
                                                 "bed.quench_cut_relaxation",
                                                 "bed.local_settling",
+                                                "bed.quench_cut_beads",
                                                 "bed.soft_settling",
                                                 "bed.max_settle_s",
                                                 "bed.friction_ramp_s",

@@ -130,6 +130,9 @@ const std::vector<SceneField>& FieldTable() {
       {"bed.local_settling", "",
        "settle beds by stepping only the last moving beads' neighbourhood (false: every bead)",
        DEMBUF_FIELD(bed.local_settling)},
+      {"bed.quench_cut_beads", "",
+       "in a cut bed's local settling, stop each bead whose kinetic energy passes a maximum",
+       DEMBUF_FIELD(bed.quench_cut_beads)},
       {"bed.soft_settling", "",
        "settle the source bed with E divided by this, then restore E and relax; 0 = automatic "
        "(up to 100, within the pour's overlap limit), 1 = off",

@@ -43,6 +43,9 @@ inline constexpr int kBedPreparationVersion = 4;
 inline constexpr int kLocalSettlingVersion = 3;
 /// Version of soft settling (bed.soft_settling), in the hash of the beds it makes.
 inline constexpr int kSoftSettlingVersion = 1;
+/// Version of the bead-by-bead kinetic damping of the cut beds (bed.quench_cut_beads), in the
+/// hash of the cut beds it makes.
+inline constexpr int kCutBeadQuenchVersion = 1;
 
 /// A bed at rest, with what was measured on it.
 struct PreparedBed {

@@ -321,9 +321,12 @@ TEST(HardCase, AMillionStepsFromImpactToLastingRest) {
   // that follows, where slow errors would show (energy creeping up, tangential springs
   // ratcheting, a bed that never stops moving). Over the last 0.3 million steps the projectile
   // and the bed stay put, the beads' kinetic energy is a millionth of the impact's, and the
-  // plate and the wall carry the weight of beads and projectile within 1%. A bead or two may
-  // still roll on the plate: the model has no rolling resistance, so a free bead rolls on for
-  // ever (measured here: one bead at 1 mm/s, 1e-10 J, constant).
+  // plate and the wall carry the weight of beads and projectile within 1%. A few beads may
+  // still creep or roll: the model has no rolling resistance, so a free bead rolls on for
+  // ever (measured once: one bead at 1 mm/s, 1e-10 J, constant). How many beads of the ~120
+  // moved more than 0.2% of a radius in the last 0.3 million steps, for bed seeds 1 to 5:
+  // 6, 4, 7, 4, 2 with the cut beds stopped at their peaks (the default), 1, 2, 7, 1, 4 with
+  // them relaxed freely, at 1e-14 to 3e-10 J; a bed that never came to rest would move most.
   Scene scene = AuditedBedScene(2.0);
   // The splash throws a bead about 40 cm high (found by this test): over the 30 cm rim of
   // this narrow cylinder it lands outside, which stops a run (BeadThrownOverTheRim...).
@@ -334,7 +337,7 @@ TEST(HardCase, AMillionStepsFromImpactToLastingRest) {
   EXPECT_EQ(a.steps, steps);
   EXPECT_LT(a.lowest_projectile_bottom_m, a.bed_surface_m);  // it went into the bed
   EXPECT_LT(a.late_projectile_displacement_m, 1e-3 * scene.beads.diameter_min_m);
-  EXPECT_LE(a.late_moving_beads, 2);
+  EXPECT_LE(a.late_moving_beads, 10);
   EXPECT_LT(a.final_bead_kinetic_J, 1e-6 * a.projectile_energy_J);
   EXPECT_NEAR((a.final_plate_force_N + a.final_wall_force_z_N) / a.weight_N, 1.0, 0.01);
   std::printf(

@@ -325,8 +325,8 @@ TEST(HardCase, AMillionStepsFromImpactToLastingRest) {
   // still creep or roll: the model has no rolling resistance, so a free bead rolls on for
   // ever (measured once: one bead at 1 mm/s, 1e-10 J, constant). How many beads of the ~120
   // moved more than 0.2% of a radius in the last 0.3 million steps, for bed seeds 1 to 5:
-  // 6, 4, 7, 4, 2 with the cut beds stopped at their peaks (the default), 1, 2, 7, 1, 4 with
-  // them relaxed freely, at 1e-14 to 3e-10 J; a bed that never came to rest would move most.
+  // 8, 2, 2, 5, 0 with the cut beds stopped at their peaks (the default), 1, 2, 7, 1, 4 with
+  // them relaxed freely, at 1e-22 to 1e-10 J; a bed that never came to rest would move most.
   Scene scene = AuditedBedScene(2.0);
   // The splash throws a bead about 40 cm high (found by this test): over the 30 cm rim of
   // this narrow cylinder it lands outside, which stops a run (BeadThrownOverTheRim...).

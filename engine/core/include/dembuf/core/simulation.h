@@ -117,7 +117,9 @@ class Simulation {
   /// Stops every bead (velocities and spins to zero), keeping positions and springs.
   void ZeroBeadVelocities();
 
-  /// Stops the beads `ids` (indices of beads()), keeping positions and springs.
+  /// Stops the beads `ids` (indices of beads()), keeping positions and springs. Unlike
+  /// ZeroBeadVelocities it keeps the last forces: the next step's opening half kick still
+  /// applies their damping, computed with the stopped beads' old velocities.
   void StopBeads(const std::vector<std::uint32_t>& ids);
 
   /// Threads of the next steps (0: omp_get_max_threads()). Results do not depend on it.

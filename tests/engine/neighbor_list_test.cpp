@@ -38,7 +38,6 @@ std::size_t ExpectMatchesBruteForce(const dem::ParticleState& b, const PairList&
   for (std::uint32_t i = 0; i < b.size(); ++i) {
     for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
       EXPECT_GT(list.partners[k], i);
-      EXPECT_EQ(list.owner[k], i);
       if (k > list.offsets[i]) {
         EXPECT_LT(list.partners[k - 1], list.partners[k]);
       }
@@ -68,8 +67,6 @@ TEST(PairList, MatchesBruteForce) {
     RebuildPairList(b, grid, skin, parallel, threads);
     EXPECT_EQ(parallel.offsets, list.offsets) << threads << " threads";
     EXPECT_EQ(parallel.partners, list.partners) << threads << " threads";
-    EXPECT_EQ(parallel.sqrt_r_star, list.sqrt_r_star) << threads << " threads";
-    EXPECT_EQ(parallel.owner, list.owner) << threads << " threads";
   }
   // The grid is shorter than the beads' z range: clamping works.
   EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 1000u);

@@ -91,7 +91,6 @@ void CompareWithScalarLaw(bool friction) {
                                c.velocity.front().data(),
                                c.angular_velocity.front().data(),
                                c.radius.data(),
-                               c.sqrt_r_star.data(),
                                c.shear.front().data(),
                                params,
                                dt};

@@ -44,7 +44,8 @@ std::vector<ContactHistoryEntry> ApplyPairHistory(Simulation::Impl& s) {
     if (it != last && *it == h.other)
       s.lists.pairs.shear[it - s.lists.pairs.partners.begin()] = h.shear;
   }
-  s.pending_history.clear();
+  // Let its memory go too (a loaded bed's histories are some 60 bytes a bead).
+  std::vector<ContactHistoryEntry>().swap(s.pending_history);
   return walls;
 }
 

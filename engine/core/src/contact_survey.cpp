@@ -44,7 +44,7 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
         const double rsum = b.radius[i] + b.radius[j], dist = d.norm();
         if (dist >= rsum) continue;
         visit(i, j, Vec3(d / dist), rsum - dist, Vec3(b.velocity[i] - b.velocity[j]), b.radius[i],
-              std::sqrt(b.radius[i] * b.radius[j] / rsum), params.sphere_pair,
+              SqrtEffectiveRadius(b.radius[i], b.radius[j]), params.sphere_pair,
               s.lists.pairs.shear[k], b.position[i]);
       }
   }
@@ -76,7 +76,7 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
       const double rsum = p.radius + b.radius[j], dist = d.norm();
       if (dist >= rsum) continue;
       visit(kProjectile, j, Vec3(d / dist), rsum - dist, Vec3(p.velocity - b.velocity[j]), p.radius,
-            std::sqrt(p.radius * b.radius[j] / rsum), params.sphere_pair,
+            SqrtEffectiveRadius(p.radius, b.radius[j]), params.sphere_pair,
             s.lists.near_projectile.shear[k], p.position);
     }
   }

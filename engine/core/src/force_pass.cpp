@@ -28,22 +28,30 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
                 std::uint32_t begin, std::uint32_t end, StepObservables& obs,
                 StepConditions& cond) {
   if (begin == end) return;  // (a system without beads may have no list at all)
-  const std::uint32_t* owner = pairs.owner.data();
+  const std::uint32_t* offsets = pairs.offsets.data();
   const std::uint32_t* partners = pairs.partners.data();
   const PairBatchInputs inputs{Components(b.position),
                                Components(b.velocity),
                                Components(b.angular_velocity),
                                b.radius.data(),
-                               pairs.sqrt_r_star.data(),
                                Components(pairs.shear),
                                params.sphere_pair,
                                params.dt_s};
   batch.Reserve(PairBatch::kTarget);
   // One flat loop over the entries (not beads, then their entries): no loop exit per bead to
   // mispredict.
-  const std::uint32_t stop = pairs.offsets[end];
-  for (std::uint32_t first = pairs.offsets[begin]; first < stop;) {
+  const std::uint32_t stop = offsets[end];
+  std::uint32_t first_owner = begin;  // the bead of entry `first`
+  for (std::uint32_t first = offsets[begin]; first < stop;) {
     const std::uint32_t last = std::min<std::uint32_t>(stop, first + PairBatch::kTarget);
+
+    // 0. Where the beads after the batch's first start: a count at each one's first entry
+    // (beads without entries add theirs to the same place). The pick-out loop below sums them
+    // into each entry's bead, with no branch per bead.
+    while (offsets[first_owner + 1] <= first) ++first_owner;
+    std::uint32_t* starts = batch.bead_starts.data();  // all zero between batches
+    for (std::uint32_t next = first_owner + 1; offsets[next] < last; ++next)
+      ++starts[offsets[next] - first];
 
     // 1. Pick out the touching pairs, and the entries apart. Every entry is written and the
     // counts advance by a comparison's result: no branch to mispredict.
@@ -52,8 +60,11 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     std::uint32_t* entry = batch.entry.data();
     std::uint32_t* apart = batch.apart.data();
     std::size_t n = 0, m = 0;
+    std::uint32_t owner = first_owner;
     for (std::uint32_t k = first; k < last; ++k) {
-      const std::uint32_t i = owner[k], j = partners[k];
+      owner += starts[k - first];
+      starts[k - first] = 0;
+      const std::uint32_t i = owner, j = partners[k];
       const double rsum = b.radius[i] + b.radius[j];
       const bool touching = (b.position[i] - b.position[j]).squaredNorm() < rsum * rsum;
       bead[n] = i;
@@ -85,7 +96,7 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
       }
       if constexpr (E::kRolling) {
         const Vec3 normal = (b.position[i] - b.position[j]).normalized();
-        const double sqrt_r = pairs.sqrt_r_star[entry[c]];
+        const double sqrt_r = SqrtEffectiveRadius(b.radius[i], b.radius[j]);
         const Vec3 rolling = RollingResistanceTorque(
             normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), sqrt_r * sqrt_r,
             params.rolling_friction, 1.0 / (b.inv_inertia[i] + b.inv_inertia[j]), params.dt_s);

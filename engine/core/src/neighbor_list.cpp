@@ -26,18 +26,18 @@ void CellGrid::Build(const std::vector<Vec3>& positions, double cell_size, const
   m_axis[1] = axes[2];
   for (int a = 0; a < 3; ++a) m_dims[a] = space_dims[m_axis[a]];
   const std::size_t n = positions.size();
-  m_bead_cell.resize(n);
+  std::vector<std::uint32_t> bead_cell(n);  // a scratch: not kept between builds
   m_cell_start.assign(cells + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
     int c[3];
     CellCoords(positions[i], c);
-    m_bead_cell[i] = static_cast<std::uint32_t>(Index(c[0], c[1], c[2]));
-    ++m_cell_start[m_bead_cell[i] + 1];
+    bead_cell[i] = static_cast<std::uint32_t>(Index(c[0], c[1], c[2]));
+    ++m_cell_start[bead_cell[i] + 1];
   }
   for (std::size_t c = 0; c < cells; ++c) m_cell_start[c + 1] += m_cell_start[c];
   m_cell_beads.resize(n);
   std::vector<std::uint32_t> fill(m_cell_start.begin(), m_cell_start.end() - 1);
-  for (std::size_t i = 0; i < n; ++i) m_cell_beads[fill[m_bead_cell[i]]++] = i;
+  for (std::size_t i = 0; i < n; ++i) m_cell_beads[fill[bead_cell[i]]++] = i;
 }
 
 namespace {
@@ -117,8 +117,6 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
   fresh.offsets[n] = chunk_start[chunks];
   fresh.partners.resize(chunk_start[chunks]);
   fresh.shear.resize(chunk_start[chunks]);
-  fresh.sqrt_r_star.resize(chunk_start[chunks]);
-  fresh.owner.resize(chunk_start[chunks]);
 
   const bool had_list = list.offsets.size() == n + 1;
 #pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel)
@@ -130,12 +128,6 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
       // The next chunk's offsets may not be shifted yet: its first entry is chunk_start[c + 1].
       const std::uint32_t b0 = fresh.offsets[i];
       const std::uint32_t b1 = i + 1 < last ? fresh.offsets[i + 1] : chunk_start[c + 1];
-      const double ri = beads.radius[i];
-      for (std::uint32_t k = b0; k < b1; ++k) {
-        const double rj = beads.radius[fresh.partners[k]];
-        fresh.sqrt_r_star[k] = std::sqrt(ri * rj / (ri + rj));
-        fresh.owner[k] = static_cast<std::uint32_t>(i);
-      }
       if (!had_list) {
         std::fill(fresh.shear.begin() + b0, fresh.shear.begin() + b1, Vec3::Zero());
         continue;

@@ -8,6 +8,7 @@ void PairBatch::Grow(std::size_t n) {
   bead.resize(n);
   partner.resize(n);
   entry.resize(n);
+  bead_starts.resize(n, 0);
   apart.resize(n);
   overlap.resize(n);
   for (int d = 0; d < 3; ++d) {
@@ -138,7 +139,6 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
   const double* v = in.velocity;
   const double* w = in.angular_velocity;
   const double* radius = in.radius;
-  const double* sqrt_r_star = in.sqrt_r_star;
   const double* shear = in.shear;
   // Copies: the stores to the result arrays could otherwise alias them.
   const PairParams params = in.params;
@@ -147,7 +147,7 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
 
 #pragma omp simd
   for (std::size_t c = 0; c < n; ++c) {
-    const std::size_t i = bead[c], j = partner[c], k = entry[c];
+    const std::size_t i = bead[c], j = partner[c];
     // Normal from j to i, overlap, lever arms.
     const double dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1],
                  dz = x[3 * i + 2] - x[3 * j + 2];
@@ -171,9 +171,9 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
     } else {
       g.wx = g.wy = g.wz = 0.0;
     }
-    g.sqrt_r_star = sqrt_r_star[k];
+    g.sqrt_r_star = SqrtEffectiveRadius(ri, rj);
     overlap_out[c] = g.overlap;
-    ResolveLane<kFriction, Partner::kBead>(g, params, dt, shear, k, out, c);
+    ResolveLane<kFriction, Partner::kBead>(g, params, dt, shear, entry[c], out, c);
   }
 }
 

@@ -66,6 +66,13 @@ inline PairParams MakePairParams(const PairModuli& m, double damping_A_s, double
 #define DEMBUF_ALWAYS_INLINE inline
 #endif
 
+/// sqrt(R*) of two spheres, R* = ra rb / (ra + rb) (a wall: sqrt(ra)). Computed where it is
+/// needed rather than stored per pair: the law's batches have the radii at hand, and a stored
+/// copy would cost 8 bytes per neighbour entry.
+DEMBUF_ALWAYS_INLINE double SqrtEffectiveRadius(double ra, double rb) {
+  return std::sqrt(ra * rb / (ra + rb));
+}
+
 /// One contact at this instant, component by component. n points from the other body to this
 /// one; `overlap` > 0; `approach_rate` = d(overlap)/dt; s is the tangential velocity of this
 /// body's surface relative to the other's at the contact point; h the tangential displacement

@@ -19,8 +19,7 @@ class CellGrid {
 
   /// Bytes its arrays hold (their capacity).
   std::size_t MemoryBytes() const {
-    return (m_cell_start.capacity() + m_cell_beads.capacity() + m_bead_cell.capacity()) *
-           sizeof(std::uint32_t);
+    return (m_cell_start.capacity() + m_cell_beads.capacity()) * sizeof(std::uint32_t);
   }
 
   /// Calls visit(j) for every bead in the cells overlapping the box [lo, hi].
@@ -117,18 +116,16 @@ class CellGrid {
   int m_axis[3] = {0, 1, 2};                // space axis of each cell axis
   std::vector<std::uint32_t> m_cell_start;  // size cells + 1
   std::vector<std::uint32_t> m_cell_beads;  // bead ids ordered by cell
-  std::vector<std::uint32_t> m_bead_cell;   // scratch
 };
 
 /// Half neighbor list in CSR form: the partners j > i of bead i are
 /// partners[offsets[i] .. offsets[i+1]), sorted; shear[k] is the tangential history of entry k.
-/// owner[k] is the bead i of entry k, so that a loop over entries needs no loop over beads.
+/// Nothing else is kept per entry (the force pass finds each entry's bead from the offsets and
+/// computes sqrt(R*) from the radii): the entries are most of a simulation's memory.
 struct PairList {
   std::vector<std::uint32_t> offsets;
   std::vector<std::uint32_t> partners;
-  std::vector<std::uint32_t> owner;
   std::vector<Vec3> shear;
-  std::vector<double> sqrt_r_star;  ///< sqrt(r_i r_j / (r_i + r_j)), fixed per pair
 };
 
 /// Beads that may touch the projectile (sorted ids) and the history of each contact.

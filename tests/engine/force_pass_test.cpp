@@ -1,0 +1,125 @@
+// The force pass against the contact law applied pair by pair over all pairs: the list, its
+// blocks and batches, and the bead each entry is found to belong to must lose or misplace no
+// contact. And what a simulation keeps between passes: no more than it needs.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "contact_kernels.h"
+#include "dembuf/study/impact.h"
+
+namespace dembuf {
+namespace {
+
+// 3,000 beads (enough to be numbered in cell order and swept in blocks): blocks of up to
+// 2 x 2 x 2 beads overlapping by up to 3% of a radius, scattered apart, so that many beads have
+// no list entry and the batches of 256 entries start and end inside and between beads' runs;
+// all moving and turning, away from the plate and the side wall.
+dem::ParticleState ClusteredBeads(const Scene& scene) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), share(0.0, 1.0);
+  std::uniform_int_distribution<int> side(1, 2);
+  dem::ParticleState beads;
+  const double r = 0.5 * scene.beads.diameter_min_m, spacing = 2.02 * r;
+  while (beads.size() < 3000) {
+    const dem::Vec3 corner(0.06 * unit(rng), 0.06 * unit(rng), 0.02 + 0.08 * share(rng));
+    const int nx = side(rng), ny = side(rng), nz = side(rng);
+    std::vector<dem::Vec3> cluster;
+    for (int x = 0; x < nx; ++x)
+      for (int y = 0; y < ny; ++y)
+        for (int z = 0; z < nz; ++z) cluster.push_back(corner + spacing * dem::Vec3(x, y, z));
+    bool clear = true;  // apart from the clusters placed before
+    for (const dem::Vec3& c : cluster)
+      for (const dem::Vec3& x : beads.position) clear = clear && (c - x).norm() > 2.3 * r;
+    if (!clear) continue;
+    for (const dem::Vec3& c : cluster) {
+      beads.Add(c, r * (1.0 + 0.04 * share(rng)), scene.material.density_kg_m3);
+      beads.velocity.back() = 0.5 * dem::Vec3(unit(rng), unit(rng), unit(rng));
+      beads.angular_velocity.back() = 200.0 * dem::Vec3(unit(rng), unit(rng), unit(rng));
+    }
+  }
+  return beads;
+}
+
+TEST(ForcePass, EveryBeadGetsTheLawsForcesSummedOverAllItsContacts) {
+  const Scene scene;
+  const World world = BuildWorld(scene);
+  dem::Simulation sim(world.params, ClusteredBeads(scene), std::nullopt);
+  sim.RefreshForces();  // the first pass: every history starts at zero
+  const dem::ParticleState& b = sim.beads();
+  const dem::PairParams& law = world.params.sphere_pair;
+  const double dt = world.params.dt_s;
+
+  std::vector<dem::Vec3> force(b.size(), dem::Vec3::Zero()), torque(b.size(), dem::Vec3::Zero());
+  std::vector<int> contacts(b.size(), 0);
+  int pairs = 0;
+  for (std::size_t i = 0; i < b.size(); ++i)
+    for (std::size_t j = i + 1; j < b.size(); ++j) {
+      const dem::Vec3 d = b.position[i] - b.position[j];
+      const double rsum = b.radius[i] + b.radius[j], dist = d.norm();
+      if (dist >= rsum) continue;
+      const double overlap = rsum - dist;
+      const dem::Vec3 n = d / dist;
+      const double ai = dem::detail::LeverArm(b.radius[i], overlap),
+                   aj = dem::detail::LeverArm(b.radius[j], overlap);
+      const dem::ContactGeometry g =
+          dem::detail::MakeGeometry(n, overlap, b.velocity[i] - b.velocity[j],
+                                    ai * b.angular_velocity[i] + aj * b.angular_velocity[j],
+                                    dem::SqrtEffectiveRadius(b.radius[i], b.radius[j]));
+      dem::Vec3 history = dem::Vec3::Zero();
+      const dem::detail::ContactOutcome out =
+          dem::detail::Resolve<true>(g, ai, aj, law, dt, history);
+      force[i] += out.force;
+      force[j] -= out.force;
+      torque[i] += out.torque_i;
+      torque[j] += out.torque_j;
+      ++contacts[i];
+      ++contacts[j];
+      ++pairs;
+    }
+  int alone = 0;
+  for (int c : contacts) alone += c == 0;
+  // The bed has what the test is about: many contacts, and many beads without any.
+  ASSERT_GT(pairs, 2000);
+  ASSERT_GT(alone, 300);
+  EXPECT_EQ(sim.observables().bead_contacts, pairs);
+
+  // Sums in another order: equal to rounding, against the largest force of the bed.
+  double largest_force = 0.0, largest_torque = 0.0;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    largest_force = std::max(largest_force, force[i].norm());
+    largest_torque = std::max(largest_torque, torque[i].norm());
+  }
+  int wrong = 0;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const bool same = (b.force[i] - force[i]).norm() <= 1e-12 * largest_force &&
+                      (b.torque[i] - torque[i]).norm() <= 1e-12 * largest_torque;
+    if (!same && ++wrong <= 5)
+      ADD_FAILURE() << "bead " << i << " (" << contacts[i] << " contacts): force "
+                    << b.force[i].transpose() << ", by the law pair by pair "
+                    << force[i].transpose();
+  }
+  EXPECT_EQ(wrong, 0);
+}
+
+// A bed loaded with its springs hands them to the first list build; after that they must not
+// be held twice (they are some 60 bytes a bead).
+TEST(Simulation, ASavedHistoryIsLetGoOnceApplied) {
+  const Scene scene;
+  const World world = BuildWorld(scene);
+  dem::Simulation first(world.params, ClusteredBeads(scene), std::nullopt);
+  for (int k = 0; k < 3; ++k) first.Step();
+  const std::vector<dem::ContactHistoryEntry> history = first.ExportHistory();
+  ASSERT_GT(history.size(), 2000u);
+
+  dem::Simulation with_springs(world.params, first.beads(), std::nullopt, history);
+  dem::Simulation without(world.params, first.beads(), std::nullopt);
+  with_springs.Step();
+  without.Step();
+  // The springs were carried on (a few contacts open in the step), not dropped.
+  EXPECT_GT(with_springs.ExportHistory().size(), 9 * history.size() / 10);
+  EXPECT_EQ(with_springs.MemoryBytes(), without.MemoryBytes());
+}
+
+}  // namespace
+}  // namespace dembuf

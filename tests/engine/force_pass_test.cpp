@@ -102,6 +102,33 @@ TEST(ForcePass, EveryBeadGetsTheLawsForcesSummedOverAllItsContacts) {
   EXPECT_EQ(wrong, 0);
 }
 
+// The lists outlive many steps: each pass must still find every touching pair. The beads fly
+// apart and into each other at up to 2 m/s, so that the lists are built again and again.
+TEST(ForcePass, ListsKeptOverStepsMissNoTouchingPair) {
+  const Scene scene;
+  const World world = BuildWorld(scene);
+  dem::ParticleState beads = ClusteredBeads(scene);
+  for (dem::Vec3& v : beads.velocity) v *= 4.0;
+  dem::Simulation sim(world.params, std::move(beads), std::nullopt);
+  int checked = 0;
+  for (int step = 1; step <= 400; ++step) {
+    sim.Step();
+    if (step % 25 != 0) continue;
+    const dem::ParticleState& b = sim.beads();
+    int touching = 0;
+    for (std::size_t i = 0; i < b.size(); ++i)
+      for (std::size_t j = i + 1; j < b.size(); ++j) {
+        const double rsum = b.radius[i] + b.radius[j];
+        touching += (b.position[i] - b.position[j]).squaredNorm() < rsum * rsum;
+      }
+    EXPECT_EQ(sim.observables().bead_contacts, touching) << "step " << step;
+    checked += touching > 0;
+  }
+  EXPECT_EQ(checked, 16);
+  // The lists were built again many times, so the test saw what it is about.
+  EXPECT_GT(sim.stage_times().list_builds, 10);
+}
+
 // A bed loaded with its springs hands them to the first list build; after that they must not
 // be held twice (they are some 60 bytes a bead).
 TEST(Simulation, ASavedHistoryIsLetGoOnceApplied) {

@@ -1,7 +1,9 @@
 #include "bead_lists.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "block_schedule.h"
@@ -99,6 +101,20 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(s.origin, order);
 }
 
+// Keeps the positions of the list build in single precision. Rounding moves a component by at
+// most 2^-24 of its size, so a displacement from the kept position is within sqrt(3) 2^-24
+// times the largest coordinate of the true one; the bound allows twice that.
+void KeepReferencePositions(const ParticleState& b, NeighbourLists& lists) {
+  lists.reference_position.resize(3 * b.size());
+  double largest = 0.0;
+  for (std::size_t i = 0; i < b.size(); ++i)
+    for (int d = 0; d < 3; ++d) {
+      lists.reference_position[3 * i + d] = static_cast<float>(b.position[i][d]);
+      largest = std::max(largest, std::abs(b.position[i][d]));
+    }
+  lists.reference_rounding = std::sqrt(3.0) * std::numeric_limits<float>::epsilon() * largest;
+}
+
 // Splits the beads (in cell order) into the blocks described at ForcePassBlocks: one a layer.
 void PlanBlocks(Simulation::Impl& s) {
   const int layers = s.lists.grid.Dim(2);
@@ -169,7 +185,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
     }
     RebuildPairList(b, s.lists.grid, s.lists.skin, s.lists.pairs, s.parallel ? s.threads : 1);
     wall_history = ApplyPairHistory(s);
-    s.lists.reference_position = b.position;
+    KeepReferencePositions(b, s.lists);
     if (projectile)
       RebuildCandidateList(b, s.lists.grid, projectile->position, projectile->radius,
                            s.lists.max_radius, s.lists.skin, s.lists.near_projectile);

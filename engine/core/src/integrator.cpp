@@ -67,7 +67,7 @@ void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g
 // or outside the container.
 template <bool kRotate>
 void KickAndDrift(const Kinematics& k, long first, long last, bool closing, double half, double dt,
-                  const Vec3& g, const double* reference, const Container& box, double& max_disp2,
+                  const Vec3& g, const float* reference, const Container& box, double& max_disp2,
                   long& suspects) {
   if (closing)
     Kick<kRotate, 2>(k, first, last, half, g);
@@ -108,7 +108,7 @@ DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleS
   const Container box = params.container;
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
-  const double* reference = Components(s.lists.reference_position);
+  const float* reference = s.lists.reference_position.data();
   const bool rotate = s.Rotating();
   double max_disp2 = 0.0;
   long suspects = 0;  // beads that may be non-finite or outside the container

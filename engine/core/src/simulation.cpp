@@ -67,7 +67,7 @@ void Simulation::Step() {
   const bool closing = m_kick_pending;
   m_kick_pending = false;
   const detail::DriftReport drift = detail::KickAndDriftBeads(m_params, closing, m_beads, s);
-  s.lists.max_bead_displacement = drift.max_displacement;
+  s.lists.max_bead_displacement = drift.max_displacement + s.lists.reference_rounding;
   s.conditions.nonfinite_bead = drift.nonfinite_bead;
   s.conditions.escaped_bead = drift.escaped_bead;
   if (m_projectile) {

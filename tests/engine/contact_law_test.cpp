@@ -30,7 +30,7 @@ TEST(ContactLaw, ElasticHeadOnCollisionMatchesHertzWithinHalfAPercent) {
   const double h = hertz.duration / 20000.0;
   dem::ContactLawInput c{};
   c.nz = 1.0;
-  c.sqrt_r_star = sqrt_r_star;
+  c.r_star = 0.5 * radius;
   double x = 0.0, u = v, t = 0.0, peak_force = 0.0, peak_overlap = 0.0;
   auto force = [&](double overlap, double rate) {
     if (overlap <= 0.0) return 0.0;
@@ -59,7 +59,7 @@ TEST(ContactLaw, NeverPullsAndCapsTheSpringAtCoulomb) {
   dem::ContactLawInput c{};
   c.nz = 1.0;
   c.overlap = 1e-6;
-  c.sqrt_r_star = std::sqrt(1.125e-3);
+  c.r_star = 1.125e-3;
   // Parting fast: the damping term exceeds the elastic one, and the force is clamped at 0.
   c.approach_rate = -10.0;
   EXPECT_EQ((dem::ApplyContactLaw<true>(c, p, 1e-6).normal), 0.0);
@@ -71,7 +71,7 @@ TEST(ContactLaw, NeverPullsAndCapsTheSpringAtCoulomb) {
   const dem::ContactLawOutput out = dem::ApplyContactLaw<true>(c, p, 1e-6);
   const double tangential = std::hypot(out.tx, out.ty, out.tz);
   EXPECT_NEAR(tangential, 0.5 * out.normal, 1e-12 * out.normal);
-  const double ks_x = p.ks_per_sqrt_r * c.sqrt_r_star * std::sqrt(c.overlap);
+  const double ks_x = p.ks_per_sqrt_r * std::sqrt(c.r_star) * std::sqrt(c.overlap);
   EXPECT_NEAR(out.hx, 0.5 * out.normal / ks_x, 1e-12 * out.hx);
 
   // A history with a normal part is turned into the tangent plane with its length kept.

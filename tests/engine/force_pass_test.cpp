@@ -65,7 +65,7 @@ TEST(ForcePass, EveryBeadGetsTheLawsForcesSummedOverAllItsContacts) {
       const dem::ContactGeometry g =
           dem::detail::MakeGeometry(n, overlap, b.velocity[i] - b.velocity[j],
                                     ai * b.angular_velocity[i] + aj * b.angular_velocity[j],
-                                    dem::SqrtEffectiveRadius(b.radius[i], b.radius[j]));
+                                    dem::EffectiveRadius(b.radius[i], b.radius[j]));
       dem::Vec3 history = dem::Vec3::Zero();
       const dem::detail::ContactOutcome out =
           dem::detail::Resolve<true>(g, ai, aj, law, dt, history);

@@ -33,7 +33,7 @@ dem::Vec3 SomeHistory(int k, const dem::Vec3& n, std::mt19937& rng) {
 // Two beads per contact (bead 2c touches bead 2c + 1), one list entry per contact.
 struct Contacts {
   std::vector<dem::Vec3> position, velocity, angular_velocity, shear;
-  std::vector<double> radius, sqrt_r_star;
+  std::vector<double> radius, r_star;
 };
 
 Contacts RandomContacts(int count, std::uint32_t seed) {
@@ -50,7 +50,7 @@ Contacts RandomContacts(int count, std::uint32_t seed) {
     c.position.push_back(xi - (ri + rj - overlap) * n);
     c.radius.push_back(ri);
     c.radius.push_back(rj);
-    c.sqrt_r_star.push_back(std::sqrt(ri * rj / (ri + rj)));
+    c.r_star.push_back(ri * rj / (ri + rj));
     // Speeds up to 5 m/s: some pairs separate fast enough to clamp the normal force to 0.
     for (int b = 0; b < 2; ++b) {
       c.velocity.push_back(5.0 * dem::Vec3(unit(rng), unit(rng), unit(rng)));
@@ -108,7 +108,7 @@ void CompareWithScalarLaw(bool friction) {
                                 ? dem::Vec3(ai * c.angular_velocity[i] + aj * c.angular_velocity[j])
                                 : dem::Vec3::Zero();
     const dem::ContactGeometry g =
-        MakeGeometry(normal, overlap, c.velocity[i] - c.velocity[j], w_arm, c.sqrt_r_star[k]);
+        MakeGeometry(normal, overlap, c.velocity[i] - c.velocity[j], w_arm, c.r_star[k]);
     dem::Vec3 shear = c.shear[k];
     const ContactOutcome out = friction ? Resolve<true>(g, ai, aj, params, dt, shear)
                                         : Resolve<false>(g, ai, aj, params, dt, shear);
@@ -210,7 +210,7 @@ void CompareWallsWithScalarLaw(bool friction) {
       }
       const double arm = LeverArm(r, overlap);
       const dem::ContactGeometry g =
-          MakeGeometry(normal, overlap, velocity[k], arm * angular_velocity[k], std::sqrt(r));
+          MakeGeometry(normal, overlap, velocity[k], arm * angular_velocity[k], r);
       dem::Vec3 history = shear[k];
       const ContactOutcome out = friction ? Resolve<true>(g, arm, 0.0, params, dt, history)
                                           : Resolve<false>(g, arm, 0.0, params, dt, history);

@@ -22,9 +22,9 @@ struct ContactOutcome {
 /// to the contact point in the middle of the overlap (it moves with v_i - a_i w_i x n on i and
 /// v_j + a_j w_j x n on j). With these arms a pair conserves angular momentum exactly.
 inline ContactGeometry MakeGeometry(const Vec3& n, double overlap, const Vec3& v_rel,
-                                    const Vec3& w_arm, double sqrt_r_star) {
+                                    const Vec3& w_arm, double r_star) {
   const double approach = -v_rel.dot(n);
-  return {n, overlap, approach, v_rel + approach * n - w_arm.cross(n), sqrt_r_star};
+  return {n, overlap, approach, v_rel + approach * n - w_arm.cross(n), r_star};
 }
 
 /// Lever arm from a sphere's centre to the contact point in the middle of the overlap.

@@ -31,7 +31,7 @@ namespace {
 
 // Every contact of the current state, with its geometry, for the few places that look at
 // contacts outside the force kernel (snapshots, energy). visit(a, b, n, overlap, v_rel,
-// radius_a, sqrt_r_star, params, shear, x_a) with a and b as in ContactSnapshot.
+// radius_a, r_star, params, shear, x_a) with a and b as in ContactSnapshot.
 template <class Visit>
 void VisitContacts(const WorldParams& params, const ParticleState& b,
                    const std::optional<RigidSphere>& projectile, const Simulation::Impl& s,
@@ -44,19 +44,18 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
         const double rsum = b.radius[i] + b.radius[j], dist = d.norm();
         if (dist >= rsum) continue;
         visit(i, j, Vec3(d / dist), rsum - dist, Vec3(b.velocity[i] - b.velocity[j]), b.radius[i],
-              SqrtEffectiveRadius(b.radius[i], b.radius[j]), params.sphere_pair,
-              s.lists.pairs.shear[k], b.position[i]);
+              EffectiveRadius(b.radius[i], b.radius[j]), params.sphere_pair, s.lists.pairs.shear[k],
+              b.position[i]);
       }
   }
   auto walls = [&](BodyId id, const Vec3& x, const Vec3& v, double r, const Vec3& plate,
                    const Vec3& wall) {
     if (const double overlap = Container::PlateOverlap(x.z(), r); overlap > 0.0)
-      visit(id, kPlate, Vec3(Vec3::UnitZ()), overlap, v, r, std::sqrt(r), params.sphere_wall, plate,
-            x);
+      visit(id, kPlate, Vec3(Vec3::UnitZ()), overlap, v, r, r, params.sphere_wall, plate, x);
     double overlap;
     Vec3 n;
     if (detail::SideWallContact(params.container, x, r, overlap, n))
-      visit(id, kSideWall, n, overlap, v, r, std::sqrt(r), params.sphere_wall, wall, x);
+      visit(id, kSideWall, n, overlap, v, r, r, params.sphere_wall, wall, x);
   };
   // Only the near-container beads keep wall histories (in near_container order, by id).
   const Vec3 none = Vec3::Zero();
@@ -76,7 +75,7 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
       const double rsum = p.radius + b.radius[j], dist = d.norm();
       if (dist >= rsum) continue;
       visit(kProjectile, j, Vec3(d / dist), rsum - dist, Vec3(p.velocity - b.velocity[j]), p.radius,
-            SqrtEffectiveRadius(p.radius, b.radius[j]), params.sphere_pair,
+            EffectiveRadius(p.radius, b.radius[j]), params.sphere_pair,
             s.lists.near_projectile.shear[k], p.position);
     }
   }
@@ -92,9 +91,9 @@ std::vector<ContactSnapshot> Simulation::Contacts() const {
   VisitContacts(
       m_params, m_beads, m_projectile, *m_impl,
       [&](BodyId a, BodyId other, const Vec3& n, double overlap, const Vec3& v_rel, double ra,
-          double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3& x_a) {
-        const double fn = HertzNormalForce(overlap, -v_rel.dot(n), sqrt_r, p);
-        const Vec3 ft = StoredSpringForce(overlap, sqrt_r, p, shear);
+          double r_star, const PairParams& p, const Vec3& shear, const Vec3& x_a) {
+        const double fn = HertzNormalForce(overlap, -v_rel.dot(n), r_star, p);
+        const Vec3 ft = StoredSpringForce(overlap, r_star, p, shear);
         out.push_back({a, other, x_a - detail::LeverArm(ra, overlap) * n, fn * n + ft, fn});
       });
   return out;
@@ -117,8 +116,8 @@ EnergyBreakdown Simulation::Energy() const {
   }
   VisitContacts(m_params, m_beads, m_projectile, *m_impl,
                 [&](std::int64_t, std::int64_t, const Vec3&, double overlap, const Vec3&, double,
-                    double sqrt_r, const PairParams& p, const Vec3& shear, const Vec3&) {
-                  e.elastic_J += ContactElasticEnergy(overlap, sqrt_r, p, shear);
+                    double r_star, const PairParams& p, const Vec3& shear, const Vec3&) {
+                  e.elastic_J += ContactElasticEnergy(overlap, r_star, p, shear);
                 });
   return e;
 }

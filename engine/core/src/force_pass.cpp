@@ -96,9 +96,9 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
       }
       if constexpr (E::kRolling) {
         const Vec3 normal = (b.position[i] - b.position[j]).normalized();
-        const double sqrt_r = SqrtEffectiveRadius(b.radius[i], b.radius[j]);
+        const double r_star = EffectiveRadius(b.radius[i], b.radius[j]);
         const Vec3 rolling = RollingResistanceTorque(
-            normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), sqrt_r * sqrt_r,
+            normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), r_star,
             params.rolling_friction, 1.0 / (b.inv_inertia[i] + b.inv_inertia[j]), params.dt_s);
         b.torque[i] += rolling;
         b.torque[j] -= rolling;
@@ -191,7 +191,7 @@ int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulat
   auto resolve = [&](const Vec3& normal, double overlap, Vec3& shear) {
     const double arm = LeverArm(r, overlap);
     const ContactGeometry c =
-        MakeGeometry(normal, overlap, p.velocity, arm * p.angular_velocity, std::sqrt(r));
+        MakeGeometry(normal, overlap, p.velocity, arm * p.angular_velocity, r);
     const auto out = Resolve<E::kFriction>(c, arm, 0.0, params.sphere_wall, params.dt_s, shear);
     p.force += out.force;
     p.torque += out.torque_i;
@@ -246,7 +246,7 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
         E::kFriction ? Vec3(ap * p.angular_velocity + aj * b.angular_velocity[j]) : Vec3::Zero();
     const double r_star = p.radius * rj / rsum;
     const ContactGeometry c =
-        MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, std::sqrt(r_star));
+        MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, r_star);
     const auto out = Resolve<E::kFriction>(c, ap, aj, params.sphere_pair, params.dt_s, h);
     p.force += out.force;
     p.torque += out.torque_i;

@@ -53,7 +53,7 @@ struct LaneGeometry {
   double nx, ny, nz, overlap;
   double vx, vy, vz;
   double wx, wy, wz;
-  double sqrt_r_star, ai, aj;
+  double r_star, ai, aj;
 };
 
 // Contact c (one lane of a vectorized loop): the slip from MakeGeometry's expression, the law
@@ -73,7 +73,7 @@ inline __attribute__((always_inline)) void ResolveLane(const LaneGeometry& g, co
   in.nz = nz;
   in.overlap = g.overlap;
   in.approach_rate = -(g.vx * nx + g.vy * ny + g.vz * nz);
-  in.sqrt_r_star = g.sqrt_r_star;
+  in.r_star = g.r_star;
   if constexpr (kFriction) {
     const double approach = in.approach_rate;
     in.sx = (g.vx + approach * nx) - (g.wy * nz - g.wz * ny);
@@ -171,7 +171,7 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
     } else {
       g.wx = g.wy = g.wz = 0.0;
     }
-    g.sqrt_r_star = SqrtEffectiveRadius(ri, rj);
+    g.r_star = EffectiveRadius(ri, rj);
     overlap_out[c] = g.overlap;
     ResolveLane<kFriction, Partner::kBead>(g, params, dt, shear, entry[c], out, c);
   }
@@ -237,7 +237,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
     g.wx = g.ai * w[3 * i];
     g.wy = g.ai * w[3 * i + 1];
     g.wz = g.ai * w[3 * i + 2];
-    g.sqrt_r_star = std::sqrt(r);
+    g.r_star = r;
     overlap_out[c] = g.overlap;
     ResolveLane<kFriction, Partner::kWall>(g, params, dt, shear, slot[c], out, c);
   }

@@ -66,11 +66,11 @@ inline PairParams MakePairParams(const PairModuli& m, double damping_A_s, double
 #define DEMBUF_ALWAYS_INLINE inline
 #endif
 
-/// sqrt(R*) of two spheres, R* = ra rb / (ra + rb) (a wall: sqrt(ra)). Computed where it is
-/// needed rather than stored per pair: the law's batches have the radii at hand, and a stored
-/// copy would cost 8 bytes per neighbour entry.
-DEMBUF_ALWAYS_INLINE double SqrtEffectiveRadius(double ra, double rb) {
-  return std::sqrt(ra * rb / (ra + rb));
+/// R* = ra rb / (ra + rb) of two spheres (for a wall, R* = ra). Computed where it is needed
+/// rather than stored per pair: the law's batches have the radii at hand, and a stored copy
+/// would cost 8 bytes per neighbour entry.
+DEMBUF_ALWAYS_INLINE double EffectiveRadius(double ra, double rb) {
+  return ra * rb / (ra + rb);
 }
 
 /// One contact at this instant, component by component. n points from the other body to this
@@ -79,7 +79,7 @@ DEMBUF_ALWAYS_INLINE double SqrtEffectiveRadius(double ra, double rb) {
 /// accumulated so far (the contact's history). s and h are read only with friction.
 struct ContactLawInput {
   double nx, ny, nz;
-  double overlap, approach_rate, sqrt_r_star;
+  double overlap, approach_rate, r_star;
   double sx, sy, sz;
   double hx, hy, hz;
 };
@@ -100,9 +100,8 @@ template <bool kFriction>
 DEMBUF_ALWAYS_INLINE ContactLawOutput ApplyContactLaw(const ContactLawInput& c, const PairParams& p,
                                                       double dt) {
   ContactLawOutput out{};
-  const double sqrt_x = std::sqrt(c.overlap);
-  const double f =
-      p.kn_per_sqrt_r * c.sqrt_r_star * sqrt_x * (c.overlap + p.damping_A_s * c.approach_rate);
+  const double sqrt_rx = std::sqrt(c.r_star * c.overlap);  // both stiffnesses go as sqrt(R* x)
+  const double f = p.kn_per_sqrt_r * sqrt_rx * (c.overlap + p.damping_A_s * c.approach_rate);
   out.normal = f > 0.0 ? f : 0.0;  // contacts never pull
   if constexpr (kFriction) {
     const double nx = c.nx, ny = c.ny, nz = c.nz;
@@ -123,7 +122,7 @@ DEMBUF_ALWAYS_INLINE ContactLawOutput ApplyContactLaw(const ContactLawInput& c, 
     hy = hy + c.sy * dt;
     hz = hz + c.sz * dt;
     // Mindlin spring, capped at mu Fn; while sliding the spring shortens to the cap.
-    const double ks_x = p.ks_per_sqrt_r * c.sqrt_r_star * sqrt_x;
+    const double ks_x = p.ks_per_sqrt_r * sqrt_rx;
     double tx = -ks_x * hx, ty = -ks_x * hy, tz = -ks_x * hz;
     const double cap = p.friction * out.normal;
     const double ft2 = tx * tx + ty * ty + tz * tz;
@@ -151,7 +150,7 @@ struct ContactGeometry {
   double overlap;
   double approach_rate;
   Vec3 slip_velocity;
-  double sqrt_r_star;
+  double r_star;
 };
 
 /// Force on this body: the normal magnitude (>= 0) and the tangential vector.
@@ -165,7 +164,7 @@ template <bool kFriction>
 inline ContactForce HertzMindlinForce(const ContactGeometry& c, const PairParams& p, double dt,
                                       Vec3& shear) {
   const ContactLawInput in{c.normal.x(),        c.normal.y(),        c.normal.z(),
-                           c.overlap,           c.approach_rate,     c.sqrt_r_star,
+                           c.overlap,           c.approach_rate,     c.r_star,
                            c.slip_velocity.x(), c.slip_velocity.y(), c.slip_velocity.z(),
                            shear.x(),           shear.y(),           shear.z()};
   const ContactLawOutput out = ApplyContactLaw<kFriction>(in, p, dt);
@@ -189,27 +188,27 @@ inline Vec3 RollingResistanceTorque(const Vec3& n, const Vec3& w_rel, double nor
 }
 
 /// Normal force magnitude alone (eq. 1 with the clamp).
-inline double HertzNormalForce(double overlap, double approach_rate, double sqrt_r_star,
+inline double HertzNormalForce(double overlap, double approach_rate, double r_star,
                                const PairParams& p) {
   ContactLawInput in{};
   in.overlap = overlap;
   in.approach_rate = approach_rate;
-  in.sqrt_r_star = sqrt_r_star;
+  in.r_star = r_star;
   return ApplyContactLaw<false>(in, p, 0.0).normal;
 }
 
 /// The force of a stored tangential spring, without advancing it (what a snapshot shows).
-inline Vec3 StoredSpringForce(double overlap, double sqrt_r_star, const PairParams& p,
+inline Vec3 StoredSpringForce(double overlap, double r_star, const PairParams& p,
                               const Vec3& shear) {
-  return -(p.ks_per_sqrt_r * sqrt_r_star * std::sqrt(overlap)) * shear;
+  return -(p.ks_per_sqrt_r * std::sqrt(r_star * overlap)) * shear;
 }
 
 /// Elastic energy stored in a contact: 2/5 Kn x^(5/2) + 1/2 Ks x^(1/2) |shear|^2.
-inline double ContactElasticEnergy(double overlap, double sqrt_r_star, const PairParams& p,
+inline double ContactElasticEnergy(double overlap, double r_star, const PairParams& p,
                                    const Vec3& shear) {
-  const double sqrt_x = std::sqrt(overlap);
-  return 0.4 * p.kn_per_sqrt_r * sqrt_r_star * overlap * overlap * sqrt_x +
-         0.5 * p.ks_per_sqrt_r * sqrt_r_star * sqrt_x * shear.squaredNorm();
+  const double sqrt_rx = std::sqrt(r_star * overlap);
+  return 0.4 * p.kn_per_sqrt_r * sqrt_rx * overlap * overlap +
+         0.5 * p.ks_per_sqrt_r * sqrt_rx * shear.squaredNorm();
 }
 
 }  // namespace dembuf::dem

@@ -24,6 +24,7 @@
 //    it, and where its time went: inserting and settling the source beds, relaxing the cut
 //    beds, the impacts and the stages of their steps. --sweep-set changes a scene field (a
 //    lever, e.g. bed.local_settling=false for the sweep as it was before).
+#include <malloc.h>
 #include <sched.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -389,7 +390,6 @@ World TiledWorld(const World& base, std::size_t count) {
     beads.Add(b.position[i] + c.shift, b.radius[i], 1.0);
     beads.mass.back() = b.mass[i];
     beads.inv_mass.back() = b.inv_mass[i];
-    beads.inv_inertia.back() = b.inv_inertia[i];
     rho_max = std::max(rho_max, std::sqrt(c.rho2));
   }
   for (std::uint32_t tile = 0; tile < tiles; ++tile)
@@ -547,10 +547,14 @@ void BenchSizes(const Options& opt, const World& world, int repeats, nlohmann::j
     if (n == counts.back()) {
       // Memory: what a simulation of this size holds, with its springs, after a few steps;
       // and the process's resident growth while it lives (the allocator's share included).
+      // Freed memory goes back to the system before each reading, or the growth would reuse
+      // what the timings freed and count what the construction needed only for a while.
+      malloc_trim(0);
       const double rss_before = ResidentBytes();
       dem::Simulation sim(w.params, w.beads, std::nullopt, w.history);
       for (int k = 0; k < 10; ++k) sim.Step();
       bytes_per_bead = static_cast<double>(sim.MemoryBytes()) / static_cast<double>(n);
+      malloc_trim(0);
       resident_per_bead = (ResidentBytes() - rss_before) / static_cast<double>(n);
     }
   }

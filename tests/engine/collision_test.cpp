@@ -208,7 +208,7 @@ TEST(ObliqueImpact, NewtonsThirdLawAndAngularMomentumForBeadPair) {
     const auto& b = s.beads();
     for (std::size_t i = 0; i < 2; ++i)
       l +=
-          b.mass[i] * b.position[i].cross(b.velocity[i]) + b.angular_velocity[i] / b.inv_inertia[i];
+          b.mass[i] * b.position[i].cross(b.velocity[i]) + b.angular_velocity[i] / b.InvInertia(i);
     return l;
   };
   const dem::Vec3 p0 = momentum(sim), l0 = angular_momentum(sim);

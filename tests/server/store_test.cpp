@@ -337,7 +337,6 @@ TEST_F(StoreTest, BedsRoundTripExactly) {
   bed.beads.radius.push_back(0.0021);
   bed.beads.mass.push_back(1e-4);
   bed.beads.inv_mass.push_back(1e4);
-  bed.beads.inv_inertia.push_back(1.0);
   EXPECT_FALSE(store.beds().Contains(bed.hash));
   store.beds().Save(bed);
   EXPECT_TRUE(store.beds().Contains(bed.hash));

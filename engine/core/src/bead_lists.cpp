@@ -97,7 +97,6 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(b.radius, order);
   Permute(b.mass, order);
   Permute(b.inv_mass, order);
-  Permute(b.inv_inertia, order);
   Permute(s.origin, order);
 }
 

@@ -99,7 +99,7 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
         const double r_star = EffectiveRadius(b.radius[i], b.radius[j]);
         const Vec3 rolling = RollingResistanceTorque(
             normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), r_star,
-            params.rolling_friction, 1.0 / (b.inv_inertia[i] + b.inv_inertia[j]), params.dt_s);
+            params.rolling_friction, 1.0 / (b.InvInertia(i) + b.InvInertia(j)), params.dt_s);
         b.torque[i] += rolling;
         b.torque[j] -= rolling;
       }
@@ -164,7 +164,7 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
           const Vec3& x = b.position[i];
           const Vec3 normal = plate ? Vec3(Vec3::UnitZ()) : Vec3(-x.x(), -x.y(), 0.0).normalized();
           b.torque[i] += WallRolling(params, normal, b.angular_velocity[i], batch.normal_force[c],
-                                     b.radius[i], 1.0 / b.inv_inertia[i]);
+                                     b.radius[i], 1.0 / b.InvInertia(i));
         }
         if (plate)
           obs.plate_force_N += batch.normal_force[c];
@@ -255,7 +255,7 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
     if constexpr (E::kRolling) {
       const Vec3 rolling = RollingResistanceTorque(
           normal, p.angular_velocity - b.angular_velocity[j], out.normal, r_star,
-          params.rolling_friction, 1.0 / (1.0 / p.Inertia() + b.inv_inertia[j]), params.dt_s);
+          params.rolling_friction, 1.0 / (1.0 / p.Inertia() + b.InvInertia(j)), params.dt_s);
       p.torque += rolling;
       b.torque[j] -= rolling;
     }

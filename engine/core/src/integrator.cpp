@@ -19,13 +19,13 @@ struct Kinematics {
   const double* torque;
   const double* radius;
   const double* inv_mass;
-  const double* inv_inertia;
+  const double* mass;  // for the moment of inertia
 };
 
 Kinematics BeadKinematics(ParticleState& b) {
   return {Components(b.position), Components(b.velocity), Components(b.angular_velocity),
           Components(b.force),    Components(b.torque),   b.radius.data(),
-          b.inv_mass.data(),      b.inv_inertia.data()};
+          b.inv_mass.data(),      b.mass.data()};
 }
 
 // Half kicks of beads [first, last) with their current forces: v += dt/2 a (and w += dt/2 alpha
@@ -49,7 +49,8 @@ void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g
       k.velocity[3 * i + 2] += dvz;
     }
     if constexpr (kRotate) {
-      const double s = held ? 0.0 : half * k.inv_inertia[i];
+      const double inv_inertia = ParticleState::InverseSphereInertia(k.mass[i], k.radius[i]);
+      const double s = held ? 0.0 : half * inv_inertia;
       const double dwx = s * k.torque[3 * i], dwy = s * k.torque[3 * i + 1],
                    dwz = s * k.torque[3 * i + 2];
       for (int h = 0; h < kHalves; ++h) {

@@ -190,7 +190,7 @@ std::size_t Simulation::MemoryBytes() const {
   const ParticleState& b = m_beads;
   std::size_t sum = Bytes(b.position) + Bytes(b.velocity) + Bytes(b.angular_velocity) +
                     Bytes(b.force) + Bytes(b.torque) + Bytes(b.radius) + Bytes(b.mass) +
-                    Bytes(b.inv_mass) + Bytes(b.inv_inertia);
+                    Bytes(b.inv_mass);
   const Impl& s = *m_impl;
   const detail::NeighbourLists& l = s.lists;
   sum += l.grid.MemoryBytes() + Bytes(l.pairs.offsets) + Bytes(l.pairs.partners) +

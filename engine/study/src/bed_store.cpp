@@ -155,7 +155,6 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
     b.radius.push_back(r);
     b.mass.push_back(m);
     b.inv_mass.push_back(1.0 / m);
-    b.inv_inertia.push_back(1.0 / (0.4 * m * r * r));
   }
   const auto h = Get<std::uint64_t>(in, sum, name);
   if (h > 64 * n + 64) throw std::runtime_error(name + ": implausible contact count");

@@ -33,9 +33,12 @@ struct ParticleState {
   /// 0 holds a bead in place: it neither moves nor turns, its mass still enters its contacts
   /// with free beads, and two held beads do not touch (their contact could move nothing).
   std::vector<double> inv_mass;
-  std::vector<double> inv_inertia;  ///< 1 / (2/5 m r^2), solid spheres
 
   std::size_t size() const { return position.size(); }
+
+  /// 1 / I of bead i, a solid sphere: I = 2/5 m r^2. Computed, not stored (8 bytes a bead).
+  double InvInertia(std::size_t i) const { return InverseSphereInertia(mass[i], radius[i]); }
+  static double InverseSphereInertia(double m, double r) { return 1.0 / (0.4 * m * r * r); }
 
   /// Appends a bead at rest.
   void Add(const Vec3& x, double r, double density_kg_m3) {
@@ -48,7 +51,6 @@ struct ParticleState {
     radius.push_back(r);
     mass.push_back(m);
     inv_mass.push_back(1.0 / m);
-    inv_inertia.push_back(1.0 / (0.4 * m * r * r));
   }
 
   /// Appends bead i of `from` with every property as it is.
@@ -61,13 +63,12 @@ struct ParticleState {
     radius.push_back(from.radius[i]);
     mass.push_back(from.mass[i]);
     inv_mass.push_back(from.inv_mass[i]);
-    inv_inertia.push_back(from.inv_inertia[i]);
   }
 
   /// Kinetic energy of bead i, translation and rotation [J].
   double KineticEnergy(std::size_t i) const {
     return 0.5 * mass[i] * velocity[i].squaredNorm() +
-           0.5 / inv_inertia[i] * angular_velocity[i].squaredNorm();
+           0.5 / InvInertia(i) * angular_velocity[i].squaredNorm();
   }
 };
 

@@ -244,7 +244,7 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
     const double ap = LeverArm(p.radius, overlap), aj = LeverArm(rj, overlap);
     const Vec3 w_arm =
         E::kFriction ? Vec3(ap * p.angular_velocity + aj * b.angular_velocity[j]) : Vec3::Zero();
-    const double r_star = p.radius * rj / rsum;
+    const double r_star = EffectiveRadius(p.radius, rj);
     const ContactGeometry c =
         MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, r_star);
     const auto out = Resolve<E::kFriction>(c, ap, aj, params.sphere_pair, params.dt_s, h);

@@ -98,10 +98,10 @@ StageKeys Keys(const Scene& scene) {
   const std::string cut_text =
       source_text + FieldText(scene, "bed.thickness_m") +
       (scene.bed.quench_cut_relaxation ? FieldText(scene, "bed.quench_cut_relaxation") : "") +
-      (QuenchesCutBeads(scene) ? FieldText(scene, "bed.quench_cut_beads") +
-                                     "cut_bead_quench_version=" +
-                                     std::to_string(kCutBeadQuenchVersion) + "\n"
-                               : "") +
+      (QuenchesCutBeads(scene)
+           ? FieldText(scene, "bed.quench_cut_beads") +
+                 "cut_bead_quench_version=" + std::to_string(kCutBeadQuenchVersion) + "\n"
+           : "") +
       (scene.bed.cut != "surface" ? FieldText(scene, "bed.cut") : "");
   k.cut = ContentHash(cut_text);
   k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
@@ -206,6 +206,26 @@ bool IsWall(std::uint32_t other) {
   return other == dem::kPlate || other == dem::kSideWall;
 }
 
+// Kinetic damping's rule, for the whole bed or one bead: a kinetic energy that falls after
+// rising has passed a maximum, and the body is stopped there (its energy then counts as 0).
+class KineticPeak {
+ public:
+  explicit KineticPeak(double energy = 0.0) : m_last(energy) {}
+
+  // Takes this step's kinetic energy; true when it has just passed a maximum.
+  bool Passed(double energy) {
+    const bool passed = m_rising && energy < m_last;
+    if (passed) energy = 0.0;
+    m_rising = energy > m_last;
+    m_last = energy;
+    return passed;
+  }
+
+ private:
+  double m_last;
+  bool m_rising = false;
+};
+
 // Kinetic damping bead by bead (bed.quench_cut_beads): after each step, a bead whose kinetic
 // energy has passed a maximum is stopped. A bead rocking or rolling in its pocket passes its
 // maximum at the bottom, where it then stays; a bead rolling or falling onto others keeps
@@ -214,29 +234,20 @@ bool IsWall(std::uint32_t other) {
 class BeadQuench {
  public:
   // Follows the beads of `sim` through their renumbering, by BeadOrigins().
-  explicit BeadQuench(const dem::Simulation& sim)
-      : m_last_energy(sim.beads().size(), 0.0), m_rising(sim.beads().size(), 0) {}
+  explicit BeadQuench(const dem::Simulation& sim) : m_peaks(sim.beads().size()) {}
 
   void AfterStep(dem::Simulation& sim) {
     const dem::ParticleState& b = sim.beads();
     const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
     m_stop.clear();
-    for (std::size_t k = 0; k < b.size(); ++k) {
-      const std::uint32_t i = origin[k];
-      double energy = b.KineticEnergy(k);
-      if (m_rising[i] && energy < m_last_energy[i]) {
+    for (std::size_t k = 0; k < b.size(); ++k)
+      if (m_peaks[origin[k]].Passed(b.KineticEnergy(k)))
         m_stop.push_back(static_cast<std::uint32_t>(k));
-        energy = 0.0;
-      }
-      m_rising[i] = energy > m_last_energy[i];
-      m_last_energy[i] = energy;
-    }
     sim.StopBeads(m_stop);
   }
 
  private:
-  std::vector<double> m_last_energy;  // by origin
-  std::vector<char> m_rising;         // by origin
+  std::vector<KineticPeak> m_peaks;  // by origin
   std::vector<std::uint32_t> m_stop;
 };
 
@@ -410,8 +421,7 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
   const double t0 = sim.time_s();
   constexpr int kCheckEvery = 200;
   bool quenching = relaxation.quench;
-  double last_energy = sim.BeadKineticEnergy();
-  bool rising = false;
+  KineticPeak peak(sim.BeadKineticEnergy());
   while (true) {
     if (request.threads) sim.SetThreads(request.threads->load(std::memory_order_relaxed));
     double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
@@ -421,14 +431,9 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
       if (before_step) before_step(sim, sim.time_s() - t0);
       sim.Step();
       if (!quenching) continue;
-      double energy = sim.BeadKineticEnergy();
+      const double energy = sim.BeadKineticEnergy();
       interval_max = std::max(interval_max, energy);
-      if (rising && energy < last_energy) {
-        sim.ZeroBeadVelocities();
-        energy = 0.0;
-      }
-      rising = energy > last_energy;
-      last_energy = energy;
+      if (peak.Passed(energy)) sim.ZeroBeadVelocities();
     }
     const double t = sim.time_s() - t0;
     const RestState rest = MeasureRest(sim, energy_scale);
@@ -452,9 +457,9 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
                                kinetic / static_cast<double>(sim.beads().size()) / energy_scale,
                                rest.balance_error});
       };
-      if (auto settled = SettleLocally(sim, d_mean, scene.beads.diameter_max_m,
-                                       tolerance * energy_scale, max_steps,
-                                       relaxation.quench_beads, report))
+      if (auto settled =
+              SettleLocally(sim, d_mean, scene.beads.diameter_max_m, tolerance * energy_scale,
+                            max_steps, relaxation.quench_beads, report))
         sim = std::move(*settled);
     }
     if (t > max_time) {

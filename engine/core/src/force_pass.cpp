@@ -41,25 +41,29 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
   // One flat loop over the entries (not beads, then their entries): no loop exit per bead to
   // mispredict.
   const std::uint32_t stop = offsets[end];
-  const std::uint8_t* bead_step = pairs.bead_step.data();
   std::uint32_t first_owner = begin;  // the bead of entry `first`
   for (std::uint32_t first = offsets[begin]; first < stop;) {
     const std::uint32_t last = std::min<std::uint32_t>(stop, first + PairBatch::kTarget);
+
+    // 0. Where the beads after the batch's first start: a count at each one's first entry
+    // (beads without entries add theirs to the same place). The pick-out loop below sums them
+    // into each entry's bead, with no branch per bead.
     while (offsets[first_owner + 1] <= first) ++first_owner;
+    std::uint32_t* starts = batch.bead_starts.data();  // all zero between batches
+    for (std::uint32_t next = first_owner + 1; offsets[next] < last; ++next)
+      ++starts[offsets[next] - first];
 
     // 1. Pick out the touching pairs, and the entries apart. Every entry is written and the
-    // counts advance by a comparison's result: no branch to mispredict. Each entry's bead is
-    // the one before plus its step (PairList::bead_step); the batch's first entry's bead is
-    // known, so its step is taken off beforehand (unsigned: it wraps and comes back).
+    // counts advance by a comparison's result: no branch to mispredict.
     std::uint32_t* bead = batch.bead.data();
     std::uint32_t* partner = batch.partner.data();
     std::uint32_t* entry = batch.entry.data();
     std::uint32_t* apart = batch.apart.data();
     std::size_t n = 0, m = 0;
-    std::uint32_t owner = first_owner - bead_step[first];
+    std::uint32_t owner = first_owner;
     for (std::uint32_t k = first; k < last; ++k) {
-      const std::uint32_t step = bead_step[k];
-      owner = step == PairList::kLongBeadStep ? pairs.BeadOfEntry(k) : owner + step;
+      owner += starts[k - first];
+      starts[k - first] = 0;
       const std::uint32_t i = owner, j = partners[k];
       const double rsum = b.radius[i] + b.radius[j];
       const bool touching = (b.position[i] - b.position[j]).squaredNorm() < rsum * rsum;

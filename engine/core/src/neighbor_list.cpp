@@ -137,16 +137,6 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
                    fresh.partners.data() + b0, fresh.shear.data() + b0, b1 - b0);
     }
   }
-  // Each bead's first entry steps from the bead of the entry before it (serial: that bead may
-  // be in an earlier chunk; a pass over the beads, once a list).
-  fresh.bead_step.assign(chunk_start[chunks], 0);
-  std::uint32_t previous = 0;  // the last bead with entries
-  for (std::uint32_t i = 0; i < n; ++i) {
-    if (fresh.offsets[i] == fresh.offsets[i + 1]) continue;
-    fresh.bead_step[fresh.offsets[i]] =
-        static_cast<std::uint8_t>(std::min<std::uint32_t>(i - previous, PairList::kLongBeadStep));
-    previous = i;
-  }
   list = std::move(fresh);
 }
 

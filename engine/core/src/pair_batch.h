@@ -25,6 +25,9 @@ struct PairBatch {
   static constexpr std::size_t kTarget = 256;
 
   std::vector<std::uint32_t> bead, partner, entry;
+  /// How many beads' entries start at each entry of the batch, from which the pick-out finds
+  /// each entry's bead (the list does not keep it: 4 bytes an entry). Zero between batches.
+  std::vector<std::uint32_t> bead_starts;
   std::vector<double> overlap;
   std::vector<double> force[3], torque_bead[3], torque_partner[3], shear[3];
   std::size_t size = 0;

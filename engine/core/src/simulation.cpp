@@ -194,16 +194,17 @@ std::size_t Simulation::MemoryBytes() const {
   const Impl& s = *m_impl;
   const detail::NeighbourLists& l = s.lists;
   sum += l.grid.MemoryBytes() + Bytes(l.pairs.offsets) + Bytes(l.pairs.partners) +
-         Bytes(l.pairs.shear) + Bytes(l.pairs.bead_step) + Bytes(l.near_projectile.beads) +
-         Bytes(l.near_projectile.shear) + Bytes(l.near_container) + Bytes(l.reference_position);
+         Bytes(l.pairs.shear) + Bytes(l.near_projectile.beads) + Bytes(l.near_projectile.shear) +
+         Bytes(l.near_container) + Bytes(l.reference_position);
   sum += Bytes(s.walls.plate) + Bytes(s.walls.side);
   const detail::ForcePassBlocks& k = s.blocks;
   sum += Bytes(k.start) + Bytes(k.work) + Bytes(k.done) + Bytes(k.contacts) +
          Bytes(k.near_container_start) + Bytes(k.observables) + Bytes(k.conditions) +
          Bytes(k.pair_batches) + Bytes(k.wall_batches);
   for (const detail::PairBatch& p : k.pair_batches)
-    sum += Bytes(p.bead) + Bytes(p.partner) + Bytes(p.entry) + Bytes(p.overlap) + Bytes(p.force) +
-           Bytes(p.torque_bead) + Bytes(p.torque_partner) + Bytes(p.shear) + Bytes(p.apart);
+    sum += Bytes(p.bead) + Bytes(p.partner) + Bytes(p.entry) + Bytes(p.bead_starts) +
+           Bytes(p.overlap) + Bytes(p.force) + Bytes(p.torque_bead) + Bytes(p.torque_partner) +
+           Bytes(p.shear) + Bytes(p.apart);
   for (const detail::WallBatch& w : k.wall_batches)
     sum += Bytes(w.bead) + Bytes(w.overlap) + Bytes(w.normal_force) + Bytes(w.force) +
            Bytes(w.torque) + Bytes(w.shear) + Bytes(w.apart);

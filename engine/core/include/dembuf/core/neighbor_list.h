@@ -3,7 +3,6 @@
 // that one large body does not force large cells on everyone.
 #pragma once
 
-#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -121,25 +120,12 @@ class CellGrid {
 
 /// Half neighbor list in CSR form: the partners j > i of bead i are
 /// partners[offsets[i] .. offsets[i+1]), sorted; shear[k] is the tangential history of entry k.
-/// bead_step[k] is how far entry k's bead is past entry k - 1's (0 within a bead's run), so
-/// that the force pass finds each entry's bead by one addition from one byte, where its id
-/// would take four: the entries are most of a simulation's memory. A step of kLongBeadStep or
-/// more (a long run of beads without entries) is stored as kLongBeadStep, and the bead is then
-/// found from the offsets.
+/// Nothing else is kept per entry (the force pass finds each entry's bead from the offsets and
+/// computes sqrt(R*) from the radii): the entries are most of a simulation's memory.
 struct PairList {
-  static constexpr std::uint8_t kLongBeadStep = 255;
-
   std::vector<std::uint32_t> offsets;
   std::vector<std::uint32_t> partners;
   std::vector<Vec3> shear;
-  std::vector<std::uint8_t> bead_step;
-
-  /// The bead of entry k, from the offsets (a binary search).
-  std::uint32_t BeadOfEntry(std::uint32_t k) const {
-    return static_cast<std::uint32_t>(std::upper_bound(offsets.begin(), offsets.end(), k) -
-                                      offsets.begin()) -
-           1;
-  }
 };
 
 /// Beads that may touch the projectile (sorted ids) and the history of each contact.

@@ -20,8 +20,8 @@ namespace {
 // grid's layers (the container is wider than the bed is high), so that the plane is in one
 // layer, swept as one block. Its beads stand on a square lattice a little over a list's reach
 // apart, and those of its bottom and top rows touch one more bead each: in cell order the
-// block holds beads with entries, then a run of some 300 beads without any, longer than a
-// list's bead step can hold (PairList::kLongBeadStep), then beads with entries again.
+// block holds beads with entries, then a run of some 300 beads without any (more than a byte
+// counts), then beads with entries again.
 dem::ParticleState ClusteredBeads(const Scene& scene, bool lone_layer = false) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> unit(-1.0, 1.0), share(0.0, 1.0);
@@ -125,7 +125,8 @@ TEST(ForcePass, EveryBeadGetsTheLawsForcesSummedOverAllItsContacts) {
   EXPECT_GT(ExpectTheLawsForcesPairByPair(ClusteredBeads(scene)), 300);
 }
 
-// Over 255 beads in a row without entries: the bead after them is found from the offsets.
+// Some 300 beads in a row without entries inside one block and one batch: the force pass must
+// step over all of them to the next entry's bead.
 TEST(ForcePass, ALongRunOfBeadsWithoutContactsMisplacesNoForce) {
   const Scene scene;
   EXPECT_GT(ExpectTheLawsForcesPairByPair(ClusteredBeads(scene, true)), 300);

@@ -102,7 +102,9 @@ StageKeys Keys(const Scene& scene) {
            ? FieldText(scene, "bed.quench_cut_beads") +
                  "cut_bead_quench_version=" + std::to_string(kCutBeadQuenchVersion) + "\n"
            : "") +
-      (scene.bed.cut != "surface" ? FieldText(scene, "bed.cut") : "");
+      (scene.bed.cut != "surface"
+           ? FieldText(scene, "bed.cut")
+           : "surface_cut_version=" + std::to_string(kSurfaceCutVersion) + "\n");
   k.cut = ContentHash(cut_text);
   k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
                            FieldText(scene, "bed.friction_ramp_s") +
@@ -587,33 +589,6 @@ PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const Bed
   return bed;
 }
 
-// Keeps the beads whose centre lies below the height that puts the measured surface at H
-// (bed.cut = "surface"), or those whose top is below H (bed.cut = "tops").
-std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius, double thickness,
-                          const std::string& convention) {
-  if (convention == "tops") {
-    std::vector<bool> keep(beads.size());
-    for (std::size_t i = 0; i < beads.size(); ++i)
-      keep[i] = beads.position[i].z() + beads.radius[i] <= thickness;
-    return keep;
-  }
-  double mean_r = 0.0;
-  for (double r : beads.radius) mean_r += r / beads.size();
-  double cut = thickness - mean_r;
-  std::vector<bool> keep(beads.size());
-  for (int iteration = 0; iteration < 12; ++iteration) {
-    dem::ParticleState kept;
-    for (std::size_t i = 0; i < beads.size(); ++i) {
-      keep[i] = beads.position[i].z() < cut;
-      if (keep[i]) kept.Add(beads.position[i], beads.radius[i], 1.0);
-    }
-    const double surface = MeasureSurface(kept, cylinder_radius);
-    if (std::abs(surface - thickness) < 1e-3 * mean_r) break;
-    cut += thickness - surface;
-  }
-  return keep;
-}
-
 PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std::string& hash,
                        const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -821,6 +796,78 @@ double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m)
       ++cells;
     }
   return cells ? sum / cells : 0.0;
+}
+
+// Keeps the beads whose centre lies below the height that puts the measured surface nearest
+// to H (bed.cut = "surface"), or those whose top is below H (bed.cut = "tops").
+//
+// The measured surface rises with the cut height in steps, one at each bead centre the cut
+// passes. Secant steps from a radius below H end within tolerance in a few iterations when H
+// falls on a step's tread. When they circle a riser instead (small beds, where one bead moves
+// a cell's top by a radius), bisection between the highest cut found below H and the lowest
+// found above narrows the riser to one bead, and the side nearer to H is kept.
+std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius, double thickness,
+                          const std::string& convention) {
+  const std::size_t n = beads.size();
+  std::vector<bool> keep(n);
+  if (convention == "tops") {
+    for (std::size_t i = 0; i < n; ++i)
+      keep[i] = beads.position[i].z() + beads.radius[i] <= thickness;
+    return keep;
+  }
+  auto mask = [&](double cut) {
+    for (std::size_t i = 0; i < n; ++i) keep[i] = beads.position[i].z() < cut;
+    return keep;
+  };
+  auto surface_at = [&](double cut) {
+    dem::ParticleState kept;
+    for (std::size_t i = 0; i < n; ++i)
+      if (beads.position[i].z() < cut) kept.Add(beads.position[i], beads.radius[i], 1.0);
+    return MeasureSurface(kept, cylinder_radius);
+  };
+  if (n == 0) return keep;
+  double mean_r = 0.0, lowest = beads.position[0].z(), highest = lowest;
+  for (std::size_t i = 0; i < n; ++i) {
+    mean_r += beads.radius[i] / n;
+    lowest = std::min(lowest, beads.position[i].z());
+    highest = std::max(highest, beads.position[i].z());
+  }
+  // The cuts known to leave the surface at or below H and above it, with their surfaces.
+  double below = lowest, below_surface = 0.0;  // keeps no bead
+  double above = std::nextafter(highest, HUGE_VAL), above_surface = surface_at(above);  // all
+  if (above_surface <= thickness) return mask(above);  // the source is not deeper than H
+  double cut = thickness - mean_r;
+  for (int iteration = 0; iteration < 12; ++iteration) {
+    const double surface = surface_at(cut);
+    if (std::abs(surface - thickness) < 1e-3 * mean_r) return mask(cut);
+    if (surface <= thickness && cut > below) {
+      below = cut;
+      below_surface = surface;
+    } else if (surface > thickness && cut < above) {
+      above = cut;
+      above_surface = surface;
+    }
+    cut += thickness - surface;
+  }
+  auto centres_between = [&] {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      count += below <= beads.position[i].z() && beads.position[i].z() < above;
+    return count;
+  };
+  // Each halving at least halves the interval; 200 reach any two distinct heights.
+  for (int halving = 0; halving < 200 && centres_between() > 1; ++halving) {
+    const double middle = 0.5 * (below + above);
+    const double surface = surface_at(middle);
+    if (surface <= thickness) {
+      below = middle;
+      below_surface = surface;
+    } else {
+      above = middle;
+      above_surface = surface;
+    }
+  }
+  return mask(thickness - below_surface <= above_surface - thickness ? below : above);
 }
 
 double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m,

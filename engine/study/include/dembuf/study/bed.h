@@ -46,6 +46,10 @@ inline constexpr int kSoftSettlingVersion = 1;
 /// Version of the bead-by-bead kinetic damping of the cut beds (bed.quench_cut_beads), in the
 /// hash of the cut beds it makes.
 inline constexpr int kCutBeadQuenchVersion = 1;
+/// Version of the surface cut (bed.cut = "surface"), in the hash of the beds it cuts. Version
+/// 2: the cut height that puts the surface nearest to H is found also where the secant steps
+/// circled a step of the surface (version 1 kept their last, up to a radius off).
+inline constexpr int kSurfaceCutVersion = 2;
 
 /// A bed at rest, with what was measured on it.
 struct PreparedBed {
@@ -237,6 +241,12 @@ bool WaitsForBed(const BedNeeds& needs, const std::vector<BedNeeds>& running, Be
 /// Surface height: the mean, over square cells of side 2 d_max covering the plate (cells whose
 /// centre lies within R - d_max of the axis), of the highest bead top in the cell.
 double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m);
+
+/// The beads a cut of a source bed keeps (true) for a bed of `thickness`: with convention
+/// "surface" those whose centre lies below the height that puts the measured surface
+/// (MeasureSurface) nearest to `thickness`, with "tops" those whose top is below it.
+std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius, double thickness,
+                          const std::string& convention);
 
 /// Bead volume / (pi R^2 H).
 double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m, double thickness_m);

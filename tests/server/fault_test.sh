@@ -115,8 +115,10 @@ start_daemon "$disk/dembuf.db" "$work/full.log" --workers 1 --storage-retry 1
 first=$("$dembuf" submit "$work/small.toml" --set time.end_s=0.3 2>/dev/null)
 wait_state "$first" done 120
 "$dembuf" fetch "$first" --out "$work/full-before" --no-plots > /dev/null
-# A job with a bed of its own, so that the disk is full by the time it ends.
-second=$("$dembuf" submit "$work/small.toml" --set time.end_s=0.3 --set bed.seed=9 2>/dev/null)
+# A job with a bed of its own, so that the disk is full by the time it ends (a 1 m wall: in
+# 0.3 s its splash throws a bead over a 30 cm one).
+second=$("$dembuf" submit "$work/small.toml" --set time.end_s=0.3 --set bed.seed=9 \
+         --set cylinder.height_m=1 2>/dev/null)
 dd if=/dev/zero of="$disk/filler" bs=64k 2> /dev/null || true
 for _ in $(seq 1200); do
   grep -q "job $second: the server's disk is full" "$work/full.log" && break

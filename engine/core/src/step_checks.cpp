@@ -53,9 +53,14 @@ void Simulation::CheckConditions() {
          << ", " << x.z() << " m; wall radius " << m_params.container.radius_m << " m, height "
          << m_params.container.height_m << " m)";
     const double rho = std::hypot(x.x(), x.y());
+    // A bead that came over the rim is caught the step its centre falls below it, or lands
+    // farther out than a step through the wall would take it.
+    const double diameter = 2.0 * m_beads.radius[c.escaped_bead];
+    const bool over_rim = x.z() > m_params.container.height_m - diameter ||
+                          rho > m_params.container.radius_m + diameter;
     if (x.z() < 0.0)
       what << ": through the plate; the time step is too large (lower time.alpha)";
-    else if (rho > m_params.container.radius_m + 2.0 * m_beads.radius[c.escaped_bead])
+    else if (over_rim)
       what << ": thrown over the rim and fallen outside (raise cylinder.height_m)";
     else
       what << ": through the side wall; the time step is too large (lower time.alpha)";

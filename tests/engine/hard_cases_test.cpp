@@ -234,6 +234,40 @@ TEST(HardCase, BeadThrownOverTheRimStopsTheRunWithTheReason) {
   }
 }
 
+TEST(HardCase, ABeadFallingOnTheRimIsTurnedInByItsEdge) {
+  // A bead dropped onto the rim of a 1 cm wall, its centre 0.3 radii inside the wall: the rim's
+  // edge meets it first and turns it in, and it falls into the container with no jolt. (Were
+  // only the wall's face a contact, the face would appear 0.7 radii deep inside the bead the
+  // step its centre passed below the rim, and throw it out at 64 m/s.) Its speed never exceeds
+  // a free fall's from where it started: the edge makes no energy. (It bounces off the rim
+  // inwards, then on the plate.)
+  Scene scene;
+  dem::WorldParams p = BuildWorld(scene).params;
+  p.container = {0.02, 0.01};
+  const double r = 0.00225, z0 = 0.01 + 1.5 * r;
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0.02 - 0.3 * r, 0, z0), r, 2650.0);
+  dem::Simulation sim(p, std::move(beads), std::nullopt);
+  bool touched_rim = false;
+  double deepest = 0.0;  // overlap over radius
+  for (int k = 0; k < 60'000; ++k) {
+    sim.Step();
+    const dem::Vec3& x = sim.beads().position[0];
+    const double rho = std::hypot(x.x(), x.y());
+    touched_rim = touched_rim ||
+                  (x.z() > p.container.height_m && p.container.RimOverlap(rho, x.z(), r) > 0.0);
+    deepest = std::max(deepest, sim.observables().max_overlap_ratio);
+    const double free_fall = std::sqrt(2.0 * p.gravity_m_s2 * std::max(z0 - x.z(), 0.0));
+    ASSERT_LE(sim.beads().velocity[0].norm(), free_fall + 1e-3) << "step " << k;
+  }
+  EXPECT_TRUE(touched_rim);
+  EXPECT_LT(deepest, 0.01);
+  // Inside, clear of the wall, and below the rim (bouncing on the plate).
+  const dem::Vec3& x = sim.beads().position[0];
+  EXPECT_LT(std::hypot(x.x(), x.y()), p.container.radius_m - r);
+  EXPECT_LT(x.z(), p.container.height_m);
+}
+
 TEST(HardCase, SingleBeadLayerStillBuffers) {
   // One layer of beads (H = one mean diameter): the impact is softened, less than fully.
   Scene scene = SmallBedScene();

@@ -149,9 +149,10 @@ TEST(PairBatch, FrictionlessLawGivesTheScalarLawsBits) {
   CompareWithScalarLaw(false);
 }
 
-// Beads pressed into the plate (even ones) or the side wall (odd ones), one contact each, with
-// the histories of SomeHistory: the batched wall law against ContainerContacts' arithmetic
-// (MakeGeometry and Resolve with the wall's normal, lever arm 0 on the wall's side).
+// Beads pressed into the plate (even ones) or the side wall (odd ones: half of them into its
+// face, half onto its rim from above), one contact each, with the histories of SomeHistory: the
+// batched wall law against ContainerContacts' arithmetic (MakeGeometry and Resolve with the wall's
+// normal, lever arm 0 on the wall's side).
 void CompareWallsWithScalarLaw(bool friction) {
   constexpr int kCount = 999;
   const dem::Container box{0.05, 0.1};
@@ -165,10 +166,20 @@ void CompareWallsWithScalarLaw(bool friction) {
     if (k % 2 == 0) {
       position.emplace_back(0.03 * unit(rng), 0.03 * unit(rng), r - overlap);
       shear.push_back(SomeHistory(k / 2, dem::Vec3::UnitZ(), rng));
-    } else {
+    } else if (k % 4 == 1) {
       const double angle = 3.14159 * unit(rng), rho = box.radius_m - r + overlap;
       position.emplace_back(rho * std::cos(angle), rho * std::sin(angle), 0.09 * share(rng));
       shear.push_back(SomeHistory(k / 2, -position.back().normalized(), rng));
+    } else {
+      // Above the wall, touching its rim from a direction at `tilt` from the outward radial.
+      const double angle = 3.14159 * unit(rng), tilt = 0.05 + 3.04 * share(rng);
+      const double reach = r - overlap;
+      const double rho = box.radius_m + reach * std::cos(tilt);
+      position.emplace_back(rho * std::cos(angle), rho * std::sin(angle),
+                            box.height_m + reach * std::sin(tilt));
+      const dem::Vec3 normal(std::cos(tilt) * std::cos(angle), std::cos(tilt) * std::sin(angle),
+                             std::sin(tilt));
+      shear.push_back(SomeHistory(k / 2, normal, rng));
     }
     radius.push_back(r);
     velocity.push_back(5.0 * dem::Vec3(unit(rng), unit(rng), unit(rng)));

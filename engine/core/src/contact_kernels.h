@@ -53,14 +53,15 @@ inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, co
 }
 
 /// Side-wall contact of a sphere (centre x, radius r) inside the container: true when it
-/// touches, with the overlap and the normal pointing from the wall into the sphere. The wall
-/// acts on centres with 0 <= z <= height.
+/// touches, with the overlap and the normal pointing from the wall into the sphere. The wall's
+/// face acts on centres with 0 <= z <= height, its rim on those above (Container).
 inline bool SideWallContact(const Container& box, const Vec3& x, double r, double& overlap,
                             Vec3& normal) {
   if (!box.TouchesSideWall(x.x(), x.y(), x.z(), r)) return false;
   const double rho = std::sqrt(x.x() * x.x() + x.y() * x.y());
-  overlap = box.SideWallOverlap(rho, r);
-  normal = Vec3(-x.x() / rho, -x.y() / rho, 0.0);
+  double nx, ny, nz;
+  box.SideWallGeometry(x.x(), x.y(), x.z(), rho, r, overlap, nx, ny, nz);
+  normal = Vec3(nx, ny, nz);
   return true;
 }
 

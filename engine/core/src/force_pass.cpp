@@ -161,8 +161,9 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
           history[batch.slot[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
         }
         if constexpr (E::kRolling) {
-          const Vec3& x = b.position[i];
-          const Vec3 normal = plate ? Vec3(Vec3::UnitZ()) : Vec3(-x.x(), -x.y(), 0.0).normalized();
+          Vec3 normal = Vec3::UnitZ();
+          double overlap;
+          if (!plate) SideWallContact(box, b.position[i], b.radius[i], overlap, normal);
           b.torque[i] += WallRolling(params, normal, b.angular_velocity[i], batch.normal_force[c],
                                      b.radius[i], 1.0 / b.InvInertia(i));
         }

@@ -221,13 +221,10 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
       g.ny = 0.0;
       g.nz = 1.0;
     } else {
-      // Normal from the wall towards the axis (SideWallContact).
-      const double px = x[3 * i], py = x[3 * i + 1];
+      // Normal from the wall's face towards the axis, or from its rim (SideWallContact).
+      const double px = x[3 * i], py = x[3 * i + 1], pz = x[3 * i + 2];
       const double rho = std::sqrt(px * px + py * py);
-      g.overlap = box.SideWallOverlap(rho, r);
-      g.nx = -px / rho;
-      g.ny = -py / rho;
-      g.nz = 0.0;
+      box.SideWallGeometry(px, py, pz, rho, r, g.overlap, g.nx, g.ny, g.nz);
     }
     g.ai = r - 0.5 * g.overlap;
     g.aj = 0.0;

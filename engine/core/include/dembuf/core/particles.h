@@ -1,6 +1,7 @@
 // Bead state as structure of arrays (one contiguous array per property), and the rigid bodies.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <numbers>
@@ -85,9 +86,11 @@ struct RigidSphere {
   double Inertia() const { return 0.4 * mass * radius * radius; }
 };
 
-/// The container: bottom plate at z = 0 and a cylindrical side wall around the z axis that
-/// acts on bodies with 0 <= z <= height. Its geometry is written here once, in components and
-/// without branches (& rather than &&), so that the vectorized contact batches use it too.
+/// The container: bottom plate at z = 0 and a cylindrical side wall around the z axis, of
+/// height `height`. A sphere whose centre is at 0 <= z <= height meets the wall's face; one
+/// whose centre is above it can meet only the wall's top edge, the rim. Its geometry is written
+/// here once, in components and without branches (& rather than &&, selects), so that the
+/// vectorized contact batches use it too.
 struct Container {
   double radius_m = 0.0;
   double height_m = 0.0;
@@ -96,14 +99,41 @@ struct Container {
   static double PlateOverlap(double z, double r) { return r - z; }
 
   /// Whether a sphere (centre x, y, z, radius r) touches the side wall: its centre is farther
-  /// from the axis than radius - r, at a height where the wall acts.
+  /// from the axis than radius - r, at a height where the wall's face acts; or it reaches the
+  /// rim from above (the rim's distance, a square root, is taken only for centres above it).
   bool TouchesSideWall(double x, double y, double z, double r) const {
     const double inner = radius_m - r;
-    return (x * x + y * y > inner * inner) & (z >= 0.0) & (z <= height_m);
+    const double rho2 = x * x + y * y;
+    const bool face = (rho2 > inner * inner) & (z >= 0.0) & (z <= height_m);
+    return face || ((z > height_m) && RimOverlap(std::sqrt(rho2), z, r) > 0.0);
   }
 
-  /// Overlap with the side wall of a sphere of radius r whose centre is `rho` from the axis.
+  /// Overlap with the side wall's face of a sphere of radius r whose centre is `rho` from the
+  /// axis.
   double SideWallOverlap(double rho, double r) const { return rho - (radius_m - r); }
+
+  /// Overlap with the rim of a sphere of radius r whose centre is `rho` from the axis at
+  /// height z: r less the distance from the centre to the rim's circle.
+  double RimOverlap(double rho, double z, double r) const {
+    const double out = rho - radius_m, up = z - height_m;
+    return r - std::sqrt(out * out + up * up);
+  }
+
+  /// The side wall's contact with a sphere of radius r, centre (x, y, z) at `rho` from the
+  /// axis, that touches it (TouchesSideWall): the overlap and the unit normal from the wall
+  /// into the sphere. The face pushes towards the axis; the rim along the line from the rim to
+  /// the centre (both computed, one selected: no branch for a vector lane).
+  void SideWallGeometry(double x, double y, double z, double rho, double r, double& overlap,
+                        double& nx, double& ny, double& nz) const {
+    const double out = rho - radius_m, up = z - height_m;
+    const double to_rim = std::sqrt(out * out + up * up);
+    const bool rim = up > 0.0;
+    overlap = rim ? r - to_rim : SideWallOverlap(rho, r);
+    const double radial = out / to_rim;
+    nx = rim ? radial * (x / rho) : -x / rho;
+    ny = rim ? radial * (y / rho) : -y / rho;
+    nz = rim ? up / to_rim : 0.0;
+  }
 
   /// The container leaked: a centre outside the side wall below its top, or a sphere wholly
   /// through the plate.

@@ -809,13 +809,14 @@ double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m)
 std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius, double thickness,
                           const std::string& convention) {
   const std::size_t n = beads.size();
-  std::vector<bool> keep(n);
   if (convention == "tops") {
+    std::vector<bool> keep(n);
     for (std::size_t i = 0; i < n; ++i)
       keep[i] = beads.position[i].z() + beads.radius[i] <= thickness;
     return keep;
   }
-  auto mask = [&](double cut) {
+  auto mask = [&](double cut) {  // the beads whose centre is below `cut`
+    std::vector<bool> keep(n);
     for (std::size_t i = 0; i < n; ++i) keep[i] = beads.position[i].z() < cut;
     return keep;
   };
@@ -825,7 +826,7 @@ std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radiu
       if (beads.position[i].z() < cut) kept.Add(beads.position[i], beads.radius[i], 1.0);
     return MeasureSurface(kept, cylinder_radius);
   };
-  if (n == 0) return keep;
+  if (n == 0) return {};
   double mean_r = 0.0, lowest = beads.position[0].z(), highest = lowest;
   for (std::size_t i = 0; i < n; ++i) {
     mean_r += beads.radius[i] / n;

@@ -82,28 +82,51 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     ResolvePairBatch(E::kFriction, inputs, batch);
 
     // 3. Forces and torques to both beads, in list order; the histories back to the list.
-    for (std::size_t c = 0; c < n; ++c) {
-      const std::uint32_t i = bead[c], j = partner[c];
-      const Vec3 f(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
-      b.force[i] += f;
-      b.force[j] -= f;
-      if constexpr (E::kFriction) {
-        b.torque[i] +=
-            Vec3(batch.torque_bead[0][c], batch.torque_bead[1][c], batch.torque_bead[2][c]);
-        b.torque[j] += Vec3(batch.torque_partner[0][c], batch.torque_partner[1][c],
+    // A bead's entries are consecutive and name it only as their bead (partners differ from
+    // it), so its sums are kept in registers through its run and stored when the bead
+    // changes: the same additions in the same order as adding to the bead each time.
+    if (n > 0) {
+      Vec3* force = b.force.data();
+      Vec3* torque = b.torque.data();
+      const double *fx = batch.force[0].data(), *fy = batch.force[1].data(),
+                   *fz = batch.force[2].data();
+      std::uint32_t current = bead[0];
+      Vec3 force_i = force[current];
+      Vec3 torque_i = E::kRotate ? torque[current] : Vec3::Zero();
+      for (std::size_t c = 0; c < n; ++c) {
+        const std::uint32_t i = bead[c], j = partner[c];
+        if (i != current) {
+          force[current] = force_i;
+          force_i = force[i];
+          if constexpr (E::kRotate) {
+            torque[current] = torque_i;
+            torque_i = torque[i];
+          }
+          current = i;
+        }
+        const Vec3 f(fx[c], fy[c], fz[c]);
+        force_i += f;
+        force[j] -= f;
+        if constexpr (E::kFriction) {
+          torque_i +=
+              Vec3(batch.torque_bead[0][c], batch.torque_bead[1][c], batch.torque_bead[2][c]);
+          torque[j] += Vec3(batch.torque_partner[0][c], batch.torque_partner[1][c],
                             batch.torque_partner[2][c]);
-        pairs.shear[entry[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+          pairs.shear[entry[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+        }
+        if constexpr (E::kRolling) {
+          const Vec3 normal = (b.position[i] - b.position[j]).normalized();
+          const double r_star = EffectiveRadius(b.radius[i], b.radius[j]);
+          const Vec3 rolling = RollingResistanceTorque(
+              normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), r_star,
+              params.rolling_friction, 1.0 / (b.InvInertia(i) + b.InvInertia(j)), params.dt_s);
+          torque_i += rolling;
+          torque[j] -= rolling;
+        }
+        cond.NoteOverlap(batch.overlap[c], std::min(b.radius[i], b.radius[j]), i, j);
       }
-      if constexpr (E::kRolling) {
-        const Vec3 normal = (b.position[i] - b.position[j]).normalized();
-        const double r_star = EffectiveRadius(b.radius[i], b.radius[j]);
-        const Vec3 rolling = RollingResistanceTorque(
-            normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), r_star,
-            params.rolling_friction, 1.0 / (b.InvInertia(i) + b.InvInertia(j)), params.dt_s);
-        b.torque[i] += rolling;
-        b.torque[j] -= rolling;
-      }
-      cond.NoteOverlap(batch.overlap[c], std::min(b.radius[i], b.radius[j]), i, j);
+      force[current] = force_i;
+      if constexpr (E::kRotate) torque[current] = torque_i;
     }
     obs.bead_contacts += static_cast<int>(n);
 

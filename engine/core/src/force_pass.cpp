@@ -295,7 +295,7 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
 // block and merged in block order, so the result does not depend on the thread count.
 template <class E>
 void ForcePass(const WorldParams& params, ParticleState& b, std::optional<RigidSphere>& projectile,
-               Simulation::Impl& s, StepObservables& obs) {
+               Simulation::Impl& s, StepObservables& obs, bool forces_cleared) {
   const int blocks = static_cast<int>(s.blocks.start.size()) - 1;
   // Weigh the blocks by the last pass's contacts (not needed by one thread, nor before they
   // are counted; a pass on other weights is not timed for the shares).
@@ -319,14 +319,17 @@ void ForcePass(const WorldParams& params, ParticleState& b, std::optional<RigidS
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int thread = omp_get_thread_num(), team = omp_get_num_threads();
-    // Each thread clears the forces of the beads it integrates (the same part of them).
-    const long n = static_cast<long>(b.size());
-    const auto [first_bead, last_bead] = s.blocks.shares.Part(n, thread, team);
-    for (long i = first_bead; i < last_bead; ++i) {
-      b.force[i].setZero();
-      if constexpr (E::kRotate) b.torque[i].setZero();
-    }
+    // Unless the drift has, each thread clears the forces of the beads it integrates (the same
+    // part of them).
+    if (!forces_cleared) {
+      const long n = static_cast<long>(b.size());
+      const auto [first_bead, last_bead] = s.blocks.shares.Part(n, thread, team);
+      for (long i = first_bead; i < last_bead; ++i) {
+        b.force[i].setZero();
+        if constexpr (E::kRotate) b.torque[i].setZero();
+      }
 #pragma omp barrier
+    }
     if (thread == 0) team_size = team;
     // This thread's blocks [first, last), in the order of ForcePassBlocks::start.
     const long first = ShareStart(s.blocks.work, s.blocks.shares.Start(thread, team));
@@ -376,9 +379,10 @@ void ForcePass(const WorldParams& params, ParticleState& b, std::optional<RigidS
 
 void ComputeForcePass(const WorldParams& params, ParticleState& beads,
                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
-                      StepObservables& obs) {
-  WithEffects(s.friction, s.rolling,
-              [&]<class E>(E) { ForcePass<E>(params, beads, projectile, s, obs); });
+                      StepObservables& obs, bool forces_cleared) {
+  WithEffects(s.friction, s.rolling, [&]<class E>(E) {
+    ForcePass<E>(params, beads, projectile, s, obs, forces_cleared);
+  });
 }
 
 }  // namespace dembuf::dem::detail

@@ -13,8 +13,9 @@ namespace dembuf::dem::detail {
 
 /// Computes the forces and torques of all bodies (overwriting the last ones), the step's
 /// observables, and s.conditions. Results do not depend on the thread count.
+/// `forces_cleared`: the beads' forces and torques are zero already (KickAndDriftBeads).
 void ComputeForcePass(const WorldParams& params, ParticleState& beads,
                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
-                      StepObservables& obs);
+                      StepObservables& obs, bool forces_cleared);
 
 }  // namespace dembuf::dem::detail

@@ -15,8 +15,8 @@ struct Kinematics {
   double* position;
   double* velocity;
   double* angular_velocity;
-  const double* force;
-  const double* torque;
+  double* force;
+  double* torque;
   const double* radius;
   const double* inv_mass;
   const double* mass;  // for the moment of inertia
@@ -33,7 +33,9 @@ Kinematics BeadKinematics(ParticleState& b) {
 // step's opening one, in one pass over the beads. Component by component, the operations of
 // the Eigen expressions v += half * (f / m + g) and w += half / I * t, in their order.
 // A bead with inv_mass 0 is held in place: neither its contacts nor gravity move or turn it.
-template <bool kRotate, int kHalves = 1>
+// With kClear, the forces (and torques) are set to zero once read: the force pass that follows
+// the drift then need not clear them in a pass of its own.
+template <bool kRotate, int kHalves = 1, bool kClear = false>
 void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g) {
   const double gx = g.x(), gy = g.y(), gz = g.z();
 #pragma omp simd
@@ -43,6 +45,7 @@ void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g
     const double dvx = half * (inv_m * k.force[3 * i] + (held ? 0.0 : gx));
     const double dvy = half * (inv_m * k.force[3 * i + 1] + (held ? 0.0 : gy));
     const double dvz = half * (inv_m * k.force[3 * i + 2] + (held ? 0.0 : gz));
+    if constexpr (kClear) k.force[3 * i] = k.force[3 * i + 1] = k.force[3 * i + 2] = 0.0;
     for (int h = 0; h < kHalves; ++h) {
       k.velocity[3 * i] += dvx;
       k.velocity[3 * i + 1] += dvy;
@@ -53,6 +56,7 @@ void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g
       const double s = held ? 0.0 : half * inv_inertia;
       const double dwx = s * k.torque[3 * i], dwy = s * k.torque[3 * i + 1],
                    dwz = s * k.torque[3 * i + 2];
+      if constexpr (kClear) k.torque[3 * i] = k.torque[3 * i + 1] = k.torque[3 * i + 2] = 0.0;
       for (int h = 0; h < kHalves; ++h) {
         k.angular_velocity[3 * i] += dwx;
         k.angular_velocity[3 * i + 1] += dwy;
@@ -63,7 +67,7 @@ void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g
 }
 
 // The opening half kick (after the last step's closing one when `closing`) and the drift of
-// beads [first, last), with the largest squared displacement since the last list build and a
+// beads [first, last), their forces and torques cleared for the next force pass, with the largest squared displacement since the last list build and a
 // count of beads that may have gone wrong: non-finite (their components' sum is not finite)
 // or outside the container.
 template <bool kRotate>
@@ -71,9 +75,9 @@ void KickAndDrift(const Kinematics& k, long first, long last, bool closing, doub
                   const Vec3& g, const float* reference, const Container& box, double& max_disp2,
                   long& suspects) {
   if (closing)
-    Kick<kRotate, 2>(k, first, last, half, g);
+    Kick<kRotate, 2, true>(k, first, last, half, g);
   else
-    Kick<kRotate, 1>(k, first, last, half, g);
+    Kick<kRotate, 1, true>(k, first, last, half, g);
   double disp2 = 0.0;
   long count = 0;
 #pragma omp simd reduction(max : disp2) reduction(+ : count)

@@ -17,7 +17,8 @@ struct DriftReport {
 };
 
 /// The opening half kick of every bead (after the last step's closing one when `closing`) and
-/// the drift, in one pass shared by the threads as the force pass shares it.
+/// the drift, in one pass shared by the threads as the force pass shares it. The beads' forces
+/// and torques are zero afterwards, ready for ComputeForcePass(..., forces_cleared = true).
 DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleState& beads,
                               Simulation::Impl& s);
 

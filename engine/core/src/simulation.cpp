@@ -86,7 +86,8 @@ void Simulation::Step() {
   detail::UpdateLists(m_params, m_beads, m_projectile, s);
   m_stage_times.list_builds += s.lists.builds - builds;
   m_stage_times.neighbours_s += Lap(clock);
-  detail::ComputeForcePass(m_params, m_beads, m_projectile, s, m_observables);
+  detail::ComputeForcePass(m_params, m_beads, m_projectile, s, m_observables,
+                           /*forces_cleared=*/true);
   s.forces_valid = true;
   CheckConditions();
   m_stage_times.forces_s += Lap(clock);
@@ -103,7 +104,8 @@ void Simulation::Step() {
 void Simulation::ComputeForces() {
   Impl& s = *m_impl;
   detail::UpdateLists(m_params, m_beads, m_projectile, s);
-  detail::ComputeForcePass(m_params, m_beads, m_projectile, s, m_observables);
+  detail::ComputeForcePass(m_params, m_beads, m_projectile, s, m_observables,
+                           /*forces_cleared=*/false);
   s.forces_valid = true;
 }
 

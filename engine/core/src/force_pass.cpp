@@ -380,9 +380,8 @@ void ForcePass(const WorldParams& params, ParticleState& b, std::optional<RigidS
 void ComputeForcePass(const WorldParams& params, ParticleState& beads,
                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
                       StepObservables& obs, bool forces_cleared) {
-  WithEffects(s.friction, s.rolling, [&]<class E>(E) {
-    ForcePass<E>(params, beads, projectile, s, obs, forces_cleared);
-  });
+  WithEffects(s.friction, s.rolling,
+              [&]<class E>(E) { ForcePass<E>(params, beads, projectile, s, obs, forces_cleared); });
 }
 
 }  // namespace dembuf::dem::detail

@@ -67,9 +67,9 @@ void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g
 }
 
 // The opening half kick (after the last step's closing one when `closing`) and the drift of
-// beads [first, last), their forces and torques cleared for the next force pass, with the largest squared displacement since the last list build and a
-// count of beads that may have gone wrong: non-finite (their components' sum is not finite)
-// or outside the container.
+// beads [first, last), their forces and torques cleared for the next force pass; with the
+// largest squared displacement since the last list build and a count of beads that may have
+// gone wrong: non-finite (their components' sum is not finite) or outside the container.
 template <bool kRotate>
 void KickAndDrift(const Kinematics& k, long first, long last, bool closing, double half, double dt,
                   const Vec3& g, const float* reference, const Container& box, double& max_disp2,

@@ -53,17 +53,15 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     for (std::uint32_t next = first_owner + 1; offsets[next] < last; ++next)
       ++starts[offsets[next] - first];
 
-    // 1. Pick out the touching pairs, and the entries apart. Every entry is written and the
-    // counts advance by a comparison's result: no branch to mispredict.
+    // 1. Pick out the touching pairs. Every entry is written and the count advances by a
+    // comparison's result: no branch to mispredict.
     std::uint32_t* bead = batch.bead.data();
     std::uint32_t* partner = batch.partner.data();
     std::uint32_t* entry = batch.entry.data();
-    std::uint32_t* apart = batch.apart.data();
-    std::size_t n = 0, m = 0;
+    std::size_t n = 0;
     std::uint32_t owner = first_owner;
     for (std::uint32_t k = first; k < last; ++k) {
       owner += starts[k - first];
-      starts[k - first] = 0;
       const std::uint32_t i = owner, j = partners[k];
       const double rsum = b.radius[i] + b.radius[j];
       const bool touching = (b.position[i] - b.position[j]).squaredNorm() < rsum * rsum;
@@ -71,15 +69,19 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
       partner[n] = j;
       entry[n] = k;
       n += touching;
-      if constexpr (E::kFriction) {
-        apart[m] = k;
-        m += !touching;
-      }
     }
+    std::fill_n(starts, last - first, 0u);  // zero again for the next batch, in one sweep
     batch.size = n;
 
     // 2. The contact law, vectorized.
     ResolvePairBatch(E::kFriction, inputs, batch);
+
+    // 2b. The law has read the touching entries' histories: all of the batch's are cleared in
+    // one sweep, and the touching ones get their new histories below. An entry apart so
+    // forgets its history without a list of the entries apart to keep.
+    if constexpr (E::kFriction)
+      std::fill_n(Components(pairs.shear) + 3 * std::size_t{first}, 3 * std::size_t{last - first},
+                  0.0);
 
     // 3. Forces and torques to both beads, in list order; the histories back to the list.
     // A bead's entries are consecutive and name it only as their bead (partners differ from
@@ -129,10 +131,6 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
       if constexpr (E::kRotate) torque[current] = torque_i;
     }
     obs.bead_contacts += static_cast<int>(n);
-
-    // 4. A contact that has opened forgets its history.
-    if constexpr (E::kFriction)
-      for (std::size_t a = 0; a < m; ++a) pairs.shear[apart[a]].setZero();
     first = last;
   }
 }

@@ -9,7 +9,6 @@ void PairBatch::Grow(std::size_t n) {
   partner.resize(n);
   entry.resize(n);
   bead_starts.resize(n, 0);
-  apart.resize(n);
   overlap.resize(n);
   for (int d = 0; d < 3; ++d) {
     force[d].resize(n);

@@ -31,8 +31,6 @@ struct PairBatch {
   std::vector<double> overlap;
   std::vector<double> force[3], torque_bead[3], torque_partner[3], shear[3];
   std::size_t size = 0;
-  /// The batch's list entries that are apart (their histories are cleared).
-  std::vector<std::uint32_t> apart;
 
   /// Makes room for `n` contacts.
   void Reserve(std::size_t n) {

@@ -206,7 +206,7 @@ std::size_t Simulation::MemoryBytes() const {
   for (const detail::PairBatch& p : k.pair_batches)
     sum += Bytes(p.bead) + Bytes(p.partner) + Bytes(p.entry) + Bytes(p.bead_starts) +
            Bytes(p.overlap) + Bytes(p.force) + Bytes(p.torque_bead) + Bytes(p.torque_partner) +
-           Bytes(p.shear) + Bytes(p.apart);
+           Bytes(p.shear);
   for (const detail::WallBatch& w : k.wall_batches)
     sum += Bytes(w.bead) + Bytes(w.overlap) + Bytes(w.normal_force) + Bytes(w.force) +
            Bytes(w.torque) + Bytes(w.shear) + Bytes(w.apart);

@@ -159,6 +159,36 @@ TEST(ForcePass, ListsKeptOverStepsMissNoTouchingPair) {
   EXPECT_GT(sim.stage_times().list_builds, 10);
 }
 
+// A bead that leaves the plate or the side wall forgets its spring with it, as a pair that
+// opens does: each bead starts 1% of its radius deep, sliding along the wall and moving away.
+// Without damping: the damping clamps the normal force to zero before the bead is off, and a
+// spring capped at zero force is zero already.
+TEST(ForcePass, ABeadThatLeavesAWallForgetsItsSpring) {
+  const Scene scene;
+  World world = BuildWorld(scene);
+  world.params.sphere_wall.damping_A_s = 0.0;
+  const double r = 0.5 * scene.beads.diameter_min_m, wall = world.params.container.radius_m;
+  dem::ParticleState beads;
+  beads.Add(dem::Vec3(0.0, 0.0, 0.99 * r), r, scene.material.density_kg_m3);
+  beads.velocity.back() = dem::Vec3(0.2, 0.0, 0.3);
+  beads.Add(dem::Vec3(wall - 0.99 * r, 0.0, 0.02), r, scene.material.density_kg_m3);
+  beads.velocity.back() = dem::Vec3(-0.3, 0.2, 0.0);
+  dem::Simulation sim(world.params, std::move(beads), std::nullopt);
+  auto springs = [&](dem::BodyId with) {
+    int count = 0;
+    for (const dem::ContactHistoryEntry& h : sim.ExportHistory()) count += h.other == with;
+    return count;
+  };
+  sim.Step();
+  ASSERT_EQ(springs(dem::kPlate), 1);
+  ASSERT_EQ(springs(dem::kSideWall), 1);
+  for (int step = 0; step < 100; ++step) sim.Step();  // 0.3 m/s: 45 um away, 10 um deep
+  EXPECT_EQ(sim.observables().plate_force_N, 0.0);
+  EXPECT_EQ(springs(dem::kPlate), 0);
+  EXPECT_EQ(springs(dem::kSideWall), 0);
+  EXPECT_EQ(sim.stage_times().list_builds, 0);  // no build since the first: same slots
+}
+
 // A bed loaded with its springs hands them to the first list build; after that they must not
 // be held twice (they are some 60 bytes a bead).
 TEST(Simulation, ASavedHistoryIsLetGoOnceApplied) {

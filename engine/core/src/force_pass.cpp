@@ -151,7 +151,7 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
       const bool plate = wall == kPlate;
       std::vector<Vec3>& history = plate ? s.walls.plate : s.walls.side;
       // Pick out the beads touching this wall, without a branch.
-      std::size_t n = 0, m = 0;
+      std::size_t n = 0;
       for (std::uint32_t c = first; c < last; ++c) {
         const std::uint32_t i = s.lists.near_container[c];
         const double x = b.position[i].x(), y = b.position[i].y(), z = b.position[i].z();
@@ -161,8 +161,6 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
         batch.bead[n] = i;
         batch.slot[n] = c;
         n += touching;
-        batch.apart[m] = c;
-        m += !touching;
       }
       batch.size = n;
       const WallBatchInputs inputs{Components(b.position),
@@ -174,6 +172,10 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
                                    params.dt_s,
                                    box};
       ResolveWallBatch(E::kFriction, wall, inputs, batch);
+      // The law has read the touching beads' histories: the batch's are cleared in one sweep
+      // and the touching ones get their new histories below (as the pairs').
+      if constexpr (E::kFriction)
+        std::fill(history.begin() + first, history.begin() + last, Vec3::Zero());
       for (std::size_t c = 0; c < n; ++c) {
         const std::uint32_t i = batch.bead[c];
         b.force[i] += Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
@@ -194,8 +196,6 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
           obs.wall_force_z_N += batch.force[2][c];
         cond.NoteOverlap(batch.overlap[c], b.radius[i], i, wall);
       }
-      if constexpr (E::kFriction)
-        for (std::size_t a = 0; a < m; ++a) history[batch.apart[a]].setZero();
     }
     first = last;
   }

@@ -21,7 +21,6 @@ void PairBatch::Grow(std::size_t n) {
 void WallBatch::Grow(std::size_t n) {
   bead.resize(n);
   slot.resize(n);
-  apart.resize(n);
   overlap.resize(n);
   normal_force.resize(n);
   for (int d = 0; d < 3; ++d) {

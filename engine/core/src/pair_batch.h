@@ -67,8 +67,6 @@ struct WallBatch {
   std::vector<double> overlap, normal_force;
   std::vector<double> force[3], torque[3], shear[3];
   std::size_t size = 0;
-  /// The history slots of the batch's beads that do not touch (their histories are cleared).
-  std::vector<std::uint32_t> apart;
 
   void Reserve(std::size_t n) {
     if (bead.size() < n) Grow(n);

@@ -209,7 +209,7 @@ std::size_t Simulation::MemoryBytes() const {
            Bytes(p.shear);
   for (const detail::WallBatch& w : k.wall_batches)
     sum += Bytes(w.bead) + Bytes(w.overlap) + Bytes(w.normal_force) + Bytes(w.force) +
-           Bytes(w.torque) + Bytes(w.shear) + Bytes(w.apart);
+           Bytes(w.torque) + Bytes(w.shear);
   return sum + Bytes(s.pending_history) + Bytes(s.origin);
 }
 

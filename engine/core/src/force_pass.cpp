@@ -88,10 +88,23 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     // it), so its sums are kept in registers through its run and stored when the bead
     // changes: the same additions in the same order as adding to the bead each time.
     if (n > 0) {
+      // Plain pointers and a local record of the deepest overlap: through the vectors and
+      // `cond`, every store below might alias them for the compiler, which would load them again
+      // for each contact.
       Vec3* force = b.force.data();
       Vec3* torque = b.torque.data();
+      Vec3* shear = pairs.shear.data();
+      const double* radius = b.radius.data();
+      const double* overlap = batch.overlap.data();
       const double *fx = batch.force[0].data(), *fy = batch.force[1].data(),
                    *fz = batch.force[2].data();
+      const double *tbx = batch.torque_bead[0].data(), *tby = batch.torque_bead[1].data(),
+                   *tbz = batch.torque_bead[2].data();
+      const double *tpx = batch.torque_partner[0].data(), *tpy = batch.torque_partner[1].data(),
+                   *tpz = batch.torque_partner[2].data();
+      const double *hx = batch.shear[0].data(), *hy = batch.shear[1].data(),
+                   *hz = batch.shear[2].data();
+      StepConditions deepest = cond;
       std::uint32_t current = bead[0];
       Vec3 force_i = force[current];
       Vec3 torque_i = E::kRotate ? torque[current] : Vec3::Zero();
@@ -110,25 +123,24 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
         force_i += f;
         force[j] -= f;
         if constexpr (E::kFriction) {
-          torque_i +=
-              Vec3(batch.torque_bead[0][c], batch.torque_bead[1][c], batch.torque_bead[2][c]);
-          torque[j] += Vec3(batch.torque_partner[0][c], batch.torque_partner[1][c],
-                            batch.torque_partner[2][c]);
-          pairs.shear[entry[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
+          torque_i += Vec3(tbx[c], tby[c], tbz[c]);
+          torque[j] += Vec3(tpx[c], tpy[c], tpz[c]);
+          shear[entry[c]] = Vec3(hx[c], hy[c], hz[c]);
         }
         if constexpr (E::kRolling) {
           const Vec3 normal = (b.position[i] - b.position[j]).normalized();
-          const double r_star = EffectiveRadius(b.radius[i], b.radius[j]);
+          const double r_star = EffectiveRadius(radius[i], radius[j]);
           const Vec3 rolling = RollingResistanceTorque(
               normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), r_star,
               params.rolling_friction, 1.0 / (b.InvInertia(i) + b.InvInertia(j)), params.dt_s);
           torque_i += rolling;
           torque[j] -= rolling;
         }
-        cond.NoteOverlap(batch.overlap[c], std::min(b.radius[i], b.radius[j]), i, j);
+        deepest.NoteOverlap(overlap[c], std::min(radius[i], radius[j]), i, j);
       }
       force[current] = force_i;
       if constexpr (E::kRotate) torque[current] = torque_i;
+      cond = deepest;
     }
     obs.bead_contacts += static_cast<int>(n);
     first = last;

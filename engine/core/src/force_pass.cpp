@@ -70,7 +70,8 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
       entry[n] = k;
       n += touching;
     }
-    std::fill_n(starts, last - first, 0u);  // zero again for the next batch, in one sweep
+    for (std::uint32_t next = first_owner + 1; offsets[next] < last; ++next)
+      starts[offsets[next] - first] = 0;  // zero again for the next batch
     batch.size = n;
 
     // 2. The contact law, vectorized.

@@ -13,16 +13,25 @@ small_scene "$work/small.toml"
 start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 1 --http 127.0.0.1:0
 base=$(web_base "$work/dembufd.log")
 [ -n "$base" ] || fail "dembufd did not say where its web pages are"
-# A longer impact, so that samples flow for a few seconds after the bed is ready; then a sweep
-# of three speeds over two seeds (three points, each of two runs), the first seed on the
-# same bed.
+# The one worker is held by a long job until the watched job's page is open (then cancelled),
+# so that the watched job runs while the page watches however slowly the browser starts; it
+# is a longer impact, so that samples flow for a few seconds. Then a sweep of three speeds
+# over two seeds (three points, each of two runs), the first seed on the same bed.
+holder=$("$dembuf" submit "$work/small.toml" --set time.end_s=5)
 job=$("$dembuf" submit "$work/small.toml" --set time.end_s=0.12)
 sweep=$("$dembuf" sweep "$work/small.toml" --vary projectile.speed_m_s=1,2,3 --seeds 2 2>/dev/null)
-# The page is opened now, while the job waits for its bed: what it draws must come live.
 node "$here/pages_test.mjs" --browser "$chromium" --base "$base" --job "$job" --sweep "$sweep" \
   --points 3 --min-live 200 --summary "$work/fetched/summary.json" \
   ${DEMBUF_SCREENSHOTS:+--screenshots "$DEMBUF_SCREENSHOTS"} > "$work/pages.log" 2>&1 &
 pages=$!
+for _ in $(seq 1200); do
+  grep -q "job page open" "$work/pages.log" 2>/dev/null && break
+  kill -0 "$pages" 2>/dev/null || break
+  sleep 0.1
+done
+grep -q "job page open" "$work/pages.log" || { cat "$work/pages.log"; fail "the job page did not open"; }
+[ "$(job_state "$job")" = queued ] || fail "job $job started before its page was open"
+"$dembuf" cancel "$holder" > /dev/null || fail "cancel of the holding job $holder"
 wait_state "$job" "done failed cancelled" 300
 "$dembuf" fetch "$job" --out "$work/fetched" --no-plots > /dev/null || fail "fetch of job $job"
 wait "$pages" || { cat "$work/pages.log"; fail "the pages on loopback"; }

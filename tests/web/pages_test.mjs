@@ -100,6 +100,7 @@ async function jobPages() {
     if (!request.url().startsWith(args.base) && !request.url().startsWith("data:")) outside.push(request.url());
   });
   await page.goto(`${args.base}/jobs/${args.job}`, { waitUntil: "domcontentloaded" });
+  console.log("     job page open");  // (the test starts the job when it reads this)
   if (args.screenshots) {
     // A picture while the impact runs, when the job lasts long enough to be caught.
     const running = await page.waitForFunction((min) => document.body.dataset.state === "running" &&

@@ -20,6 +20,13 @@ inline Vec3 WallRolling(const WorldParams& params, const Vec3& n, const Vec3& w,
   return RollingResistanceTorque(n, w, normal, r, params.rolling_friction, inertia, params.dt_s);
 }
 
+// Clears the springs [first, last) of `history` in one sweep. The force pass clears a whole
+// batch's once the law has read them and writes the touching contacts' new ones back, so a
+// contact that has opened forgets its spring without a list of those apart.
+void ClearSprings(std::vector<Vec3>& history, std::size_t first, std::size_t last) {
+  std::fill_n(Components(history) + 3 * first, 3 * (last - first), 0.0);
+}
+
 // Pair forces of the beads of block [begin, end), in batches of the list's entries
 // (pair_batch.h): the touching pairs are picked out, the law resolves them in one vectorized
 // loop, and the results go to the beads in list order. Entries apart lose their history.
@@ -77,12 +84,9 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     // 2. The contact law, vectorized.
     ResolvePairBatch(E::kFriction, inputs, batch);
 
-    // 2b. The law has read the touching entries' histories: all of the batch's are cleared in
-    // one sweep, and the touching ones get their new histories below. An entry apart so
-    // forgets its history without a list of the entries apart to keep.
-    if constexpr (E::kFriction)
-      std::fill_n(Components(pairs.shear) + 3 * std::size_t{first}, 3 * std::size_t{last - first},
-                  0.0);
+    // 2b. The law has read the touching entries' springs: the batch's are cleared, and the
+    // touching ones get their new springs below.
+    if constexpr (E::kFriction) ClearSprings(pairs.shear, first, last);
 
     // 3. Forces and torques to both beads, in list order; the histories back to the list.
     // A bead's entries are consecutive and name it only as their bead (partners differ from
@@ -185,10 +189,9 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
                                    params.dt_s,
                                    box};
       ResolveWallBatch(E::kFriction, wall, inputs, batch);
-      // The law has read the touching beads' histories: the batch's are cleared in one sweep
-      // and the touching ones get their new histories below (as the pairs').
-      if constexpr (E::kFriction)
-        std::fill(history.begin() + first, history.begin() + last, Vec3::Zero());
+      // The law has read the touching beads' springs: the batch's are cleared, and the
+      // touching ones get their new springs below.
+      if constexpr (E::kFriction) ClearSprings(history, first, last);
       for (std::size_t c = 0; c < n; ++c) {
         const std::uint32_t i = batch.bead[c];
         b.force[i] += Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]);

@@ -74,13 +74,13 @@ void ExpectSameBits(const dem::Vec3& batched, const dem::Vec3& reference, const 
 }
 
 void CompareWithScalarLaw(bool friction) {
-  constexpr int kCount = 999;  // not a multiple of any vector width: the loop's tail runs too
+  // A full batch but one: not a multiple of any vector width, so the loop's tail runs too.
+  constexpr int kCount = PairBatch::kTarget - 1;
   Contacts c = RandomContacts(kCount, friction ? 7u : 8u);
   const dem::PairParams params{4.0 / 3.0 * 3.5e10, 8.0 * 1.2e10, 2e-6, 0.5};
   const double dt = 2e-7;
 
   PairBatch batch;
-  batch.Reserve(kCount);
   for (int k = 0; k < kCount; ++k) {
     batch.bead[k] = 2 * k;
     batch.partner[k] = 2 * k + 1;
@@ -154,7 +154,8 @@ TEST(PairBatch, FrictionlessLawGivesTheScalarLawsBits) {
 // batched wall law against ContainerContacts' arithmetic (MakeGeometry and Resolve with the wall's
 // normal, lever arm 0 on the wall's side).
 void CompareWallsWithScalarLaw(bool friction) {
-  constexpr int kCount = 999;
+  // A full batch on the plate, all but one on the side wall (the vector loop's tail).
+  constexpr int kCount = 2 * WallBatch::kTarget - 1;
   const dem::Container box{0.05, 0.1};
   std::mt19937 rng(friction ? 9u : 10u);
   std::uniform_real_distribution<double> unit(-1.0, 1.0), share(0.0, 1.0);
@@ -203,7 +204,6 @@ void CompareWallsWithScalarLaw(bool friction) {
   for (const dem::BodyId wall : {dem::kPlate, dem::kSideWall}) {
     const int parity = wall == dem::kPlate ? 0 : 1;
     WallBatch batch;
-    batch.Reserve(kCount);
     batch.size = 0;
     for (int k = parity; k < kCount; k += 2) {
       batch.bead[batch.size] = k;

@@ -44,7 +44,6 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
                                Components(pairs.shear),
                                params.sphere_pair,
                                params.dt_s};
-  batch.Reserve(PairBatch::kTarget);
   // One flat loop over the entries (not beads, then their entries): no loop exit per bead to
   // mispredict.
   const std::uint32_t stop = offsets[end];
@@ -161,7 +160,6 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
                      WallBatch& batch, std::uint32_t begin, std::uint32_t end, StepObservables& obs,
                      StepConditions& cond) {
   const Container& box = params.container;
-  batch.Reserve(WallBatch::kTarget);
   for (std::uint32_t first = begin; first < end;) {
     const std::uint32_t last = std::min<std::uint32_t>(end, first + WallBatch::kTarget);
     for (const BodyId wall : {kPlate, kSideWall}) {

@@ -4,32 +4,6 @@
 
 namespace dembuf::dem::detail {
 
-void PairBatch::Grow(std::size_t n) {
-  bead.resize(n);
-  partner.resize(n);
-  entry.resize(n);
-  bead_starts.resize(n, 0);
-  overlap.resize(n);
-  for (int d = 0; d < 3; ++d) {
-    force[d].resize(n);
-    torque_bead[d].resize(n);
-    torque_partner[d].resize(n);
-    shear[d].resize(n);
-  }
-}
-
-void WallBatch::Grow(std::size_t n) {
-  bead.resize(n);
-  slot.resize(n);
-  overlap.resize(n);
-  normal_force.resize(n);
-  for (int d = 0; d < 3; ++d) {
-    force[d].resize(n);
-    torque[d].resize(n);
-    shear[d].resize(n);
-  }
-}
-
 namespace {
 
 // Where the law writes one contact's results (arrays of one component each).

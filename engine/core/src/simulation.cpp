@@ -203,13 +203,6 @@ std::size_t Simulation::MemoryBytes() const {
   sum += Bytes(k.start) + Bytes(k.work) + Bytes(k.done) + Bytes(k.contacts) +
          Bytes(k.near_container_start) + Bytes(k.observables) + Bytes(k.conditions) +
          Bytes(k.pair_batches) + Bytes(k.wall_batches);
-  for (const detail::PairBatch& p : k.pair_batches)
-    sum += Bytes(p.bead) + Bytes(p.partner) + Bytes(p.entry) + Bytes(p.bead_starts) +
-           Bytes(p.overlap) + Bytes(p.force) + Bytes(p.torque_bead) + Bytes(p.torque_partner) +
-           Bytes(p.shear);
-  for (const detail::WallBatch& w : k.wall_batches)
-    sum += Bytes(w.bead) + Bytes(w.overlap) + Bytes(w.normal_force) + Bytes(w.force) +
-           Bytes(w.torque) + Bytes(w.shear);
   return sum + Bytes(s.pending_history) + Bytes(s.origin);
 }
 

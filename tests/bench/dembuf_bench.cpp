@@ -692,8 +692,13 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
       char label[64];
       std::snprintf(label, sizeof label, "%d thread%s", threads, threads > 1 ? "s" : "");
       PrintRow(label, t, one.NsPerBeadStep());
-      scaling.push_back(
-          {{"threads", threads}, {"timing", TimingJson(t)}, {"speedup", one.seconds / t.seconds}});
+      // Where the threads' time goes: a stage that runs on one thread (or scales badly) shows
+      // here as a share growing with the thread count.
+      if (projectile) PrintStages(t.stages);
+      scaling.push_back({{"threads", threads},
+                         {"timing", TimingJson(t)},
+                         {"speedup", one.seconds / t.seconds},
+                         {"stages", StagesJson(t.stages)}});
     }
     return scaling;
   };

@@ -92,22 +92,14 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     // it), so its sums are kept in registers through its run and stored when the bead
     // changes: the same additions in the same order as adding to the bead each time.
     if (n > 0) {
-      // Plain pointers and a local record of the deepest overlap: through the vectors and
-      // `cond`, every store below might alias them for the compiler, which would load them again
-      // for each contact.
+      // Plain pointers to the bead arrays and a local record of the deepest overlap: through the
+      // vectors and `cond`, every store below might alias them for the compiler, which would
+      // load them again for each contact. (The batch's arrays lie inside it, at fixed offsets.)
       Vec3* force = b.force.data();
       Vec3* torque = b.torque.data();
       Vec3* shear = pairs.shear.data();
       const double* radius = b.radius.data();
-      const double* overlap = batch.overlap.data();
-      const double *fx = batch.force[0].data(), *fy = batch.force[1].data(),
-                   *fz = batch.force[2].data();
-      const double *tbx = batch.torque_bead[0].data(), *tby = batch.torque_bead[1].data(),
-                   *tbz = batch.torque_bead[2].data();
-      const double *tpx = batch.torque_partner[0].data(), *tpy = batch.torque_partner[1].data(),
-                   *tpz = batch.torque_partner[2].data();
-      const double *hx = batch.shear[0].data(), *hy = batch.shear[1].data(),
-                   *hz = batch.shear[2].data();
+      const PairBatch& out = batch;
       StepConditions deepest = cond;
       std::uint32_t current = bead[0];
       Vec3 force_i = force[current];
@@ -123,13 +115,14 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
           }
           current = i;
         }
-        const Vec3 f(fx[c], fy[c], fz[c]);
+        const Vec3 f(out.force[0][c], out.force[1][c], out.force[2][c]);
         force_i += f;
         force[j] -= f;
         if constexpr (E::kFriction) {
-          torque_i += Vec3(tbx[c], tby[c], tbz[c]);
-          torque[j] += Vec3(tpx[c], tpy[c], tpz[c]);
-          shear[entry[c]] = Vec3(hx[c], hy[c], hz[c]);
+          torque_i += Vec3(out.torque_bead[0][c], out.torque_bead[1][c], out.torque_bead[2][c]);
+          torque[j] +=
+              Vec3(out.torque_partner[0][c], out.torque_partner[1][c], out.torque_partner[2][c]);
+          shear[entry[c]] = Vec3(out.shear[0][c], out.shear[1][c], out.shear[2][c]);
         }
         if constexpr (E::kRolling) {
           const Vec3 normal = (b.position[i] - b.position[j]).normalized();
@@ -140,7 +133,7 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
           torque_i += rolling;
           torque[j] -= rolling;
         }
-        deepest.NoteOverlap(overlap[c], std::min(radius[i], radius[j]), i, j);
+        deepest.NoteOverlap(out.overlap[c], std::min(radius[i], radius[j]), i, j);
       }
       force[current] = force_i;
       if constexpr (E::kRotate) torque[current] = torque_i;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "vector_clones.h"
+
 namespace dembuf::dem::detail {
 
 namespace {
@@ -211,14 +213,6 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
     ResolveLane<kFriction, Partner::kWall>(g, params, dt, shear, slot[c], out, c);
   }
 }
-
-// One copy per instruction set; the dynamic loader picks the widest the CPU supports.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define DEMBUF_VECTOR_CLONES \
-  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define DEMBUF_VECTOR_CLONES
-#endif
 
 DEMBUF_VECTOR_CLONES void ResolveWithFriction(const PairBatchInputs& in, PairBatch& batch) {
   ResolveBody<true>(in, batch);

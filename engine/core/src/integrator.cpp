@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "vector_clones.h"
+
 namespace dembuf::dem::detail {
 
 namespace {
@@ -28,75 +30,123 @@ Kinematics BeadKinematics(ParticleState& b) {
           b.inv_mass.data(),      b.mass.data()};
 }
 
-// Half kicks of beads [first, last) with their current forces: v += dt/2 a (and w += dt/2 alpha
-// when they rotate), done kHalves times. Two are the last step's closing half kick and this
-// step's opening one, in one pass over the beads. Component by component, the operations of
-// the Eigen expressions v += half * (f / m + g) and w += half / I * t, in their order.
-// A bead with inv_mass 0 is held in place: neither its contacts nor gravity move or turn it.
-// With kClear, the forces (and torques) are set to zero once read: the force pass that follows
-// the drift then need not clear them in a pass of its own.
-template <bool kRotate, int kHalves = 1, bool kClear = false>
-void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g) {
-  const double gx = g.x(), gy = g.y(), gz = g.z();
-#pragma omp simd
-  for (long i = first; i < last; ++i) {
-    const double inv_m = k.inv_mass[i];
-    const bool held = inv_m == 0.0;
-    const double dvx = half * (inv_m * k.force[3 * i] + (held ? 0.0 : gx));
-    const double dvy = half * (inv_m * k.force[3 * i + 1] + (held ? 0.0 : gy));
-    const double dvz = half * (inv_m * k.force[3 * i + 2] + (held ? 0.0 : gz));
-    if constexpr (kClear) k.force[3 * i] = k.force[3 * i + 1] = k.force[3 * i + 2] = 0.0;
+// A bead's velocity after its kicks (the drift's input).
+struct Velocity {
+  double x, y, z;
+};
+
+// Half kicks of bead i with its current forces: v += dt/2 a (and w += dt/2 alpha when it
+// rotates), done kHalves times. Two are the last step's closing half kick and this step's
+// opening one. Component by component, the operations of the Eigen expressions
+// v += half * (f / m + g) and w += half / I * t, in their order. A bead with inv_mass 0 is held
+// in place: neither its contacts nor gravity move or turn it. With kClear, the force (and
+// torque) is set to zero once read: the force pass that follows the drift then need not clear
+// it in a pass of its own.
+template <bool kRotate, int kHalves, bool kClear>
+DEMBUF_ALWAYS_INLINE Velocity KickBead(const Kinematics& k, long i, double half, const Vec3& g) {
+  const double inv_m = k.inv_mass[i];
+  const bool held = inv_m == 0.0;
+  double* f = k.force + 3 * i;
+  const double dvx = half * (inv_m * f[0] + (held ? 0.0 : g.x()));
+  const double dvy = half * (inv_m * f[1] + (held ? 0.0 : g.y()));
+  const double dvz = half * (inv_m * f[2] + (held ? 0.0 : g.z()));
+  if constexpr (kClear) f[0] = f[1] = f[2] = 0.0;
+  double* v = k.velocity + 3 * i;
+  Velocity u{v[0], v[1], v[2]};
+  for (int h = 0; h < kHalves; ++h) {
+    u.x += dvx;
+    u.y += dvy;
+    u.z += dvz;
+  }
+  v[0] = u.x;
+  v[1] = u.y;
+  v[2] = u.z;
+  if constexpr (kRotate) {
+    const double inv_inertia = ParticleState::InverseSphereInertia(k.mass[i], k.radius[i]);
+    const double s = held ? 0.0 : half * inv_inertia;
+    double* t = k.torque + 3 * i;
+    const double dwx = s * t[0], dwy = s * t[1], dwz = s * t[2];
+    if constexpr (kClear) t[0] = t[1] = t[2] = 0.0;
+    double* w = k.angular_velocity + 3 * i;
     for (int h = 0; h < kHalves; ++h) {
-      k.velocity[3 * i] += dvx;
-      k.velocity[3 * i + 1] += dvy;
-      k.velocity[3 * i + 2] += dvz;
-    }
-    if constexpr (kRotate) {
-      const double inv_inertia = ParticleState::InverseSphereInertia(k.mass[i], k.radius[i]);
-      const double s = held ? 0.0 : half * inv_inertia;
-      const double dwx = s * k.torque[3 * i], dwy = s * k.torque[3 * i + 1],
-                   dwz = s * k.torque[3 * i + 2];
-      if constexpr (kClear) k.torque[3 * i] = k.torque[3 * i + 1] = k.torque[3 * i + 2] = 0.0;
-      for (int h = 0; h < kHalves; ++h) {
-        k.angular_velocity[3 * i] += dwx;
-        k.angular_velocity[3 * i + 1] += dwy;
-        k.angular_velocity[3 * i + 2] += dwz;
-      }
+      w[0] += dwx;
+      w[1] += dwy;
+      w[2] += dwz;
     }
   }
+  return u;
 }
 
-// The opening half kick (after the last step's closing one when `closing`) and the drift of
-// beads [first, last), their forces and torques cleared for the next force pass; with the
-// largest squared displacement since the last list build and a count of beads that may have
-// gone wrong: non-finite (their components' sum is not finite) or outside the container.
+// One half kick of beads [first, last). `k` and `g` are copies: through references, the stores
+// to the arrays might change them for the compiler, and the loop would not vectorize.
 template <bool kRotate>
-void KickAndDrift(const Kinematics& k, long first, long last, bool closing, double half, double dt,
-                  const Vec3& g, const float* reference, const Container& box, double& max_disp2,
-                  long& suspects) {
-  if (closing)
-    Kick<kRotate, 2, true>(k, first, last, half, g);
-  else
-    Kick<kRotate, 1, true>(k, first, last, half, g);
+void Kick(const Kinematics k, long first, long last, double half, const Vec3 g) {
+#pragma omp simd
+  for (long i = first; i < last; ++i) KickBead<kRotate, 1, false>(k, i, half, g);
+}
+
+// What the drift of a block of beads saw: the largest squared displacement since the last list
+// build, and how many beads may have gone wrong: non-finite (their components' sum is not
+// finite) or outside the container.
+struct DriftWatch {
+  double max_disp2 = 0.0;
+  long suspects = 0;
+};
+
+// Everything a block's kick and drift need besides the bead arrays.
+struct DriftInputs {
+  double half, dt;
+  Vec3 g;
+  const float* reference;  // positions at the last list build
+  Container box;
+};
+
+// The opening half kick (after the last step's closing one: kHalves = 2) and the drift of beads
+// [first, last), in one pass over them (a pass for each read the velocities and radii twice:
+// the whole step 9% slower), their forces and torques cleared for the next force pass. Its
+// arguments are copies, as Kick's.
+template <bool kRotate, int kHalves>
+DEMBUF_ALWAYS_INLINE DriftWatch KickAndDrift(const Kinematics k, long first, long last,
+                                             const DriftInputs in) {
+  const double dt = in.dt;
+  const float* reference = in.reference;
   double disp2 = 0.0;
   long count = 0;
 #pragma omp simd reduction(max : disp2) reduction(+ : count)
   for (long i = first; i < last; ++i) {
+    const Velocity v = KickBead<kRotate, kHalves, true>(k, i, in.half, in.g);
     double* x = k.position + 3 * i;
-    const double* v = k.velocity + 3 * i;
-    x[0] += dt * v[0];
-    x[1] += dt * v[1];
-    x[2] += dt * v[2];
+    x[0] += dt * v.x;
+    x[1] += dt * v.y;
+    x[2] += dt * v.z;
     const double dx = x[0] - reference[3 * i], dy = x[1] - reference[3 * i + 1],
                  dz = x[2] - reference[3 * i + 2];
     const double d2 = dx * dx + dy * dy + dz * dz;
     disp2 = d2 > disp2 ? d2 : disp2;
-    const double sum = ((x[0] + x[1]) + (x[2] + v[0])) + (v[1] + v[2]);
-    const bool suspect = !std::isfinite(sum) || box.Escaped(x[0], x[1], x[2], k.radius[i]);
-    count += suspect;
+    const double sum = ((x[0] + x[1]) + (x[2] + v.x)) + (v.y + v.z);
+    count += !std::isfinite(sum) | in.box.Escaped(x[0], x[1], x[2], k.radius[i]);
   }
-  max_disp2 = std::max(max_disp2, disp2);
-  suspects += count;
+  return {disp2, count};
+}
+
+DEMBUF_VECTOR_CLONES DriftWatch KickAndDriftRotating(const Kinematics k, long first, long last,
+                                                     const DriftInputs& in) {
+  return KickAndDrift<true, 1>(k, first, last, in);
+}
+
+DEMBUF_VECTOR_CLONES DriftWatch KickTwiceAndDriftRotating(const Kinematics k, long first, long last,
+                                                          const DriftInputs& in) {
+  return KickAndDrift<true, 2>(k, first, last, in);
+}
+
+DEMBUF_VECTOR_CLONES DriftWatch KickAndDriftNotRotating(const Kinematics k, long first, long last,
+                                                        const DriftInputs& in) {
+  return KickAndDrift<false, 1>(k, first, last, in);
+}
+
+DEMBUF_VECTOR_CLONES DriftWatch KickTwiceAndDriftNotRotating(const Kinematics k, long first,
+                                                             long last, const DriftInputs& in) {
+  return KickAndDrift<false, 2>(k, first, last, in);
 }
 
 Vec3 Gravity(const WorldParams& params) {
@@ -108,40 +158,33 @@ Vec3 Gravity(const WorldParams& params) {
 DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleState& b,
                               Simulation::Impl& s) {
   const double dt = params.dt_s;
-  const double half = 0.5 * dt;
-  const Vec3 g = Gravity(params);
-  const Container box = params.container;
+  const DriftInputs in{0.5 * dt, dt, Gravity(params), s.lists.reference_position.data(),
+                       params.container};
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
-  const float* reference = s.lists.reference_position.data();
   const bool rotate = s.Rotating();
-  double max_disp2 = 0.0;
-  long suspects = 0;  // beads that may be non-finite or outside the container
+  DriftWatch watch;
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
-    double thread_disp2 = 0.0;
-    long thread_suspects = 0;
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
     const auto [first, last] = s.blocks.shares.Part(n, thread, team);
-    if (rotate)
-      KickAndDrift<true>(k, first, last, closing, half, dt, g, reference, box, thread_disp2,
-                         thread_suspects);
-    else
-      KickAndDrift<false>(k, first, last, closing, half, dt, g, reference, box, thread_disp2,
-                          thread_suspects);
+    const DriftWatch mine = rotate ? (closing ? KickTwiceAndDriftRotating(k, first, last, in)
+                                              : KickAndDriftRotating(k, first, last, in))
+                                   : (closing ? KickTwiceAndDriftNotRotating(k, first, last, in)
+                                              : KickAndDriftNotRotating(k, first, last, in));
 #pragma omp critical
     {
-      max_disp2 = std::max(max_disp2, thread_disp2);
-      suspects += thread_suspects;
+      watch.max_disp2 = std::max(watch.max_disp2, mine.max_disp2);
+      watch.suspects += mine.suspects;
     }
   }
   DriftReport report;
-  report.max_displacement = std::sqrt(max_disp2);
-  if (suspects > 0) {  // rare: find the beads for the message
+  report.max_displacement = std::sqrt(watch.max_disp2);
+  if (watch.suspects > 0) {  // rare: find the beads for the message
     for (long i = 0; i < n; ++i) {
       const Vec3& x = b.position[i];
       if (!x.allFinite() || !b.velocity[i].allFinite()) report.nonfinite_bead = i;
-      if (box.Escaped(x.x(), x.y(), x.z(), b.radius[i])) report.escaped_bead = i;
+      if (in.box.Escaped(x.x(), x.y(), x.z(), b.radius[i])) report.escaped_bead = i;
     }
   }
   return report;

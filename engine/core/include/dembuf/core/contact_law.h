@@ -112,12 +112,11 @@ DEMBUF_ALWAYS_INLINE ContactLawOutput ApplyContactLaw(const ContactLawInput& c, 
     const double along = hx * nx + hy * ny + hz * nz;
     const double px = hx - along * nx, py = hy - along * ny, pz = hz - along * nz;
     const double new_norm2 = px * px + py * py + pz * pz;
-    const double rescale = std::sqrt(old_norm2 / new_norm2);
     const bool turn = old_norm2 > 0.0;
-    const bool scale = new_norm2 > 0.0;
-    hx = turn ? (scale ? px * rescale : px) : hx;
-    hy = turn ? (scale ? py * rescale : py) : hy;
-    hz = turn ? (scale ? pz * rescale : pz) : hz;
+    const double rescale = new_norm2 > 0.0 ? std::sqrt(old_norm2 / new_norm2) : 1.0;
+    hx = turn ? px * rescale : hx;
+    hy = turn ? py * rescale : hy;
+    hz = turn ? pz * rescale : hz;
     hx = hx + c.sx * dt;
     hy = hy + c.sy * dt;
     hz = hz + c.sz * dt;
@@ -131,11 +130,10 @@ DEMBUF_ALWAYS_INLINE ContactLawOutput ApplyContactLaw(const ContactLawInput& c, 
     tx = slide ? tx * shorten : tx;
     ty = slide ? ty * shorten : ty;
     tz = slide ? tz * shorten : tz;
-    const bool spring = ks_x > 0.0;
-    const double ux = -tx / ks_x, uy = -ty / ks_x, uz = -tz / ks_x;
-    out.hx = slide ? (spring ? ux : 0.0) : hx;
-    out.hy = slide ? (spring ? uy : 0.0) : hy;
-    out.hz = slide ? (spring ? uz : 0.0) : hz;
+    // (A contact slides only with a spring: without one, ft2 = 0.)
+    out.hx = slide ? -tx / ks_x : hx;
+    out.hy = slide ? -ty / ks_x : hy;
+    out.hz = slide ? -tz / ks_x : hz;
     out.tx = tx;
     out.ty = ty;
     out.tz = tz;

@@ -77,10 +77,10 @@ DEMBUF_ALWAYS_INLINE Velocity KickBead(const Kinematics& k, long i, double half,
   return u;
 }
 
-// One half kick of beads [first, last). `k` and `g` are copies: through references, the stores
-// to the arrays might change them for the compiler, and the loop would not vectorize.
+// One half kick of beads [first, last): the closing one left pending when something reads
+// the beads between steps (CompleteKick), not one of the step's hot loops.
 template <bool kRotate>
-void Kick(const Kinematics k, long first, long last, double half, const Vec3 g) {
+void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g) {
 #pragma omp simd
   for (long i = first; i < last; ++i) KickBead<kRotate, 1, false>(k, i, half, g);
 }
@@ -103,8 +103,9 @@ struct DriftInputs {
 
 // The opening half kick (after the last step's closing one: kHalves = 2) and the drift of beads
 // [first, last), in one pass over them (a pass for each read the velocities and radii twice:
-// the whole step 9% slower), their forces and torques cleared for the next force pass. Its
-// arguments are copies, as Kick's.
+// the whole step 9% slower), their forces and torques cleared for the next force pass. `k`
+// and `in` are copies: through references, every store to the arrays might change them for
+// the compiler, which would load them again after it and not vectorize the loop.
 template <bool kRotate, int kHalves>
 DEMBUF_ALWAYS_INLINE DriftWatch KickAndDrift(const Kinematics k, long first, long last,
                                              const DriftInputs in) {
@@ -124,7 +125,7 @@ DEMBUF_ALWAYS_INLINE DriftWatch KickAndDrift(const Kinematics k, long first, lon
     const double d2 = dx * dx + dy * dy + dz * dz;
     disp2 = d2 > disp2 ? d2 : disp2;
     const double sum = ((x[0] + x[1]) + (x[2] + v.x)) + (v.y + v.z);
-    count += !std::isfinite(sum) | in.box.Escaped(x[0], x[1], x[2], k.radius[i]);
+    count += !std::isfinite(sum) || in.box.Escaped(x[0], x[1], x[2], k.radius[i]);
   }
   return {disp2, count};
 }

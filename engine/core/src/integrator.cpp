@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "vector_clones.h"
+#include "vector_copies.h"
 
 namespace dembuf::dem::detail {
 
@@ -130,25 +130,18 @@ DEMBUF_ALWAYS_INLINE DriftWatch KickAndDrift(const Kinematics k, long first, lon
   return {disp2, count};
 }
 
-DEMBUF_VECTOR_CLONES DriftWatch KickAndDriftRotating(const Kinematics k, long first, long last,
-                                                     const DriftInputs& in) {
-  return KickAndDrift<true, 1>(k, first, last, in);
-}
-
-DEMBUF_VECTOR_CLONES DriftWatch KickTwiceAndDriftRotating(const Kinematics k, long first, long last,
-                                                          const DriftInputs& in) {
-  return KickAndDrift<true, 2>(k, first, last, in);
-}
-
-DEMBUF_VECTOR_CLONES DriftWatch KickAndDriftNotRotating(const Kinematics k, long first, long last,
-                                                        const DriftInputs& in) {
-  return KickAndDrift<false, 1>(k, first, last, in);
-}
-
-DEMBUF_VECTOR_CLONES DriftWatch KickTwiceAndDriftNotRotating(const Kinematics k, long first,
-                                                             long last, const DriftInputs& in) {
-  return KickAndDrift<false, 2>(k, first, last, in);
-}
+DEMBUF_VECTOR_COPIES(DriftWatch, KickAndDriftRotating,
+                     (const Kinematics k, long first, long last, const DriftInputs& in),
+                     (KickAndDrift<true, 1>(k, first, last, in)))
+DEMBUF_VECTOR_COPIES(DriftWatch, KickTwiceAndDriftRotating,
+                     (const Kinematics k, long first, long last, const DriftInputs& in),
+                     (KickAndDrift<true, 2>(k, first, last, in)))
+DEMBUF_VECTOR_COPIES(DriftWatch, KickAndDriftNotRotating,
+                     (const Kinematics k, long first, long last, const DriftInputs& in),
+                     (KickAndDrift<false, 1>(k, first, last, in)))
+DEMBUF_VECTOR_COPIES(DriftWatch, KickTwiceAndDriftNotRotating,
+                     (const Kinematics k, long first, long last, const DriftInputs& in),
+                     (KickAndDrift<false, 2>(k, first, last, in)))
 
 Vec3 Gravity(const WorldParams& params) {
   return Vec3(0.0, 0.0, -params.gravity_m_s2);
@@ -164,15 +157,19 @@ DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleS
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
   const bool rotate = s.Rotating();
+  // The copies for this CPU (vector_copies.h), chosen at the first call.
+  static const auto once_rotating = DEMBUF_PICK_COPY(KickAndDriftRotating);
+  static const auto twice_rotating = DEMBUF_PICK_COPY(KickTwiceAndDriftRotating);
+  static const auto once_still = DEMBUF_PICK_COPY(KickAndDriftNotRotating);
+  static const auto twice_still = DEMBUF_PICK_COPY(KickTwiceAndDriftNotRotating);
+  const auto pass =
+      rotate ? (closing ? twice_rotating : once_rotating) : (closing ? twice_still : once_still);
   DriftWatch watch;
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
     const auto [first, last] = s.blocks.shares.Part(n, thread, team);
-    const DriftWatch mine = rotate ? (closing ? KickTwiceAndDriftRotating(k, first, last, in)
-                                              : KickAndDriftRotating(k, first, last, in))
-                                   : (closing ? KickTwiceAndDriftNotRotating(k, first, last, in)
-                                              : KickAndDriftNotRotating(k, first, last, in));
+    const DriftWatch mine = pass(k, first, last, in);
 #pragma omp critical
     {
       watch.max_disp2 = std::max(watch.max_disp2, mine.max_disp2);

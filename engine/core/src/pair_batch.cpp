@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "vector_clones.h"
+#include "vector_copies.h"
 
 namespace dembuf::dem::detail {
 
@@ -214,52 +214,40 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
   }
 }
 
-DEMBUF_VECTOR_CLONES void ResolveWithFriction(const PairBatchInputs& in, PairBatch& batch) {
-  ResolveBody<true>(in, batch);
-}
-
-DEMBUF_VECTOR_CLONES void ResolveWithoutFriction(const PairBatchInputs& in, PairBatch& batch) {
-  ResolveBody<false>(in, batch);
-}
-
-DEMBUF_VECTOR_CLONES void ResolvePlateWithFriction(const WallBatchInputs& in, WallBatch& batch) {
-  ResolveWallBody<true, true>(in, batch);
-}
-
-DEMBUF_VECTOR_CLONES void ResolvePlateWithoutFriction(const WallBatchInputs& in, WallBatch& batch) {
-  ResolveWallBody<false, true>(in, batch);
-}
-
-DEMBUF_VECTOR_CLONES void ResolveSideWallWithFriction(const WallBatchInputs& in, WallBatch& batch) {
-  ResolveWallBody<true, false>(in, batch);
-}
-
-DEMBUF_VECTOR_CLONES void ResolveSideWallWithoutFriction(const WallBatchInputs& in,
-                                                         WallBatch& batch) {
-  ResolveWallBody<false, false>(in, batch);
-}
+DEMBUF_VECTOR_COPIES(void, ResolveWithFriction, (const PairBatchInputs& in, PairBatch& batch),
+                     ResolveBody<true>(in, batch))
+DEMBUF_VECTOR_COPIES(void, ResolveWithoutFriction, (const PairBatchInputs& in, PairBatch& batch),
+                     ResolveBody<false>(in, batch))
+DEMBUF_VECTOR_COPIES(void, ResolvePlateWithFriction, (const WallBatchInputs& in, WallBatch& batch),
+                     (ResolveWallBody<true, true>(in, batch)))
+DEMBUF_VECTOR_COPIES(void, ResolvePlateWithoutFriction,
+                     (const WallBatchInputs& in, WallBatch& batch),
+                     (ResolveWallBody<false, true>(in, batch)))
+DEMBUF_VECTOR_COPIES(void, ResolveSideWallWithFriction,
+                     (const WallBatchInputs& in, WallBatch& batch),
+                     (ResolveWallBody<true, false>(in, batch)))
+DEMBUF_VECTOR_COPIES(void, ResolveSideWallWithoutFriction,
+                     (const WallBatchInputs& in, WallBatch& batch),
+                     (ResolveWallBody<false, false>(in, batch)))
 
 }  // namespace
 
+// Each calls the copy for this CPU (vector_copies.h), chosen at the first call.
 void ResolveWallBatch(bool friction, BodyId wall, const WallBatchInputs& in, WallBatch& batch) {
-  if (wall == kPlate) {
-    if (friction)
-      ResolvePlateWithFriction(in, batch);
-    else
-      ResolvePlateWithoutFriction(in, batch);
-  } else {
-    if (friction)
-      ResolveSideWallWithFriction(in, batch);
-    else
-      ResolveSideWallWithoutFriction(in, batch);
-  }
+  static const auto plate_with = DEMBUF_PICK_COPY(ResolvePlateWithFriction);
+  static const auto plate_without = DEMBUF_PICK_COPY(ResolvePlateWithoutFriction);
+  static const auto side_with = DEMBUF_PICK_COPY(ResolveSideWallWithFriction);
+  static const auto side_without = DEMBUF_PICK_COPY(ResolveSideWallWithoutFriction);
+  if (wall == kPlate)
+    (friction ? plate_with : plate_without)(in, batch);
+  else
+    (friction ? side_with : side_without)(in, batch);
 }
 
 void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch) {
-  if (friction)
-    ResolveWithFriction(in, batch);
-  else
-    ResolveWithoutFriction(in, batch);
+  static const auto with = DEMBUF_PICK_COPY(ResolveWithFriction);
+  static const auto without = DEMBUF_PICK_COPY(ResolveWithoutFriction);
+  (friction ? with : without)(in, batch);
 }
 
 }  // namespace dembuf::dem::detail

@@ -13,6 +13,7 @@
 #include "force_pass.h"
 #include "integrator.h"
 #include "simulation_state.h"
+#include "vector_copies.h"
 
 namespace dembuf::dem {
 
@@ -23,6 +24,9 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
       m_beads(std::move(beads)),
       m_projectile(std::move(projectile)),
       m_impl(std::make_unique<Impl>()) {
+  // The hot loops' copy is chosen here, where a bad DEMBUF_VECTOR_COPY can be refused with an
+  // exception, not at their first call inside a parallel loop.
+  detail::ChosenVectorCopy();
   Impl& s = *m_impl;
   if (m_beads.size() > 0) {
     auto [lo, hi] = std::minmax_element(m_beads.radius.begin(), m_beads.radius.end());

@@ -1,8 +1,9 @@
 // Hot loops compiled once per x86 instruction set. The library is built for x86-64-v2 (every
 // x86 machine of the last decade); DEMBUF_VECTOR_COPIES defines a function three times, for
-// AVX-512, AVX2 and that baseline, and PickCopy chooses one at the first call: the widest the
-// CPU has, or a narrower one named by the environment variable DEMBUF_VECTOR_COPY (avx512,
-// avx2 or portable), so that the tests can compare the copies' results on one machine. The
+// AVX-512, AVX2 and that baseline, and PickCopy takes the one chosen once, when the first
+// simulation is made: the widest the CPU has, or a narrower one named by the environment
+// variable DEMBUF_VECTOR_COPY (avx512, avx2 or portable), so that the tests can compare the
+// copies' results on one machine. The
 // copies give the same bits: the loops are kept free of fused multiply-adds
 // (-ffp-contract=off).
 #pragma once

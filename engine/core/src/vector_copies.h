@@ -3,9 +3,8 @@
 // AVX-512, AVX2 and that baseline, and PickCopy takes the one chosen once, when the first
 // simulation is made: the widest the CPU has, or a narrower one named by the environment
 // variable DEMBUF_VECTOR_COPY (avx512, avx2 or portable), so that the tests can compare the
-// copies' results on one machine. The
-// copies give the same bits: the loops are kept free of fused multiply-adds
-// (-ffp-contract=off).
+// copies' results on one machine. The copies give the same bits: the loops are kept free of
+// fused multiply-adds (-ffp-contract=off).
 #pragma once
 
 namespace dembuf::dem::detail {

@@ -164,15 +164,18 @@ void PrintStages(const dem::StageTimes& t) {
   const double sum = t.integration_s + t.neighbours_s + t.forces_s;
   if (sum <= 0) return;
   std::printf(
-      "  %-44s integration %.0f%%, neighbours %.0f%% (%lld list builds), force pass %.0f%%\n",
+      "  %-44s integration %.0f%%, neighbours %.0f%% (%lld list builds, %lld sorts), force pass "
+      "%.0f%%\n",
       "dembuf's step, by stage:", 100 * t.integration_s / sum, 100 * t.neighbours_s / sum,
-      static_cast<long long>(t.list_builds), 100 * t.forces_s / sum);
+      static_cast<long long>(t.list_builds), static_cast<long long>(t.pair_sorts),
+      100 * t.forces_s / sum);
 }
 nlohmann::json StagesJson(const dem::StageTimes& t) {
   return {{"integration_s", t.integration_s},
           {"neighbours_s", t.neighbours_s},
           {"force_pass_s", t.forces_s},
-          {"list_builds", t.list_builds}};
+          {"list_builds", t.list_builds},
+          {"pair_sorts", t.pair_sorts}};
 }
 
 Timing Best(int repeats, const std::function<Timing()>& run) {
@@ -759,6 +762,7 @@ void BenchSweep(const Options& opt, nlohmann::json& report) {
     step_stages.neighbours_s += summary.stage_times.neighbours_s;
     step_stages.forces_s += summary.stage_times.forces_s;
     step_stages.list_builds += summary.stage_times.list_builds;
+    step_stages.pair_sorts += summary.stage_times.pair_sorts;
   };
   const auto start = std::chrono::steady_clock::now();
   const int failed = cli::RunSweep(e2, sweep, empty_store);
@@ -787,10 +791,11 @@ void BenchSweep(const Options& opt, nlohmann::json& report) {
               static_cast<long long>(impact_steps));
   if (stepped > 0)
     std::printf(
-        "      of their steps: integration %.0f%%, neighbours %.0f%% (%lld list builds), "
-        "force pass %.0f%%\n",
+        "      of their steps: integration %.0f%%, neighbours %.0f%% (%lld list builds, %lld "
+        "sorts), force pass %.0f%%\n",
         100 * step_stages.integration_s / stepped, 100 * step_stages.neighbours_s / stepped,
-        static_cast<long long>(step_stages.list_builds), 100 * step_stages.forces_s / stepped);
+        static_cast<long long>(step_stages.list_builds),
+        static_cast<long long>(step_stages.pair_sorts), 100 * step_stages.forces_s / stepped);
   std::printf("\n");
   report["e2_sweep"] = {
       {"accuracy", opt.sweep_accuracy},

@@ -31,25 +31,50 @@ std::vector<std::uint32_t> CandidatesByBruteForce(const dem::ParticleState& b, c
   return ids;
 }
 
-// The list holds exactly the pairs i < j within reach, partners sorted; returns their count.
-std::size_t ExpectMatchesBruteForce(const dem::ParticleState& b, const PairList& list,
-                                    double skin) {
-  std::set<std::pair<std::uint32_t, std::uint32_t>> found, expected;
-  for (std::uint32_t i = 0; i < b.size(); ++i) {
-    for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
-      EXPECT_GT(list.partners[k], i);
-      if (k > list.offsets[i]) {
-        EXPECT_LT(list.partners[k - 1], list.partners[k]);
+using PairSet = std::set<std::pair<std::uint32_t, std::uint32_t>>;
+
+// The pairs of one part of a pair list; checks that bead i's partners are j > i, sorted.
+PairSet PartPairs(const std::vector<std::uint32_t>& offsets,
+                  const std::vector<std::uint32_t>& partners, std::size_t beads) {
+  PairSet found;
+  EXPECT_EQ(offsets.size(), beads + 1);
+  EXPECT_EQ(offsets.back(), partners.size());
+  for (std::uint32_t i = 0; i < beads; ++i)
+    for (std::uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) {
+      EXPECT_GT(partners[k], i);
+      if (k > offsets[i]) {
+        EXPECT_LT(partners[k - 1], partners[k]);
       }
-      found.insert({i, list.partners[k]});
+      found.insert({i, partners[k]});
     }
+  return found;
+}
+PairSet NearPairs(const PairList& list, std::size_t beads) {
+  EXPECT_EQ(list.shear.size(), list.partners.size());
+  return PartPairs(list.offsets, list.partners, beads);
+}
+PairSet FarPairs(const PairList& list, std::size_t beads) {
+  return PartPairs(list.far_offsets, list.far_partners, beads);
+}
+
+// The list holds exactly the pairs i < j within reach, those within the near gap in its near
+// part (partners sorted) and the others in its far part; returns their count.
+std::size_t ExpectMatchesBruteForce(const dem::ParticleState& b, const PairList& list, double skin,
+                                    double near_gap) {
+  PairSet expected_near, expected_far;
+  for (std::uint32_t i = 0; i < b.size(); ++i)
     for (std::uint32_t j = i + 1; j < b.size(); ++j) {
+      const double dist2 = (b.position[i] - b.position[j]).squaredNorm();
+      const double near_reach = b.radius[i] + b.radius[j] + near_gap;
       const double reach = b.radius[i] + b.radius[j] + skin;
-      if ((b.position[i] - b.position[j]).squaredNorm() < reach * reach) expected.insert({i, j});
+      if (dist2 < near_reach * near_reach)
+        expected_near.insert({i, j});
+      else if (dist2 < reach * reach)
+        expected_far.insert({i, j});
     }
-  }
-  EXPECT_EQ(found, expected);
-  return expected.size();
+  EXPECT_EQ(NearPairs(list, b.size()), expected_near);
+  EXPECT_EQ(FarPairs(list, b.size()), expected_far);
+  return expected_near.size() + expected_far.size();
 }
 
 TEST(PairList, MatchesBruteForce) {
@@ -59,17 +84,21 @@ TEST(PairList, MatchesBruteForce) {
   grid.Build(b.position, 0.005 + skin, dem::Vec3(-0.06, -0.06, -0.005),
              dem::Vec3(0.06, 0.06, 0.03));
   ASSERT_FALSE(grid.InCellOrder());  // the search over all 27 cells around each bead
+  const double near_gap = 0.25 * skin;
   PairList list;
-  RebuildPairList(b, grid, skin, list);
+  RebuildPairList(b, grid, skin, near_gap, list);
   // Built in chunks on several threads (2000 beads are four chunks), the list is the same.
   for (int threads : {2, 3}) {
     PairList parallel;
-    RebuildPairList(b, grid, skin, parallel, threads);
+    RebuildPairList(b, grid, skin, near_gap, parallel, threads);
     EXPECT_EQ(parallel.offsets, list.offsets) << threads << " threads";
     EXPECT_EQ(parallel.partners, list.partners) << threads << " threads";
+    EXPECT_EQ(parallel.far_offsets, list.far_offsets) << threads << " threads";
+    EXPECT_EQ(parallel.far_partners, list.far_partners) << threads << " threads";
   }
   // The grid is shorter than the beads' z range: clamping works.
-  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 1000u);
+  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin, near_gap), 1000u);
+  EXPECT_GT(list.far_partners.size(), 100u);
 }
 
 TEST(PairList, BeadsInCellOrderSearchHalfTheCellsAndMatchBruteForce) {
@@ -83,8 +112,8 @@ TEST(PairList, BeadsInCellOrderSearchHalfTheCellsAndMatchBruteForce) {
   grid.Build(b.position, 0.005 + skin, lo, hi);
   ASSERT_TRUE(grid.InCellOrder());  // the search over the forward half of the cells
   PairList list;
-  RebuildPairList(b, grid, skin, list, 2);
-  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 1000u);
+  RebuildPairList(b, grid, skin, 0.25 * skin, list, 2);
+  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin, 0.25 * skin), 1000u);
 }
 
 TEST(CellGrid, LayersAreSlicesAcrossTheLongestAxis) {
@@ -125,8 +154,8 @@ TEST(PairList, BeadsInSliceOrderSearchHalfTheCellsAndMatchBruteForce) {
     ASSERT_LE(std::floor((b.position[i - 1].x() - lo.x()) / (0.005 + skin)),
               std::floor((b.position[i].x() - lo.x()) / (0.005 + skin)));
   PairList list;
-  RebuildPairList(b, grid, skin, list, 2);
-  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin), 2000u);
+  RebuildPairList(b, grid, skin, 0.25 * skin, list, 2);
+  EXPECT_GT(ExpectMatchesBruteForce(b, list, skin, 0.25 * skin), 2000u);
   // The box search of the projectile's candidates sees the same axes.
   CandidateList near;
   const dem::Vec3 c(0.05, -0.02, 0.01);
@@ -144,7 +173,7 @@ TEST(PairList, RebuildKeepsHistoryOfSurvivingPairs) {
     grid.Build(b.position, 0.005 + skin, dem::Vec3(-0.06, -0.06, -0.005),
                dem::Vec3(0.06, 0.06, 0.06));
     PairList list;
-    RebuildPairList(b, grid, skin, list, threads);
+    RebuildPairList(b, grid, skin, /*near_gap=*/skin, list, threads);
     for (std::uint32_t i = 0; i < b.size(); ++i)
       for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k)
         list.shear[k] = dem::Vec3(i, list.partners[k], 1.0);
@@ -152,7 +181,7 @@ TEST(PairList, RebuildKeepsHistoryOfSurvivingPairs) {
     b.position[10] = dem::Vec3(0.0, 0.0, 0.055);
     grid.Build(b.position, 0.005 + skin, dem::Vec3(-0.06, -0.06, -0.005),
                dem::Vec3(0.06, 0.06, 0.06));
-    RebuildPairList(b, grid, skin, list, threads);
+    RebuildPairList(b, grid, skin, /*near_gap=*/skin, list, threads);
     std::size_t kept = 0;
     for (std::uint32_t i = 0; i < b.size(); ++i)
       for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
@@ -166,6 +195,56 @@ TEST(PairList, RebuildKeepsHistoryOfSurvivingPairs) {
       }
     EXPECT_GT(kept, 1000u);
   }
+}
+
+TEST(PairList, ResortTakesFarPairsThatCameNearAndKeepsTheNearHistories) {
+  dem::ParticleState b = RandomBeads(1500, 9);
+  const double skin = 0.001, near_gap = 0.25 * skin;
+  CellGrid grid;
+  grid.Build(b.position, 0.005 + skin, dem::Vec3(-0.06, -0.06, -0.005),
+             dem::Vec3(0.06, 0.06, 0.06));
+  PairList list;
+  RebuildPairList(b, grid, skin, near_gap, list);
+  for (std::uint32_t i = 0; i < b.size(); ++i)
+    for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k)
+      list.shear[k] = dem::Vec3(i, list.partners[k], 1.0);
+  const PairSet stamped = NearPairs(list, b.size());
+  PairSet listed = FarPairs(list, b.size());
+  listed.insert(stamped.begin(), stamped.end());
+  std::mt19937_64 rng(4);
+  std::size_t joined = 0, apart_but_near = 0;
+  PairSet near = stamped;
+  for (int round = 0; round < 3; ++round) {
+    // Every bead moves up to a quarter of the skin: pairs cross the near gap both ways.
+    std::uniform_real_distribution<double> step(-0.25 * skin / std::sqrt(3.0),
+                                                0.25 * skin / std::sqrt(3.0));
+    for (dem::Vec3& x : b.position) x += dem::Vec3(step(rng), step(rng), step(rng));
+    const PairSet before = near;
+    ResortPairList(b, near_gap, list);
+    near = NearPairs(list, b.size());
+    PairSet all = FarPairs(list, b.size());
+    for (const auto& pair : near) EXPECT_TRUE(all.insert(pair).second);  // in one part only
+    EXPECT_EQ(all, listed);                                              // the same pairs
+    for (const auto& [i, j] : listed) {
+      const double near_reach = b.radius[i] + b.radius[j] + near_gap;
+      const bool is_near = (b.position[i] - b.position[j]).squaredNorm() < near_reach * near_reach;
+      const bool was_near = before.count({i, j}) == 1;
+      // Near pairs stay near; far pairs join them when within the near gap.
+      EXPECT_EQ(near.count({i, j}) == 1, was_near || is_near) << i << " " << j;
+      joined += is_near && !was_near;
+      apart_but_near += !is_near && was_near;
+    }
+    // The pairs near since the build keep their history; those that joined have none.
+    for (std::uint32_t i = 0; i < b.size(); ++i)
+      for (std::uint32_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
+        const std::uint32_t j = list.partners[k];
+        const dem::Vec3 expected =
+            stamped.count({i, j}) == 1 ? dem::Vec3(i, j, 1.0) : dem::Vec3::Zero();
+        EXPECT_EQ(list.shear[k], expected) << i << " " << j;
+      }
+  }
+  EXPECT_GT(joined, 30u);
+  EXPECT_GT(apart_but_near, 30u);
 }
 
 TEST(CandidateList, FindsBeadsNearALargeSphere) {

@@ -182,7 +182,8 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
       }
       PlanBlocks(s);
     }
-    RebuildPairList(b, s.lists.grid, s.lists.skin, s.lists.pairs, s.parallel ? s.threads : 1);
+    RebuildPairList(b, s.lists.grid, s.lists.skin, s.lists.near_gap, s.lists.pairs,
+                    s.parallel ? s.threads : 1);
     wall_history = ApplyPairHistory(s);
     KeepReferencePositions(b, s.lists);
     if (projectile)
@@ -193,9 +194,23 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
   ListNearContainer(b, params.container, std::move(wall_history), s);
   if (projectile) s.lists.projectile_reference = projectile->position;
   s.lists.max_bead_displacement = 0.0;
+  s.lists.displacement_before_sort = 0.0;
   s.lists.projectile_list_displacement = 0.0;
   s.lists.valid = true;
   ++s.lists.builds;
+}
+
+// Moves the far pairs that have come within the near gap into the near part, when one may
+// have closed it, and takes the present positions as the reference for the next time; what
+// the beads had moved is kept for the tests of the whole lists' age.
+void SortFarPairs(const ParticleState& b, Simulation::Impl& s) {
+  ResortPairList(b, s.lists.near_gap, s.lists.pairs);
+  s.lists.displacement_before_sort += s.lists.max_bead_displacement;
+  s.lists.projectile_list_displacement += s.lists.max_bead_displacement;
+  KeepReferencePositions(b, s.lists);
+  s.lists.max_bead_displacement = 0.0;
+  WeighBlocks(s);
+  ++s.lists.sorts;
 }
 
 // A fast projectile outruns its list long before the beads outrun theirs: rebuild only its
@@ -206,7 +221,7 @@ void RebuildProjectileList(const ParticleState& b, const RigidSphere& projectile
   if (b.size() > 0)
     RebuildCandidateList(b, s.lists.grid, projectile.position, projectile.radius,
                          s.lists.max_radius, s.lists.skin, s.lists.near_projectile,
-                         s.lists.max_bead_displacement);
+                         s.lists.DisplacementSinceBuild());
   s.lists.projectile_reference = projectile.position;
   s.lists.projectile_list_displacement = s.lists.max_bead_displacement;
 }
@@ -214,12 +229,19 @@ void RebuildProjectileList(const ParticleState& b, const RigidSphere& projectile
 // The bead lists stay valid while no pair can have closed the skin: two beads moving towards
 // each other by at most d each.
 bool BeadListsValid(const Simulation::Impl& s) {
-  return s.lists.valid && 2.0 * s.lists.max_bead_displacement < s.lists.skin;
+  return s.lists.valid && 2.0 * s.lists.DisplacementSinceBuild() < s.lists.skin;
+}
+
+// Likewise the pair list's near part holds every touching pair while no far pair can have
+// closed the near gap since the far pairs were last sorted.
+bool NearPairsValid(const Simulation::Impl& s) {
+  return 2.0 * s.lists.max_bead_displacement < s.lists.near_gap;
 }
 
 // The projectile's list stays valid while its own displacement plus a bead's since the list
 // was built stays below the skin. A bead's displacement since then is at most its present
-// displacement from the bead reference plus what it had when the list was built.
+// displacement from the bead reference plus what it may have had from the reference when the
+// list was built (grown at each sort of the pairs, which moves the reference).
 bool ProjectileListValid(const RigidSphere& projectile, const Simulation::Impl& s) {
   const double moved = (projectile.position - s.lists.projectile_reference).norm();
   return moved + s.lists.max_bead_displacement + s.lists.projectile_list_displacement <
@@ -232,9 +254,11 @@ void UpdateLists(const WorldParams& params, ParticleState& beads,
                  const std::optional<RigidSphere>& projectile, Simulation::Impl& s) {
   if (!BeadListsValid(s)) {
     RebuildLists(params, beads, projectile, s);
-  } else if (projectile && !ProjectileListValid(*projectile, s)) {
-    RebuildProjectileList(beads, *projectile, s);
+    return;
   }
+  if (!NearPairsValid(s)) SortFarPairs(beads, s);
+  if (projectile && !ProjectileListValid(*projectile, s))
+    RebuildProjectileList(beads, *projectile, s);
 }
 
 }  // namespace dembuf::dem::detail

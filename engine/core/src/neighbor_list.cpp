@@ -55,27 +55,33 @@ void CarryHistory(const std::uint32_t* old_ids, const Vec3* old_shear, std::size
 
 }  // namespace
 
-void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, PairList& list,
-                     int threads) {
-  // Beads are searched in fixed chunks, each into its own partner vector, which are then
-  // joined in chunk order: the same list for any number of threads.
+void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double skin, double near_gap,
+                     PairList& list, int threads) {
+  // Beads are searched in fixed chunks, each into its own vectors, which are then joined in
+  // chunk order: the same list for any number of threads.
   constexpr std::size_t kChunkBeads = 512;
   const std::size_t n = beads.size();
   const long chunks = static_cast<long>((n + kChunkBeads - 1) / kChunkBeads);
   const bool parallel = threads > 1 && chunks > 1;
   std::vector<std::vector<std::uint32_t>> found(chunks);
+  std::vector<std::vector<std::uint32_t>> found_far(chunks);
   // Beads numbered in cell order (large beds are kept so) have all their partners j > i in
   // the forward half of the cells around them.
   const bool forward = grid.InCellOrder();
   PairList fresh;
   fresh.offsets.resize(n + 1);
+  fresh.far_offsets.resize(n + 1);
 #pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel)
   for (long c = 0; c < chunks; ++c) {
     const std::size_t first = c * kChunkBeads, last = std::min(n, first + kChunkBeads);
     std::vector<std::uint32_t>& partners = found[c];
-    partners.reserve(8 * (last - first));
+    std::vector<std::uint32_t>& far = found_far[c];
+    partners.reserve(16 * (last - first));
+    far.reserve(8 * (last - first));
     for (std::size_t i = first; i < last; ++i) {
-      fresh.offsets[i] = static_cast<std::uint32_t>(partners.size());  // within the chunk
+      const std::size_t bead_first = partners.size();
+      fresh.offsets[i] = static_cast<std::uint32_t>(bead_first);  // within the chunk
+      fresh.far_offsets[i] = static_cast<std::uint32_t>(far.size());
       const Vec3 xi = beads.position[i];
       const double ri = beads.radius[i];
       if (forward) {
@@ -101,29 +107,52 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
           const double reach = ri + beads.radius[j] + skin;
           if ((xi - beads.position[j]).squaredNorm() < reach * reach) partners.push_back(j);
         });
-        std::sort(partners.begin() + fresh.offsets[i], partners.end());
+        std::sort(partners.begin() + bead_first, partners.end());
       }
       // Two held beads (inv_mass 0: neither moves nor turns) can change nothing by touching:
       // their pair is left out, which spares local settling the held rim of its region.
       if (beads.inv_mass[i] == 0.0)
-        partners.erase(std::remove_if(partners.begin() + fresh.offsets[i], partners.end(),
+        partners.erase(std::remove_if(partners.begin() + bead_first, partners.end(),
                                       [&](std::uint32_t j) { return beads.inv_mass[j] == 0.0; }),
                        partners.end());
+      // The near pairs close up in place, the others go to the far part (both written, each
+      // count advanced by the test: no branch).
+      std::size_t near_count = bead_first, far_count = far.size();
+      far.resize(far_count + (partners.size() - bead_first));
+      for (std::size_t k = bead_first; k < partners.size(); ++k) {
+        const std::uint32_t j = partners[k];
+        const double near_reach = ri + beads.radius[j] + near_gap;
+        const bool near = (xi - beads.position[j]).squaredNorm() < near_reach * near_reach;
+        partners[near_count] = j;
+        far[far_count] = j;
+        near_count += near;
+        far_count += !near;
+      }
+      partners.resize(near_count);
+      far.resize(far_count);
     }
   }
-  std::vector<std::uint32_t> chunk_start(chunks + 1, 0);
-  for (long c = 0; c < chunks; ++c)
+  std::vector<std::uint32_t> chunk_start(chunks + 1, 0), far_start(chunks + 1, 0);
+  for (long c = 0; c < chunks; ++c) {
     chunk_start[c + 1] = chunk_start[c] + static_cast<std::uint32_t>(found[c].size());
+    far_start[c + 1] = far_start[c] + static_cast<std::uint32_t>(found_far[c].size());
+  }
   fresh.offsets[n] = chunk_start[chunks];
+  fresh.far_offsets[n] = far_start[chunks];
   fresh.partners.resize(chunk_start[chunks]);
   fresh.shear.resize(chunk_start[chunks]);
+  fresh.far_partners.resize(far_start[chunks]);
 
   const bool had_list = list.offsets.size() == n + 1;
 #pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel)
   for (long c = 0; c < chunks; ++c) {
     const std::size_t first = c * kChunkBeads, last = std::min(n, first + kChunkBeads);
     std::copy(found[c].begin(), found[c].end(), fresh.partners.begin() + chunk_start[c]);
-    for (std::size_t i = first; i < last; ++i) fresh.offsets[i] += chunk_start[c];
+    std::copy(found_far[c].begin(), found_far[c].end(), fresh.far_partners.begin() + far_start[c]);
+    for (std::size_t i = first; i < last; ++i) {
+      fresh.offsets[i] += chunk_start[c];
+      fresh.far_offsets[i] += far_start[c];
+    }
     for (std::size_t i = first; i < last; ++i) {
       // The next chunk's offsets may not be shifted yet: its first entry is chunk_start[c + 1].
       const std::uint32_t b0 = fresh.offsets[i];
@@ -132,12 +161,106 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
         std::fill(fresh.shear.begin() + b0, fresh.shear.begin() + b1, Vec3::Zero());
         continue;
       }
+      // Only near pairs have histories, and a pair that was near is in the list again.
       const std::uint32_t a0 = list.offsets[i], a1 = list.offsets[i + 1];
       CarryHistory(list.partners.data() + a0, list.shear.data() + a0, a1 - a0,
                    fresh.partners.data() + b0, fresh.shear.data() + b0, b1 - b0);
     }
   }
   list = std::move(fresh);
+}
+
+void ResortPairList(const ParticleState& beads, double near_gap, PairList& list) {
+  const std::size_t n = beads.size();
+  if (list.offsets.size() != n + 1) return;  // nothing listed yet
+  const Vec3* x = beads.position.data();
+  const double* r = beads.radius.data();
+
+  // 1. The far pairs now near are taken out, in bead and partner order; the others close up
+  // in place. A flat loop over the entries, in blocks: each entry's bead comes from a count of
+  // the beads starting at it, as in the force pass. Every entry is written to both outputs
+  // and each count advances by the test's result: no branch to mispredict. A bead's far
+  // entries now start where the entries kept before its first end.
+  constexpr std::uint32_t kBlock = 256;
+  const std::uint32_t* far_offsets = list.far_offsets.data();
+  std::uint32_t* far = list.far_partners.data();
+  const std::uint32_t entries = far_offsets[n];
+  std::vector<std::uint32_t> new_far_offsets(n + 1, 0);
+  std::vector<std::uint32_t> promoted_bead, promoted_partner;
+  std::uint32_t taken_bead[kBlock], taken_partner[kBlock];
+  std::uint32_t starts[kBlock] = {}, kept_at[kBlock];
+  std::uint32_t kept = 0;
+  std::size_t first_owner = 0;
+  for (std::uint32_t first = 0; first < entries; first += kBlock) {
+    const std::uint32_t last = std::min(entries, first + kBlock);
+    while (far_offsets[first_owner + 1] <= first) {
+      ++first_owner;  // (beads starting before `first` have their new offset already)
+      if (far_offsets[first_owner] == first) new_far_offsets[first_owner] = kept;
+    }
+    for (std::size_t next = first_owner + 1; far_offsets[next] < last; ++next)
+      ++starts[far_offsets[next] - first];
+    auto owner = static_cast<std::uint32_t>(first_owner);
+    std::uint32_t taken = 0;
+    for (std::uint32_t k = first; k < last; ++k) {
+      owner += starts[k - first];
+      const std::uint32_t j = far[k];
+      const double reach = r[owner] + r[j] + near_gap;
+      const bool now_near = (x[owner] - x[j]).squaredNorm() < reach * reach;
+      kept_at[k - first] = kept;
+      far[kept] = j;
+      taken_bead[taken] = owner;
+      taken_partner[taken] = j;
+      kept += !now_near;
+      taken += now_near;
+    }
+    for (std::size_t next = first_owner + 1; far_offsets[next] < last; ++next) {
+      new_far_offsets[next] = kept_at[far_offsets[next] - first];
+      starts[far_offsets[next] - first] = 0;
+    }
+    promoted_bead.insert(promoted_bead.end(), taken_bead, taken_bead + taken);
+    promoted_partner.insert(promoted_partner.end(), taken_partner, taken_partner + taken);
+  }
+  for (std::size_t i = n; i > 0 && far_offsets[i] == entries; --i) new_far_offsets[i] = kept;
+  list.far_offsets = std::move(new_far_offsets);
+  list.far_partners.resize(kept);
+
+  // 2. They join the near part in bead and partner order, without history: a merge from the
+  // back, in place. (Near pairs that have come apart stay near until the next build: they
+  // cost the force pass a check each, and taking them out costs a pass over all near pairs.)
+  const std::size_t promoted = promoted_bead.size();
+  if (promoted == 0) return;
+  std::uint32_t* offsets = list.offsets.data();
+  std::size_t read = offsets[n], write = offsets[n] + promoted;  // one past the next to move
+  list.partners.resize(write);
+  list.shear.resize(write);
+  std::uint32_t* partners = list.partners.data();
+  Vec3* shear = list.shear.data();
+  for (std::size_t p = promoted; p-- > 0;) {
+    const std::uint32_t bead = promoted_bead[p], partner = promoted_partner[p];
+    // The entries of later beads move as a block, then the bead's own partners after it.
+    const std::size_t bead_end = offsets[bead + 1], bead_start = offsets[bead];
+    if (read > bead_end) {
+      std::move_backward(partners + bead_end, partners + read, partners + write);
+      std::move_backward(shear + bead_end, shear + read, shear + write);
+      write -= read - bead_end;
+      read = bead_end;
+    }
+    while (read > bead_start && partners[read - 1] > partner) {
+      --read;
+      --write;
+      partners[write] = partners[read];
+      shear[write] = shear[read];
+    }
+    --write;
+    partners[write] = partner;
+    shear[write] = Vec3::Zero();
+  }
+  // Each bead's entries start later by the promoted pairs of the beads before it.
+  std::size_t before = 0;
+  for (std::size_t i = 0; i <= n; ++i) {
+    while (before < promoted && promoted_bead[before] < i) ++before;
+    offsets[i] += static_cast<std::uint32_t>(before);
+  }
 }
 
 void RebuildCandidateList(const ParticleState& beads, const CellGrid& grid, const Vec3& center,

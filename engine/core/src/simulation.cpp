@@ -34,6 +34,8 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
     s.lists.max_radius = *hi;
   }
   s.lists.skin = params.skin_fraction * 2.0 * s.lists.min_radius;
+  s.lists.near_gap =
+      std::min(s.lists.skin, detail::NeighbourLists::kNearGapDiameters * 2.0 * s.lists.min_radius);
   // Friction needs the tangential history and rotation; a frictionless scene skips both.
   s.friction = params.sphere_pair.friction > 0.0 || params.sphere_wall.friction > 0.0;
   s.rolling = params.rolling_friction > 0.0;
@@ -86,9 +88,10 @@ void Simulation::Step() {
   m_stage_times.integration_s += Lap(clock);
 
   // 3. Neighbours and 4. forces, then 5. check the overlaps.
-  const std::int64_t builds = s.lists.builds;
+  const std::int64_t builds = s.lists.builds, sorts = s.lists.sorts;
   detail::UpdateLists(m_params, m_beads, m_projectile, s);
   m_stage_times.list_builds += s.lists.builds - builds;
+  m_stage_times.pair_sorts += s.lists.sorts - sorts;
   m_stage_times.neighbours_s += Lap(clock);
   detail::ComputeForcePass(m_params, m_beads, m_projectile, s, m_observables,
                            /*forces_cleared=*/true);
@@ -200,8 +203,9 @@ std::size_t Simulation::MemoryBytes() const {
   const Impl& s = *m_impl;
   const detail::NeighbourLists& l = s.lists;
   sum += l.grid.MemoryBytes() + Bytes(l.pairs.offsets) + Bytes(l.pairs.partners) +
-         Bytes(l.pairs.shear) + Bytes(l.near_projectile.beads) + Bytes(l.near_projectile.shear) +
-         Bytes(l.near_container) + Bytes(l.reference_position);
+         Bytes(l.pairs.shear) + Bytes(l.pairs.far_offsets) + Bytes(l.pairs.far_partners) +
+         Bytes(l.near_projectile.beads) + Bytes(l.near_projectile.shear) + Bytes(l.near_container) +
+         Bytes(l.reference_position);
   sum += Bytes(s.walls.plate) + Bytes(s.walls.side);
   const detail::ForcePassBlocks& k = s.blocks;
   sum += Bytes(k.start) + Bytes(k.work) + Bytes(k.done) + Bytes(k.contacts) +

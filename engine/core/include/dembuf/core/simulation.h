@@ -62,9 +62,10 @@ struct ContactSnapshot {
 /// read by benchmarks to name the next bottleneck).
 struct StageTimes {
   double integration_s = 0.0;  ///< kick and drift of the beads and the projectile
-  double neighbours_s = 0.0;   ///< list builds, and the checks whether one is due
+  double neighbours_s = 0.0;   ///< list builds and sorts, and the checks whether one is due
   double forces_s = 0.0;       ///< the contact force pass
   std::int64_t list_builds = 0;
+  std::int64_t pair_sorts = 0;  ///< sorts of the pair list's far part between builds
 };
 
 /// Energy bookkeeping (for tests and stability checks).

@@ -22,8 +22,11 @@ struct WorldParams {
   double rolling_friction = 0.0;
   double gravity_m_s2 = 9.81;
   double dt_s = 1e-6;
-  /// Neighbor-list skin as a fraction of the smallest bead diameter.
-  double skin_fraction = 0.2;
+  /// Neighbor-list skin as a fraction of the smallest bead diameter. Wide, because the force
+  /// pass checks only the pairs within a much smaller gap (PairList's near part): a wider skin
+  /// costs only the list builds it spares. 0.4 was the fastest of 0.2 to 0.6 on the impact of
+  /// a settled bed (docs/performance.md).
+  double skin_fraction = 0.4;
   /// Threads for the force and integration loops; 0: all the machine's cores. Results do not
   /// depend on this number.
   int threads = 0;

@@ -35,8 +35,10 @@ namespace dembuf {
 /// that alters the beds the procedure makes (insertion, settling, the integrator's sums), so
 /// that stale cached beds are not reused. Version 4: springs kept across a renumbering of the
 /// beads land on their own contacts (version 3 and before lost most of them at every cut and
-/// every local-settling region).
-inline constexpr int kBedPreparationVersion = 4;
+/// every local-settling region). Version 5: the wider list skin builds the lists at other
+/// steps, so the beads are put in cell order at other times and the force sums run in
+/// another order (another realisation of every bed).
+inline constexpr int kBedPreparationVersion = 5;
 /// Version of local settling (bed.local_settling), in the hash of the beds it makes. Raise it
 /// with any change to how it settles (its thresholds among them). Version 3: stalled regions
 /// are stopped.

@@ -112,7 +112,7 @@ TEST(HertzElastic, BeadFromAfarMeetsSideWallAndPlateAsHertz) {
   dem::WorldParams p = IsolatedWorld(ElasticFrictionless(), kFineAlpha);
   p.container.radius_m = 0.095;
   const double v = 5.0;
-  const double gap = 5e-3;  // over five skins (0.2 bead diameters each)
+  const double gap = 5.5 * p.skin_fraction * 2.0 * kRadius;  // over five list skins
   const HertzImpact hertz(p.sphere_wall.kn_per_sqrt_r * std::sqrt(kRadius), BeadMass(), v);
   auto force = [](const dem::Simulation& s) { return s.beads().force[0].norm(); };
 

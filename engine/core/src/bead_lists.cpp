@@ -209,7 +209,6 @@ void SortFarPairs(const ParticleState& b, Simulation::Impl& s) {
   s.lists.projectile_list_displacement += s.lists.max_bead_displacement;
   KeepReferencePositions(b, s.lists);
   s.lists.max_bead_displacement = 0.0;
-  WeighBlocks(s);
   ++s.lists.sorts;
 }
 

@@ -513,7 +513,8 @@ int main(int argc, char** argv) {
       ->excludes(quiet_flag);
 
   RunOptions opt;
-  opt.command_line = report::ShellCommandLine(argc, argv);
+  // A token given on the command line is not kept with the jobs and results it asks for.
+  opt.command_line = report::ShellCommandLine(argc, argv, {"--token"});
   auto add_scene_args = [&](CLI::App* cmd) {
     cmd->add_option("scene", opt.scene_file,
                     "scene file (TOML); default: the paper's Table 1 scene");

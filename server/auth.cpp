@@ -47,6 +47,7 @@ std::optional<Caller> CallerOfToken(Store& store, const std::string& token) {
 }
 
 bool IsLoopback(const std::string& listen) {
+  if (listen.rfind("unix:", 0) == 0) return true;
   const auto colon = listen.rfind(':');
   const std::string host = listen.substr(0, colon);
   return host == "localhost" || host == "[::1]" || host == "::1" || host.rfind("127.", 0) == 0;

@@ -8,8 +8,8 @@ namespace dembuf::server {
 
 class Store;
 
-/// Who is asking. Without a token (allowed on loopback unless tokens are required), the
-/// caller is whoever the request says, with every right: the trusted single-machine mode.
+/// Who is asking: a token's holder, or the machine's trusted user where the daemon's access
+/// policy allows requests without a token (access_policy.h).
 struct Caller {
   std::string name;
   bool admin = false;
@@ -18,11 +18,6 @@ struct Caller {
 
 /// The holder of `token` (by its hash in the store), or nothing for a token not known.
 std::optional<Caller> CallerOfToken(Store& store, const std::string& token);
-
-/// Whether `caller` may see and cancel what `owner` owns: their own, or anything for an admin.
-inline bool MaySee(const Caller& caller, const std::string& owner) {
-  return caller.admin || caller.name == owner;
-}
 
 /// 32 random bytes from the system's generator, as 64 hex digits.
 std::string NewToken();
@@ -34,7 +29,7 @@ std::string HashToken(const std::string& token);
 /// and '-' (names end up in logs, tables and folder names).
 std::string UserNameProblem(const std::string& name);
 
-/// Whether `listen` (host:port) is a loopback address, where tokens are optional.
+/// Whether `listen` (host:port, or unix:PATH) reaches only this machine.
 bool IsLoopback(const std::string& listen);
 
 }  // namespace dembuf::server

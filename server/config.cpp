@@ -10,6 +10,7 @@
 #include <variant>
 #include <vector>
 
+#include "auth.h"
 #include "dembuf/study/text_limits.h"
 #include "slurm.h"
 
@@ -60,7 +61,7 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"log_level", &config.log_level},
       {"shutdown_grace_s", &config.shutdown_grace_s},
       {"storage_retry_s", &config.storage_retry_s},
-      {"require_tokens", &config.require_tokens},
+      {"access", &config.access},
       {"tls_cert", &config.tls_cert},
       {"tls_key", &config.tls_key},
       {"quota_queued_jobs", &config.quota_queued_jobs},
@@ -103,6 +104,10 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
     const toml::value& value = *entry.second;
     const auto setting = std::find_if(settings.begin(), settings.end(),
                                       [&](const auto& s) { return s.first == key; });
+    if (key == "require_tokens")
+      throw ConfigError("configuration " + path +
+                        ": require_tokens is replaced by access: \"tokens\" (the default: every "
+                        "request on every address carries a token) or \"local\"");
     if (setting == settings.end())
       throw ConfigError("configuration " + path + ": unknown setting \"" + key + "\"");
     std::visit(
@@ -190,6 +195,17 @@ void ValidateConfig(ServerConfig& config) {
   require(config.max_request_kb >= 16 && config.max_request_kb <= 1 << 20,
           "max_request_kb: must be 16 to 1048576");
   if (!config.http.empty()) config.http = HttpAddress(config.http);
+  require(config.access == "tokens" || config.access == "local",
+          "access: \"" + config.access + "\" must be \"tokens\" or \"local\"");
+  // Without tokens, whoever reaches an address is an admin: only this machine may reach it.
+  if (config.access == "local") {
+    require(IsLoopback(config.listen),
+            "access: \"local\" lets any caller act as an admin, so listen must be a loopback "
+            "address or unix:PATH, not \"" + config.listen + "\" (use access = \"tokens\")");
+    require(config.http.empty() || IsLoopback(config.http),
+            "access: \"local\" lets any caller act as an admin, so http must be on loopback, "
+            "not \"" + config.http + "\" (use access = \"tokens\")");
+  }
   require(config.http_max_streams >= 1 && config.http_max_streams <= 10000,
           "http_max_streams: must be 1 to 10000, not " + std::to_string(config.http_max_streams));
   require(config.http_max_streams_per_user >= 1 &&

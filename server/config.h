@@ -19,8 +19,10 @@ struct ServerConfig {
   std::string log_level = "info";
   int shutdown_grace_s = 10;  ///< how long SIGTERM waits for running jobs
   int storage_retry_s = 30;   ///< pause after the disk was found full, before the next job
-  /// Every request must carry a user's token. Always so when listening beyond loopback.
-  bool require_tokens = false;
+  /// How callers are identified, on every address alike: "tokens" (every request carries a
+  /// user's token) or "local" (a request without one comes from this machine's trusted
+  /// user, an admin; refused unless every address is on loopback).
+  std::string access = "tokens";
   std::string tls_cert;       ///< PEM certificate chain; with tls_key, the daemon speaks TLS only
   std::string tls_key;        ///< PEM private key
   int quota_queued_jobs = 0;  ///< per user; 0: no limit beyond queue_limit

@@ -21,6 +21,7 @@
 #include <sstream>
 #include <thread>
 
+#include "access_policy.h"
 #include "auth.h"
 #include "config.h"
 #include "dembuf/study/provenance.h"
@@ -87,6 +88,10 @@ int main(int argc, char** argv) {
   auto* http = app.add_option("--http", flags.http,
                               "also serve the web pages on HOST:PORT (a port alone: on "
                               "loopback); off unless set");
+  auto* access = app.add_option("--access", flags.access,
+                                "who may call: tokens (every request carries a user's token; the "
+                                "default) or local (a call without a token is this machine's "
+                                "trusted user, an admin; every address must be on loopback)");
   auto* executor = app.add_option("--executor", flags.executor,
                                   "where jobs run: threads (this machine) or slurm (the cluster "
                                   "of the configuration's [slurm] table)");
@@ -119,6 +124,7 @@ int main(int argc, char** argv) {
     if (*retry) config.storage_retry_s = flags.storage_retry_s;
     if (*executor) config.executor = flags.executor;
     if (*http) config.http = flags.http;
+    if (*access) config.access = flags.access;
     ValidateConfig(config);
   } catch (const ConfigError& e) {
     std::cerr << "dembufd: " << e.what() << "\n";
@@ -212,8 +218,9 @@ int main(int argc, char** argv) {
   info.host = dembuf::report::HostName();
   info.started_at = dembuf::report::UtcNow();
   info.max_sweep_jobs = config.max_sweep_jobs;
-  // Beyond loopback, every request must name its user.
-  info.require_tokens = config.require_tokens || !IsLoopback(config.listen);
+  // One access policy for gRPC, the web pages and their files.
+  const AccessPolicy policy(*store,
+                            config.access == "local" ? AccessMode::kLocal : AccessMode::kTokens);
   info.quota_queued_jobs = config.quota_queued_jobs;
   info.job_limits.beads = config.quota_beads;
   info.job_limits.steps = config.quota_steps;
@@ -223,12 +230,12 @@ int main(int argc, char** argv) {
   info.job_limits.output_bytes = config.quota_output_mb * 1e6;
   info.max_watch_streams_per_user = config.max_watch_streams_per_user;
   info.max_watch_streams = config.max_watch_streams;
-  if (info.require_tokens && !store->AnyUsers())
+  if (policy.tokens_required() && !store->AnyUsers())
     log->warn(
         "tokens are required but none exists: make one with dembufd --db {} token-create "
         "NAME [--admin]",
         config.db);
-  DembufService service(*store, scheduler, info, log);
+  DembufService service(*store, scheduler, policy, info, log);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -297,14 +304,13 @@ int main(int argc, char** argv) {
   if (!config.http.empty()) {
     web::WebOptions options;
     options.listen = config.http;
-    options.require_tokens = config.require_tokens || !IsLoopback(config.http);
     options.tls_cert = config.tls_cert;
     options.tls_key = config.tls_key;
     options.max_streams_per_user = config.http_max_streams_per_user;
     options.max_streams = config.http_max_streams;
     options.host = info.host;
     options.started_at = info.started_at;
-    web_server = std::make_unique<web::WebServer>(*store, scheduler, options, log);
+    web_server = std::make_unique<web::WebServer>(*store, scheduler, policy, options, log);
     try {
       web_server->Start();
     } catch (const std::exception& e) {
@@ -322,12 +328,12 @@ int main(int argc, char** argv) {
           "(set tls_cert and tls_key)",
           web_address);
     log->info("web pages on {}://{}/{}", config.tls_cert.empty() ? "http" : "https", web_address,
-              options.require_tokens ? " (tokens required)" : "");
+              policy.tokens_required() ? " (tokens required)" : "");
   }
   scheduler.Start();
   log->info("dembufd {} listening on {} (port {}), database {}{}{}", dembuf::kVersion,
             config.listen, port, config.db, config.tls_cert.empty() ? "" : ", TLS",
-            info.require_tokens ? ", tokens required" : "");
+            policy.tokens_required() ? ", tokens required" : ", access local: no tokens");
 
   int signal = 0;
   sigwait(&stop_signals, &signal);

@@ -112,6 +112,23 @@ Status CheckOwner(const std::string& owner) {
   return problem.empty() ? Status::OK : Invalid("owner", problem);
 }
 
+std::optional<std::string> AuthorizationOf(const grpc::ServerContext* context) {
+  const auto& metadata = context->client_metadata();
+  const auto found = metadata.find("authorization");
+  if (found == metadata.end()) return std::nullopt;
+  return std::string(found->second.data(), found->second.size());
+}
+
+/// What is kept of a client's command line: without the caller's token, wherever it stands,
+/// and without the value of any --token option (a job's command line is shown to whoever may
+/// read the job, and written into its summary).
+std::string KeptCommandLine(const grpc::ServerContext* context, const std::string& line) {
+  std::string token;
+  if (const std::optional<std::string> authorization = AuthorizationOf(context))
+    token = authorization->substr(std::min(authorization->size(), std::string("Bearer ").size()));
+  return report::WithoutSecrets(line, token);
+}
+
 JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std::string& name) {
   JobRecord job;
   job.owner = owner.empty() ? "anonymous" : owner;
@@ -126,28 +143,8 @@ JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std:
 
 }  // namespace
 
-Status DembufService::Authenticate(const grpc::ServerContext* context, const std::string& owner,
-                                   Caller* caller) {
-  const auto& metadata = context->client_metadata();
-  const auto found = metadata.find("authorization");
-  if (found == metadata.end()) {
-    if (m_info.require_tokens)
-      return Status(StatusCode::UNAUTHENTICATED,
-                    "this server needs a token: give --token or set DEMBUF_TOKEN (the lab's "
-                    "admin makes one with: dembufd token-create NAME)");
-    *caller = {owner.empty() ? "anonymous" : owner, true};
-    return Status::OK;
-  }
-  const std::string value(found->second.data(), found->second.size());
-  const std::string prefix = "Bearer ";
-  if (value.rfind(prefix, 0) != 0)
-    return Status(StatusCode::UNAUTHENTICATED, "authorization: expected \"Bearer TOKEN\"");
-  const std::optional<Caller> holder = CallerOfToken(m_store, value.substr(prefix.size()));
-  if (!holder) return Status(StatusCode::UNAUTHENTICATED, "token: not known to this server");
-  *caller = *holder;
-  // An admin may act for another owner; anyone else is who the token says.
-  if (holder->admin && !owner.empty()) caller->name = owner;
-  return Status::OK;
+Caller DembufService::Identify(const grpc::ServerContext* context) const {
+  return m_policy.Identify(AuthorizationOf(context));
 }
 
 Status DembufService::CheckQueuedQuota(const std::string& owner, std::size_t more) {
@@ -158,12 +155,6 @@ Status DembufService::CheckQueuedQuota(const std::string& owner, std::size_t mor
                 "owner: " + owner + " has " + std::to_string(queued) + " jobs queued; " +
                     std::to_string(more) + " more would pass the quota of " +
                     std::to_string(m_info.quota_queued_jobs));
-}
-
-Status DembufService::CheckAccess(const Caller& caller, const JobRecord& job) {
-  if (MaySee(caller, job.owner)) return Status::OK;
-  return Status(StatusCode::PERMISSION_DENIED,
-                "id: job " + std::to_string(job.id) + " belongs to " + job.owner);
 }
 
 Status DembufService::CheckJobQuota(const Scene& scene) {
@@ -180,6 +171,9 @@ template <class Handler>
 Status DembufService::Guard(const char* rpc, Handler&& handler) {
   try {
     return handler();
+  } catch (const AccessDenied& e) {
+    return Status(e.unauthenticated() ? StatusCode::UNAUTHENTICATED : StatusCode::PERMISSION_DENIED,
+                  e.what());
   } catch (const StorageFull& e) {
     m_log->error("{}: the disk is full: {}", rpc, e.what());
     return DiskFull();
@@ -189,10 +183,11 @@ Status DembufService::Guard(const char* rpc, Handler&& handler) {
   }
 }
 
-DembufService::DembufService(Store& store, Executor& executor, ServiceInfo info,
-                             std::shared_ptr<spdlog::logger> log)
+DembufService::DembufService(Store& store, Executor& executor, const AccessPolicy& policy,
+                             ServiceInfo info, std::shared_ptr<spdlog::logger> log)
     : m_store(store),
       m_executor(executor),
+      m_policy(policy),
       m_info(std::move(info)),
       m_log(std::move(log)),
       m_watch_streams(m_info.max_watch_streams_per_user, m_info.max_watch_streams, "watch streams",
@@ -253,8 +248,8 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
                                 v1::SubmitJobResponse* response) {
   return Guard("SubmitJob", [&]() -> Status {
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-    Caller caller;
-    if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
+    const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
     if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
       return s;
@@ -268,12 +263,12 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
       std::string name = request->name();
       if (name.empty())
         name = request->scene().preset().empty() ? "job" : request->scene().preset();
-      job = MakeJobRecord(scene, caller.name, name);
-      job.command_line = request->command_line();
+      job = MakeJobRecord(scene, owner, name);
+      job.command_line = KeptCommandLine(context, request->command_line());
     } catch (const SceneError& e) {
       return FromSceneError(e);
     }
-    if (Status s = CheckQueuedQuota(caller.name, 1); !s.ok()) return s;
+    if (Status s = CheckQueuedQuota(owner, 1); !s.ok()) return s;
     try {
       m_executor.Admit(1, [&] {
         m_store.AddJob(job);
@@ -297,8 +292,8 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
                                   v1::SubmitSweepResponse* response) {
   return Guard("SubmitSweep", [&]() -> Status {
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-    Caller caller;
-    if (Status s = Authenticate(context, request->owner(), &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
+    const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
     if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
       return s;
@@ -320,7 +315,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
       axes = WithSeedAxis(axes, std::max(1, request->seeds()), base.bed.seed);
       const std::vector<SweepRun> runs =
           ExpandSweep(base, axes, static_cast<std::size_t>(m_info.max_sweep_jobs));
-      sweep.owner = caller.name;
+      sweep.owner = owner;
       sweep.name = request->name().empty() ? "sweep" : request->name();
       sweep.axes = axes;
       for (std::size_t k : InterleaveBySourceBed(runs)) {
@@ -332,13 +327,13 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
         JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
         job.sweep_index = static_cast<int>(runs[k].index);
         job.sweep_values = runs[k].values;
-        job.command_line = request->command_line();
+        job.command_line = KeptCommandLine(context, request->command_line());
         jobs.push_back(std::move(job));
       }
     } catch (const SceneError& e) {
       return FromSceneError(e);
     }
-    if (Status s = CheckQueuedQuota(caller.name, jobs.size()); !s.ok()) return s;
+    if (Status s = CheckQueuedQuota(owner, jobs.size()); !s.ok()) return s;
     try {
       m_executor.Admit(jobs.size(), [&] {
         m_store.AddSweep(sweep, jobs);
@@ -361,11 +356,10 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
 Status DembufService::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
                              v1::Job* response) {
   return Guard("GetJob", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
     const auto job = m_store.GetJob(request->id());
     if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-    if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+    AccessPolicy::Require(caller, Action::kRead, job->owner, "id: job " + std::to_string(job->id));
     FillJob(*job, true, response);
     return Status::OK;
   });
@@ -374,14 +368,12 @@ Status DembufService::GetJob(grpc::ServerContext* context, const v1::GetJobReque
 Status DembufService::GetSweep(grpc::ServerContext* context, const v1::GetSweepRequest* request,
                                v1::Sweep* response) {
   return Guard("GetSweep", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
     const auto sweep = m_store.GetSweep(request->id());
     if (!sweep)
       return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
-    if (!MaySee(caller, sweep->owner))
-      return Status(StatusCode::PERMISSION_DENIED,
-                    "id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
+    AccessPolicy::Require(caller, Action::kRead, sweep->owner,
+                          "id: sweep " + std::to_string(sweep->id));
     FillSweep(*sweep, response);
     return Status::OK;
   });
@@ -390,8 +382,7 @@ Status DembufService::GetSweep(grpc::ServerContext* context, const v1::GetSweepR
 Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
                                v1::ListJobsResponse* response) {
   return Guard("ListJobs", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
     JobFilter filter;
     if (request->state() != v1::JOB_STATE_UNSPECIFIED) {
       filter.state = FromProto(request->state());
@@ -400,13 +391,8 @@ Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsR
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
     if (request->limit() < 0 || request->limit() > 100000)
       return Invalid("limit", "must be 0 (100) to 100000");
-    filter.owner = request->owner();
-    if (!caller.admin) {
-      // Everyone else sees their own jobs only.
-      if (!request->owner().empty() && request->owner() != caller.name)
-        return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own jobs");
-      filter.owner = caller.name;
-    }
+    // An admin lists everyone's jobs unless naming an owner; anyone else their own.
+    filter.owner = caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
     filter.sweep_id = request->sweep_id();
     filter.limit = request->limit() == 0 ? 100 : request->limit();
     for (const JobRecord& job : m_store.ListJobs(filter)) FillJob(job, false, response->add_jobs());
@@ -417,17 +403,12 @@ Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsR
 Status DembufService::ListSweeps(grpc::ServerContext* context, const v1::ListSweepsRequest* request,
                                  v1::ListSweepsResponse* response) {
   return Guard("ListSweeps", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
     if (request->limit() < 0 || request->limit() > 100000)
       return Invalid("limit", "must be 0 (100) to 100000");
-    std::string owner = request->owner();
-    if (!caller.admin) {
-      if (!owner.empty() && owner != caller.name)
-        return Status(StatusCode::PERMISSION_DENIED, "owner: you may list only your own sweeps");
-      owner = caller.name;
-    }
+    const std::string owner =
+        caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
     for (const SweepRecord& sweep :
          m_store.ListSweeps(owner, request->limit() == 0 ? 100 : request->limit()))
       FillSweep(sweep, response->add_sweeps());
@@ -438,8 +419,7 @@ Status DembufService::ListSweeps(grpc::ServerContext* context, const v1::ListSwe
 Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelRequest* request,
                              v1::CancelResponse* response) {
   return Guard("Cancel", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
     if ((request->job_id() != 0) == (request->sweep_id() != 0))
       return Invalid("job_id", "give either job_id or sweep_id");
     std::vector<JobRecord> targets;
@@ -447,17 +427,16 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
       const auto job = m_store.GetJob(request->job_id());
       if (!job)
         return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
-      if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+      AccessPolicy::Require(caller, Action::kCancel, job->owner,
+                            "job_id: job " + std::to_string(job->id));
       targets.push_back(*job);
     } else {
       const auto sweep = m_store.GetSweep(request->sweep_id());
       if (!sweep)
         return Status(StatusCode::NOT_FOUND,
                       "sweep_id: no sweep " + std::to_string(request->sweep_id()));
-      if (!MaySee(caller, sweep->owner))
-        return Status(
-            StatusCode::PERMISSION_DENIED,
-            "sweep_id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner);
+      AccessPolicy::Require(caller, Action::kCancel, sweep->owner,
+                            "sweep_id: sweep " + std::to_string(sweep->id));
       JobFilter filter;
       filter.sweep_id = request->sweep_id();
       filter.limit = 1000000;
@@ -483,8 +462,7 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
 Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                grpc::ServerWriter<v1::WatchJobResponse>* writer) {
   return Guard("WatchJob", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    const Caller caller = Identify(context);
     // A stream holds a server thread while it lasts: a user may hold only a few of them.
     std::string why;
     const std::optional<StreamLimits::Place> place = m_watch_streams.Take(caller, &why);
@@ -495,7 +473,8 @@ Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobR
     {
       const auto job = m_store.GetJob(request->id());
       if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-      if (Status s = CheckAccess(caller, *job); !s.ok()) return s;
+      AccessPolicy::Require(caller, Action::kWatch, job->owner,
+                            "id: job " + std::to_string(job->id));
     }
     JobFeed feed(m_store, m_executor, request->id());
     std::int64_t next = request->from_index();
@@ -527,11 +506,10 @@ Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobR
 
 Status DembufService::FinishedJobOfCaller(grpc::ServerContext* context, std::int64_t id,
                                           std::optional<JobRecord>* job) {
-  Caller caller;
-  if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+  const Caller caller = Identify(context);
   *job = m_store.GetJob(id);
   if (!*job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id));
-  if (Status s = CheckAccess(caller, **job); !s.ok()) return s;
+  AccessPolicy::Require(caller, Action::kFetch, (*job)->owner, "id: job " + std::to_string(id));
   if (!IsFinal((*job)->state))
     return Status(StatusCode::FAILED_PRECONDITION,
                   "id: job " + std::to_string(id) + " is " + StateName((*job)->state) +
@@ -606,8 +584,7 @@ Status DembufService::FetchFiles(grpc::ServerContext* context, const v1::FetchFi
 Status DembufService::ServerInfo(grpc::ServerContext* context, const v1::ServerInfoRequest*,
                                  v1::ServerInfoResponse* response) {
   return Guard("ServerInfo", [&]() -> Status {
-    Caller caller;
-    if (Status s = Authenticate(context, "", &caller); !s.ok()) return s;
+    Identify(context);  // anyone known to the server may ask
     response->set_version(kVersion);
     const ExecutorInfo executor = m_executor.info();
     response->set_executor(executor.kind);

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <string>
 
+#include "access_policy.h"
 #include "auth.h"
 #include "dembuf/study/resource_estimate.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
@@ -22,7 +23,6 @@ struct ServiceInfo {
   std::string host;
   std::string started_at;
   int max_sweep_jobs = 10000;
-  bool require_tokens = false;
   int quota_queued_jobs = 0;
   ResourceLimits job_limits;  ///< what one job may cost
   int max_watch_streams_per_user = 8;
@@ -31,7 +31,7 @@ struct ServiceInfo {
 
 class DembufService final : public v1::Dembuf::Service {
  public:
-  DembufService(Store& store, Executor& executor, ServiceInfo info,
+  DembufService(Store& store, Executor& executor, const AccessPolicy& policy, ServiceInfo info,
                 std::shared_ptr<spdlog::logger> log);
 
   grpc::Status SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest*,
@@ -57,11 +57,9 @@ class DembufService final : public v1::Dembuf::Service {
                           v1::ServerInfoResponse*) override;
 
  private:
-  /// The caller from the request's "authorization: Bearer TOKEN" metadata.
-  grpc::Status Authenticate(const grpc::ServerContext* context, const std::string& owner,
-                            Caller* caller);
-  /// A job of another user is refused unless the caller is an admin.
-  grpc::Status CheckAccess(const Caller& caller, const JobRecord& job);
+  /// The caller, by the access policy, from the request's "authorization" metadata. Throws
+  /// AccessDenied, which Guard answers.
+  Caller Identify(const grpc::ServerContext* context) const;
   /// Job `id`, when it exists, the caller may see it, and it has ended (its results are
   /// there): NOT_FOUND, PERMISSION_DENIED or FAILED_PRECONDITION otherwise.
   grpc::Status FinishedJobOfCaller(grpc::ServerContext* context, std::int64_t id,
@@ -71,7 +69,8 @@ class DembufService final : public v1::Dembuf::Service {
   /// The per-job limits, against the job's resource estimate.
   grpc::Status CheckJobQuota(const Scene& scene);
   /// Runs a handler and turns any exception it lets out into a status with the reason (and
-  /// a log line), instead of an abort or a reasonless answer.
+  /// a log line), instead of an abort or a reasonless answer; the access policy's refusals
+  /// become UNAUTHENTICATED or PERMISSION_DENIED.
   template <class Handler>
   grpc::Status Guard(const char* rpc, Handler&& handler);
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
@@ -79,6 +78,7 @@ class DembufService final : public v1::Dembuf::Service {
 
   Store& m_store;
   Executor& m_executor;
+  const AccessPolicy& m_policy;
   ServiceInfo m_info;
   std::shared_ptr<spdlog::logger> m_log;
   StreamLimits m_watch_streams;

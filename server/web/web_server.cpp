@@ -130,10 +130,11 @@ std::string Event(const std::string& type, const nlohmann::json& data) {
 
 class WebServer::Routes {
  public:
-  Routes(Store& store, Executor& executor, const WebOptions& options,
+  Routes(Store& store, Executor& executor, const AccessPolicy& policy, const WebOptions& options,
          std::shared_ptr<spdlog::logger> log)
       : m_store(store),
         m_executor(executor),
+        m_policy(policy),
         m_options(options),
         m_log(std::move(log)),
         m_streams(options.max_streams_per_user, options.max_streams, "event streams",
@@ -159,7 +160,7 @@ class WebServer::Routes {
     });
     Api(server, R"(/api/jobs/(\d{1,18}))",
         [this](const Caller& caller, const Request& req, Response& res) {
-          const JobRecord job = VisibleJob(caller, req.matches[1].str());
+          const JobRecord job = VisibleJob(caller, req.matches[1].str(), Action::kRead);
           SendJson(res, JobDetailsJson(job, ProgressOf(job, m_executor), m_store.Summary(job.id),
                                        m_store.JobFiles(job.id), m_store.BedsPreparedBy(job.id)));
         });
@@ -179,9 +180,7 @@ class WebServer::Routes {
           const auto sweep =
               m_store.GetSweep(ParseNumber(req.matches[1].str(), "id", 1, INT64_MAX));
           if (!sweep) throw Refusal{404, "id: no sweep " + req.matches[1].str()};
-          if (!MaySee(caller, sweep->owner))
-            throw Refusal{403,
-                          "id: sweep " + std::to_string(sweep->id) + " belongs to " + sweep->owner};
+          Require(caller, Action::kRead, sweep->owner, "id: sweep " + std::to_string(sweep->id));
           SendJson(res, SweepJson(*sweep, m_store.SweepResults(sweep->id)));
         });
   }
@@ -202,28 +201,27 @@ class WebServer::Routes {
     return true;
   }
 
-  /// Who asks, from a bearer token or a session cookie; without either, the trusted local
-  /// user where tokens are not required. Throws a Refusal (401) otherwise.
+  /// Who asks, by the access policy, from a bearer token or a session cookie. Throws a
+  /// Refusal (401) for a request that does not say who it is where that is required.
   Caller Identify(const Request& req) {
-    if (req.has_header("Authorization")) {
-      const std::string value = req.get_header_value("Authorization");
-      const std::string prefix = "Bearer ";
-      if (value.rfind(prefix, 0) != 0)
-        throw Refusal{401, "Authorization: expected \"Bearer TOKEN\""};
-      const std::optional<Caller> caller = CallerOfToken(m_store, value.substr(prefix.size()));
-      if (!caller) throw Refusal{401, "token: not known to this server"};
-      return *caller;
+    std::optional<std::string> authorization;
+    if (req.has_header("Authorization")) authorization = req.get_header_value("Authorization");
+    std::optional<std::string> session_token_hash;
+    if (const std::string session = CookieValue(req.get_header_value("Cookie"), kSessionCookie);
+        !session.empty())
+      session_token_hash = m_sessions.TokenHash(session);
+    try {
+      return m_policy.Identify(authorization, session_token_hash);
+    } catch (const AccessDenied& e) {
+      throw Refusal{401, e.what()};
     }
-    const std::string session = CookieValue(req.get_header_value("Cookie"), kSessionCookie);
-    if (!session.empty())
-      if (const std::optional<std::string> token_hash = m_sessions.TokenHash(session))
-        if (const std::optional<User> user = m_store.FindUserByTokenHash(*token_hash))
-          return Caller{user->name, user->admin, true};
-    if (m_options.require_tokens)
-      throw Refusal{401,
-                    "this server needs a token: log in, or send \"Authorization: Bearer TOKEN\" "
-                    "(the lab's admin makes one with: dembufd token-create NAME)"};
-    return Caller{"local", true, false};
+  }
+
+  /// Throws a Refusal (403) unless the policy lets the caller do `action` to `owner`'s thing.
+  static void Require(const Caller& caller, Action action, const std::string& owner,
+                      const std::string& what) {
+    if (!AccessPolicy::Allows(caller, action, owner))
+      throw Refusal{403, what + " belongs to " + owner};
   }
 
   /// A page for those who may see it; others are sent to the login form.
@@ -305,16 +303,16 @@ class WebServer::Routes {
               {"queue_depth", m_executor.queued()},
               {"queue_limit", executor.queue_limit},
               {"running", m_executor.running()},
-              {"tokens_required", m_options.require_tokens},
+              {"tokens_required", m_policy.tokens_required()},
               {"user", {{"name", caller.name}, {"admin", caller.admin}, {"token", caller.token}}}});
   }
 
-  JobRecord VisibleJob(const Caller& caller, const std::string& id_text) {
+  /// Job `id_text`, when it exists and the caller may do `action` to it.
+  JobRecord VisibleJob(const Caller& caller, const std::string& id_text, Action action) {
     const std::int64_t id = ParseNumber(id_text, "id", 1, INT64_MAX);
     std::optional<JobRecord> job = m_store.GetJob(id);
     if (!job) throw Refusal{404, "id: no job " + std::to_string(id)};
-    if (!MaySee(caller, job->owner))
-      throw Refusal{403, "id: job " + std::to_string(id) + " belongs to " + job->owner};
+    Require(caller, action, job->owner, "id: job " + std::to_string(id));
     return *job;
   }
 
@@ -331,7 +329,7 @@ class WebServer::Routes {
                                "cancelled"};
     }
     // Everyone but an admin sees their own jobs only.
-    if (!caller.admin) filter.owner = caller.name;
+    if (!caller.admin) filter.owner = AccessPolicy::OwnerFor(caller, "");
     nlohmann::json jobs = nlohmann::json::array();
     for (const JobRecord& job : m_store.ListJobs(filter))
       jobs.push_back(JobJson(job, ProgressOf(job, m_executor),
@@ -365,7 +363,7 @@ class WebServer::Routes {
   /// A result file of an ended job: its series as plate_force.csv, its summary.json, or a
   /// stored file (snapshots, the bare-plate series), by the exact stored path only.
   void File(const Caller& caller, const Request& req, Response& res) {
-    const JobRecord job = VisibleJob(caller, req.matches[1].str());
+    const JobRecord job = VisibleJob(caller, req.matches[1].str(), Action::kFetch);
     const std::string path = req.matches[2].str();
     if (!IsFinal(job.state))
       throw Refusal{409, "id: job " + std::to_string(job.id) + " is " + StateName(job.state) +
@@ -429,7 +427,7 @@ class WebServer::Routes {
   /// after it as its id, so that a reconnecting page resumes with Last-Event-ID), "progress"
   /// (state and progress, when they change and every second), and "end" when it has ended.
   void Events(const Caller& caller, const Request& req, Response& res) {
-    const JobRecord job = VisibleJob(caller, req.matches[1].str());
+    const JobRecord job = VisibleJob(caller, req.matches[1].str(), Action::kWatch);
     std::int64_t from = ParamNumber(req, "from", 0, 0, INT64_MAX);
     if (req.has_header("Last-Event-ID"))
       from = ParseNumber(req.get_header_value("Last-Event-ID"), "Last-Event-ID", 0, INT64_MAX);
@@ -495,6 +493,7 @@ class WebServer::Routes {
 
   Store& m_store;
   Executor& m_executor;
+  const AccessPolicy& m_policy;
   const WebOptions& m_options;
   std::shared_ptr<spdlog::logger> m_log;
   Sessions m_sessions;
@@ -502,9 +501,13 @@ class WebServer::Routes {
   std::atomic<bool> m_stopping{false};
 };
 
-WebServer::WebServer(Store& store, Executor& executor, WebOptions options,
-                     std::shared_ptr<spdlog::logger> log)
-    : m_store(store), m_executor(executor), m_options(std::move(options)), m_log(std::move(log)) {}
+WebServer::WebServer(Store& store, Executor& executor, const AccessPolicy& policy,
+                     WebOptions options, std::shared_ptr<spdlog::logger> log)
+    : m_store(store),
+      m_executor(executor),
+      m_policy(policy),
+      m_options(std::move(options)),
+      m_log(std::move(log)) {}
 
 WebServer::~WebServer() {
   Stop();
@@ -551,7 +554,7 @@ void WebServer::Start() {
   server.set_logger([this](const Request& req, const Response& res) {
     m_log->debug("web: {} {} {} from {}", req.method, req.path, res.status, req.remote_addr);
   });
-  m_routes = std::make_unique<Routes>(m_store, m_executor, m_options, m_log);
+  m_routes = std::make_unique<Routes>(m_store, m_executor, m_policy, m_options, m_log);
   m_routes->Install(server);
 
   const auto [host, port] = SplitAddress(m_options.listen);

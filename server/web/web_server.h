@@ -2,8 +2,7 @@
 // as it arrives and a sweep's curve as its points finish, over a small read-only JSON API and
 // Server-Sent Events. It reads the same store and running jobs as the gRPC service.
 //
-// Access: on a loopback address without require_tokens, anyone on this machine sees
-// everything (as with gRPC). Otherwise every page and API call needs a user's token, in an
+// Access is the daemon's one policy (access_policy.h), as for gRPC: a user's token in an
 // "Authorization: Bearer" header or through the login form (a session cookie); users see their
 // own jobs and sweeps, admins all. With tls_cert and tls_key it speaks HTTPS only.
 #pragma once
@@ -15,6 +14,7 @@
 #include <string>
 #include <thread>
 
+#include "access_policy.h"
 #include "executor.h"
 #include "store.h"
 
@@ -26,7 +26,6 @@ namespace dembuf::server::web {
 
 struct WebOptions {
   std::string listen;  ///< "HOST:PORT" (port 0: any free port)
-  bool require_tokens = false;
   std::string tls_cert;  ///< PEM files; both or neither
   std::string tls_key;
   int max_streams_per_user = 8;
@@ -37,7 +36,7 @@ struct WebOptions {
 
 class WebServer {
  public:
-  WebServer(Store& store, Executor& executor, WebOptions options,
+  WebServer(Store& store, Executor& executor, const AccessPolicy& policy, WebOptions options,
             std::shared_ptr<spdlog::logger> log);
   ~WebServer();
   WebServer(const WebServer&) = delete;
@@ -56,6 +55,7 @@ class WebServer {
 
   Store& m_store;
   Executor& m_executor;
+  const AccessPolicy& m_policy;
   WebOptions m_options;
   std::shared_ptr<spdlog::logger> m_log;
   std::unique_ptr<Routes> m_routes;

@@ -41,6 +41,7 @@ threads=$(sweep_time)
 stop_daemon
 
 cat > "$work/slurm.toml" <<TOML
+access = "local"
 executor = "slurm"
 [slurm]
 work_dir = "$work/shared"

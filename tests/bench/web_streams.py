@@ -36,7 +36,8 @@ class Daemon:
         self.log_path = work / "dembufd.log"
         self.log = open(self.log_path, "w")
         self.process = subprocess.Popen(
-            [dembufd, "--listen", "127.0.0.1:0", "--db", str(work / "bench.db"), "--workers", "1",
+            [dembufd, "--listen", "127.0.0.1:0", "--access", "local", "--db", str(work / "bench.db"),
+             "--workers", "1",
              "--http", "127.0.0.1:0"], stdout=self.log, stderr=self.log)
         self.grpc = self.web = None
         for _ in range(100):

@@ -18,7 +18,7 @@ openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj "/CN=localhost" \
   -addext "subjectAltName=DNS:localhost,IP:127.0.0.1" \
   -keyout "$work/key.pem" -out "$work/cert.pem" 2> /dev/null || fail "openssl"
 alice=$("$dembufd" --db "$work/auth.db" token-create alice 2>/dev/null)
-printf 'require_tokens = true\ntls_cert = "%s"\ntls_key = "%s"\n' "$work/cert.pem" \
+printf 'access = "tokens"\ntls_cert = "%s"\ntls_key = "%s"\n' "$work/cert.pem" \
   "$work/key.pem" > "$work/auth.toml"
 start_daemon "$work/auth.db" "$work/auth.log" --config "$work/auth.toml" --workers 1
 PYTHONPATH="$3" DEMBUF_SERVER="localhost:${DEMBUF_SERVER##*:}" DEMBUF_TLS_CA="$work/cert.pem" \

@@ -71,7 +71,7 @@ stop_daemon
 for attempt in 1 2; do
   # Started by hand: the job runs at once and may kill it before it says it listens.
   DEMBUFD_FAULT=kill-at-job-start "$dembufd" --listen 127.0.0.1:0 --db "$work/dembuf.db" \
-    --workers 1 >> "$work/dembufd.log" 2>&1 &
+    --access local --workers 1 >> "$work/dembufd.log" 2>&1 &
   daemon_pid=$!
   for _ in $(seq 100); do kill -0 "$daemon_pid" 2>/dev/null || break; sleep 0.1; done
   kill -0 "$daemon_pid" 2>/dev/null && fail "the fault point did not fire (attempt $attempt)"

@@ -41,7 +41,8 @@ class Daemon:
         log = open(self.log, "a")
         before = os.path.getsize(self.log)
         self.process = subprocess.Popen(
-            [self.binary, "--listen", "127.0.0.1:0", "--db", self.db, "--workers", "2",
+            [self.binary, "--listen", "127.0.0.1:0", "--access", "local", "--db", self.db,
+             "--workers", "2",
              "--queue-limit", "400"], stdout=log, stderr=log)
         deadline = time.time() + 30
         while time.time() < deadline:

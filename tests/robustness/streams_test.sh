@@ -8,7 +8,7 @@
 # Usage: streams_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
 cat > "$work/dembufd.toml" <<'TOML'
-require_tokens = true
+access = "tokens"
 max_watch_streams_per_user = 3
 max_watch_streams = 5
 max_request_kb = 64
@@ -44,12 +44,10 @@ watch bob
 watch bob
 sleep 1
 refused_watch carol "the server has 5 watch streams open; at most 5"
-# Everything else is still answered, at once.
-start=$(date +%s%N)
+# Everything else is still answered (the client's deadline ends a request left waiting for a
+# thread; timings are the load benchmark's, docs/service.md).
 as carol server-info > /dev/null || fail "server-info while the streams are open"
 as alice status "$job" > /dev/null || fail "status while the streams are open"
-ms=$((($(date +%s%N) - start) / 1000000))
-[ "$ms" -lt 2000 ] || fail "two requests took $ms ms"
 # A stream that ends gives its place back (once the server sees its client gone).
 kill "${watchers[0]}"
 wait "${watchers[0]}" 2>/dev/null || true

@@ -87,12 +87,11 @@ refused "$web/api/jobs/$alice_job/events" 429 "alice has 2 event streams open; a
 stream bob "$bob_job"
 sleep 1
 refused "$web/api/jobs/$bob_job/events" 429 "the server has 3 event streams open; at most 3 (http_max_streams)" -H "$(auth bob)"
-start=$(date +%s%N)
+# Every one answered (a starved pool would leave them waiting for a thread: curl's --max-time
+# in status() ends a hang); how fast is the benchmark's business (tests/bench/web_streams.py).
 for _ in $(seq 20); do
   [ "$(status "$web/api/jobs/$alice_job" -H "$(auth alice)")" = 200 ] || fail "a request while the streams are open"
 done
-ms=$((($(date +%s%N) - start) / 1000000))
-[ "$ms" -lt 5000 ] || fail "20 requests took $ms ms beside the open streams"
 # A stream whose page left gives its place back.
 kill "${streams[0]}"
 for _ in $(seq 30); do
@@ -137,7 +136,7 @@ kill "${streams[@]}" 2>/dev/null || true
 openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj "/CN=localhost" \
   -addext "subjectAltName=DNS:localhost,IP:127.0.0.1" \
   -keyout "$work/key.pem" -out "$work/cert.pem" 2> /dev/null || fail "openssl"
-printf 'tls_cert = "%s"\ntls_key = "%s"\n' "$work/cert.pem" "$work/key.pem" > "$work/tls.toml"
+printf 'access = "local"\ntls_cert = "%s"\ntls_key = "%s"\n' "$work/cert.pem" "$work/key.pem" > "$work/tls.toml"
 start_daemon "$work/tls.db" "$work/tls.log" --config "$work/tls.toml" --http 127.0.0.1:0
 base=$(web_base "$work/tls.log")
 case "$base" in https://*) ;; *) fail "the pages are not HTTPS: $base" ;; esac

@@ -12,14 +12,20 @@ export OMP_WAIT_POLICY=passive
 
 fail() { echo "FAIL: $*"; [ -n "${daemon_log:-}" ] && tail -20 "$daemon_log"; exit 1; }
 
-# start_daemon DB LOG [dembufd flags...]: starts it, sets daemon_pid and DEMBUF_SERVER.
+# start_daemon DB LOG [dembufd flags...]: starts it (on a free loopback port unless the flags
+# give --listen), sets daemon_pid and DEMBUF_SERVER. Unless
+# the flags give --access or a --config (which then says it), the daemon is the trusted local
+# one (--access local): the tests of tokens say so themselves.
 start_daemon() {
   local db=$1 log=$2
   shift 2
   daemon_log=$log
   local before=0
   [ -f "$log" ] && before=$(wc -l < "$log")
-  "$dembufd" --listen 127.0.0.1:0 --db "$db" "$@" >> "$log" 2>&1 &
+  local access=(--access local) listen=(--listen 127.0.0.1:0)
+  case " $* " in *" --access "* | *" --config "*) access=() ;; esac
+  case " $* " in *" --listen "*) listen=() ;; esac
+  "$dembufd" "${listen[@]}" --db "$db" "${access[@]}" "$@" >> "$log" 2>&1 &
   daemon_pid=$!
   local port=""
   for _ in $(seq 100); do

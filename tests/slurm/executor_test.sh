@@ -24,6 +24,7 @@ bash "$root/deploy/slurm/up.sh" "$cluster" > /dev/null
 # A daemon with the Slurm executor: slurm_config FILE WORK_DIR [more [slurm] lines].
 slurm_config() {
   {
+    echo 'access = "local"'
     echo 'executor = "slurm"'
     echo '[slurm]'
     echo "work_dir = \"$2\""

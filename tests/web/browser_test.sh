@@ -40,7 +40,7 @@ stop_daemon
 
 # --- beyond loopback: a token, or nothing -------------------------------------------------------
 "$dembufd" --db "$work/open.db" token-create alice > "$work/alice.token" 2> /dev/null
-start_daemon "$work/open.db" "$work/open.log" --http 0.0.0.0:0
+start_daemon "$work/open.db" "$work/open.log" --access tokens --http 0.0.0.0:0
 port=$(web_base "$work/open.log" | sed 's|.*:||')
 [ -n "$port" ] || fail "no web port"
 code=$(curl -s -o /dev/null -w '%{http_code}' "http://127.0.0.1:$port/api/jobs")

@@ -84,6 +84,52 @@ std::string ShellCommandLine(int argc, const char* const* argv) {
   return line;
 }
 
+std::string ShellCommandLine(int argc, const char* const* argv,
+                             const std::vector<std::string>& secret_options) {
+  std::vector<std::string> words(argv, argv + argc);
+  for (std::size_t i = 0; i < words.size(); ++i) {
+    for (const std::string& option : secret_options) {
+      if (words[i] == option && i + 1 < words.size()) {
+        words[++i] = "<hidden>";
+        break;
+      }
+      if (words[i].rfind(option + "=", 0) == 0) {
+        words[i] = option + "=<hidden>";
+        break;
+      }
+    }
+  }
+  std::vector<const char*> pointers;
+  for (const std::string& word : words) pointers.push_back(word.c_str());
+  return ShellCommandLine(argc, pointers.data());
+}
+
+std::string WithoutSecrets(std::string line, const std::string& secret) {
+  constexpr std::string_view kHidden = "<hidden>";
+  if (!secret.empty())
+    for (std::size_t at = line.find(secret); at != std::string::npos;
+         at = line.find(secret, at + kHidden.size()))
+      line.replace(at, secret.size(), kHidden);
+  // The value after --token, up to the end of its word (a quoted word ends at its quote).
+  constexpr std::string_view kOption = "--token";
+  for (std::size_t at = line.find(kOption); at != std::string::npos;
+       at = line.find(kOption, at + 1)) {
+    std::size_t value = at + kOption.size();
+    if (value >= line.size() || (line[value] != '=' && line[value] != ' ')) continue;
+    ++value;
+    if (line.compare(value, kHidden.size(), kHidden) == 0) continue;
+    std::size_t end = value;
+    if (end < line.size() && (line[end] == '\'' || line[end] == '$')) {
+      end = line.find('\'', line[end] == '$' ? end + 2 : end + 1);
+      end = end == std::string::npos ? line.size() : end + 1;
+    } else {
+      end = std::min(line.find(' ', value), line.size());
+    }
+    line.replace(value, end - value, kHidden);
+  }
+  return line;
+}
+
 RunContext RunStartingNow(std::string command_line) {
   return {std::move(command_line), HostName(), UtcNow(), "", omp_get_max_threads()};
 }

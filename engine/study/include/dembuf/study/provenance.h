@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "dembuf/study/impact.h"
 #include "dembuf/study/scene.h"
@@ -23,6 +24,17 @@ std::string HostName();
 
 /// The arguments as one line a POSIX shell reads back into them (each quoted where needed).
 std::string ShellCommandLine(int argc, const char* const* argv);
+
+/// The same with the value of each option named in `secret_options` (such as "--token")
+/// replaced by "<hidden>", written "--token VALUE" or "--token=VALUE": a command line is kept
+/// with results and shown to whoever reads them, a secret must not be.
+std::string ShellCommandLine(int argc, const char* const* argv,
+                             const std::vector<std::string>& secret_options);
+
+/// `line` with every occurrence of `secret` replaced by "<hidden>" (nothing for an empty one),
+/// and the word after each "--token" or "--token=" too: what a server keeps of a command line
+/// a client sent, whatever client it was.
+std::string WithoutSecrets(std::string line, const std::string& secret);
 
 /// The commit the program was built from ("unknown" outside a git checkout; "-dirty" after
 /// it when the checkout had changes) and the build type ("Release", ...).

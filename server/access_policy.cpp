@@ -1,0 +1,58 @@
+#include "access_policy.h"
+
+#include "store.h"
+
+namespace dembuf::server {
+
+namespace {
+
+constexpr const char* kNeedsToken =
+    "this server needs a token: give --token or set DEMBUF_TOKEN, log in on the web pages, or "
+    "send \"Authorization: Bearer TOKEN\" (the lab's admin makes one with: dembufd "
+    "token-create NAME)";
+
+}  // namespace
+
+const char* AccessModeName(AccessMode mode) {
+  return mode == AccessMode::kTokens ? "tokens" : "local";
+}
+
+Caller AccessPolicy::Identify(const std::optional<std::string>& authorization,
+                              const std::optional<std::string>& session_token_hash) const {
+  if (authorization) {
+    const std::string prefix = "Bearer ";
+    if (authorization->rfind(prefix, 0) != 0)
+      throw AccessDenied(true, "authorization: expected \"Bearer TOKEN\"");
+    const std::optional<Caller> holder = CallerOfToken(m_store, authorization->substr(prefix.size()));
+    if (!holder) throw AccessDenied(true, "token: not known to this server");
+    return *holder;
+  }
+  if (session_token_hash)
+    if (const std::optional<User> user = m_store.FindUserByTokenHash(*session_token_hash))
+      return Caller{user->name, user->admin, true};
+  if (m_mode == AccessMode::kTokens) throw AccessDenied(true, kNeedsToken);
+  return Caller{"local", true, false};
+}
+
+bool AccessPolicy::Allows(const Caller& caller, Action, const std::string& owner) {
+  // Every action follows one rule today: what a user owns is theirs and the admins'. The
+  // action stays in the signature so that a finer rule has one place to go.
+  return caller.admin || caller.name == owner;
+}
+
+void AccessPolicy::Require(const Caller& caller, Action action, const std::string& owner,
+                           const std::string& what) {
+  if (!Allows(caller, action, owner))
+    throw AccessDenied(false, what + " belongs to " + owner);
+}
+
+std::string AccessPolicy::OwnerFor(const Caller& caller, const std::string& requested,
+                                   const std::string& field) {
+  if (requested.empty() || requested == caller.name) return caller.name;
+  if (!caller.admin)
+    throw AccessDenied(false, field + ": " + caller.name + " may act only as " + caller.name +
+                                  ", not as " + requested + " (an admin may)");
+  return requested;
+}
+
+}  // namespace dembuf::server

@@ -1,0 +1,80 @@
+// Who may do what on this daemon, decided here once for every door into it: the gRPC API,
+// the web pages, their JSON API and the result files they serve. The table it implements is
+// in docs/service.md ("Access"); tests/server/access_test.sh checks it row by row on both doors.
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "auth.h"
+
+namespace dembuf::server {
+
+class Store;
+
+/// How callers are identified. There is one mode for the whole daemon: a daemon that asks
+/// for tokens on one address asks for them on every address.
+enum class AccessMode {
+  kTokens,  ///< every request carries a user's token (the default)
+  kLocal,   ///< a request without a token comes from the machine's trusted user, an admin;
+            ///< only when the operator says so, and only with every address on loopback
+};
+
+/// "tokens" or "local".
+const char* AccessModeName(AccessMode mode);
+
+/// What a request does with something a user owns (a job, a sweep, their list).
+enum class Action {
+  kList,    ///< list the owner's jobs and sweeps
+  kRead,    ///< a job's or sweep's state, details and summary
+  kWatch,   ///< a live stream of a job's samples
+  kFetch,   ///< an ended job's results and files
+  kCancel,  ///< cancel a job or sweep
+  kSubmit,  ///< file new work under the owner's name
+};
+
+/// A request refused by the policy: `unauthenticated` when it did not say who it is (or said
+/// it wrongly), otherwise it is known but may not do this (forbidden).
+class AccessDenied : public std::runtime_error {
+ public:
+  AccessDenied(bool unauthenticated, const std::string& message)
+      : std::runtime_error(message), m_unauthenticated(unauthenticated) {}
+  bool unauthenticated() const { return m_unauthenticated; }
+
+ private:
+  bool m_unauthenticated;
+};
+
+class AccessPolicy {
+ public:
+  AccessPolicy(Store& store, AccessMode mode) : m_store(store), m_mode(mode) {}
+
+  AccessMode mode() const { return m_mode; }
+  bool tokens_required() const { return m_mode == AccessMode::kTokens; }
+
+  /// The caller of a request, from its "Authorization" value (nothing when the request has
+  /// none) or else the token hash of a web session. Throws AccessDenied (unauthenticated).
+  Caller Identify(const std::optional<std::string>& authorization,
+                  const std::optional<std::string>& session_token_hash = std::nullopt) const;
+
+  /// Whether `caller` may do `action` to what `owner` owns: the owner, or an admin.
+  static bool Allows(const Caller& caller, Action action, const std::string& owner);
+
+  /// Throws AccessDenied (forbidden) unless Allows; `what` names the thing in the refusal
+  /// ("id: job 12", "sweep_id: sweep 3").
+  static void Require(const Caller& caller, Action action, const std::string& owner,
+                      const std::string& what);
+
+  /// Whose name new work or a listing is under when the request names `requested` ("" for
+  /// none): the caller's own, or, for an admin, the one named. Throws AccessDenied when
+  /// anyone else names another user.
+  static std::string OwnerFor(const Caller& caller, const std::string& requested,
+                              const std::string& field = "owner");
+
+ private:
+  Store& m_store;
+  AccessMode m_mode;
+};
+
+}  // namespace dembuf::server

@@ -2,10 +2,13 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -17,15 +20,41 @@ namespace dembuf::server {
 
 namespace fs = std::filesystem;
 
-DatabaseLock::DatabaseLock(const std::string& db_path) : m_path(db_path + ".lock") {
-  m_fd = open(m_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+namespace {
+
+// The process holding a flock on the file of this device and inode, from /proc/locks ("" when
+// none is seen): for a second name of the database whose ".lock" line is elsewhere.
+std::string FlockHolder(dev_t device, ino_t inode) {
+  std::ifstream locks("/proc/locks");
+  std::string line;
+  char wanted[64];
+  std::snprintf(wanted, sizeof wanted, "%02x:%02x:%lu", major(device), minor(device),
+                static_cast<unsigned long>(inode));
+  while (std::getline(locks, line)) {
+    std::istringstream fields(line);
+    std::string number, kind, mode, access, pid, file;
+    fields >> number >> kind >> mode >> access >> pid >> file;
+    if (kind == "FLOCK" && file == wanted) return "process " + pid;
+  }
+  return "";
+}
+
+}  // namespace
+
+DatabaseLock::DatabaseLock(const std::string& db_path) {
+  m_fd = open(db_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
   if (m_fd < 0)
     throw std::runtime_error("database " + db_path + " cannot be used: it cannot be written (" +
-                             std::strerror(errno) + " for its lock file " + m_path + ")");
+                             std::strerror(errno) + ")");
+  std::error_code error;
+  const fs::path resolved = fs::canonical(db_path, error);
+  m_note_path = (error ? fs::path(db_path) : resolved).string() + ".lock";
   if (flock(m_fd, LOCK_EX | LOCK_NB) != 0) {
-    std::ifstream in(m_path);
+    std::ifstream in(m_note_path);
     std::string holder;
     std::getline(in, holder);
+    struct stat file {};
+    if (fstat(m_fd, &file) == 0 && holder.empty()) holder = FlockHolder(file.st_dev, file.st_ino);
     close(m_fd);
     m_fd = -1;
     throw std::runtime_error("database " + db_path + " is in use by another dembufd: " +
@@ -36,12 +65,29 @@ DatabaseLock::DatabaseLock(const std::string& db_path) : m_path(db_path + ".lock
 }
 
 DatabaseLock::~DatabaseLock() {
-  if (m_fd >= 0) close(m_fd);  // releases the lock; the file stays, unlocked
+  if (m_fd >= 0) close(m_fd);  // releases the lock
 }
 
 void DatabaseLock::Describe(const std::string& holder) {
-  const std::string line = holder + "\n";
-  if (ftruncate(m_fd, 0) == 0 && pwrite(m_fd, line.data(), line.size(), 0) >= 0) fsync(m_fd);
+  // Written whole and renamed into place: a second daemon reads either line, never half.
+  const std::string temporary = m_note_path + ".new";
+  std::ofstream out(temporary, std::ios::trunc);
+  out << holder << "\n";
+  out.close();
+  std::error_code error;
+  if (out) fs::rename(temporary, m_note_path, error);
+}
+
+std::string MakeDatabasePrivate(const std::string& db_path) {
+  std::string opened;
+  for (const char* suffix : {"", "-wal", "-shm", "-journal", ".lock"}) {
+    const std::string path = db_path + suffix;
+    struct stat file {};
+    if (stat(path.c_str(), &file) != 0 || (file.st_mode & 077) == 0) continue;
+    if (chmod(path.c_str(), file.st_mode & 0700) == 0)
+      opened += (opened.empty() ? "" : ", ") + path;
+  }
+  return opened;
 }
 
 namespace {

@@ -10,6 +10,7 @@
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -111,6 +112,9 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : kExitBadInput;
   }
 
+  // Everything the daemon creates (the database, its side files, logs, results, a unix
+  // socket) is its own account's alone: the database holds every user's work.
+  umask(0077);
   try {
     if (!config_file.empty()) LoadConfigFile(config_file, config);
     if (*listen) config.listen = flags.listen;
@@ -133,6 +137,7 @@ int main(int argc, char** argv) {
 
   if (create->parsed() || revoke->parsed() || list->parsed()) {
     try {
+      MakeDatabasePrivate(config.db);
       Store store(config.db);
       if (create->parsed()) {
         if (const std::string problem = UserNameProblem(user); !problem.empty()) {
@@ -160,12 +165,15 @@ int main(int argc, char** argv) {
     }
   }
 
-  // SIGTERM and SIGINT are taken by one thread with sigwait; every other thread (gRPC's,
-  // the workers', OpenMP's) inherits the blocked mask and never sees them.
+  // SIGTERM, SIGINT and SIGHUP (a closed terminal, or a service manager's reload) are taken by
+  // one thread with sigwait; every other thread (gRPC's, the workers', OpenMP's) inherits the
+  // blocked mask and never sees them. Each stops the daemon gracefully: SIGHUP's default
+  // would kill it at once, with running jobs counted as crashed.
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGTERM);
   sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   std::shared_ptr<spdlog::logger> log;
@@ -180,6 +188,8 @@ int main(int argc, char** argv) {
   std::unique_ptr<Store> store;
   try {
     lock = std::make_unique<DatabaseLock>(config.db);
+    if (const std::string opened = MakeDatabasePrivate(config.db); !opened.empty())
+      log->warn("{} could be read by other accounts; made readable by this one only", opened);
     store = std::make_unique<Store>(config.db);
   } catch (const std::exception& e) {
     log->critical("{}", e.what());

@@ -17,6 +17,14 @@ expect_exit 1 "one.db is in use by another dembufd: process $daemon_pid, listeni
 "$dembuf" server-info | grep -q "database $work/one.db" || fail "the first daemon stopped serving"
 job=$("$dembuf" submit 2>/dev/null)
 wait_state "$job" done 60
+# The lock is the database file's, not its name's: a second daemon through a symlink or a hard
+# link to the same file was started and ran the first one's jobs again.
+ln -s "$work/one.db" "$work/symlink.db"
+ln "$work/one.db" "$work/hardlink.db"
+expect_exit 1 "symlink.db is in use by another dembufd: process $daemon_pid, listening on" \
+  "$dembufd" --listen 127.0.0.1:0 --db "$work/symlink.db"
+expect_exit 1 "hardlink.db is in use by another dembufd: process $daemon_pid" \
+  "$dembufd" --listen 127.0.0.1:0 --db "$work/hardlink.db"
 stop_daemon
 # Its lock goes with it: the database is free again.
 start_daemon "$work/one.db" "$work/one.log"

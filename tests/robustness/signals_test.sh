@@ -29,7 +29,9 @@ interrupt() {
   local want=$((128 + $(kill -l "$signal")))
   echo "$PHASE: $signal -> exit $code after $ms ms"
   [ "$code" = "$want" ] || fail "$PHASE: exit $code, not $want: $(cat "$work/err")"
-  [ "$ms" -lt 1000 ] || fail "$PHASE: $ms ms to stop"
+  # Measured 2 to 62 ms; the bug this guards took up to 30 s. A bound 10x above the slowest
+  # measured stop and well below the bug, for a loaded machine.
+  [ "$ms" -lt 10000 ] || fail "$PHASE: $ms ms to stop"
   grep -q "\"phase\": \"$EXPECT\"" "$dir/incomplete.json" 2> /dev/null ||
     fail "$PHASE: $(cat "$dir/incomplete.json" 2>&1)"
   grep -q "\"interrupted_by\": \"SIG$signal\"" "$dir/incomplete.json" || fail "$PHASE: signal"
@@ -59,7 +61,9 @@ start=$(date +%s%N)
   fail "the long fall"
 ms=$((($(date +%s%N) - start) / 1000000))
 echo "free fall of $(sed -n 's/.*"free_flight_s": \([0-9.]*\).*/\1/p' "$work/fall/summary.json") s: $ms ms"
-[ "$ms" -lt 5000 ] || fail "a computed free fall took $ms ms"
+# Counted, not timed: a stepped fall would take some 1e9 steps.
+steps=$(sed -n 's/.*"steps": \([0-9]*\).*/\1/p' "$work/fall/summary.json" | head -1)
+[ -n "$steps" ] && [ "$steps" -lt 10000 ] || fail "the free fall was stepped: $steps steps"
 
 # A local sweep: stopped, its finished runs reported, marked incomplete.
 "$dembuf" sweep "$work/small.toml" --set time.end_s=3 --vary projectile.speed_m_s=1,2,3,4 \
@@ -87,5 +91,23 @@ grep -q "job $job: interrupted by a daemon shutdown" "$work/dembufd.log" || fail
 start_daemon "$work/dembuf.db" "$work/dembufd.log"
 wait_state "$job" done 60
 "$dembuf" status "$job" | grep -q "attempts 2" || fail "$("$dembuf" status "$job")"
+stop_daemon
+
+# SIGHUP (a closed terminal, a service manager's reload) killed the daemon at once without a
+# word, and twice made a good job a poison job: it stops as SIGTERM does.
+for hangup in 1 2; do
+  start_daemon "$work/dembuf.db" "$work/hup.log" --shutdown-grace 0
+  [ "$hangup" = 1 ] && hup_job=$("$dembuf" submit --set time.end_s=5 2>/dev/null)
+  wait_state "$hup_job" running 60
+  kill -HUP "$daemon_pid"
+  code=0
+  wait "$daemon_pid" || code=$?
+  daemon_pid=""
+  [ "$code" = 0 ] || fail "dembufd exited $code on SIGHUP"
+  [ "$(grep -c "Hangup: shutting down" "$work/hup.log")" = "$hangup" ] || fail "no log line for SIGHUP"
+  [ "$(grep -c "stopped cleanly" "$work/hup.log")" = "$hangup" ] || fail "no clean stop on SIGHUP"
+done
+start_daemon "$work/dembuf.db" "$work/hup.log"
+wait_state "$hup_job" done 60
 stop_daemon
 echo "signals test passed"

@@ -532,7 +532,9 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
 }
 
 // A job's result files (snapshots), streamed piece by piece into `dir`. The server's answers
-// are checked: plain relative paths, pieces in order, sizes as announced and within bounds.
+// are not trusted: only the names the API defines (report::IsResultFileName), pieces in order,
+// sizes as announced and within bounds. A refusal is DATA_LOSS with one sentence naming the
+// server and the file; nothing is written under another name.
 grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, const v1::Job& job,
                                  const fs::path& dir) {
   if (job.files_size() == 0) return grpc::Status::OK;
@@ -546,10 +548,15 @@ grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, c
   std::string path;
   std::int64_t size = 0, written = 0;
   std::ofstream out;
-  auto bad = [&](const std::string& why) {
+  auto bad = [&](const std::string& file, const std::string& why) {
     context.TryCancel();
+    std::string shown = file.substr(0, 80);
+    for (char& c : shown)
+      if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) >= 0x7f) c = '?';
     return grpc::Status(grpc::StatusCode::DATA_LOSS,
-                        "the server sent a bad result file (" + why + ")");
+                        "the server at " + remote.address + " sent a bad result file \"" + shown +
+                            "\" for job " + std::to_string(job.id()) + ": " + why +
+                            "; nothing of it was written");
   };
   auto close = [&]() -> bool {
     out.close();
@@ -557,28 +564,36 @@ grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, c
     fs::rename(dir / (path + ".partial"), dir / path);
     return true;
   };
-  while (reader->Read(&chunk)) {
-    if (chunk.path() != path || !out.is_open()) {
-      if (out.is_open() && !close()) return bad(path + ": cut short");
-      if (!report::IsSafeResultPath(chunk.path()) || chunk.path() <= path)
-        return bad("a name not allowed, or out of order: \"" + chunk.path().substr(0, 80) + "\"");
-      if (chunk.size() < 0 || chunk.size() > kMaxFileBytes) return bad(chunk.path() + ": size");
-      path = chunk.path();
-      size = chunk.size();
-      written = 0;
-      fs::create_directories((dir / path).parent_path());
-      out.open(dir / (path + ".partial"), std::ios::binary | std::ios::trunc);
-      if (!out) throw std::runtime_error("cannot write " + (dir / path).string());
+  try {
+    while (reader->Read(&chunk)) {
+      if (chunk.path() != path || !out.is_open()) {
+        if (out.is_open() && !close()) return bad(path, "cut short");
+        if (!report::IsResultFileName(chunk.path()))
+          return bad(chunk.path(), "not a name the API defines");
+        if (chunk.path() <= path) return bad(chunk.path(), "out of order");
+        if (chunk.size() < 0 || chunk.size() > kMaxFileBytes)
+          return bad(chunk.path(), "a size of " + std::to_string(chunk.size()) +
+                                       " bytes (at most 16 GiB)");
+        path = chunk.path();
+        size = chunk.size();
+        written = 0;
+        fs::create_directories((dir / path).parent_path());
+        out.open(dir / (path + ".partial"), std::ios::binary | std::ios::trunc);
+        if (!out) throw std::runtime_error("cannot write " + (dir / path).string());
+      }
+      if (chunk.offset() != written || chunk.size() != size ||
+          static_cast<std::int64_t>(chunk.data().size()) > size - written)
+        return bad(path, "pieces out of order or longer than announced");
+      out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
+      written += static_cast<std::int64_t>(chunk.data().size());
     }
-    if (chunk.offset() != written || chunk.size() != size ||
-        static_cast<std::int64_t>(chunk.data().size()) > size - written)
-      return bad(path + ": pieces out of order");
-    out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
-    written += static_cast<std::int64_t>(chunk.data().size());
+  } catch (const fs::filesystem_error& e) {
+    context.TryCancel();
+    throw std::runtime_error("cannot write " + (dir / path).string() + ": " + e.code().message());
   }
   const grpc::Status status = reader->Finish();
   if (!status.ok()) return status;
-  if (out.is_open() && !close()) return bad(path + ": cut short");
+  if (out.is_open() && !close()) return bad(path, "cut short");
   return grpc::Status::OK;
 }
 
@@ -652,6 +667,16 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
                  "dembuf: the server sent a sweep axis that is no scene field, or a value that "
                  "is not one of it: %s\n",
                  e.what());
+    return kExitError;
+  }
+  // A count from the server is checked before anything is sized by it.
+  constexpr int kMaxSweepJobs = 1000000;  // the daemon's max_sweep_jobs at most
+  if (s.jobs_total() < jobs.jobs_size() || s.jobs_total() > kMaxSweepJobs) {
+    std::fprintf(stderr,
+                 "dembuf: the server at %s sent a bad sweep %lld: jobs_total = %d, with %d jobs "
+                 "listed (must be that many to %d)\n",
+                 remote.address.c_str(), static_cast<long long>(id), s.jobs_total(),
+                 jobs.jobs_size(), kMaxSweepJobs);
     return kExitError;
   }
   std::vector<report::SweepRunReport> runs(static_cast<std::size_t>(s.jobs_total()));

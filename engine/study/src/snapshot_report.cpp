@@ -1,6 +1,7 @@
 #include "dembuf/study/snapshot_report.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -18,12 +19,23 @@ bool IsSafeNameChar(char c) {
   return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_';
 }
 
+// The names of a snapshot's files (SnapshotFiles), in its folder.
+constexpr std::array<std::string_view, 7> kSnapshotFileNames = {
+    "snapshot.json",    "beads.vtp",     "contacts.vtp", "contacts.csv",
+    "plate_radial.csv", "plate_map.csv", "force_pdf.csv"};
+
+// A folder or file name of letters, digits, '.', '-' and '_', not hidden (no leading dot).
 std::string SafeLabel(const std::string& label) {
   std::string out;
   for (char c : label)
-    if (IsSafeNameChar(c)) out += c;
-  if (out.empty() || out == "." || out == "..") return "snapshot";
+    if (IsSafeNameChar(c) && !(out.empty() && c == '.')) out += c;
+  if (out.empty()) return "snapshot";
   return out.substr(0, 64);
+}
+
+bool IsLabel(std::string_view name) {
+  return !name.empty() && name.size() <= 64 && name.front() != '.' &&
+         std::all_of(name.begin(), name.end(), IsSafeNameChar);
 }
 
 // Text built like a file: full precision for coordinates and forces.
@@ -141,6 +153,7 @@ std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinde
                                       double bead_diameter_m) {
   const std::string folder = "snapshots/" + SafeLabel(snap.label) + "/";
   auto [radial, map] = PlateLoad(snap, cylinder_radius_m, bead_diameter_m);
+  // In the order of kSnapshotFileNames, the allow-list of IsResultFileName.
   return {
       {folder + "snapshot.json", Metadata(snap)},       {folder + "beads.vtp", BeadsVtp(snap)},
       {folder + "contacts.vtp", ContactsVtp(snap)},     {folder + "contacts.csv", Contacts(snap)},
@@ -176,6 +189,23 @@ bool IsSafeResultPath(std::string_view path) {
     start = end + 1;
   }
   return true;
+}
+
+bool IsResultFileName(std::string_view path) {
+  if (path == "plate_force_bare.csv" || path == "snapshots.pvd" || path == "frames.pvd")
+    return true;
+  constexpr std::string_view kSnapshots = "snapshots/", kFrames = "frames/", kVtp = ".vtp";
+  if (path.substr(0, kFrames.size()) == kFrames) {
+    const std::string_view name = path.substr(kFrames.size());
+    return name.size() > kVtp.size() && name.substr(name.size() - kVtp.size()) == kVtp &&
+           IsLabel(name.substr(0, name.size() - kVtp.size()));
+  }
+  if (path.substr(0, kSnapshots.size()) != kSnapshots) return false;
+  const std::string_view rest = path.substr(kSnapshots.size());
+  const std::size_t slash = rest.find('/');
+  if (slash == std::string_view::npos || !IsLabel(rest.substr(0, slash))) return false;
+  return std::find(kSnapshotFileNames.begin(), kSnapshotFileNames.end(), rest.substr(slash + 1)) !=
+         kSnapshotFileNames.end();
 }
 
 void WriteResultFiles(const std::vector<ResultFile>& files, const std::filesystem::path& dir) {

@@ -57,6 +57,13 @@ bool IsSafeResultPath(std::string_view path);
 inline constexpr std::size_t kMaxResultPathLength = 200;
 inline constexpr int kMaxResultPathDepth = 3;
 
+/// Whether `path` is the name of a result file a run writes besides its series and summary:
+/// plate_force_bare.csv, snapshots.pvd, frames.pvd, snapshots/LABEL/ one of the files of
+/// SnapshotFiles, or frames/LABEL.vtp, LABEL as SafeLabel makes it (never starting with a
+/// dot). An allow-list, not a rule about characters: what a server or a cluster's folder
+/// sends under any other name (.git/config, .envrc, a/b where a is a file) is refused.
+bool IsResultFileName(std::string_view path);
+
 /// Writes the files under `dir` (each atomically), creating their folders. Throws
 /// std::runtime_error for a path IsSafeResultPath refuses, before writing anything.
 void WriteResultFiles(const std::vector<ResultFile>& files, const std::filesystem::path& dir);

@@ -1,0 +1,53 @@
+"""A hostile dembuf server for the client's tests (hostile_server_test.sh): it speaks the API of
+proto/dembuf/v1 but answers with what a compromised daemon could send. Job N's result files
+and sweep N's count are chosen by the id asked for (the table below). Prints its port, then
+serves until killed. Usage: hostile_server.py PYTHON_PACKAGE_DIR"""
+import sys
+from concurrent import futures
+
+sys.path.insert(0, sys.argv[1])
+import grpc  # noqa: E402
+from dembuf.v1 import dembuf_pb2 as pb  # noqa: E402
+from dembuf.v1 import dembuf_pb2_grpc as pb_grpc  # noqa: E402
+
+HOOK = b"[core]\n\tfsmonitor = touch PWNED\n"
+# Job id -> the files its fetch is answered with, in order.
+FILES = {
+    1: [(".git/config", HOOK)],                              # runs at the next git status
+    2: [(".envrc", b"touch PWNED\n")],                       # runs on entering the folder
+    3: [("a", b"x"), ("a/b", b"y")],                         # a file, then a folder of it
+    4: [("snapshots/.git/config", HOOK)],                    # hidden inside an allowed folder
+    5: [("run.sh", b"touch PWNED\n")],                       # plain, but no result file
+    6: [("snapshots.pvd", b"<VTKFile/>\n"),                  # what the API defines, in
+        ("snapshots/peak/beads.vtp", b"<VTKFile/>\n")],      # path order
+}
+# Sweep id -> its jobs_total.
+JOBS_TOTAL = {1: -1, 2: 2_000_000_000}
+
+
+class Hostile(pb_grpc.DembufServicer):
+    def FetchResults(self, request, context):
+        job = pb.Job(id=request.id, state=pb.JOB_STATE_DONE, owner="eve", name="job",
+                     summary_json="{}\n")
+        for path, data in FILES.get(request.id, []):
+            job.files.add(path=path, size=len(data))
+        return pb.FetchResultsResponse(job=job)
+
+    def FetchFiles(self, request, context):
+        for path, data in FILES.get(request.id, []):
+            yield pb.FileChunk(path=path, size=len(data), offset=0, data=data)
+
+    def GetSweep(self, request, context):
+        return pb.Sweep(id=request.id, owner="eve", name="sweep",
+                        jobs_total=JOBS_TOTAL.get(request.id, 0))
+
+    def ListJobs(self, request, context):
+        return pb.ListJobsResponse()
+
+
+server = grpc.server(futures.ThreadPoolExecutor(max_workers=4))
+pb_grpc.add_DembufServicer_to_server(Hostile(), server)
+port = server.add_insecure_port("127.0.0.1:0")
+server.start()
+print(port, flush=True)
+server.wait_for_termination()

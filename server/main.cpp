@@ -33,6 +33,7 @@
 #include "slurm_executor.h"
 #include "store.h"
 #include "thread_executor.h"
+#include "tls_files.h"
 #include "web_server.h"
 
 using namespace dembuf::server;
@@ -253,18 +254,12 @@ int main(int argc, char** argv) {
   int port = 0;
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
   if (!config.tls_cert.empty()) {
-    auto read = [](const std::string& path) {
-      std::ifstream in(path);
-      if (!in) throw std::runtime_error("cannot read " + path);
-      std::ostringstream text;
-      text << in.rdbuf();
-      return text.str();
-    };
     grpc::SslServerCredentialsOptions ssl;
     try {
-      ssl.pem_key_cert_pairs.push_back({read(config.tls_key), read(config.tls_cert)});
+      const TlsFiles tls = ReadTlsFiles(config.tls_cert, config.tls_key);
+      ssl.pem_key_cert_pairs.push_back({tls.key_pem, tls.certificate_pem});
     } catch (const std::exception& e) {
-      log->critical("tls: {}", e.what());
+      log->critical("{}", e.what());
       return kExitRuntime;
     }
     credentials = grpc::SslServerCredentials(ssl);

@@ -33,6 +33,28 @@ stop_daemon
 expect_exit 2 "listen: port 99999 is out of range: must be 0 to 65535" "$dembufd" --listen 127.0.0.1:99999 --db "$work/p.db"
 expect_exit 2 "listen: \"localhost\" must be HOST:PORT" "$dembufd" --listen localhost --db "$work/p.db"
 
+# TLS files that cannot serve were reported as "cannot listen on ...: in use": each is named
+# as a TLS problem, with the file and what is wrong with it.
+for name in a b; do
+  openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj "/CN=localhost" \
+    -keyout "$work/$name.key" -out "$work/$name.pem" 2> /dev/null || fail "openssl"
+done
+: > "$work/empty.pem"
+mkdir "$work/folder.key"
+tls() { expect_exit 1 "$1" "$dembufd" --listen 127.0.0.1:0 --db "$work/tls.db" --config "$2"; }
+tls_config() { printf 'access = "local"\ntls_cert = "%s"\ntls_key = "%s"\n' "$1" "$2" > "$work/tls.toml"; }
+tls_config "$work/a.pem" "$work/b.key"
+tls "tls: tls_key $work/b.key is not the key of tls_cert $work/a.pem" "$work/tls.toml"
+tls_config "$work/empty.pem" "$work/a.key"
+tls "tls: tls_cert $work/empty.pem: empty" "$work/tls.toml"
+tls_config "$work/a.pem" "$work/folder.key"
+tls "tls: tls_key $work/folder.key: a folder, not a PEM file" "$work/tls.toml"
+tls_config "$work/a.key" "$work/a.key"
+tls "tls: tls_cert $work/a.key: holds no PEM certificate" "$work/tls.toml"
+tls_config "$work/a.pem" "$work/missing.key"
+tls "tls: tls_key $work/missing.key: no such file" "$work/tls.toml"
+if grep -q "in use" "$work/err"; then fail "a TLS problem reported as a port in use"; fi
+
 # A database dembufd cannot write.
 if [ "$(id -u)" = 0 ] && mkdir "$work/ro" && mount -t tmpfs -o size=4m tmpfs "$work/ro" 2> /dev/null; then
   trap 'rc=$?; [ -z "$daemon_pid" ] || kill -9 "$daemon_pid" 2>/dev/null || true

@@ -20,6 +20,7 @@
 
 #include "compare.h"
 #include "cost_check.h"
+#include "dembuf/study/text_limits.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/bed_export.h"
 #include "dembuf/study/errors.h"
@@ -720,6 +721,11 @@ int main(int argc, char** argv) {
   }
   const cli::RemoteScene remote_scene{opt.scene_file, opt.preset, opt.accuracy, opt.overrides};
 #endif
+  // A name is shown in tables and on terminals (and protobuf sends only UTF-8).
+  if (const std::string problem = DisplayTextProblem(opt.name); !problem.empty()) {
+    std::fprintf(stderr, "dembuf: --name: %s\n", problem.c_str());
+    return kExitBadInput;
+  }
   cli::SetVerbosity(quiet     ? cli::Verbosity::kQuiet
                     : verbose ? cli::Verbosity::kVerbose
                               : cli::Verbosity::kNormal);

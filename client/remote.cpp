@@ -20,6 +20,7 @@
 #include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/sweep_plan.h"
 #include "dembuf/study/sweep_report.h"
+#include "dembuf/study/text_limits.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "plots.h"
 #include "progress.h"
@@ -30,6 +31,12 @@ namespace dembuf::cli {
 namespace fs = std::filesystem;
 
 namespace {
+
+// A server's text as printed in tables and on the terminal: what is not UTF-8, control
+// characters (a C1 byte starts a terminal escape) and bidirectional controls shown as '?'.
+std::string Shown(const std::string& text) {
+  return PrintableText(text);
+}
 
 constexpr const char* kDefaultServer = "127.0.0.1:50051";
 constexpr int kExitError = 1;
@@ -351,7 +358,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
         return it == s.jobs_by_state().end() ? 0 : it->second;
       };
       std::printf("%6lld  %-12s %-20s %6d %6d %6d %6d  %s\n", static_cast<long long>(s.id()),
-                  s.owner().c_str(), s.name().c_str(), s.jobs_total(), count("done"),
+                  Shown(s.owner()).c_str(), Shown(s.name()).c_str(), s.jobs_total(), count("done"),
                   count("failed"), s.beds_prepared(), s.created_at().c_str());
     }
     return 0;
@@ -388,8 +395,8 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
   for (const auto& j : response.jobs()) {
     const std::string progress = j.progress().stage() + " " + Percent(j.progress().fraction());
     std::printf("%6lld  %-13s %-12s %6s  %-34s %-18s %s\n", static_cast<long long>(j.id()),
-                StateText(j.state()).c_str(), j.owner().c_str(),
-                j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.name().c_str(),
+                StateText(j.state()).c_str(), Shown(j.owner()).c_str(),
+                j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", Shown(j.name()).c_str(),
                 progress.c_str(), j.created_at().c_str());
   }
   return 0;
@@ -410,7 +417,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
       return 0;
     }
     std::printf("sweep %lld  %s  owner %s  created %s\n", static_cast<long long>(s.id()),
-                s.name().c_str(), s.owner().c_str(), s.created_at().c_str());
+                Shown(s.name()).c_str(), Shown(s.owner()).c_str(), s.created_at().c_str());
     for (const auto& axis : s.axes()) std::printf("  %s\n", AxisText(axis).c_str());
     std::printf("jobs: %d", s.jobs_total());
     for (const auto& [state, count] :
@@ -428,9 +435,9 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
     std::printf("%s\n", JobJson(j, true).dump(2).c_str());
     return j.state() == v1::JOB_STATE_FAILED ? kExitJobFailed : 0;
   }
-  std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), j.name().c_str(),
+  std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), Shown(j.name()).c_str(),
               StateText(j.state()).c_str());
-  std::printf("owner %s, sweep %s, attempts %d\n", j.owner().c_str(),
+  std::printf("owner %s, sweep %s, attempts %d\n", Shown(j.owner()).c_str(),
               j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.attempts());
   std::printf("created %s, started %s, finished %s\n", j.created_at().c_str(),
               j.started_at().empty() ? "-" : j.started_at().c_str(),
@@ -438,7 +445,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   // Progress while the job lives; an ended job shows its summary (or reason) below instead.
   if (!Ended(j.state()))
     std::printf("progress: %s %s, t = %.4f ms, peak plate force so far %.5g N\n",
-                j.progress().stage().c_str(), Percent(j.progress().fraction()).c_str(),
+                Shown(j.progress().stage()).c_str(), Percent(j.progress().fraction()).c_str(),
                 j.progress().sim_time_s() * 1e3, j.progress().peak_plate_force_n());
   std::printf("scene %s, bed %s\n", j.scene_hash().c_str(),
               j.bed_hash().empty() ? "(none)" : j.bed_hash().c_str());
@@ -452,7 +459,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
     std::printf("result files: %d (%.3g MB; dembuf fetch writes them)\n", j.files_size(),
                 bytes / 1e6);
   }
-  if (!j.error().empty()) std::printf("note: %s\n", j.error().c_str());
+  if (!j.error().empty()) std::printf("note: %s\n", Shown(j.error()).c_str());
   if (!j.summary_json().empty()) {
     const nlohmann::json s = nlohmann::json::parse(j.summary_json());
     auto force = [&](const char* key) {
@@ -506,7 +513,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
     char line[256];
     std::snprintf(
         line, sizeof line, "job %lld %-13s %-14s t = %8.3f ms  F = %9.4g N  peak %9.4g N  %s",
-        static_cast<long long>(id), StateText(state).c_str(), message.progress().stage().c_str(),
+        static_cast<long long>(id), StateText(state).c_str(), Shown(message.progress().stage()).c_str(),
         message.progress().sim_time_s() * 1e3, force, message.progress().peak_plate_force_n(),
         Percent(message.progress().fraction()).c_str());
     if (tty) {

@@ -13,6 +13,7 @@
 #include "dembuf/study/provenance.h"
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/text_limits.h"
 #include "dembuf/study/version.h"
 #include "job_feed.h"
 #include "scene_request.h"
@@ -96,12 +97,13 @@ void FillProgress(const JobProgress& p, v1::Progress* out) {
   out->set_peak_plate_force_n(p.peak_plate_force_N);
 }
 
-// Owners and names end up in logs and tables: printable, bounded.
+// Names and command lines end up in logs, tables and terminals: bounded, and text that shows
+// as what it is (no control characters, no bidirectional reordering, UTF-8).
 Status CheckLabel(const std::string& field, const std::string& value, std::size_t max_length) {
   if (value.size() > max_length)
     return Invalid(field, "longer than " + std::to_string(max_length) + " characters");
-  for (unsigned char c : value)
-    if (c < 0x20 || c == 0x7f) return Invalid(field, "contains a control character");
+  if (const std::string problem = DisplayTextProblem(value); !problem.empty())
+    return Invalid(field, problem);
   return Status::OK;
 }
 

@@ -46,5 +46,28 @@ job=$(USER=alice "$dembuf" --token "$root" submit "${bare[@]}" 2>/dev/null)
 "$dembuf" --token "$root" status "$job" | grep -q "owner root," || fail "$("$dembuf" --token "$root" status "$job")"
 job=$(USER=alice "$dembuf" --token "$root" --owner bob submit "${bare[@]}" 2>/dev/null)
 "$dembuf" --token "$root" status "$job" | grep -q "owner bob," || fail "an admin's named owner"
+# Names with C1 controls (U+009B starts a terminal escape) or bidirectional overrides (U+202E)
+# were accepted and printed raw, so that `list` could be spoofed.
+expect_exit 2 "\-\-name: holds the control character U+009B (byte 4)" \
+  "$dembuf" --token "$root" submit "${bare[@]}" --name "$(printf 'job\xc2\x9b31m')"
+expect_exit 2 "\-\-name: holds the bidirectional control U+202E (byte 5)" \
+  "$dembuf" --token "$root" sweep "${bare[@]}" --vary projectile.speed_m_s=1,2 \
+  --name "$(printf 'run_\xe2\x80\xaefdp.exe')"
+expect_exit 2 "\-\-name: is not UTF-8 (byte 4)" \
+  "$dembuf" --token "$root" submit "${bare[@]}" --name "$(printf 'caf\xc3')"
+# The daemon refuses them whatever the client (here the Python package, which sends them).
+PYTHONPATH="$(dirname "$dembuf")/../python" DEMBUF_TOKEN=$root /usr/bin/python3 - <<'PY' ||
+import dembuf
+with dembuf.connect() as daemon:
+    for name, why in [("job\x9b31m", "name: holds the control character U+009B (byte 4)"),
+                      ("run_\u202efdp.exe", "name: holds the bidirectional control U+202E (byte 5)")]:
+        try:
+            daemon.submit(set=["bed.thickness_m=0"], name=name)
+        except dembuf.DembufError as e:
+            assert e.code == "INVALID_ARGUMENT" and why in e.message, (name, e)
+        else:
+            raise SystemExit(f"the daemon took the name {name!r}")
+PY
+  fail "the daemon's name checks"
 stop_daemon
 echo "sweeps test passed"

@@ -1,5 +1,6 @@
 #include "dembuf/study/text_limits.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <vector>
@@ -8,38 +9,45 @@ namespace dembuf {
 
 namespace {
 
-// The byte offset of the first byte that breaks UTF-8 (overlong forms and surrogates
-// included), or npos. TOML is UTF-8; the TOML parser must never see anything else (it reads
-// past the end of some invalid sequences).
-std::size_t FirstInvalidUtf8(std::string_view text) {
+// The code point at byte `i` of `text` and its length in bytes, or a length of 0 where the
+// bytes there break UTF-8 (overlong forms and surrogates included).
+std::size_t DecodeUtf8(std::string_view text, std::size_t i, unsigned* code) {
   const auto* p = reinterpret_cast<const unsigned char*>(text.data());
-  const std::size_t n = text.size();
-  for (std::size_t i = 0; i < n;) {
-    const unsigned c = p[i];
-    std::size_t len = 0;
-    unsigned min = 0;
-    if (c < 0x80) {
-      ++i;
-      continue;
-    } else if ((c & 0xE0) == 0xC0) {
-      len = 2;
-      min = 0x80;
-    } else if ((c & 0xF0) == 0xE0) {
-      len = 3;
-      min = 0x800;
-    } else if ((c & 0xF8) == 0xF0) {
-      len = 4;
-      min = 0x10000;
-    } else {
-      return i;
-    }
-    if (i + len > n) return i;
-    unsigned code = c & (0x7F >> len);
-    for (std::size_t k = 1; k < len; ++k) {
-      if ((p[i + k] & 0xC0) != 0x80) return i;
-      code = (code << 6) | (p[i + k] & 0x3F);
-    }
-    if (code < min || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) return i;
+  const unsigned c = p[i];
+  std::size_t len = 0;
+  unsigned min = 0;
+  if (c < 0x80) {
+    *code = c;
+    return 1;
+  } else if ((c & 0xE0) == 0xC0) {
+    len = 2;
+    min = 0x80;
+  } else if ((c & 0xF0) == 0xE0) {
+    len = 3;
+    min = 0x800;
+  } else if ((c & 0xF8) == 0xF0) {
+    len = 4;
+    min = 0x10000;
+  } else {
+    return 0;
+  }
+  if (i + len > text.size()) return 0;
+  *code = c & (0x7F >> len);
+  for (std::size_t k = 1; k < len; ++k) {
+    if ((p[i + k] & 0xC0) != 0x80) return 0;
+    *code = (*code << 6) | (p[i + k] & 0x3F);
+  }
+  if (*code < min || *code > 0x10FFFF || (*code >= 0xD800 && *code <= 0xDFFF)) return 0;
+  return len;
+}
+
+// The byte offset of the first byte that breaks UTF-8, or npos. TOML is UTF-8; the TOML
+// parser must never see anything else (it reads past the end of some invalid sequences).
+std::size_t FirstInvalidUtf8(std::string_view text) {
+  unsigned code = 0;
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t len = DecodeUtf8(text, i, &code);
+    if (len == 0) return i;
     i += len;
   }
   return std::string::npos;
@@ -165,6 +173,52 @@ void CheckTomlText(std::string_view text, const std::string& name, const TomlLim
       throw InputLimitError(name + " is not UTF-8 text (invalid byte at offset " +
                             std::to_string(bad) + ")");
   TomlScanner(text, name, limits).Run();
+}
+
+namespace {
+
+bool IsHiddenCode(unsigned code) {
+  return code < 0x20 || (code >= 0x7F && code <= 0x9F) || code == 0x061C || code == 0x200E ||
+         code == 0x200F || (code >= 0x202A && code <= 0x202E) || (code >= 0x2066 && code <= 0x2069);
+}
+
+}  // namespace
+
+std::string PrintableText(std::string_view text) {
+  std::string out;
+  unsigned code = 0;
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t len = DecodeUtf8(text, i, &code);
+    if (len == 0 || IsHiddenCode(code)) {
+      out += '?';
+      i += len == 0 ? 1 : len;
+    } else {
+      out.append(text.substr(i, len));
+      i += len;
+    }
+  }
+  return out;
+}
+
+std::string DisplayTextProblem(std::string_view text) {
+  unsigned code = 0;
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t len = DecodeUtf8(text, i, &code);
+    char where[96];
+    if (len == 0) {
+      std::snprintf(where, sizeof where, "is not UTF-8 (byte %zu)", i + 1);
+      return where;
+    }
+    const bool control = code < 0x20 || (code >= 0x7F && code <= 0x9F);
+    if (IsHiddenCode(code)) {
+      std::snprintf(where, sizeof where, "holds %s U+%04X (byte %zu)",
+                    control ? "the control character" : "the bidirectional control", code,
+                    i + 1);
+      return where;
+    }
+    i += len;
+  }
+  return "";
 }
 
 std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes,

@@ -32,6 +32,17 @@ struct TomlLimits {
 /// `scene file "e2.toml"`).
 void CheckTomlText(std::string_view text, const std::string& name, const TomlLimits& limits = {});
 
+/// Why `text` cannot be a name shown to people (a job's, a sweep's, a user's), "" when it can:
+/// names are printed in tables and on terminals, so text that is not UTF-8, control
+/// characters (C0, DEL and C1: U+009B starts a terminal escape) and the bidirectional controls
+/// that reorder what is shown (U+061C, U+200E, U+200F, U+202A-U+202E, U+2066-U+2069) are
+/// refused. Says what was found and where ("holds the control character U+009B (byte 4)").
+std::string DisplayTextProblem(std::string_view text);
+
+/// `text` with every byte that breaks UTF-8 and every character DisplayTextProblem refuses
+/// replaced by '?': what a client prints of a server's names.
+std::string PrintableText(std::string_view text);
+
 /// The content of a regular file of at most `max_bytes`, read without reading more (a device
 /// or a huge file is refused, not read). Throws InputLimitError naming `what` and the path.
 std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes,

@@ -66,7 +66,12 @@ TEST(BedImport, ABeadOutsideTheContainerIsRefusedWithItsLine) {
                 .find("below.txt:2: bead reaches below the plate"),
             std::string::npos);
   EXPECT_NE(Refusal(ImportScene("0 0 0.002 0.002\n0 0.01 0.002 0\n", "radius.txt"))
-                .find("radius.txt:2: radius 0 must be > 0"),
+                .find("radius.txt:2: radius 0 m is below 1e-06 m, the smallest bead this model "
+                      "covers"),
+            std::string::npos);
+  // A bead of 1e-12 m segfaulted a run (its neighbour grid had 1e33 cells).
+  EXPECT_NE(Refusal(ImportScene("0 0 0.002 0.002\n0 0.01 0.002 1e-12\n", "tiny.txt"))
+                .find("tiny.txt:2: radius 1e-12 m is below 1e-06 m"),
             std::string::npos);
   EXPECT_NE(Refusal(ImportScene("0 0 0.002 " + std::string(5000, '1') + "\n", "long.txt"))
                 .find("long.txt:1: a line longer than 4096 bytes"),

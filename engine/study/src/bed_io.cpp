@@ -233,7 +233,10 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
     if (fields >> extra) fail("unexpected text \"" + extra.substr(0, 40) + "\" after the radius");
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(r))
       fail("non-finite value");
-    if (!(r > 0.0)) fail("radius " + number(r) + " must be > 0");
+    if (!(r >= kMinBeadRadius_m))
+      fail("radius " + number(r) + " m is below " + number(kMinBeadRadius_m) +
+           " m, the smallest bead this model covers (finer powders are held by adhesion and the "
+           "air, which it leaves out)");
     if (r >= 0.5 * R) fail("radius " + number(r) + " m must be below half the cylinder's radius");
     // Outside the container: no overlap to accept or separate.
     if (std::hypot(x, y) + 0.5 * r > R)

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "dembuf/core/simulation.h"
 #include "dembuf/core/time_step.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/bed_io.h"
@@ -34,6 +35,10 @@ constexpr double kSimulationBytesPerBead = 400;
 constexpr double kCachedBytesPerBead = 220;
 constexpr double kInsertionBytesPerBead = 40;
 constexpr double kProcessBytes = 64e6;
+// The neighbour grid spans the container up to the beads' top, in cells of a bead's diameter
+// and the list skin (engine/core/src/bead_lists.cpp): 4 bytes a cell kept, 4 more while it
+// is built. Nothing for beads of millimetres; gigabytes for beads of micrometres.
+constexpr double kGridBytesPerCell = 8;
 // Per step of the impact window: time, force and height, and the peak finder's three arrays.
 constexpr double kSeriesBytesPerStep = 48;
 // A snapshot in memory: positions and radii, and about three contacts a bead.
@@ -134,15 +139,38 @@ double ResourceEstimate::PredictedSeconds(int threads, const std::vector<std::st
   return seconds;
 }
 
+namespace {
+
+// The cells of the neighbour grid over a container of radius `container_m` with beads up to
+// `top_m`, as RebuildLists builds it.
+double GridCells(double container_m, double top_m, double min_radius, double max_radius) {
+  const double cell = 2.0 * max_radius + dem::WorldParams{}.skin_fraction * 2.0 * min_radius;
+  const double margin = 2.0 * max_radius;
+  const double across = std::max(1.0, std::ceil((2.0 * container_m + 2.0 * margin) / cell));
+  const double up = std::max(1.0, std::ceil((top_m + 2.0 * margin) / cell));
+  return across * across * up;
+}
+
+}  // namespace
+
 ResourceEstimate EstimateResources(const Scene& scene) {
   ResourceEstimate e;
   const double area = std::numbers::pi * scene.cylinder.radius_m * scene.cylinder.radius_m;
   const double max_settle_s = scene.bed.max_settle_s;
   double min_radius = 0.5 * scene.beads.diameter_min_m;
+  double max_radius = 0.5 * scene.beads.diameter_max_m;
+  const SourcePlan plan = PlanSourceBed(scene);
+  double bed_top_m = std::max(plan.column_top_m, scene.bed.thickness_m);
   const std::vector<BedStage> stages = BedStagesOf(scene);
   if (!scene.bed.import.empty()) {
     const ImportedBed imported = ReadTextBed(scene.bed.import, scene);
-    for (double r : imported.beads.radius) min_radius = std::min(min_radius, r);
+    min_radius = max_radius = imported.beads.radius.empty() ? min_radius : imported.beads.radius[0];
+    bed_top_m = 0.0;
+    for (std::size_t i = 0; i < imported.beads.size(); ++i) {
+      min_radius = std::min(min_radius, imported.beads.radius[i]);
+      max_radius = std::max(max_radius, imported.beads.radius[i]);
+      bed_top_m = std::max(bed_top_m, imported.beads.position[i].z() + imported.beads.radius[i]);
+    }
     e.impact_beads = static_cast<double>(imported.beads.size());
   }
   e.dt_s = scene.time.alpha * dem::CriticalTimeStep(min_radius, scene.material.density_kg_m3,
@@ -151,7 +179,6 @@ ResourceEstimate EstimateResources(const Scene& scene) {
   // A settling stage is checked for rest every 200 steps.
   auto settle_steps = [&](double seconds) { return std::ceil(seconds / e.dt_s) + 200; };
 
-  const SourcePlan plan = PlanSourceBed(scene);
   const double cut_beads =
       std::ceil(kSettledSolidFraction * area * scene.bed.thickness_m / plan.mean_bead_volume_m3);
   for (const BedStage& stage : stages) {
@@ -227,7 +254,11 @@ ResourceEstimate EstimateResources(const Scene& scene) {
       (scene.output.snapshot_at_peak ? e.impact_beads * kCachedBytesPerBead : 0.0) +
       window_steps * kSeriesBytesPerStep +
       (e.snapshots + e.animation_frames > 0 ? e.impact_beads * kSnapshotBytesPerBead : 0.0);
-  e.memory_bytes_max = kProcessBytes + std::max(settling, impact) + cached;
+  const double grid =
+      e.MaxBeads() > 0
+          ? kGridBytesPerCell * GridCells(scene.cylinder.radius_m, bed_top_m, min_radius, max_radius)
+          : 0.0;
+  e.memory_bytes_max = kProcessBytes + std::max(settling, impact) + cached + grid;
   return e;
 }
 

@@ -46,6 +46,11 @@ struct ImportedBed {
   std::string Describe() const;
 };
 
+/// The smallest bead radius an imported bed may hold: 1 um. Finer powders are held together by
+/// adhesion and moved by the air, which the model leaves out; and the neighbour grid, in cells
+/// of a bead's size across the whole container, would take more memory than a machine has.
+inline constexpr double kMinBeadRadius_m = 1e-6;
+
 /// Reads and checks a text bed (see above). Throws SceneError (field "bed.import") naming the
 /// line of a malformed, non-finite or out-of-container bead, or the worst overlap.
 ImportedBed ReadTextBed(const std::string& path, const Scene& scene);

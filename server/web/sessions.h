@@ -2,7 +2,9 @@
 // back in an HttpOnly cookie, so that the token itself is not kept by the browser. A session
 // holds the token's hash, not a user: every request looks the user up again, so a revoked
 // token ends its sessions at once. Sessions live in memory (a restart logs everyone out) for
-// at most `lifetime`, and there are at most `capacity` of them (the oldest goes first).
+// at most `lifetime`. A token holds at most `per_token` of them (its own oldest goes first), so
+// that one user logging in again and again cannot push everyone else out of the `capacity`
+// of all (where the oldest goes first).
 #pragma once
 
 #include <chrono>
@@ -19,8 +21,8 @@ class Sessions {
   using Clock = std::chrono::steady_clock;
 
   explicit Sessions(std::chrono::seconds lifetime = std::chrono::hours(12),
-                    std::size_t capacity = 10000)
-      : m_lifetime(lifetime), m_capacity(capacity) {}
+                    std::size_t capacity = 10000, std::size_t per_token = 16)
+      : m_lifetime(lifetime), m_capacity(capacity), m_per_token(per_token) {}
 
   /// A new session for the holder of the token with this hash; returns its id.
   std::string Open(const std::string& token_hash);
@@ -38,6 +40,7 @@ class Sessions {
 
   const std::chrono::seconds m_lifetime;
   const std::size_t m_capacity;
+  const std::size_t m_per_token;
   std::mutex m_mutex;
   /// By the SHA-256 of the session id: the ids themselves are not kept.
   std::map<std::string, Session> m_sessions;

@@ -241,6 +241,19 @@ TEST(WebSessions, ASessionNamesItsTokenUntilClosedOrExpired) {
   EXPECT_FALSE(brief.TokenHash(brief.Open("hash")));
 }
 
+TEST(WebSessions, OneUsersLoginsPushOutOnlyTheirOwnSessions) {
+  // 10,000 logins of one user evicted every other user's session (one shared cap).
+  web::Sessions sessions(std::chrono::seconds(3600), 100, 4);
+  const std::string ada = sessions.Open("hash-ada");
+  std::vector<std::string> eve;
+  for (int k = 0; k < 1000; ++k) eve.push_back(sessions.Open("hash-eve"));
+  EXPECT_EQ(sessions.TokenHash(ada), "hash-ada");
+  int eve_live = 0;
+  for (const std::string& id : eve) eve_live += sessions.TokenHash(id).has_value();
+  EXPECT_EQ(eve_live, 4);
+  EXPECT_EQ(sessions.TokenHash(eve.back()), "hash-eve");  // the newest are kept
+}
+
 TEST(StreamLimits, PerUserAndInAllAndGivenBack) {
   StreamLimits limits(2, 3, "event streams", "http_max_streams");
   const Caller ada{"ada", false, true}, local{"local", true, false};

@@ -13,7 +13,9 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <sstream>
+#include <thread>
 
 #include "dembuf/study/errors.h"
 #include "dembuf/study/run_output.h"
@@ -273,16 +275,52 @@ std::string ServerAddress(const std::string& flag) {
   return kDefaultServer;
 }
 
+namespace {
+
+// A random id for one submission, 32 hex digits: the daemon files a request once however
+// often it arrives with it.
+std::string NewRequestId() {
+  std::random_device random;  // the system's generator
+  std::string id;
+  for (int k = 0; k < 4; ++k) {
+    char word[9];
+    std::snprintf(word, sizeof word, "%08x", random());
+    id += word;
+  }
+  return id;
+}
+
+// Sends a submission and, while the daemon cannot be reached or its answer does not come in
+// time (a reply lost on the way), sends it again with the same request id, twice at most.
+template <class Call>
+grpc::Status SubmitWithRetries(const Remote& remote, Call&& call) {
+  grpc::Status status;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    if (attempt > 0) std::this_thread::sleep_for(std::chrono::milliseconds(500 * attempt));
+    grpc::ClientContext context;
+    Prepare(context, remote);
+    status = call(context);
+    if (status.error_code() != grpc::StatusCode::UNAVAILABLE &&
+        status.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED)
+      break;
+  }
+  return status;
+}
+
+}  // namespace
+
 int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name) {
   v1::SubmitJobRequest request;
   *request.mutable_scene() = MakeSceneSpec(scene);
   request.set_name(name);
   request.set_owner(remote.owner);
   request.set_command_line(remote.command_line.substr(0, kMaxCommandLine));
+  request.set_request_id(NewRequestId());
   v1::SubmitJobResponse response;
-  grpc::ClientContext context;
-  Prepare(context, remote);
-  const grpc::Status status = Connect(remote)->SubmitJob(&context, request, &response);
+  const auto stub = Connect(remote);
+  const grpc::Status status = SubmitWithRetries(remote, [&](grpc::ClientContext& context) {
+    return stub->SubmitJob(&context, request, &response);
+  });
   if (!status.ok()) return Report(remote, status);
   PrintWarnings(response.warnings());
   std::printf("%lld\n", static_cast<long long>(response.job().id()));
@@ -308,12 +346,19 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   request.set_name(name);
   request.set_owner(remote.owner);
   request.set_command_line(remote.command_line.substr(0, kMaxCommandLine));
+  request.set_request_id(NewRequestId());
   v1::SubmitSweepResponse response;
-  grpc::ClientContext context;
-  Prepare(context, remote);
-  const grpc::Status status = Connect(remote)->SubmitSweep(&context, request, &response);
+  const auto stub = Connect(remote);
+  const grpc::Status status = SubmitWithRetries(remote, [&](grpc::ClientContext& context) {
+    return stub->SubmitSweep(&context, request, &response);
+  });
   if (!status.ok()) return Report(remote, status);
   const v1::Sweep& sweep = response.sweep();
+  if (response.job_ids_size() == 0) {
+    std::fprintf(stderr, "dembuf: the server at %s answered sweep %lld with no jobs\n",
+                 remote.address.c_str(), static_cast<long long>(sweep.id()));
+    return kExitError;
+  }
   PrintWarnings(response.warnings());
   if (json) {
     const std::vector<std::int64_t> job_ids(response.job_ids().begin(), response.job_ids().end());

@@ -1,6 +1,7 @@
 #include "service.h"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <sstream>
 #include <thread>
@@ -107,6 +108,18 @@ Status CheckLabel(const std::string& field, const std::string& value, std::size_
   return Status::OK;
 }
 
+// A client's request id: "" (none) or 1 to 64 of [A-Za-z0-9._-].
+Status CheckRequestId(const std::string& id) {
+  if (id.empty()) return Status::OK;
+  const bool plain = id.size() <= 64 && std::all_of(id.begin(), id.end(), [](char c) {
+                       return std::isalnum(static_cast<unsigned char>(c)) || c == '.' ||
+                              c == '_' || c == '-';
+                     });
+  return plain ? Status::OK
+               : Invalid("request_id", "must be 1 to 64 letters, digits, '.', '_' or '-' (a "
+                                       "UUID), or empty");
+}
+
 // "" means: not given.
 Status CheckOwner(const std::string& owner) {
   if (owner.empty()) return Status::OK;
@@ -195,6 +208,37 @@ DembufService::DembufService(Store& store, Executor& executor, const AccessPolic
       m_watch_streams(m_info.max_watch_streams_per_user, m_info.max_watch_streams, "watch streams",
                       "max_watch_streams") {}
 
+bool DembufService::AnswerRetry(const std::string& owner, const std::string& request_id,
+                                bool sweep, v1::SubmitJobResponse* job_answer,
+                                v1::SubmitSweepResponse* sweep_answer, Status* status) {
+  const std::optional<Submission> earlier = m_store.FindSubmission(owner, request_id);
+  if (!earlier) return false;
+  *status = Status::OK;
+  if (sweep != (earlier->sweep_id != 0)) {
+    *status = Invalid("request_id", request_id + " was used for a " +
+                                        (sweep ? "job" : "sweep") + "; choose a new one");
+    return true;
+  }
+  m_log->info("{} repeated request {}: answered with {} {}", owner, request_id,
+              sweep ? "sweep" : "job", sweep ? earlier->sweep_id : earlier->job_id);
+  if (!sweep) {
+    if (const std::optional<JobRecord> job = m_store.GetJob(earlier->job_id))
+      FillJob(*job, false, job_answer->mutable_job());
+    return true;
+  }
+  if (const std::optional<SweepRecord> record = m_store.GetSweep(earlier->sweep_id)) {
+    FillSweep(*record, sweep_answer->mutable_sweep());
+    JobFilter filter;
+    filter.sweep_id = record->id;
+    filter.limit = m_info.max_sweep_jobs;
+    std::vector<JobRecord> jobs = m_store.ListJobs(filter);
+    std::sort(jobs.begin(), jobs.end(),
+              [](const JobRecord& a, const JobRecord& b) { return a.id < b.id; });
+    for (const JobRecord& job : jobs) sweep_answer->add_job_ids(job.id);
+  }
+  return true;
+}
+
 void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out) {
   out->set_id(r.id);
   out->set_sweep_id(r.sweep_id);
@@ -255,6 +299,13 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
     if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
       return s;
+    if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
+    std::unique_lock<std::mutex> retry_lock(m_submissions, std::defer_lock);
+    if (!request->request_id().empty()) {
+      retry_lock.lock();
+      Status retry;
+      if (AnswerRetry(owner, request->request_id(), false, response, nullptr, &retry)) return retry;
+    }
     JobRecord job;
     std::vector<std::string> warnings;
     try {
@@ -273,7 +324,7 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     if (Status s = CheckQueuedQuota(owner, 1); !s.ok()) return s;
     try {
       m_executor.Admit(1, [&] {
-        m_store.AddJob(job);
+        m_store.AddJob(job, request->request_id());
         return std::vector<JobRecord>{job};
       });
     } catch (const QueueFull& e) {
@@ -299,6 +350,13 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
     if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
       return s;
+    if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
+    std::unique_lock<std::mutex> retry_lock(m_submissions, std::defer_lock);
+    if (!request->request_id().empty()) {
+      retry_lock.lock();
+      Status retry;
+      if (AnswerRetry(owner, request->request_id(), true, nullptr, response, &retry)) return retry;
+    }
     if (request->axes().empty() && request->seeds() <= 1)
       return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
     if (request->seeds() < 0 || request->seeds() > 1000)
@@ -338,7 +396,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     if (Status s = CheckQueuedQuota(owner, jobs.size()); !s.ok()) return s;
     try {
       m_executor.Admit(jobs.size(), [&] {
-        m_store.AddSweep(sweep, jobs);
+        m_store.AddSweep(sweep, jobs, request->request_id());
         return jobs;
       });
     } catch (const QueueFull& e) {

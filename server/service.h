@@ -73,6 +73,11 @@ class DembufService final : public v1::Dembuf::Service {
   /// become UNAUTHENTICATED or PERMISSION_DENIED.
   template <class Handler>
   grpc::Status Guard(const char* rpc, Handler&& handler);
+  /// For a request with a request id that `owner` used before: true, with the answer filled
+  /// from the job or sweep filed then (or `status` set when it was the other kind).
+  bool AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
+                   v1::SubmitJobResponse* job_answer, v1::SubmitSweepResponse* sweep_answer,
+                   grpc::Status* status);
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);
 
@@ -82,6 +87,9 @@ class DembufService final : public v1::Dembuf::Service {
   ServiceInfo m_info;
   std::shared_ptr<spdlog::logger> m_log;
   StreamLimits m_watch_streams;
+  /// Held from the look-up of a request id to the filing of its work, so that two copies of
+  /// one request arriving together file it once.
+  std::mutex m_submissions;
 };
 
 }  // namespace dembuf::server

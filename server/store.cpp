@@ -134,6 +134,18 @@ CREATE TABLE job_files (
 -- Provenance: the command that asked for the job (the client's, as it sent it).
 ALTER TABLE jobs ADD COLUMN command_line TEXT NOT NULL DEFAULT '';
 )sql",
+    R"sql(
+-- Submissions by the id their client chose: a retry after a lost reply is answered with the
+-- job or sweep filed the first time, in the same transaction as it was filed.
+CREATE TABLE submissions (
+  owner       TEXT NOT NULL,
+  request_id  TEXT NOT NULL,
+  job_id      INTEGER NOT NULL DEFAULT 0,
+  sweep_id    INTEGER NOT NULL DEFAULT 0,
+  created_at  TEXT NOT NULL,
+  PRIMARY KEY (owner, request_id)
+);
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 
@@ -279,7 +291,8 @@ void Store::InsertJobLocked(JobRecord& job) {
   job.id = m_db->LastInsertId();
 }
 
-void Store::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs) {
+void Store::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs,
+                     const std::string& request_id) {
   std::lock_guard lock(m_mutex);
   Transaction t(*m_db);
   sweep.created_at = report::UtcNow();
@@ -291,12 +304,36 @@ void Store::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs) {
     job.sweep_id = sweep.id;
     InsertJobLocked(job);
   }
+  if (!request_id.empty())
+    m_db->Prepare("INSERT INTO submissions (owner, request_id, sweep_id, created_at) "
+                  "VALUES (?, ?, ?, ?)")
+        .Bind(sweep.owner, request_id, sweep.id, sweep.created_at)
+        .Run();
   t.Commit();
 }
 
-void Store::AddJob(JobRecord& job) {
+void Store::AddJob(JobRecord& job, const std::string& request_id) {
   std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
   InsertJobLocked(job);
+  if (!request_id.empty())
+    m_db->Prepare("INSERT INTO submissions (owner, request_id, job_id, created_at) "
+                  "VALUES (?, ?, ?, ?)")
+        .Bind(job.owner, request_id, job.id, job.created_at)
+        .Run();
+  t.Commit();
+}
+
+std::optional<Submission> Store::FindSubmission(const std::string& owner,
+                                                const std::string& request_id) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "SELECT job_id, sweep_id FROM submissions WHERE owner = ? AND request_id = ?");
+  s.Bind(owner, request_id);
+  if (!s.Step()) return std::nullopt;
+  Submission found{s.Int(0), s.Int(1)};
+  s.Run();
+  return found;
 }
 
 std::optional<JobRecord> Store::GetJob(std::int64_t id) {

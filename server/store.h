@@ -124,6 +124,12 @@ struct User {
   bool admin = false;
 };
 
+/// What a request id filed: a job or a sweep (the other id is 0).
+struct Submission {
+  std::int64_t job_id = 0;
+  std::int64_t sweep_id = 0;
+};
+
 class StoreError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -136,10 +142,15 @@ class Store {
   /// this program; such a file is never modified.
   explicit Store(const std::string& path, StoreOptions options = {});
 
-  /// Adds a sweep and its jobs in one transaction; sets their ids.
-  void AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs);
-  /// Adds one job; sets its id.
-  void AddJob(JobRecord& job);
+  /// Adds a sweep and its jobs in one transaction; sets their ids. A `request_id` ("" for
+  /// none) is recorded with them, for FindSubmission.
+  void AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs,
+                const std::string& request_id = "");
+  /// Adds one job; sets its id. A `request_id` as for AddSweep.
+  void AddJob(JobRecord& job, const std::string& request_id = "");
+  /// The job or sweep `owner` filed with this request id, if any.
+  std::optional<Submission> FindSubmission(const std::string& owner,
+                                           const std::string& request_id);
 
   std::optional<JobRecord> GetJob(std::int64_t id);
   std::vector<JobRecord> ListJobs(const JobFilter& filter);

@@ -8,6 +8,7 @@ import pathlib
 import re
 import sys
 import time
+import uuid
 import warnings
 from typing import Iterator, Mapping, NamedTuple, Sequence
 
@@ -123,6 +124,21 @@ class Client:
         except grpc.RpcError as e:
             raise DembufError(e.code().name, e.details()) from None
 
+    def _submit(self, method, request):
+        """Sends a submission with a request id of its own, and sends it again (twice at
+        most) while the daemon cannot be reached or does not answer in time: a reply lost on
+        the way does not file the work twice, since the daemon files a request id once."""
+        request.request_id = uuid.uuid4().hex
+        for attempt in range(3):
+            if attempt:
+                time.sleep(0.5 * attempt)
+            try:
+                return method(request, metadata=self._metadata(), timeout=self.timeout_s)
+            except grpc.RpcError as e:
+                retry = e.code() in (grpc.StatusCode.UNAVAILABLE, grpc.StatusCode.DEADLINE_EXCEEDED)
+                if not retry or attempt == 2:
+                    raise DembufError(e.code().name, e.details()) from None
+
     def _stream(self, method, request):
         try:
             yield from method(request, metadata=self._metadata())
@@ -162,7 +178,7 @@ class Client:
         warnings (UserWarning)."""
         request = pb.SubmitJobRequest(scene=self._scene_spec(preset, scene, toml, set, accuracy),
                                       name=name, owner=self.owner, command_line=command_line())
-        answer = self._call(self._stub.SubmitJob, request)
+        answer = self._submit(self._stub.SubmitJob, request)
         for warning in answer.warnings:
             warnings.warn(f"job {answer.job.id}: {warning}", stacklevel=2)
         return answer.job.id
@@ -183,7 +199,7 @@ class Client:
                 request.axes.add(field=field, range=values)
             else:
                 request.axes.add(field=field, values=[str(v) for v in values])
-        answer = self._call(self._stub.SubmitSweep, request)
+        answer = self._submit(self._stub.SubmitSweep, request)
         for warning in answer.warnings:
             warnings.warn(f"sweep {answer.sweep.id}: {warning}", stacklevel=2)
         return answer.sweep.id

@@ -106,6 +106,11 @@ int main(int argc, char** argv) {
   CLI::App* revoke = app.add_subcommand("token-revoke", "remove a user's API token");
   revoke->add_option("name", user, "user name")->required();
   CLI::App* list = app.add_subcommand("token-list", "list the users that have tokens");
+  bool check_db = false;
+  app.add_flag("--check-db", check_db,
+               "verify the database offline (SQLite's integrity check, then every stored "
+               "summary, series and result file against its checksum) and exit: 0 intact, 1 "
+               "damaged; refused while a daemon uses it");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -160,6 +165,25 @@ int main(int argc, char** argv) {
           std::printf("%s%s\n", u.name.c_str(), u.admin ? " (admin)" : "");
       }
       return 0;
+    } catch (const std::exception& e) {
+      std::cerr << "dembufd: " << e.what() << "\n";
+      return kExitRuntime;
+    }
+  }
+
+  if (check_db) {
+    try {
+      // The lock first: the check reads a database no daemon is changing.
+      DatabaseLock lock(config.db);
+      Store store(config.db);
+      const CheckReport report = store.Check();
+      for (const std::string& problem : report.problems) std::printf("%s\n", problem.c_str());
+      std::printf("database %s: %lld summaries, %lld series chunks and %lld result files checked: %s\n",
+                  config.db.c_str(), static_cast<long long>(report.summaries),
+                  static_cast<long long>(report.series_chunks), static_cast<long long>(report.files),
+                  report.problems.empty() ? "intact"
+                                          : (std::to_string(report.problems.size()) + " damaged").c_str());
+      return report.problems.empty() ? 0 : kExitRuntime;
     } catch (const std::exception& e) {
       std::cerr << "dembufd: " << e.what() << "\n";
       return kExitRuntime;

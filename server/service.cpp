@@ -189,6 +189,9 @@ Status DembufService::Guard(const char* rpc, Handler&& handler) {
   } catch (const AccessDenied& e) {
     return Status(e.unauthenticated() ? StatusCode::UNAUTHENTICATED : StatusCode::PERMISSION_DENIED,
                   e.what());
+  } catch (const DamagedData& e) {
+    m_log->error("{}: {}", rpc, e.what());
+    return Status(StatusCode::DATA_LOSS, e.what());
   } catch (const StorageFull& e) {
     m_log->error("{}: the disk is full: {}", rpc, e.what());
     return DiskFull();
@@ -267,7 +270,14 @@ void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out)
       info->set_path(file.path);
       info->set_size(file.size);
     }
-    if (r.state == JobState::kDone) out->set_summary_json(m_store.Summary(r.id));
+    // A damaged summary is not served; the job says why it has none.
+    if (r.state == JobState::kDone) {
+      try {
+        out->set_summary_json(m_store.Summary(r.id));
+      } catch (const DamagedData& e) {
+        out->set_error(e.what());
+      }
+    }
   }
 }
 

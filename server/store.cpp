@@ -4,6 +4,7 @@
 #include <cstring>
 #include <ctime>
 #include <nlohmann/json.hpp>
+#include <openssl/evp.h>
 #include <random>
 
 #include "dembuf/study/provenance.h"
@@ -146,8 +147,18 @@ CREATE TABLE submissions (
   PRIMARY KEY (owner, request_id)
 );
 )sql",
+    R"sql(
+-- Checksums (SHA-256, hex) of what the series chunks did not cover: a summary, a series
+-- stored whole (before chunks) and a result file, checked on every read. Rows stored before
+-- get theirs when the daemon upgrades the database (Store::AddMissingChecksums).
+ALTER TABLE results ADD COLUMN summary_sha256 TEXT NOT NULL DEFAULT '';
+ALTER TABLE results ADD COLUMN series_sha256 TEXT NOT NULL DEFAULT '';
+ALTER TABLE job_files ADD COLUMN sha256 TEXT NOT NULL DEFAULT '';
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
+// The version that added the checksums of summaries, whole series and result files.
+constexpr int kChecksumsVersion = 8;  // the eighth migration
 
 nlohmann::json AxesToJson(const std::vector<SweepAxis>& axes) {
   nlohmann::json out = nlohmann::json::array();
@@ -161,6 +172,40 @@ std::vector<SweepAxis> AxesFromJson(const std::string& text) {
     axes.push_back({a["field"].get<std::string>(), a["values"].get<std::vector<std::string>>()});
   return axes;
 }
+
+// Throws DamagedData naming `what` unless `data` has the checksum `sha256` (an empty one is
+// no checksum: a row whose checksum was cleared is not taken on trust).
+void CheckSum(const std::string& data, const std::string& sha256, const std::string& what) {
+  if (sha256.empty() || report::Sha256Hex(data) != sha256)
+    throw DamagedData(what + " is damaged: it does not match its checksum");
+}
+
+// SHA-256 of a blob read piece by piece, hex: a result file is not held whole to be checked.
+class Sha256Stream {
+ public:
+  Sha256Stream() : m_context(EVP_MD_CTX_new()) { EVP_DigestInit_ex(m_context, EVP_sha256(), nullptr); }
+  ~Sha256Stream() { EVP_MD_CTX_free(m_context); }
+  Sha256Stream(const Sha256Stream&) = delete;
+  Sha256Stream& operator=(const Sha256Stream&) = delete;
+  void Add(const std::string& piece) { EVP_DigestUpdate(m_context, piece.data(), piece.size()); }
+  std::string Hex() {
+    unsigned char digest[EVP_MAX_MD_SIZE];
+    unsigned int size = 0;
+    EVP_DigestFinal_ex(m_context, digest, &size);
+    static const char* const kDigits = "0123456789abcdef";
+    std::string hex;
+    for (unsigned int k = 0; k < size; ++k) {
+      hex += kDigits[digest[k] >> 4];
+      hex += kDigits[digest[k] & 0xf];
+    }
+    return hex;
+  }
+
+ private:
+  EVP_MD_CTX* m_context;
+};
+
+constexpr std::int64_t kHashPieceBytes = 1 << 20;
 
 const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
@@ -235,6 +280,7 @@ Store::Store(const std::string& path, StoreOptions options) : m_options(options)
       Transaction t(*m_db);
       m_db->Execute(kMigrations[v]);
       m_db->Execute("PRAGMA user_version = " + std::to_string(v + 1));
+      if (v + 1 == kChecksumsVersion) AddMissingChecksumsLocked();
       t.Commit();
     }
   } catch (const StoreError& e) {
@@ -475,7 +521,7 @@ std::vector<ImpactSample> Store::ReadSeriesLocked(std::int64_t id, std::int64_t 
   std::int64_t next = -1;  // where the next chunk must start
   auto damaged = [&](const std::string& why) {
     s.Bind();  // ends the statement before throwing
-    return StoreError("the series of job " + std::to_string(id) + " is damaged: " + why);
+    return DamagedData("the series of job " + std::to_string(id) + " is damaged: " + why);
   };
   while (static_cast<std::int64_t>(out.size()) < max && s.Step()) {
     const std::int64_t first = s.Int(0), count = s.Int(1);
@@ -512,10 +558,11 @@ void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
   Transaction t(*m_db);
   AppendSeriesLocked(id, results.first_index, results.samples);
   m_db->Prepare(
-          "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series) "
-          "VALUES (?, ?, ?, zeroblob(0))")
+          "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series, "
+          "summary_sha256, series_sha256) VALUES (?, ?, ?, zeroblob(0), ?, ?)")
       .Bind(id, results.summary_json,
-            results.first_index + static_cast<std::int64_t>(results.samples.size()))
+            results.first_index + static_cast<std::int64_t>(results.samples.size()),
+            report::Sha256Hex(results.summary_json), report::Sha256Hex(""))
       .Run();
   PutJobFilesLocked(id, results.files);
   FaultPoint("kill-during-result-write");  // the series is written, the job not yet done
@@ -534,9 +581,124 @@ void Store::PutJobFiles(std::int64_t id, const std::vector<report::ResultFile>& 
 
 void Store::PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultFile>& files) {
   for (const report::ResultFile& file : files)
-    m_db->Prepare("INSERT OR REPLACE INTO job_files (job_id, path, data) VALUES (?, ?, ?)")
-        .Bind(id, file.path, Database::AsBlob(file.data))
+    m_db->Prepare(
+            "INSERT OR REPLACE INTO job_files (job_id, path, data, sha256) VALUES (?, ?, ?, ?)")
+        .Bind(id, file.path, Database::AsBlob(file.data), report::Sha256Hex(file.data))
         .Run();
+}
+
+std::string Store::JobFileSha256Locked(std::int64_t id, const std::string& path) {
+  Sha256Stream hash;
+  Statement& s =
+      m_db->Prepare("SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
+  for (std::int64_t offset = 0;; offset += kHashPieceBytes) {
+    s.Bind(offset, kHashPieceBytes, id, path);
+    const std::string piece = s.Step() ? s.Blob(0) : std::string();
+    s.Run();
+    hash.Add(piece);
+    if (static_cast<std::int64_t>(piece.size()) < kHashPieceBytes) break;
+  }
+  return hash.Hex();
+}
+
+void Store::CheckJobFileLocked(std::int64_t id, const std::string& path) {
+  Statement& s = m_db->Prepare("SELECT sha256 FROM job_files WHERE job_id = ? AND path = ?");
+  s.Bind(id, path);
+  if (!s.Step()) return;  // no such file: nothing to serve
+  const std::string sha = s.Text(0);
+  s.Run();
+  if (sha.empty() || JobFileSha256Locked(id, path) != sha)
+    throw DamagedData("the result file " + path + " of job " + std::to_string(id) +
+                      " is damaged: it does not match its checksum");
+}
+
+void Store::AddMissingChecksumsLocked() {
+  // Results stored before checksums: taken as they are at the upgrade.
+  std::vector<std::int64_t> ids;
+  Statement& results = m_db->Prepare("SELECT job_id FROM results WHERE summary_sha256 = ''");
+  results.Bind();
+  while (results.Step()) ids.push_back(results.Int(0));
+  for (std::int64_t id : ids) {
+    Statement& row = m_db->Prepare("SELECT summary_json, series FROM results WHERE job_id = ?");
+    row.Bind(id);
+    row.Step();
+    const std::string summary = row.Text(0), series = row.Blob(1);
+    row.Run();
+    m_db->Prepare("UPDATE results SET summary_sha256 = ?, series_sha256 = ? WHERE job_id = ?")
+        .Bind(report::Sha256Hex(summary), report::Sha256Hex(series), id)
+        .Run();
+  }
+  std::vector<std::pair<std::int64_t, std::string>> files;
+  Statement& list = m_db->Prepare("SELECT job_id, path FROM job_files WHERE sha256 = ''");
+  list.Bind();
+  while (list.Step()) files.push_back({list.Int(0), list.Text(1)});
+  for (const auto& [id, path] : files)
+    m_db->Prepare("UPDATE job_files SET sha256 = ? WHERE job_id = ? AND path = ?")
+        .Bind(JobFileSha256Locked(id, path), id, path)
+        .Run();
+}
+
+CheckReport Store::Check() {
+  std::lock_guard lock(m_mutex);
+  CheckReport report;
+  Statement& integrity = m_db->Prepare("PRAGMA integrity_check");
+  integrity.Bind();
+  while (integrity.Step())
+    if (integrity.Text(0) != "ok") report.problems.push_back("SQLite: " + integrity.Text(0));
+  std::vector<std::int64_t> ids;
+  Statement& results = m_db->Prepare("SELECT job_id FROM results ORDER BY job_id");
+  results.Bind();
+  while (results.Step()) ids.push_back(results.Int(0));
+  for (std::int64_t id : ids) {
+    Statement& row = m_db->Prepare(
+        "SELECT summary_json, summary_sha256, series, series_sha256, sample_count FROM results "
+        "WHERE job_id = ?");
+    row.Bind(id);
+    row.Step();
+    const std::string summary = row.Text(0), summary_sha = row.Text(1), series = row.Blob(2),
+                      series_sha = row.Text(3);
+    const std::int64_t count = row.Int(4);
+    row.Run();
+    ++report.summaries;
+    try {
+      CheckSum(summary, summary_sha, "the summary of job " + std::to_string(id));
+      CheckSum(series, series_sha, "the series of job " + std::to_string(id));
+      if (series.empty()) {
+        // Every chunk, read as FetchSeries reads it: checksums, order, the count.
+        std::int64_t read = 0;
+        for (std::int64_t from = 0; from < count; from += read) {
+          read = static_cast<std::int64_t>(ReadSeriesLocked(id, from, 1 << 16).size());
+          if (read == 0) break;
+        }
+        Statement& chunks = m_db->Prepare(
+            "SELECT count(*), IFNULL(sum(sample_count), 0) FROM series_chunks WHERE job_id = ?");
+        chunks.Bind(id);
+        chunks.Step();
+        report.series_chunks += chunks.Int(0);
+        const std::int64_t stored = chunks.Int(1);
+        chunks.Run();
+        if (stored != count)
+          throw DamagedData("the series of job " + std::to_string(id) + " is damaged: " +
+                            std::to_string(stored) + " of its " + std::to_string(count) +
+                            " samples are stored");
+      }
+    } catch (const DamagedData& e) {
+      report.problems.push_back(e.what());
+    }
+  }
+  std::vector<std::pair<std::int64_t, std::string>> files;
+  Statement& list = m_db->Prepare("SELECT job_id, path FROM job_files ORDER BY job_id, path");
+  list.Bind();
+  while (list.Step()) files.push_back({list.Int(0), list.Text(1)});
+  for (const auto& [id, path] : files) {
+    ++report.files;
+    try {
+      CheckJobFileLocked(id, path);
+    } catch (const DamagedData& e) {
+      report.problems.push_back(e.what());
+    }
+  }
+  return report;
 }
 
 std::vector<JobFileInfo> Store::JobFiles(std::int64_t id) {
@@ -552,6 +714,7 @@ std::vector<JobFileInfo> Store::JobFiles(std::int64_t id) {
 std::string Store::ReadJobFile(std::int64_t id, const std::string& path, std::int64_t offset,
                                std::int64_t max) {
   std::lock_guard lock(m_mutex);
+  if (offset == 0) CheckJobFileLocked(id, path);
   // substr counts bytes of a blob from 1.
   Statement& s =
       m_db->Prepare("SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
@@ -563,32 +726,39 @@ std::string Store::ReadJobFile(std::int64_t id, const std::string& path, std::in
 
 std::optional<JobResults> Store::GetResults(std::int64_t id) {
   std::lock_guard lock(m_mutex);
-  Statement& s =
-      m_db->Prepare("SELECT summary_json, sample_count, series FROM results WHERE job_id = ?");
+  Statement& s = m_db->Prepare(
+      "SELECT summary_json, sample_count, series, summary_sha256, series_sha256 FROM results "
+      "WHERE job_id = ?");
   s.Bind(id);
   if (!s.Step()) return std::nullopt;
   JobResults results{s.Text(0), {}, 0, {}};
   const std::int64_t count = s.Int(1);
   const std::string legacy = s.Blob(2);  // a whole series, from before chunks
+  const std::string summary_sha = s.Text(3), series_sha = s.Text(4);
   s.Run();
+  CheckSum(results.summary_json, summary_sha, "the summary of job " + std::to_string(id));
+  CheckSum(legacy, series_sha, "the series of job " + std::to_string(id));
   if (!legacy.empty()) {
     results.samples = report::UnpackSamples(legacy);
     return results;
   }
   results.samples = ReadSeriesLocked(id, 0, count);
   if (static_cast<std::int64_t>(results.samples.size()) != count)
-    throw StoreError("the series of job " + std::to_string(id) +
-                     " is damaged: " + std::to_string(results.samples.size()) + " of its " +
+    throw DamagedData("the series of job " + std::to_string(id) +
+                      " is damaged: " + std::to_string(results.samples.size()) + " of its " +
                      std::to_string(count) + " samples are stored");
   return results;
 }
 
 std::string Store::Summary(std::int64_t id) {
   std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare("SELECT summary_json FROM results WHERE job_id = ?");
+  Statement& s = m_db->Prepare("SELECT summary_json, summary_sha256 FROM results WHERE job_id = ?");
   s.Bind(id);
-  std::string summary = s.Step() ? s.Text(0) : "";
+  if (!s.Step()) return "";
+  std::string summary = s.Text(0);
+  const std::string sha = s.Text(1);
   s.Run();
+  CheckSum(summary, sha, "the summary of job " + std::to_string(id));
   return summary;
 }
 
@@ -601,11 +771,13 @@ std::vector<ImpactSample> Store::ReadResultSeries(std::int64_t id, std::int64_t 
   s.Run();
   if (!whole) return ReadSeriesLocked(id, from, max);
   // A series stored whole, by a daemon from before chunks: read it all, keep the part asked.
-  Statement& blob = m_db->Prepare("SELECT series FROM results WHERE job_id = ?");
+  Statement& blob = m_db->Prepare("SELECT series, series_sha256 FROM results WHERE job_id = ?");
   blob.Bind(id);
   blob.Step();
-  const std::vector<ImpactSample> all = report::UnpackSamples(blob.Blob(0));
+  const std::string bytes = blob.Blob(0), sha = blob.Text(1);
   blob.Run();
+  CheckSum(bytes, sha, "the series of job " + std::to_string(id));
+  const std::vector<ImpactSample> all = report::UnpackSamples(bytes);
   const auto size = static_cast<std::int64_t>(all.size());
   const std::int64_t begin = std::clamp<std::int64_t>(from, 0, size);
   const std::int64_t end =
@@ -626,9 +798,9 @@ std::vector<SweepJobResult> Store::SweepResults(std::int64_t sweep_id) {
   std::lock_guard lock(m_mutex);
   Statement& s = m_db->Prepare(
       "SELECT j.id, j.sweep_index, j.sweep_values_json, j.state, j.error, "
-      "IFNULL(r.summary_json, '') FROM jobs j LEFT JOIN results r ON r.job_id = j.id "
-      "WHERE j.sweep_id = ? ORDER BY j.sweep_index, j.id");
-  s.Bind(sweep_id);
+      "IFNULL(r.summary_json, ''), IFNULL(r.summary_sha256, ?) FROM jobs j "
+      "LEFT JOIN results r ON r.job_id = j.id WHERE j.sweep_id = ? ORDER BY j.sweep_index, j.id");
+  s.Bind(report::Sha256Hex(""), sweep_id);
   std::vector<SweepJobResult> jobs;
   while (s.Step()) {
     SweepJobResult job;
@@ -638,6 +810,13 @@ std::vector<SweepJobResult> Store::SweepResults(std::int64_t sweep_id) {
     job.state = ParseState(s.Text(3)).value_or(JobState::kFailed);
     job.error = s.Text(4);
     job.summary_json = s.Text(5);
+    // A damaged summary is left out, the job's point with it, and says so.
+    try {
+      CheckSum(job.summary_json, s.Text(6), "the summary of job " + std::to_string(job.id));
+    } catch (const DamagedData& e) {
+      job.summary_json.clear();
+      job.error = e.what();
+    }
     jobs.push_back(std::move(job));
   }
   return jobs;
@@ -669,9 +848,9 @@ InterruptedJobs Store::RequeueInterrupted(const std::string& reason) {
           .Bind(report::UtcNow(), job.id)
           .Run();
       m_db->Prepare(
-              "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series) "
-              "VALUES (?, '', 0, zeroblob(0))")
-          .Bind(job.id)
+              "INSERT OR REPLACE INTO results (job_id, summary_json, sample_count, series, "
+              "summary_sha256, series_sha256) VALUES (?, '', 0, zeroblob(0), ?, ?)")
+          .Bind(job.id, report::Sha256Hex(""), report::Sha256Hex(""))
           .Run();
     }
     m_db->Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")

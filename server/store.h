@@ -135,6 +135,19 @@ class StoreError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A stored result (a summary, a series, a result file) that does not match its checksum or
+/// is incomplete: reported as damaged, never served.
+class DamagedData : public StoreError {
+ public:
+  using StoreError::StoreError;
+};
+
+/// What Store::Check found: the problems, one line each (none: intact), and what it checked.
+struct CheckReport {
+  std::vector<std::string> problems;
+  std::int64_t summaries = 0, series_chunks = 0, files = 0;
+};
+
 class Store {
  public:
   /// Opens or creates the database and brings its schema up to date. Throws StoreError with
@@ -178,7 +191,8 @@ class Store {
                  const JobResults& results);
   /// A finished job's summary and whole series; throws StoreError for a damaged series.
   std::optional<JobResults> GetResults(std::int64_t id);
-  /// A finished job's summary.json, without its series; "" when it has none.
+  /// A finished job's summary.json, without its series; "" when it has none; DamagedData when
+  /// it does not match its checksum.
   std::string Summary(std::int64_t id);
   /// Up to `max` samples of a finished job's series from index `from` on, stored in chunks or
   /// (by a daemon before chunks) whole; throws StoreError for a damaged series.
@@ -192,9 +206,14 @@ class Store {
   void PutJobFiles(std::int64_t id, const std::vector<report::ResultFile>& files);
   /// The result files of a job (snapshots), by path.
   std::vector<JobFileInfo> JobFiles(std::int64_t id);
-  /// Up to `max` bytes of a job's result file from byte `offset` on ("" past its end).
+  /// Up to `max` bytes of a job's result file from byte `offset` on ("" past its end). A read
+  /// from offset 0 checks the whole file against its checksum first (DamagedData).
   std::string ReadJobFile(std::int64_t id, const std::string& path, std::int64_t offset,
                           std::int64_t max);
+
+  /// Verifies the whole database: SQLite's integrity check, then every stored result against
+  /// its checksum (dembufd --check-db).
+  CheckReport Check();
 
   /// At start: jobs left preparing or running by a daemon that died go back to the queue,
   /// with a note, unless this is the second time (they may be what killed it): those fail.
@@ -250,6 +269,11 @@ class Store {
   std::vector<SlurmBedJob> SlurmBedsWhere(const std::string& column, const std::string& value);
   void InsertJobLocked(JobRecord& job);
   void PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultFile>& files);
+  std::string JobFileSha256Locked(std::int64_t id, const std::string& path);
+  /// Throws DamagedData when the stored file does not match its checksum.
+  void CheckJobFileLocked(std::int64_t id, const std::string& path);
+  /// Checksums for the rows stored before the database had them (its upgrade).
+  void AddMissingChecksumsLocked();
   void AppendSeriesLocked(std::int64_t id, std::int64_t first,
                           const std::vector<ImpactSample>& samples);
   std::vector<ImpactSample> ReadSeriesLocked(std::int64_t id, std::int64_t from, std::int64_t max);

@@ -161,7 +161,7 @@ class WebServer::Routes {
     Api(server, R"(/api/jobs/(\d{1,18}))",
         [this](const Caller& caller, const Request& req, Response& res) {
           const JobRecord job = VisibleJob(caller, req.matches[1].str(), Action::kRead);
-          SendJson(res, JobDetailsJson(job, ProgressOf(job, m_executor), m_store.Summary(job.id),
+          SendJson(res, JobDetailsJson(job, ProgressOf(job, m_executor), IntactSummary(job),
                                        m_store.JobFiles(job.id), m_store.BedsPreparedBy(job.id)));
         });
     Api(server, R"(/api/jobs/(\d{1,18})/events)",
@@ -307,6 +307,16 @@ class WebServer::Routes {
               {"user", {{"name", caller.name}, {"admin", caller.admin}, {"token", caller.token}}}});
   }
 
+  /// A job's summary, or "" when it has none or it is damaged (logged; never served).
+  std::string IntactSummary(const JobRecord& job) {
+    try {
+      return m_store.Summary(job.id);
+    } catch (const DamagedData& e) {
+      m_log->error("web: {}", e.what());
+      return "";
+    }
+  }
+
   /// Job `id_text`, when it exists and the caller may do `action` to it.
   JobRecord VisibleJob(const Caller& caller, const std::string& id_text, Action action) {
     const std::int64_t id = ParseNumber(id_text, "id", 1, INT64_MAX);
@@ -333,7 +343,7 @@ class WebServer::Routes {
     nlohmann::json jobs = nlohmann::json::array();
     for (const JobRecord& job : m_store.ListJobs(filter))
       jobs.push_back(JobJson(job, ProgressOf(job, m_executor),
-                             job.state == JobState::kDone ? m_store.Summary(job.id) : ""));
+                             job.state == JobState::kDone ? IntactSummary(job) : ""));
     SendJson(res, {{"jobs", jobs}});
   }
 

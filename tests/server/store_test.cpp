@@ -246,6 +246,74 @@ TEST_F(StoreTest, ADamagedChunkIsReportedNotServed) {
   }
 }
 
+TEST_F(StoreTest, AFlippedByteInASummaryOrAResultFileIsReportedNotServed) {
+  // One flipped byte in a stored summary was served as the result (P = 9625 N beside
+  // Pa = 4625 N): summaries and result files had no checksums.
+  std::int64_t id = 0;
+  const std::string summary = "{\"P_N\": 4625, \"Pa_N\": 4625}\n";
+  const std::string big(3 << 20, 'v');  // hashed in pieces of 1 MiB
+  {
+    Store store(path.string());
+    JobRecord job;
+    job.scene_toml = "x";
+    store.AddJob(job);
+    id = job.id;
+    store.FinishJob(id, JobState::kDone, "",
+                    {summary, Samples(0, 10), 0, {{"snapshots/peak/beads.vtp", big}}});
+    EXPECT_EQ(store.Summary(id), summary);
+    EXPECT_EQ(store.ReadJobFile(id, "snapshots/peak/beads.vtp", 0, 10), "vvvvvvvvvv");
+    EXPECT_TRUE(store.Check().problems.empty());
+  }
+  {
+    Database db(path.string());
+    db.Execute("UPDATE results SET summary_json = '{\"P_N\": 9625, \"Pa_N\": 4625}' || char(10)");
+    db.Execute("UPDATE job_files SET data = CAST(substr(data, 1, 2097152) || 'w' || "
+               "substr(data, 2097154) AS BLOB)");
+  }
+  Store store(path.string());
+  EXPECT_THROW(store.Summary(id), DamagedData);
+  EXPECT_THROW(store.GetResults(id), DamagedData);
+  EXPECT_THROW(store.ReadJobFile(id, "snapshots/peak/beads.vtp", 0, 10), DamagedData);
+  const CheckReport report = store.Check();
+  ASSERT_EQ(report.problems.size(), 2u);
+  EXPECT_EQ(report.problems[0], "the summary of job " + std::to_string(id) +
+                                    " is damaged: it does not match its checksum");
+  EXPECT_EQ(report.problems[1], "the result file snapshots/peak/beads.vtp of job " +
+                                    std::to_string(id) +
+                                    " is damaged: it does not match its checksum");
+  EXPECT_EQ(report.files, 1);
+  // A cleared checksum is no checksum: not taken on trust.
+  {
+    Database db(path.string());
+    db.Execute("UPDATE results SET summary_json = '" + summary.substr(0, summary.size() - 1) +
+               "' || char(10), summary_sha256 = ''");
+  }
+  EXPECT_THROW(Store(path.string()).Summary(id), DamagedData);
+}
+
+TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAtTheUpgrade) {
+  std::int64_t id = 0;
+  {
+    Store store(path.string());
+    JobRecord job;
+    job.scene_toml = "x";
+    store.AddJob(job);
+    id = job.id;
+    store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(0, 10), 0, {{"frames.pvd", "p"}}});
+  }
+  {
+    // The database as the version before checksums left it.
+    Database db(path.string());
+    db.Execute(
+        "ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
+        "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; PRAGMA user_version = 7");
+  }
+  Store store(path.string());
+  EXPECT_EQ(store.Summary(id), "{}\n");
+  EXPECT_EQ(store.ReadJobFile(id, "frames.pvd", 0, 10), "p");
+  EXPECT_TRUE(store.Check().problems.empty());
+}
+
 TEST_F(StoreTest, AJobInterruptedTwiceIsFailedNotRunForEver) {
   // A job that crashes the daemon would crash it again at every restart: the second time it
   // is found interrupted, it fails ("poison job") and the daemon goes on with the others.

@@ -228,11 +228,50 @@ std::string AxisText(const v1::SweepAxis& axis) {
   return text;
 }
 
-void WriteJobFiles(const v1::FetchResultsResponse& result, const fs::path& dir) {
+// A long series (one FetchResults leaves out) streamed into `csv` piece by piece, checked
+// against the length the server announced.
+grpc::Status StreamSeries(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id,
+                          std::int64_t length, report::SampleCsvWriter& csv) {
+  grpc::ClientContext context;
+  Prepare(context, remote, 3600);
+  v1::FetchSeriesRequest request;
+  request.set_id(id);
+  auto reader = stub.FetchSeries(&context, request);
+  v1::SeriesChunk chunk;
+  std::int64_t written = 0;
+  while (reader->Read(&chunk)) {
+    if (chunk.first_index() != written || chunk.total() != length ||
+        chunk.samples_size() > length - written) {
+      context.TryCancel();
+      return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                          "the server at " + remote.address + " sent job " + std::to_string(id) +
+                              "'s series out of order or longer than its " +
+                              std::to_string(length) + " samples");
+    }
+    for (const auto& s : chunk.samples()) csv.Write(FromProto(s));
+    written += chunk.samples_size();
+  }
+  const grpc::Status status = reader->Finish();
+  if (status.ok() && written != length)
+    return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                        "the server at " + remote.address + " sent " + std::to_string(written) +
+                            " of job " + std::to_string(id) + "'s " + std::to_string(length) +
+                            " samples");
+  return status;
+}
+
+grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
+                           const v1::FetchResultsResponse& result, const fs::path& dir) {
   fs::create_directories(dir);
   const v1::Job& job = result.job();
   report::SampleCsvWriter csv(dir / "plate_force.csv");
-  for (const auto& s : result.samples()) csv.Write(FromProto(s));
+  if (result.series_length() > result.samples_size()) {
+    if (grpc::Status s = StreamSeries(stub, remote, job.id(), result.series_length(), csv);
+        !s.ok())
+      return s;
+  } else {
+    for (const auto& s : result.samples()) csv.Write(FromProto(s));
+  }
   csv.Commit();
   report::WriteFileAtomically(dir / "scene.toml", job.scene_toml());
   nlohmann::json provenance = {
@@ -260,6 +299,7 @@ void WriteJobFiles(const v1::FetchResultsResponse& result, const fs::path& dir) 
         dir / "failure.json",
         nlohmann::json{{"state", StateText(job.state())}, {"error", job.error()}}.dump(2) + "\n");
   }
+  return grpc::Status::OK;
 }
 
 }  // namespace
@@ -679,7 +719,8 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     v1::FetchResultsResponse result;
     const grpc::Status status = fetch(id, result);
     if (!status.ok()) return Report(remote, status);
-    WriteJobFiles(result, dir);
+    if (const grpc::Status series = WriteJobFiles(*stub, remote, result, dir); !series.ok())
+      return Report(remote, series);
     if (const grpc::Status files = FetchJobResultFiles(*stub, remote, result.job(), dir);
         !files.ok())
       return Report(remote, files);
@@ -748,7 +789,8 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     const grpc::Status status = fetch(job.id(), result);
     if (!status.ok()) return Report(remote, status);
     const fs::path run_dir = dir / "runs" / SafeFolderName(job.name(), job.id());
-    WriteJobFiles(result, run_dir);
+    if (const grpc::Status series = WriteJobFiles(*stub, remote, result, run_dir); !series.ok())
+      return Report(remote, series);
     if (const grpc::Status files = FetchJobResultFiles(*stub, remote, result.job(), run_dir);
         !files.ok())
       return Report(remote, files);

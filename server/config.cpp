@@ -73,6 +73,9 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"quota_output_mb", &config.quota_output_mb},
       {"max_watch_streams_per_user", &config.max_watch_streams_per_user},
       {"max_watch_streams", &config.max_watch_streams},
+      {"max_fetch_streams_per_user", &config.max_fetch_streams_per_user},
+      {"max_fetch_streams", &config.max_fetch_streams},
+      {"stream_write_timeout_s", &config.stream_write_timeout_s},
       {"max_request_kb", &config.max_request_kb},
       {"http", &config.http},
       {"http_max_streams_per_user", &config.http_max_streams_per_user},
@@ -186,12 +189,22 @@ void ValidateConfig(ServerConfig& config) {
   require(config.tls_cert.empty() == config.tls_key.empty(),
           "tls_cert and tls_key: give both (or neither)");
   require(config.quota_queued_jobs >= 0, "quota_queued_jobs: must be >= 0 (0: no limit)");
-  require(config.max_watch_streams >= 1 && config.max_watch_streams <= 10000,
-          "max_watch_streams: must be 1 to 10000");
+  require(config.max_watch_streams >= 1 && config.max_watch_streams <= 100000,
+          "max_watch_streams: must be 1 to 100000");
   require(config.max_watch_streams_per_user >= 1 &&
               config.max_watch_streams_per_user <= config.max_watch_streams,
           "max_watch_streams_per_user: must be 1 to max_watch_streams (" +
               std::to_string(config.max_watch_streams) + ")");
+  require(config.max_fetch_streams >= 1 && config.max_fetch_streams <= 10000,
+          "max_fetch_streams: must be 1 to 10000, not " + std::to_string(config.max_fetch_streams));
+  require(config.max_fetch_streams_per_user >= 1 &&
+              config.max_fetch_streams_per_user <= config.max_fetch_streams,
+          "max_fetch_streams_per_user: must be 1 to max_fetch_streams (" +
+              std::to_string(config.max_fetch_streams) + "), not " +
+              std::to_string(config.max_fetch_streams_per_user));
+  require(config.stream_write_timeout_s >= 1 && config.stream_write_timeout_s <= 3600,
+          "stream_write_timeout_s: must be 1 to 3600, not " +
+              std::to_string(config.stream_write_timeout_s));
   require(config.max_request_kb >= 16 && config.max_request_kb <= 1 << 20,
           "max_request_kb: must be 16 to 1048576");
   if (!config.http.empty()) config.http = HttpAddress(config.http);

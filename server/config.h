@@ -26,10 +26,17 @@ struct ServerConfig {
   std::string tls_cert;       ///< PEM certificate chain; with tls_key, the daemon speaks TLS only
   std::string tls_key;        ///< PEM private key
   int quota_queued_jobs = 0;  ///< per user; 0: no limit beyond queue_limit
-  /// Watch streams open at once, per user and in all: each holds one of the server's threads,
-  /// and the thread pool is sized above the total so that other requests are still answered.
+  /// Watch streams open at once, per user and in all. A stream holds no thread (gRPC's
+  /// callback API): an idle one costs a few kilobytes and a look at its job twice a second.
   int max_watch_streams_per_user = 8;
-  int max_watch_streams = 128;
+  int max_watch_streams = 1024;
+  /// Result streams (FetchSeries, FetchFiles) open at once, per user and in all: each reads
+  /// the store while it sends.
+  int max_fetch_streams_per_user = 4;
+  int max_fetch_streams = 64;
+  /// A stream whose client has not taken a message for this long is closed (a client that
+  /// stopped reading holds no place and no buffers).
+  int stream_write_timeout_s = 30;
   int max_request_kb = 1024;  ///< the largest request read (a scene file is a few kB)
   /// The web pages and their JSON API (read-only), "HOST:PORT" or a port alone (on
   /// loopback); "" for none. Beyond loopback they need a user's token, as gRPC does.

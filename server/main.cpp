@@ -3,7 +3,6 @@
 //
 // Exit codes: 0 after a clean shutdown (SIGTERM or SIGINT), 1 when a database or address
 // cannot be used (or another runtime failure), 2 for bad flags or settings.
-#include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/resource_quota.h>
@@ -265,6 +264,9 @@ int main(int argc, char** argv) {
   info.job_limits.output_bytes = config.quota_output_mb * 1e6;
   info.max_watch_streams_per_user = config.max_watch_streams_per_user;
   info.max_watch_streams = config.max_watch_streams;
+  info.max_fetch_streams_per_user = config.max_fetch_streams_per_user;
+  info.max_fetch_streams = config.max_fetch_streams;
+  info.stream_write_timeout = std::chrono::seconds(config.stream_write_timeout_s);
   if (policy.tokens_required() && !store->AnyUsers())
     log->warn(
         "tokens are required but none exists: make one with dembufd --db {} token-create "
@@ -273,7 +275,6 @@ int main(int argc, char** argv) {
   DembufService service(*store, scheduler, policy, info, log);
 
   grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
@@ -296,19 +297,21 @@ int main(int argc, char** argv) {
   builder.AddListeningPort(config.listen, credentials, &port);
   // One daemon per port: gRPC would share it (SO_REUSEPORT) with a daemon already there.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  // Requests larger than a page of scene text are not read; a watch stream holds a thread, so
-  // the pool is larger than the streams allowed, by enough for every other request.
+  // Requests larger than a page of scene text are not read. The pool serves the unary calls and
+  // the reflection streams (at most kReflectionStreams, each holding a thread); the job and
+  // result streams hold none (gRPC's callback API), so it need not grow with them.
   builder.SetMaxReceiveMessageSize(config.max_request_kb * 1024);
+  constexpr int kReflectionStreams = 16;
   grpc::ResourceQuota thread_pool("dembufd");
-  thread_pool.SetMaxThreads(config.max_watch_streams + 64);
+  thread_pool.SetMaxThreads(64 + kReflectionStreams);
   builder.SetResourceQuota(thread_pool);
   builder.RegisterService(&service);
-  // Reflection v1 beside gRPC's v1alpha; a few streams at once, each holds a thread.
+  // Reflection v1 only, with its streams capped: gRPC's v1alpha service held a thread per
+  // stream without a cap (250 silent streams starved every other call).
   ReflectionV1Service reflection_v1(
       {dembuf::v1::Dembuf::service_full_name(), "grpc.health.v1.Health",
-       "grpc.reflection.v1alpha.ServerReflection",
        grpc::reflection::v1::ServerReflection::service_full_name()},
-      /*max_streams=*/16);
+      kReflectionStreams);
   builder.RegisterService(&reflection_v1);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {

@@ -18,6 +18,7 @@
 #include "dembuf/study/version.h"
 #include "job_feed.h"
 #include "scene_request.h"
+#include "stream_reactor.h"
 
 namespace dembuf::server {
 
@@ -27,6 +28,9 @@ using grpc::Status;
 using grpc::StatusCode;
 
 constexpr std::size_t kSamplesPerMessage = 512;
+// FetchResults answers with a series of at most this many samples (3 MB); FetchSeries streams
+// longer ones.
+constexpr std::int64_t kMaxSamplesInResults = 65536;
 // A client's command line, kept as provenance: a long one is cut by the client, not stored.
 constexpr std::size_t kMaxCommandLine = 4096;
 
@@ -127,7 +131,7 @@ Status CheckOwner(const std::string& owner) {
   return problem.empty() ? Status::OK : Invalid("owner", problem);
 }
 
-std::optional<std::string> AuthorizationOf(const grpc::ServerContext* context) {
+std::optional<std::string> AuthorizationOf(const grpc::ServerContextBase* context) {
   const auto& metadata = context->client_metadata();
   const auto found = metadata.find("authorization");
   if (found == metadata.end()) return std::nullopt;
@@ -137,7 +141,7 @@ std::optional<std::string> AuthorizationOf(const grpc::ServerContext* context) {
 /// What is kept of a client's command line: without the caller's token, wherever it stands,
 /// and without the value of any --token option (a job's command line is shown to whoever may
 /// read the job, and written into its summary).
-std::string KeptCommandLine(const grpc::ServerContext* context, const std::string& line) {
+std::string KeptCommandLine(const grpc::ServerContextBase* context, const std::string& line) {
   std::string token;
   if (const std::optional<std::string> authorization = AuthorizationOf(context))
     token = authorization->substr(std::min(authorization->size(), std::string("Bearer ").size()));
@@ -158,7 +162,7 @@ JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std:
 
 }  // namespace
 
-Caller DembufService::Identify(const grpc::ServerContext* context) const {
+Caller DembufService::Identify(const grpc::ServerContextBase* context) const {
   return m_policy.Identify(AuthorizationOf(context));
 }
 
@@ -186,6 +190,14 @@ template <class Handler>
 Status DembufService::Guard(const char* rpc, Handler&& handler) {
   try {
     return handler();
+  } catch (...) {
+    return FailureStatus(rpc);
+  }
+}
+
+Status DembufService::FailureStatus(const char* rpc) {
+  try {
+    throw;
   } catch (const AccessDenied& e) {
     return Status(e.unauthenticated() ? StatusCode::UNAUTHENTICATED : StatusCode::PERMISSION_DENIED,
                   e.what());
@@ -198,6 +210,9 @@ Status DembufService::Guard(const char* rpc, Handler&& handler) {
   } catch (const std::exception& e) {
     m_log->error("{}: {}", rpc, e.what());
     return Status(StatusCode::INTERNAL, std::string("the server failed: ") + e.what());
+  } catch (...) {
+    m_log->error("{}: an unknown exception", rpc);
+    return Status(StatusCode::INTERNAL, "the server failed");
   }
 }
 
@@ -209,7 +224,9 @@ DembufService::DembufService(Store& store, Executor& executor, const AccessPolic
       m_info(std::move(info)),
       m_log(std::move(log)),
       m_watch_streams(m_info.max_watch_streams_per_user, m_info.max_watch_streams, "watch streams",
-                      "max_watch_streams") {}
+                      "max_watch_streams"),
+      m_fetch_streams(m_info.max_fetch_streams_per_user, m_info.max_fetch_streams,
+                      "result streams (fetch)", "max_fetch_streams") {}
 
 bool DembufService::AnswerRetry(const std::string& owner, const std::string& request_id,
                                 bool sweep, v1::SubmitJobResponse* job_answer,
@@ -529,53 +546,71 @@ Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelReque
   });
 }
 
-Status DembufService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
-                               grpc::ServerWriter<v1::WatchJobResponse>* writer) {
-  return Guard("WatchJob", [&]() -> Status {
+grpc::ServerWriteReactor<v1::WatchJobResponse>* DembufService::WatchJob(
+    grpc::CallbackServerContext* context, const v1::WatchJobRequest* request) {
+  using Reactor = StreamReactor<v1::WatchJobResponse>;
+  std::optional<StreamLimits::Place> place;
+  const std::int64_t id = request->id();
+  const Status opened = Guard("WatchJob", [&]() -> Status {
     const Caller caller = Identify(context);
-    // A stream holds a server thread while it lasts: a user may hold only a few of them.
+    if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
+    const auto job = m_store.GetJob(id);
+    if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id));
+    AccessPolicy::Require(caller, Action::kWatch, job->owner, "id: job " + std::to_string(id));
     std::string why;
-    const std::optional<StreamLimits::Place> place = m_watch_streams.Take(caller, &why);
-    if (!place)
+    std::optional<StreamLimits::Place> taken = m_watch_streams.Take(caller, &why);
+    if (!taken)
       return Status(StatusCode::RESOURCE_EXHAUSTED,
                     "watch streams: " + why + "; close one, or wait for the jobs to end");
-    if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
-    {
-      const auto job = m_store.GetJob(request->id());
-      if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-      AccessPolicy::Require(caller, Action::kWatch, job->owner,
-                            "id: job " + std::to_string(job->id));
-    }
-    JobFeed feed(m_store, m_executor, request->id());
-    std::int64_t next = request->from_index();
-    auto last_message = std::chrono::steady_clock::time_point{};
-    while (!context->IsCancelled()) {
-      const FeedRead read = feed.Read(next, kSamplesPerMessage, std::chrono::milliseconds(500));
-      if (!read.found)
-        return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
-      // Samples as they come; while a job waits in the queue, its state now and then.
-      const auto now = std::chrono::steady_clock::now();
-      const bool waiting = !IsFinal(read.state) && read.state != JobState::kRunning &&
-                           read.state != JobState::kPreparingBed;
-      if (read.samples.empty() && !read.ended && waiting &&
-          now - last_message < std::chrono::seconds(2))
-        continue;
-      v1::WatchJobResponse message;
-      message.set_first_index(next);
-      for (const ImpactSample& s : read.samples) FillSample(s, message.add_samples());
-      message.set_state(ToProto(read.state));
-      FillProgress(read.progress, message.mutable_progress());
-      next += static_cast<std::int64_t>(read.samples.size());
-      if (!writer->Write(message)) return Status::OK;  // the watcher left
-      last_message = now;
-      if (read.ended) return Status::OK;
-    }
+    place.emplace(std::move(*taken));
     return Status::OK;
   });
+  if (!opened.ok()) return Reactor::Refuse(context, m_clock, opened);
+
+  // Samples as they come; while the job runs its progress twice a second, while it waits in
+  // the queue its state every two seconds. Between looks the stream waits on the clock.
+  struct Watch {
+    Watch(JobFeed f, std::int64_t from) : feed(std::move(f)), next(from) {}
+    JobFeed feed;
+    std::int64_t next;
+    std::chrono::steady_clock::time_point last_message{};
+    bool ended = false;
+  };
+  auto watch = std::make_shared<Watch>(JobFeed(m_store, m_executor, id), request->from_index());
+  return Reactor::Start(
+      context, m_clock, m_info.stream_write_timeout, std::move(place),
+      [this, watch, id](v1::WatchJobResponse* message) -> StreamStep {
+        try {
+          if (watch->ended) return StreamStep::Finish(Status::OK);
+          const FeedRead read = watch->feed.Read(watch->next, kSamplesPerMessage,
+                                                 std::chrono::milliseconds(0));
+          if (!read.found)
+            return StreamStep::Finish(
+                Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id)));
+          const auto now = std::chrono::steady_clock::now();
+          const bool active = read.state == JobState::kRunning ||
+                              read.state == JobState::kPreparingBed;
+          const auto pace = active ? std::chrono::milliseconds(500) : std::chrono::seconds(2);
+          if (read.samples.empty() && !read.ended && now - watch->last_message < pace)
+            return StreamStep::Wait(active ? std::chrono::milliseconds(100)
+                                           : std::chrono::milliseconds(250));
+          message->Clear();
+          message->set_first_index(watch->next);
+          for (const ImpactSample& s : read.samples) FillSample(s, message->add_samples());
+          message->set_state(ToProto(read.state));
+          FillProgress(read.progress, message->mutable_progress());
+          watch->next += static_cast<std::int64_t>(read.samples.size());
+          watch->last_message = now;
+          watch->ended = read.ended;
+          return StreamStep::Write();
+        } catch (...) {
+          return StreamStep::Finish(FailureStatus("WatchJob"));
+        }
+      });
 }
 
-Status DembufService::FinishedJobOfCaller(grpc::ServerContext* context, std::int64_t id,
-                                          std::optional<JobRecord>* job) {
+Status DembufService::FinishedJobOfCaller(const grpc::ServerContextBase* context,
+                                          std::int64_t id, std::optional<JobRecord>* job) {
   const Caller caller = Identify(context);
   *job = m_store.GetJob(id);
   if (!*job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id));
@@ -587,68 +622,117 @@ Status DembufService::FinishedJobOfCaller(grpc::ServerContext* context, std::int
   return Status::OK;
 }
 
+Status DembufService::OpenFetchStream(const char* rpc, const grpc::ServerContextBase* context,
+                                      std::int64_t id, std::optional<JobRecord>* job,
+                                      std::optional<StreamLimits::Place>* place) {
+  return Guard(rpc, [&]() -> Status {
+    if (Status s = FinishedJobOfCaller(context, id, job); !s.ok()) return s;
+    std::string why;
+    std::optional<StreamLimits::Place> taken = m_fetch_streams.Take(Identify(context), &why);
+    if (!taken)
+      return Status(StatusCode::RESOURCE_EXHAUSTED,
+                    "result streams: " + why + "; wait for your other fetches to end");
+    place->emplace(std::move(*taken));
+    return Status::OK;
+  });
+}
+
 Status DembufService::FetchResults(grpc::ServerContext* context,
                                    const v1::FetchResultsRequest* request,
                                    v1::FetchResultsResponse* response) {
   return Guard("FetchResults", [&]() -> Status {
     std::optional<JobRecord> job;
     if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
+    // A damaged summary fails the fetch (DATA_LOSS) rather than coming back empty.
+    if (job->state == JobState::kDone) m_store.Summary(job->id);
     FillJob(*job, true, response->mutable_job());
-    if (auto results = m_store.GetResults(job->id))
-      for (const ImpactSample& s : results->samples) FillSample(s, response->add_samples());
+    const std::int64_t length = m_store.ResultSeriesLength(job->id);
+    response->set_series_length(length);
+    // A short series comes with the answer; a long one is streamed (FetchSeries).
+    if (length <= kMaxSamplesInResults)
+      for (const ImpactSample& s : m_store.ReadResultSeries(job->id, 0, length))
+        FillSample(s, response->add_samples());
     return Status::OK;
   });
 }
 
-Status DembufService::FetchSeries(grpc::ServerContext* context,
-                                  const v1::FetchSeriesRequest* request,
-                                  grpc::ServerWriter<v1::SeriesChunk>* writer) {
-  return Guard("FetchSeries", [&]() -> Status {
-    if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
-    std::optional<JobRecord> job;
-    if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
-    // Piece by piece from the store, as FetchFiles: any length is sent without holding it.
-    constexpr std::int64_t kSamplesPerChunk = 8192;
-    const std::int64_t total = m_store.ResultSeriesLength(job->id);
-    std::int64_t next = std::min(request->from_index(), total);
-    do {
-      if (context->IsCancelled()) return Status(StatusCode::CANCELLED, "the client left");
-      v1::SeriesChunk chunk;
-      chunk.set_first_index(next);
-      chunk.set_total(total);
-      for (const ImpactSample& s : m_store.ReadResultSeries(job->id, next, kSamplesPerChunk))
-        FillSample(s, chunk.add_samples());
-      next += chunk.samples_size();
-      if (!writer->Write(chunk)) return Status(StatusCode::CANCELLED, "the client left");
-      if (chunk.samples_size() == 0) break;  // the end, or a series shorter than counted
-    } while (next < total);
-    return Status::OK;
-  });
+grpc::ServerWriteReactor<v1::SeriesChunk>* DembufService::FetchSeries(
+    grpc::CallbackServerContext* context, const v1::FetchSeriesRequest* request) {
+  using Reactor = StreamReactor<v1::SeriesChunk>;
+  if (request->from_index() < 0)
+    return Reactor::Refuse(context, m_clock, Invalid("from_index", "must be >= 0"));
+  std::optional<JobRecord> job;
+  std::optional<StreamLimits::Place> place;
+  if (Status s = OpenFetchStream("FetchSeries", context, request->id(), &job, &place); !s.ok())
+    return Reactor::Refuse(context, m_clock, s);
+  // Piece by piece from the store, the store's lock held for one piece at a time: a series of
+  // any length is sent without holding it, or the store, whole.
+  constexpr std::int64_t kSamplesPerChunk = 8192;
+  struct Series {
+    std::int64_t id, total, next;
+    bool done = false;
+  };
+  const std::int64_t total = m_store.ResultSeriesLength(job->id);
+  auto series = std::make_shared<Series>(Series{job->id, total, std::min(request->from_index(), total)});
+  return Reactor::Start(
+      context, m_clock, m_info.stream_write_timeout, std::move(place),
+      [this, series](v1::SeriesChunk* chunk) -> StreamStep {
+        try {
+          if (series->done) return StreamStep::Finish(Status::OK);
+          chunk->Clear();
+          chunk->set_first_index(series->next);
+          chunk->set_total(series->total);
+          for (const ImpactSample& s :
+               m_store.ReadResultSeries(series->id, series->next, kSamplesPerChunk))
+            FillSample(s, chunk->add_samples());
+          series->next += chunk->samples_size();
+          // The end, or a series shorter than counted: this chunk is the last.
+          series->done = chunk->samples_size() == 0 || series->next >= series->total;
+          return StreamStep::Write();
+        } catch (...) {
+          return StreamStep::Finish(FailureStatus("FetchSeries"));
+        }
+      });
 }
 
-Status DembufService::FetchFiles(grpc::ServerContext* context, const v1::FetchFilesRequest* request,
-                                 grpc::ServerWriter<v1::FileChunk>* writer) {
-  return Guard("FetchFiles", [&]() -> Status {
-    std::optional<JobRecord> job;
-    if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
-    // Piece by piece from the store: a file of any size is sent without holding it whole.
-    constexpr std::int64_t kChunkBytes = 1 << 20;
-    for (const JobFileInfo& file : m_store.JobFiles(job->id)) {
-      std::int64_t offset = 0;
-      do {
-        if (context->IsCancelled()) return Status(StatusCode::CANCELLED, "the client left");
-        v1::FileChunk chunk;
-        chunk.set_path(file.path);
-        chunk.set_size(file.size);
-        chunk.set_offset(offset);
-        chunk.set_data(m_store.ReadJobFile(job->id, file.path, offset, kChunkBytes));
-        offset += static_cast<std::int64_t>(chunk.data().size());
-        if (!writer->Write(chunk)) return Status(StatusCode::CANCELLED, "the client left");
-        if (chunk.data().empty()) break;  // an empty file, or one that shrank
-      } while (offset < file.size);
-    }
-    return Status::OK;
-  });
+grpc::ServerWriteReactor<v1::FileChunk>* DembufService::FetchFiles(
+    grpc::CallbackServerContext* context, const v1::FetchFilesRequest* request) {
+  using Reactor = StreamReactor<v1::FileChunk>;
+  std::optional<JobRecord> job;
+  std::optional<StreamLimits::Place> place;
+  if (Status s = OpenFetchStream("FetchFiles", context, request->id(), &job, &place); !s.ok())
+    return Reactor::Refuse(context, m_clock, s);
+  // Piece by piece from the store: a file of any size is sent without holding it whole.
+  constexpr std::int64_t kChunkBytes = 1 << 20;
+  struct Files {
+    std::int64_t id;
+    std::vector<JobFileInfo> files;
+    std::size_t file = 0;
+    std::int64_t offset = 0;
+  };
+  auto files = std::make_shared<Files>(Files{job->id, m_store.JobFiles(job->id)});
+  return Reactor::Start(
+      context, m_clock, m_info.stream_write_timeout, std::move(place),
+      [this, files](v1::FileChunk* chunk) -> StreamStep {
+        try {
+          if (files->file >= files->files.size()) return StreamStep::Finish(Status::OK);
+          const JobFileInfo& file = files->files[files->file];
+          chunk->Clear();
+          chunk->set_path(file.path);
+          chunk->set_size(file.size);
+          chunk->set_offset(files->offset);
+          chunk->set_data(m_store.ReadJobFile(files->id, file.path, files->offset, kChunkBytes));
+          files->offset += static_cast<std::int64_t>(chunk->data().size());
+          // Every file sends at least one piece; an empty piece ends a file that shrank.
+          if (chunk->data().empty() || files->offset >= file.size) {
+            ++files->file;
+            files->offset = 0;
+          }
+          return StreamStep::Write();
+        } catch (...) {
+          return StreamStep::Finish(FailureStatus("FetchFiles"));
+        }
+      });
 }
 
 Status DembufService::ServerInfo(grpc::ServerContext* context, const v1::ServerInfoRequest*,

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <spdlog/logger.h>
+#include <chrono>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -14,6 +15,7 @@
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "executor.h"
 #include "store.h"
+#include "stream_clock.h"
 #include "stream_limits.h"
 
 namespace dembuf::server {
@@ -26,10 +28,19 @@ struct ServiceInfo {
   int quota_queued_jobs = 0;
   ResourceLimits job_limits;  ///< what one job may cost
   int max_watch_streams_per_user = 8;
-  int max_watch_streams = 128;
+  int max_watch_streams = 1024;
+  int max_fetch_streams_per_user = 4;
+  int max_fetch_streams = 64;
+  std::chrono::seconds stream_write_timeout{30};
 };
 
-class DembufService final : public v1::Dembuf::Service {
+/// The unary calls are served by gRPC's thread pool; the three server streams by its callback
+/// API (StreamReactor), so that an open stream holds no thread.
+using DembufServiceBase = v1::Dembuf::WithCallbackMethod_WatchJob<
+    v1::Dembuf::WithCallbackMethod_FetchSeries<
+        v1::Dembuf::WithCallbackMethod_FetchFiles<v1::Dembuf::Service>>>;
+
+class DembufService final : public DembufServiceBase {
  public:
   DembufService(Store& store, Executor& executor, const AccessPolicy& policy, ServiceInfo info,
                 std::shared_ptr<spdlog::logger> log);
@@ -45,25 +56,33 @@ class DembufService final : public v1::Dembuf::Service {
   grpc::Status ListSweeps(grpc::ServerContext*, const v1::ListSweepsRequest*,
                           v1::ListSweepsResponse*) override;
   grpc::Status Cancel(grpc::ServerContext*, const v1::CancelRequest*, v1::CancelResponse*) override;
-  grpc::Status WatchJob(grpc::ServerContext*, const v1::WatchJobRequest*,
-                        grpc::ServerWriter<v1::WatchJobResponse>*) override;
+  grpc::ServerWriteReactor<v1::WatchJobResponse>* WatchJob(grpc::CallbackServerContext*,
+                                                           const v1::WatchJobRequest*) override;
   grpc::Status FetchResults(grpc::ServerContext*, const v1::FetchResultsRequest*,
                             v1::FetchResultsResponse*) override;
-  grpc::Status FetchSeries(grpc::ServerContext*, const v1::FetchSeriesRequest*,
-                           grpc::ServerWriter<v1::SeriesChunk>*) override;
-  grpc::Status FetchFiles(grpc::ServerContext*, const v1::FetchFilesRequest*,
-                          grpc::ServerWriter<v1::FileChunk>*) override;
+  grpc::ServerWriteReactor<v1::SeriesChunk>* FetchSeries(grpc::CallbackServerContext*,
+                                                         const v1::FetchSeriesRequest*) override;
+  grpc::ServerWriteReactor<v1::FileChunk>* FetchFiles(grpc::CallbackServerContext*,
+                                                      const v1::FetchFilesRequest*) override;
+
+  /// Streams open now (for the load test's figures and the log).
+  int open_watch_streams() const { return m_watch_streams.open(); }
+  int open_fetch_streams() const { return m_fetch_streams.open(); }
   grpc::Status ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,
                           v1::ServerInfoResponse*) override;
 
  private:
   /// The caller, by the access policy, from the request's "authorization" metadata. Throws
   /// AccessDenied, which Guard answers.
-  Caller Identify(const grpc::ServerContext* context) const;
+  Caller Identify(const grpc::ServerContextBase* context) const;
   /// Job `id`, when it exists, the caller may see it, and it has ended (its results are
   /// there): NOT_FOUND, PERMISSION_DENIED or FAILED_PRECONDITION otherwise.
-  grpc::Status FinishedJobOfCaller(grpc::ServerContext* context, std::int64_t id,
+  grpc::Status FinishedJobOfCaller(const grpc::ServerContextBase* context, std::int64_t id,
                                    std::optional<JobRecord>* job);
+  /// For a result stream: the caller's finished job `id` and a place under the fetch caps.
+  grpc::Status OpenFetchStream(const char* rpc, const grpc::ServerContextBase* context,
+                               std::int64_t id, std::optional<JobRecord>* job,
+                               std::optional<StreamLimits::Place>* place);
   /// The per-user quota of queued jobs.
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
   /// The per-job limits, against the job's resource estimate.
@@ -73,6 +92,8 @@ class DembufService final : public v1::Dembuf::Service {
   /// become UNAUTHENTICATED or PERMISSION_DENIED.
   template <class Handler>
   grpc::Status Guard(const char* rpc, Handler&& handler);
+  /// The status for the exception being handled (inside a catch): what Guard answers.
+  grpc::Status FailureStatus(const char* rpc);
   /// For a request with a request id that `owner` used before: true, with the answer filled
   /// from the job or sweep filed then (or `status` set when it was the other kind).
   bool AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
@@ -87,6 +108,8 @@ class DembufService final : public v1::Dembuf::Service {
   ServiceInfo m_info;
   std::shared_ptr<spdlog::logger> m_log;
   StreamLimits m_watch_streams;
+  StreamLimits m_fetch_streams;
+  StreamClock m_clock;  ///< the streams' timed work
   /// Held from the look-up of a request id to the filing of its work, so that two copies of
   /// one request arriving together file it once.
   std::mutex m_submissions;

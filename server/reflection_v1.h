@@ -1,6 +1,6 @@
 // gRPC server reflection v1, answered from the descriptors compiled into the daemon (protobuf's
-// generated pool), beside gRPC's own v1alpha service: grpcurl, Postman and other tools ask v1
-// first. Debian's gRPC 1.51 has no v1 service, hence this one.
+// generated pool): grpcurl, Postman and other tools ask v1 first. Debian's gRPC 1.51 has no v1
+// service, hence this one; its own v1alpha one is not served (a thread a stream, no cap).
 #pragma once
 
 #include <string>

@@ -36,6 +36,16 @@ def fail(why):
     sys.exit(f"FAIL: {why}")
 
 
+def wait_until(condition, seconds):
+    """Whether `condition()` came true within `seconds` (looked at ten times a second)."""
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        if condition():
+            return True
+        time.sleep(0.1)
+    return condition()
+
+
 def percentile(values, q):
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
@@ -126,7 +136,7 @@ def main():
         for _ in range(200):
             call = silent.FetchSeries(pb.FetchSeriesRequest(id=long_job), metadata=auth("eve"))
             unread.append(call)
-        time.sleep(1.0)
+        wait_until(lambda: sum(1 for call in unread if not call.is_active()) >= 196, 60)
         for call in unread:
             if not call.is_active() and call.code() == grpc.StatusCode.RESOURCE_EXHAUSTED:
                 refused += 1
@@ -138,16 +148,17 @@ def main():
         s.ServerInfo(pb.ServerInfoRequest(), metadata=auth("user000"), timeout=5)
         # The write deadline closes the four (the client, reading nothing, does not see it):
         # their places come back, and four more silent streams are served, not a fifth.
-        time.sleep(4.0)
+        time.sleep(2.0 + 3.0)
         again = [silent.FetchSeries(pb.FetchSeriesRequest(id=long_job), metadata=auth("eve"))
                  for _ in range(5)]
-        time.sleep(1.0)
+        wait_until(lambda: any(not call.is_active() for call in again), 60)
+        time.sleep(2.0)  # had the places not come back, more would be refused by now
         refused_again = [call for call in again if not call.is_active()]
         if len(refused_again) != 1 or refused_again[0].code() != grpc.StatusCode.RESOURCE_EXHAUSTED:
             fail(f"after the write deadline {len(refused_again)} of 5 new streams were refused, not 1")
         for call in unread + again:
             call.cancel()
-        time.sleep(3.0)  # the last four meet their deadline too
+        time.sleep(2.0 + 3.0)  # the last four meet their deadline too
         read = sum(len(chunk.samples) for chunk in s.FetchSeries(
             pb.FetchSeriesRequest(id=long_job), metadata=auth("eve"), timeout=60))
         print(f"unread result streams: 4 served, 196 refused; the 2 s write deadline closed the "

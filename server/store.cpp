@@ -4,7 +4,6 @@
 #include <cstring>
 #include <ctime>
 #include <nlohmann/json.hpp>
-#include <openssl/evp.h>
 #include <random>
 
 #include "dembuf/study/provenance.h"
@@ -179,31 +178,6 @@ void CheckSum(const std::string& data, const std::string& sha256, const std::str
   if (sha256.empty() || report::Sha256Hex(data) != sha256)
     throw DamagedData(what + " is damaged: it does not match its checksum");
 }
-
-// SHA-256 of a blob read piece by piece, hex: a result file is not held whole to be checked.
-class Sha256Stream {
- public:
-  Sha256Stream() : m_context(EVP_MD_CTX_new()) { EVP_DigestInit_ex(m_context, EVP_sha256(), nullptr); }
-  ~Sha256Stream() { EVP_MD_CTX_free(m_context); }
-  Sha256Stream(const Sha256Stream&) = delete;
-  Sha256Stream& operator=(const Sha256Stream&) = delete;
-  void Add(const std::string& piece) { EVP_DigestUpdate(m_context, piece.data(), piece.size()); }
-  std::string Hex() {
-    unsigned char digest[EVP_MAX_MD_SIZE];
-    unsigned int size = 0;
-    EVP_DigestFinal_ex(m_context, digest, &size);
-    static const char* const kDigits = "0123456789abcdef";
-    std::string hex;
-    for (unsigned int k = 0; k < size; ++k) {
-      hex += kDigits[digest[k] >> 4];
-      hex += kDigits[digest[k] & 0xf];
-    }
-    return hex;
-  }
-
- private:
-  EVP_MD_CTX* m_context;
-};
 
 constexpr std::int64_t kHashPieceBytes = 1 << 20;
 
@@ -588,7 +562,7 @@ void Store::PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultF
 }
 
 std::string Store::JobFileSha256Locked(std::int64_t id, const std::string& path) {
-  Sha256Stream hash;
+  report::Sha256Stream hash;
   Statement& s =
       m_db->Prepare("SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
   for (std::int64_t offset = 0;; offset += kHashPieceBytes) {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -15,6 +16,22 @@ namespace dembuf::report {
 
 /// The SHA-256 of the bytes, as 64 hex digits (OpenSSL's).
 std::string Sha256Hex(std::string_view bytes);
+
+/// SHA-256 of bytes given piece by piece (a stored file checked without holding it whole).
+class Sha256Stream {
+ public:
+  Sha256Stream();
+  ~Sha256Stream();
+  Sha256Stream(const Sha256Stream&) = delete;
+  Sha256Stream& operator=(const Sha256Stream&) = delete;
+  void Add(std::string_view piece);
+  /// The digest of everything added, as 64 hex digits; the stream is spent.
+  std::string Hex();
+
+ private:
+  struct Context;
+  std::unique_ptr<Context> m_context;
+};
 
 /// Now, UTC, as ISO 8601 to the second ("2026-11-26T01:02:03Z").
 std::string UtcNow();

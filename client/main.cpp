@@ -20,7 +20,6 @@
 
 #include "compare.h"
 #include "cost_check.h"
-#include "dembuf/study/text_limits.h"
 #include "dembuf/study/bed.h"
 #include "dembuf/study/bed_export.h"
 #include "dembuf/study/errors.h"
@@ -30,6 +29,7 @@
 #include "dembuf/study/scene_fields.h"
 #include "dembuf/study/snapshot_report.h"
 #include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/text_limits.h"
 #include "dembuf/study/version.h"
 #include "plots.h"
 #include "progress.h"

@@ -253,10 +253,10 @@ grpc::Status StreamSeries(v1::Dembuf::Stub& stub, const Remote& remote, std::int
   }
   const grpc::Status status = reader->Finish();
   if (status.ok() && written != length)
-    return grpc::Status(grpc::StatusCode::DATA_LOSS,
-                        "the server at " + remote.address + " sent " + std::to_string(written) +
-                            " of job " + std::to_string(id) + "'s " + std::to_string(length) +
-                            " samples");
+    return grpc::Status(grpc::StatusCode::DATA_LOSS, "the server at " + remote.address + " sent " +
+                                                         std::to_string(written) + " of job " +
+                                                         std::to_string(id) + "'s " +
+                                                         std::to_string(length) + " samples");
   return status;
 }
 
@@ -266,8 +266,7 @@ grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
   const v1::Job& job = result.job();
   report::SampleCsvWriter csv(dir / "plate_force.csv");
   if (result.series_length() > result.samples_size()) {
-    if (grpc::Status s = StreamSeries(stub, remote, job.id(), result.series_length(), csv);
-        !s.ok())
+    if (grpc::Status s = StreamSeries(stub, remote, job.id(), result.series_length(), csv); !s.ok())
       return s;
   } else {
     for (const auto& s : result.samples()) csv.Write(FromProto(s));
@@ -598,9 +597,9 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
     char line[256];
     std::snprintf(
         line, sizeof line, "job %lld %-13s %-14s t = %8.3f ms  F = %9.4g N  peak %9.4g N  %s",
-        static_cast<long long>(id), StateText(state).c_str(), Shown(message.progress().stage()).c_str(),
-        message.progress().sim_time_s() * 1e3, force, message.progress().peak_plate_force_n(),
-        Percent(message.progress().fraction()).c_str());
+        static_cast<long long>(id), StateText(state).c_str(),
+        Shown(message.progress().stage()).c_str(), message.progress().sim_time_s() * 1e3, force,
+        message.progress().peak_plate_force_n(), Percent(message.progress().fraction()).c_str());
     if (tty) {
       // Two lines, redrawn in place: the numbers and a chart of F(t) so far.
       std::printf("\r\033[K%s\n\033[K%s\033[1A\r", line, Sparkline(forces, 72).c_str());
@@ -664,8 +663,8 @@ grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, c
           return bad(chunk.path(), "not a name the API defines");
         if (chunk.path() <= path) return bad(chunk.path(), "out of order");
         if (chunk.size() < 0 || chunk.size() > kMaxFileBytes)
-          return bad(chunk.path(), "a size of " + std::to_string(chunk.size()) +
-                                       " bytes (at most 16 GiB)");
+          return bad(chunk.path(),
+                     "a size of " + std::to_string(chunk.size()) + " bytes (at most 16 GiB)");
         path = chunk.path();
         size = chunk.size();
         written = 0;

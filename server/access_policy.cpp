@@ -23,7 +23,8 @@ Caller AccessPolicy::Identify(const std::optional<std::string>& authorization,
     const std::string prefix = "Bearer ";
     if (authorization->rfind(prefix, 0) != 0)
       throw AccessDenied(true, "authorization: expected \"Bearer TOKEN\"");
-    const std::optional<Caller> holder = CallerOfToken(m_store, authorization->substr(prefix.size()));
+    const std::optional<Caller> holder =
+        CallerOfToken(m_store, authorization->substr(prefix.size()));
     if (!holder) throw AccessDenied(true, "token: not known to this server");
     return *holder;
   }
@@ -42,8 +43,7 @@ bool AccessPolicy::Allows(const Caller& caller, Action, const std::string& owner
 
 void AccessPolicy::Require(const Caller& caller, Action action, const std::string& owner,
                            const std::string& what) {
-  if (!Allows(caller, action, owner))
-    throw AccessDenied(false, what + " belongs to " + owner);
+  if (!Allows(caller, action, owner)) throw AccessDenied(false, what + " belongs to " + owner);
 }
 
 std::string AccessPolicy::OwnerFor(const Caller& caller, const std::string& requested,

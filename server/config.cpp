@@ -214,10 +214,12 @@ void ValidateConfig(ServerConfig& config) {
   if (config.access == "local") {
     require(IsLoopback(config.listen),
             "access: \"local\" lets any caller act as an admin, so listen must be a loopback "
-            "address or unix:PATH, not \"" + config.listen + "\" (use access = \"tokens\")");
+            "address or unix:PATH, not \"" +
+                config.listen + "\" (use access = \"tokens\")");
     require(config.http.empty() || IsLoopback(config.http),
             "access: \"local\" lets any caller act as an admin, so http must be on loopback, "
-            "not \"" + config.http + "\" (use access = \"tokens\")");
+            "not \"" +
+                config.http + "\" (use access = \"tokens\")");
   }
   require(config.http_max_streams >= 1 && config.http_max_streams <= 10000,
           "http_max_streams: must be 1 to 10000, not " + std::to_string(config.http_max_streams));

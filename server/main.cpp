@@ -177,11 +177,12 @@ int main(int argc, char** argv) {
       Store store(config.db);
       const CheckReport report = store.Check();
       for (const std::string& problem : report.problems) std::printf("%s\n", problem.c_str());
-      std::printf("database %s: %lld summaries, %lld series chunks and %lld result files checked: %s\n",
-                  config.db.c_str(), static_cast<long long>(report.summaries),
-                  static_cast<long long>(report.series_chunks), static_cast<long long>(report.files),
-                  report.problems.empty() ? "intact"
-                                          : (std::to_string(report.problems.size()) + " damaged").c_str());
+      std::printf(
+          "database %s: %lld summaries, %lld series chunks and %lld result files checked: %s\n",
+          config.db.c_str(), static_cast<long long>(report.summaries),
+          static_cast<long long>(report.series_chunks), static_cast<long long>(report.files),
+          report.problems.empty() ? "intact"
+                                  : (std::to_string(report.problems.size()) + " damaged").c_str());
       return report.problems.empty() ? 0 : kExitRuntime;
     } catch (const std::exception& e) {
       std::cerr << "dembufd: " << e.what() << "\n";

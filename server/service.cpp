@@ -115,13 +115,14 @@ Status CheckLabel(const std::string& field, const std::string& value, std::size_
 // A client's request id: "" (none) or 1 to 64 of [A-Za-z0-9._-].
 Status CheckRequestId(const std::string& id) {
   if (id.empty()) return Status::OK;
-  const bool plain = id.size() <= 64 && std::all_of(id.begin(), id.end(), [](char c) {
-                       return std::isalnum(static_cast<unsigned char>(c)) || c == '.' ||
-                              c == '_' || c == '-';
-                     });
+  const bool plain =
+      id.size() <= 64 && std::all_of(id.begin(), id.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+      });
   return plain ? Status::OK
-               : Invalid("request_id", "must be 1 to 64 letters, digits, '.', '_' or '-' (a "
-                                       "UUID), or empty");
+               : Invalid("request_id",
+                         "must be 1 to 64 letters, digits, '.', '_' or '-' (a "
+                         "UUID), or empty");
 }
 
 // "" means: not given.
@@ -228,15 +229,15 @@ DembufService::DembufService(Store& store, Executor& executor, const AccessPolic
       m_fetch_streams(m_info.max_fetch_streams_per_user, m_info.max_fetch_streams,
                       "result streams (fetch)", "max_fetch_streams") {}
 
-bool DembufService::AnswerRetry(const std::string& owner, const std::string& request_id,
-                                bool sweep, v1::SubmitJobResponse* job_answer,
+bool DembufService::AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
+                                v1::SubmitJobResponse* job_answer,
                                 v1::SubmitSweepResponse* sweep_answer, Status* status) {
   const std::optional<Submission> earlier = m_store.FindSubmission(owner, request_id);
   if (!earlier) return false;
   *status = Status::OK;
   if (sweep != (earlier->sweep_id != 0)) {
-    *status = Invalid("request_id", request_id + " was used for a " +
-                                        (sweep ? "job" : "sweep") + "; choose a new one");
+    *status = Invalid("request_id", request_id + " was used for a " + (sweep ? "job" : "sweep") +
+                                        "; choose a new one");
     return true;
   }
   m_log->info("{} repeated request {}: answered with {} {}", owner, request_id,
@@ -479,7 +480,8 @@ Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsR
     if (request->limit() < 0 || request->limit() > 100000)
       return Invalid("limit", "must be 0 (100) to 100000");
     // An admin lists everyone's jobs unless naming an owner; anyone else their own.
-    filter.owner = caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
+    filter.owner =
+        caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
     filter.sweep_id = request->sweep_id();
     filter.limit = request->limit() == 0 ? 100 : request->limit();
     for (const JobRecord& job : m_store.ListJobs(filter)) FillJob(job, false, response->add_jobs());
@@ -582,14 +584,14 @@ grpc::ServerWriteReactor<v1::WatchJobResponse>* DembufService::WatchJob(
       [this, watch, id](v1::WatchJobResponse* message) -> StreamStep {
         try {
           if (watch->ended) return StreamStep::Finish(Status::OK);
-          const FeedRead read = watch->feed.Read(watch->next, kSamplesPerMessage,
-                                                 std::chrono::milliseconds(0));
+          const FeedRead read =
+              watch->feed.Read(watch->next, kSamplesPerMessage, std::chrono::milliseconds(0));
           if (!read.found)
             return StreamStep::Finish(
                 Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id)));
           const auto now = std::chrono::steady_clock::now();
-          const bool active = read.state == JobState::kRunning ||
-                              read.state == JobState::kPreparingBed;
+          const bool active =
+              read.state == JobState::kRunning || read.state == JobState::kPreparingBed;
           const auto pace = active ? std::chrono::milliseconds(500) : std::chrono::seconds(2);
           if (read.samples.empty() && !read.ended && now - watch->last_message < pace)
             return StreamStep::Wait(active ? std::chrono::milliseconds(100)
@@ -609,8 +611,8 @@ grpc::ServerWriteReactor<v1::WatchJobResponse>* DembufService::WatchJob(
       });
 }
 
-Status DembufService::FinishedJobOfCaller(const grpc::ServerContextBase* context,
-                                          std::int64_t id, std::optional<JobRecord>* job) {
+Status DembufService::FinishedJobOfCaller(const grpc::ServerContextBase* context, std::int64_t id,
+                                          std::optional<JobRecord>* job) {
   const Caller caller = Identify(context);
   *job = m_store.GetJob(id);
   if (!*job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id));
@@ -673,26 +675,27 @@ grpc::ServerWriteReactor<v1::SeriesChunk>* DembufService::FetchSeries(
     bool done = false;
   };
   const std::int64_t total = m_store.ResultSeriesLength(job->id);
-  auto series = std::make_shared<Series>(Series{job->id, total, std::min(request->from_index(), total)});
-  return Reactor::Start(
-      context, m_clock, m_info.stream_write_timeout, std::move(place),
-      [this, series](v1::SeriesChunk* chunk) -> StreamStep {
-        try {
-          if (series->done) return StreamStep::Finish(Status::OK);
-          chunk->Clear();
-          chunk->set_first_index(series->next);
-          chunk->set_total(series->total);
-          for (const ImpactSample& s :
-               m_store.ReadResultSeries(series->id, series->next, kSamplesPerChunk))
-            FillSample(s, chunk->add_samples());
-          series->next += chunk->samples_size();
-          // The end, or a series shorter than counted: this chunk is the last.
-          series->done = chunk->samples_size() == 0 || series->next >= series->total;
-          return StreamStep::Write();
-        } catch (...) {
-          return StreamStep::Finish(FailureStatus("FetchSeries"));
-        }
-      });
+  auto series =
+      std::make_shared<Series>(Series{job->id, total, std::min(request->from_index(), total)});
+  return Reactor::Start(context, m_clock, m_info.stream_write_timeout, std::move(place),
+                        [this, series](v1::SeriesChunk* chunk) -> StreamStep {
+                          try {
+                            if (series->done) return StreamStep::Finish(Status::OK);
+                            chunk->Clear();
+                            chunk->set_first_index(series->next);
+                            chunk->set_total(series->total);
+                            for (const ImpactSample& s : m_store.ReadResultSeries(
+                                     series->id, series->next, kSamplesPerChunk))
+                              FillSample(s, chunk->add_samples());
+                            series->next += chunk->samples_size();
+                            // The end, or a series shorter than counted: this chunk is the last.
+                            series->done =
+                                chunk->samples_size() == 0 || series->next >= series->total;
+                            return StreamStep::Write();
+                          } catch (...) {
+                            return StreamStep::Finish(FailureStatus("FetchSeries"));
+                          }
+                        });
 }
 
 grpc::ServerWriteReactor<v1::FileChunk>* DembufService::FetchFiles(

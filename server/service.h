@@ -36,8 +36,8 @@ struct ServiceInfo {
 
 /// The unary calls are served by gRPC's thread pool; the three server streams by its callback
 /// API (StreamReactor), so that an open stream holds no thread.
-using DembufServiceBase = v1::Dembuf::WithCallbackMethod_WatchJob<
-    v1::Dembuf::WithCallbackMethod_FetchSeries<
+using DembufServiceBase =
+    v1::Dembuf::WithCallbackMethod_WatchJob<v1::Dembuf::WithCallbackMethod_FetchSeries<
         v1::Dembuf::WithCallbackMethod_FetchFiles<v1::Dembuf::Service>>>;
 
 class DembufService final : public DembufServiceBase {

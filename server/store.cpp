@@ -325,8 +325,9 @@ void Store::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs,
     InsertJobLocked(job);
   }
   if (!request_id.empty())
-    m_db->Prepare("INSERT INTO submissions (owner, request_id, sweep_id, created_at) "
-                  "VALUES (?, ?, ?, ?)")
+    m_db->Prepare(
+            "INSERT INTO submissions (owner, request_id, sweep_id, created_at) "
+            "VALUES (?, ?, ?, ?)")
         .Bind(sweep.owner, request_id, sweep.id, sweep.created_at)
         .Run();
   t.Commit();
@@ -337,8 +338,9 @@ void Store::AddJob(JobRecord& job, const std::string& request_id) {
   Transaction t(*m_db);
   InsertJobLocked(job);
   if (!request_id.empty())
-    m_db->Prepare("INSERT INTO submissions (owner, request_id, job_id, created_at) "
-                  "VALUES (?, ?, ?, ?)")
+    m_db->Prepare(
+            "INSERT INTO submissions (owner, request_id, job_id, created_at) "
+            "VALUES (?, ?, ?, ?)")
         .Bind(job.owner, request_id, job.id, job.created_at)
         .Run();
   t.Commit();
@@ -347,8 +349,8 @@ void Store::AddJob(JobRecord& job, const std::string& request_id) {
 std::optional<Submission> Store::FindSubmission(const std::string& owner,
                                                 const std::string& request_id) {
   std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare(
-      "SELECT job_id, sweep_id FROM submissions WHERE owner = ? AND request_id = ?");
+  Statement& s =
+      m_db->Prepare("SELECT job_id, sweep_id FROM submissions WHERE owner = ? AND request_id = ?");
   s.Bind(owner, request_id);
   if (!s.Step()) return std::nullopt;
   Submission found{s.Int(0), s.Int(1)};
@@ -652,9 +654,9 @@ CheckReport Store::Check() {
         const std::int64_t stored = chunks.Int(1);
         chunks.Run();
         if (stored != count)
-          throw DamagedData("the series of job " + std::to_string(id) + " is damaged: " +
-                            std::to_string(stored) + " of its " + std::to_string(count) +
-                            " samples are stored");
+          throw DamagedData("the series of job " + std::to_string(id) +
+                            " is damaged: " + std::to_string(stored) + " of its " +
+                            std::to_string(count) + " samples are stored");
       }
     } catch (const DamagedData& e) {
       report.problems.push_back(e.what());
@@ -720,7 +722,7 @@ std::optional<JobResults> Store::GetResults(std::int64_t id) {
   if (static_cast<std::int64_t>(results.samples.size()) != count)
     throw DamagedData("the series of job " + std::to_string(id) +
                       " is damaged: " + std::to_string(results.samples.size()) + " of its " +
-                     std::to_string(count) + " samples are stored");
+                      std::to_string(count) + " samples are stored");
   return results;
 }
 

@@ -162,8 +162,7 @@ class Store {
   /// Adds one job; sets its id. A `request_id` as for AddSweep.
   void AddJob(JobRecord& job, const std::string& request_id = "");
   /// The job or sweep `owner` filed with this request id, if any.
-  std::optional<Submission> FindSubmission(const std::string& owner,
-                                           const std::string& request_id);
+  std::optional<Submission> FindSubmission(const std::string& owner, const std::string& request_id);
 
   std::optional<JobRecord> GetJob(std::int64_t id);
   std::vector<JobRecord> ListJobs(const JobFilter& filter);

@@ -53,9 +53,9 @@ TlsFiles ReadTlsFiles(const std::string& cert_path, const std::string& key_path)
   TlsFiles files{ReadPemFile("tls_cert", cert_path), ReadPemFile("tls_key", key_path)};
   ERR_clear_error();
   using Bio = std::unique_ptr<BIO, decltype(&BIO_free)>;
-  Bio cert_bio(BIO_new_mem_buf(files.certificate_pem.data(),
-                               static_cast<int>(files.certificate_pem.size())),
-               &BIO_free);
+  Bio cert_bio(
+      BIO_new_mem_buf(files.certificate_pem.data(), static_cast<int>(files.certificate_pem.size())),
+      &BIO_free);
   std::unique_ptr<X509, decltype(&X509_free)> certificate(
       PEM_read_bio_X509(cert_bio.get(), nullptr, nullptr, nullptr), &X509_free);
   if (!certificate)
@@ -67,8 +67,8 @@ TlsFiles ReadTlsFiles(const std::string& cert_path, const std::string& key_path)
   std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(
       PEM_read_bio_PrivateKey(key_bio.get(), nullptr, nullptr, nullptr), &EVP_PKEY_free);
   if (!key)
-    throw std::runtime_error("tls: tls_key " + key_path +
-                             ": holds no unencrypted PEM private key" + OpenSslError());
+    throw std::runtime_error("tls: tls_key " + key_path + ": holds no unencrypted PEM private key" +
+                             OpenSslError());
   if (X509_check_private_key(certificate.get(), key.get()) != 1)
     throw std::runtime_error("tls: tls_key " + key_path + " is not the key of tls_cert " +
                              cert_path + OpenSslError());

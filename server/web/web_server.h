@@ -25,7 +25,7 @@ class Server;
 namespace dembuf::server::web {
 
 struct WebOptions {
-  std::string listen;  ///< "HOST:PORT" (port 0: any free port)
+  std::string listen;    ///< "HOST:PORT" (port 0: any free port)
   std::string tls_cert;  ///< PEM files; both or neither
   std::string tls_key;
   int max_streams_per_user = 8;

@@ -56,16 +56,16 @@ TEST(Provenance, CommandLineReadsBackInAShell) {
 }
 
 TEST(Provenance, CommandLineKeepsNoToken) {
-  const std::vector<std::string> args = {"dembuf", "--token", "s3cret", "submit", "--token=s3cret",
-                                         "--tokens", "kept"};
+  const std::vector<std::string> args = {"dembuf",         "--token",  "s3cret", "submit",
+                                         "--token=s3cret", "--tokens", "kept"};
   std::vector<const char*> argv;
   for (const auto& a : args) argv.push_back(a.c_str());
   const std::string line =
       report::ShellCommandLine(static_cast<int>(argv.size()), argv.data(), {"--token"});
   EXPECT_EQ(line.find("s3cret"), std::string::npos) << line;
-  EXPECT_EQ(WordsBashReads(line), (std::vector<std::string>{"dembuf", "--token", "<hidden>",
-                                                            "submit", "--token=<hidden>",
-                                                            "--tokens", "kept"}));
+  EXPECT_EQ(WordsBashReads(line),
+            (std::vector<std::string>{"dembuf", "--token", "<hidden>", "submit", "--token=<hidden>",
+                                      "--tokens", "kept"}));
   // What a server keeps of a line any client sent: the caller's token wherever it stands, and
   // the word after --token, bare or quoted.
   EXPECT_EQ(report::WithoutSecrets("py run.py --key abc123 --token 'x y' --token=z $'q\\x01' end",

@@ -138,14 +138,20 @@ TEST(DisplayText, ControlsBidiAndInvalidUtf8AreRefusedAndShownAsQuestionMarks) {
   EXPECT_EQ(DisplayTextProblem("ok\tno"), "holds the control character U+0009 (byte 3)");
   EXPECT_EQ(DisplayTextProblem("a\x7f"), "holds the control character U+007F (byte 2)");
   // U+009B, the C1 control sequence introducer: a terminal reads it as ESC [.
-  EXPECT_EQ(DisplayTextProblem("job\xc2\x9b" "31m"), "holds the control character U+009B (byte 4)");
+  EXPECT_EQ(DisplayTextProblem("job\xc2\x9b"
+                               "31m"),
+            "holds the control character U+009B (byte 4)");
   // U+202E right-to-left override: "job_fdp.exe" shown as "job_exe.pdf".
-  EXPECT_EQ(DisplayTextProblem("job_\xe2\x80\xae" "fdp.exe"),
+  EXPECT_EQ(DisplayTextProblem("job_\xe2\x80\xae"
+                               "fdp.exe"),
             "holds the bidirectional control U+202E (byte 5)");
   EXPECT_EQ(DisplayTextProblem("\xe2\x81\xa6x"), "holds the bidirectional control U+2066 (byte 1)");
   EXPECT_EQ(DisplayTextProblem("caf\xc3"), "is not UTF-8 (byte 4)");
   EXPECT_EQ(DisplayTextProblem("\xc0\xaf"), "is not UTF-8 (byte 1)");  // an overlong '/'
-  EXPECT_EQ(PrintableText("job\xc2\x9b" "31m_\xe2\x80\xae" "fdp\xff \xc2\xb5m"), "job?31m_?fdp? \xc2\xb5m");
+  EXPECT_EQ(PrintableText("job\xc2\x9b"
+                          "31m_\xe2\x80\xae"
+                          "fdp\xff \xc2\xb5m"),
+            "job?31m_?fdp? \xc2\xb5m");
 }
 
 }  // namespace

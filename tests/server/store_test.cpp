@@ -267,8 +267,9 @@ TEST_F(StoreTest, AFlippedByteInASummaryOrAResultFileIsReportedNotServed) {
   {
     Database db(path.string());
     db.Execute("UPDATE results SET summary_json = '{\"P_N\": 9625, \"Pa_N\": 4625}' || char(10)");
-    db.Execute("UPDATE job_files SET data = CAST(substr(data, 1, 2097152) || 'w' || "
-               "substr(data, 2097154) AS BLOB)");
+    db.Execute(
+        "UPDATE job_files SET data = CAST(substr(data, 1, 2097152) || 'w' || "
+        "substr(data, 2097154) AS BLOB)");
   }
   Store store(path.string());
   EXPECT_THROW(store.Summary(id), DamagedData);

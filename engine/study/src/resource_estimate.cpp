@@ -254,10 +254,10 @@ ResourceEstimate EstimateResources(const Scene& scene) {
       (scene.output.snapshot_at_peak ? e.impact_beads * kCachedBytesPerBead : 0.0) +
       window_steps * kSeriesBytesPerStep +
       (e.snapshots + e.animation_frames > 0 ? e.impact_beads * kSnapshotBytesPerBead : 0.0);
-  const double grid =
-      e.MaxBeads() > 0
-          ? kGridBytesPerCell * GridCells(scene.cylinder.radius_m, bed_top_m, min_radius, max_radius)
-          : 0.0;
+  const double grid = e.MaxBeads() > 0
+                          ? kGridBytesPerCell * GridCells(scene.cylinder.radius_m, bed_top_m,
+                                                          min_radius, max_radius)
+                          : 0.0;
   e.memory_bytes_max = kProcessBytes + std::max(settling, impact) + cached + grid;
   return e;
 }

@@ -212,8 +212,7 @@ std::string DisplayTextProblem(std::string_view text) {
     const bool control = code < 0x20 || (code >= 0x7F && code <= 0x9F);
     if (IsHiddenCode(code)) {
       std::snprintf(where, sizeof where, "holds %s U+%04X (byte %zu)",
-                    control ? "the control character" : "the bidirectional control", code,
-                    i + 1);
+                    control ? "the control character" : "the bidirectional control", code, i + 1);
       return where;
     }
     i += len;

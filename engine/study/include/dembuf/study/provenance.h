@@ -3,8 +3,8 @@
 // the command that asked for it. summary.json carries it as "provenance".
 #pragma once
 
-#include <nlohmann/json.hpp>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>

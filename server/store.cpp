@@ -254,7 +254,11 @@ Store::Store(const std::string& path, StoreOptions options) : m_options(options)
       Transaction t(*m_db);
       m_db->Execute(kMigrations[v]);
       m_db->Execute("PRAGMA user_version = " + std::to_string(v + 1));
-      if (v + 1 == kChecksumsVersion) AddMissingChecksumsLocked();
+      if (v + 1 == kChecksumsVersion) {
+        // Before this version a client could leave its token in a kept command line.
+        HideTokensInCommandLinesLocked();
+        AddMissingChecksumsLocked();
+      }
       t.Commit();
     }
   } catch (const StoreError& e) {
@@ -586,6 +590,28 @@ void Store::CheckJobFileLocked(std::int64_t id, const std::string& path) {
   if (sha.empty() || JobFileSha256Locked(id, path) != sha)
     throw DamagedData("the result file " + path + " of job " + std::to_string(id) +
                       " is damaged: it does not match its checksum");
+}
+
+void Store::HideTokensInCommandLinesLocked() {
+  std::vector<std::pair<std::int64_t, std::string>> lines;
+  Statement& jobs =
+      m_db->Prepare("SELECT id, command_line FROM jobs WHERE command_line LIKE '%--token%'");
+  jobs.Bind();
+  while (jobs.Step()) lines.push_back({jobs.Int(0), jobs.Text(1)});
+  for (const auto& [id, line] : lines)
+    m_db->Prepare("UPDATE jobs SET command_line = ? WHERE id = ?")
+        .Bind(report::WithoutSecrets(line, ""), id)
+        .Run();
+  // The summaries' provenance repeats the line.
+  std::vector<std::pair<std::int64_t, std::string>> summaries;
+  Statement& results =
+      m_db->Prepare("SELECT job_id, summary_json FROM results WHERE summary_json LIKE '%--token%'");
+  results.Bind();
+  while (results.Step()) summaries.push_back({results.Int(0), results.Text(1)});
+  for (const auto& [id, summary] : summaries)
+    m_db->Prepare("UPDATE results SET summary_json = ? WHERE job_id = ?")
+        .Bind(report::WithoutSecrets(summary, ""), id)
+        .Run();
 }
 
 void Store::AddMissingChecksumsLocked() {

@@ -273,6 +273,8 @@ class Store {
   void CheckJobFileLocked(std::int64_t id, const std::string& path);
   /// Checksums for the rows stored before the database had them (its upgrade).
   void AddMissingChecksumsLocked();
+  /// Any --token value in the command lines (and summaries) kept before version 8, hidden.
+  void HideTokensInCommandLinesLocked();
   void AppendSeriesLocked(std::int64_t id, std::int64_t first,
                           const std::vector<ImpactSample>& samples);
   std::vector<ImpactSample> ReadSeriesLocked(std::int64_t id, std::int64_t from, std::int64_t max);

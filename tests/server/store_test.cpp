@@ -292,7 +292,7 @@ TEST_F(StoreTest, AFlippedByteInASummaryOrAResultFileIsReportedNotServed) {
   EXPECT_THROW(Store(path.string()).Summary(id), DamagedData);
 }
 
-TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAtTheUpgrade) {
+TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAndLoseTheirTokensAtTheUpgrade) {
   std::int64_t id = 0;
   {
     Store store(path.string());
@@ -303,14 +303,21 @@ TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAtTheUpgrade) {
     store.FinishJob(id, JobState::kDone, "", {"{}\n", Samples(0, 10), 0, {{"frames.pvd", "p"}}});
   }
   {
-    // The database as the version before checksums left it.
+    // The database as the version before checksums left it, with a token in a command line
+    // (a client before this version kept it).
     Database db(path.string());
     db.Execute(
         "ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
         "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; PRAGMA user_version = 7");
+    db.Execute("UPDATE jobs SET command_line = 'dembuf --token 0123abcd submit'");
+    db.Execute(
+        "UPDATE results SET summary_json = "
+        "'{\"provenance\": {\"command_line\": \"dembuf --token 0123abcd submit\"}}'");
   }
   Store store(path.string());
-  EXPECT_EQ(store.Summary(id), "{}\n");
+  EXPECT_EQ(store.GetJob(id)->command_line, "dembuf --token <hidden> submit");
+  EXPECT_EQ(store.Summary(id),
+            "{\"provenance\": {\"command_line\": \"dembuf --token <hidden> submit\"}}");
   EXPECT_EQ(store.ReadJobFile(id, "frames.pvd", 0, 10), "p");
   EXPECT_TRUE(store.Check().problems.empty());
 }

@@ -49,7 +49,9 @@ constexpr std::size_t kMaxCommandLine = 4096;
 
 std::unique_ptr<v1::Dembuf::Stub> Connect(const Remote& remote) {
   grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(1 << 30);  // a fetched series can be large
+  // The largest answer taken from a server: a list of 100,000 jobs is about 50 MB; a series
+  // longer than FetchResults carries (65,536 samples, 3.5 MB) comes in FetchSeries' pieces.
+  args.SetMaxReceiveMessageSize(128 << 20);
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
   if (!remote.tls_ca.empty()) {
     std::ifstream in(remote.tls_ca);

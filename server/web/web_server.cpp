@@ -180,7 +180,8 @@ class WebServer::Routes {
           const auto sweep =
               m_store.GetSweep(ParseNumber(req.matches[1].str(), "id", 1, INT64_MAX));
           if (!sweep) throw Refusal{404, "id: no sweep " + req.matches[1].str()};
-          Require(caller, Action::kRead, sweep->owner, "id: sweep " + std::to_string(sweep->id));
+          AccessPolicy::Require(caller, Action::kRead, sweep->owner,
+                                "id: sweep " + std::to_string(sweep->id));
           SendJson(res, SweepJson(*sweep, m_store.SweepResults(sweep->id)));
         });
   }
@@ -201,8 +202,8 @@ class WebServer::Routes {
     return true;
   }
 
-  /// Who asks, by the access policy, from a bearer token or a session cookie. Throws a
-  /// Refusal (401) for a request that does not say who it is where that is required.
+  /// Who asks, by the access policy, from a bearer token or a session cookie. Throws the
+  /// policy's AccessDenied for a request that does not say who it is where that is required.
   Caller Identify(const Request& req) {
     std::optional<std::string> authorization;
     if (req.has_header("Authorization")) authorization = req.get_header_value("Authorization");
@@ -210,18 +211,7 @@ class WebServer::Routes {
     if (const std::string session = CookieValue(req.get_header_value("Cookie"), kSessionCookie);
         !session.empty())
       session_token_hash = m_sessions.TokenHash(session);
-    try {
-      return m_policy.Identify(authorization, session_token_hash);
-    } catch (const AccessDenied& e) {
-      throw Refusal{401, e.what()};
-    }
-  }
-
-  /// Throws a Refusal (403) unless the policy lets the caller do `action` to `owner`'s thing.
-  static void Require(const Caller& caller, Action action, const std::string& owner,
-                      const std::string& what) {
-    if (!AccessPolicy::Allows(caller, action, owner))
-      throw Refusal{403, what + " belongs to " + owner};
+    return m_policy.Identify(authorization, session_token_hash);
   }
 
   /// A page for those who may see it; others are sent to the login form.
@@ -229,7 +219,7 @@ class WebServer::Routes {
     server.Get(pattern, [this, asset](const Request& req, Response& res) {
       try {
         Identify(req);
-      } catch (const Refusal&) {
+      } catch (const AccessDenied&) {
         res.set_redirect("/login?next=" + httplib::detail::encode_query_param(req.path), 303);
         return;
       }
@@ -244,6 +234,8 @@ class WebServer::Routes {
         handler(Identify(req), req, res);
       } catch (const Refusal& refusal) {
         SendRefusal(res, refusal);
+      } catch (const AccessDenied& e) {
+        SendRefusal(res, {e.unauthenticated() ? 401 : 403, e.what()});
       } catch (const std::exception& e) {
         m_log->error("web: {}: {}", req.path, e.what());
         SendRefusal(res, {500, std::string("the server failed: ") + e.what()});
@@ -322,7 +314,7 @@ class WebServer::Routes {
     const std::int64_t id = ParseNumber(id_text, "id", 1, INT64_MAX);
     std::optional<JobRecord> job = m_store.GetJob(id);
     if (!job) throw Refusal{404, "id: no job " + std::to_string(id)};
-    Require(caller, action, job->owner, "id: job " + std::to_string(id));
+    AccessPolicy::Require(caller, action, job->owner, "id: job " + std::to_string(id));
     return *job;
   }
 

@@ -260,7 +260,8 @@ bool DembufService::AnswerRetry(const std::string& owner, const std::string& req
   return true;
 }
 
-void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out) {
+void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out,
+                            bool damaged_summary_fails) {
   out->set_id(r.id);
   out->set_sweep_id(r.sweep_id);
   out->set_sweep_index(r.sweep_index);
@@ -293,6 +294,7 @@ void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out)
       try {
         out->set_summary_json(m_store.Summary(r.id));
       } catch (const DamagedData& e) {
+        if (damaged_summary_fails) throw;
         out->set_error(e.what());
       }
     }
@@ -391,6 +393,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
       return Invalid("seeds", std::to_string(request->seeds()) + " is out of range: 1 to 1000");
     SweepRecord sweep;
     std::vector<JobRecord> jobs;
+    const std::string command_line = KeptCommandLine(context, request->command_line());
     std::vector<std::string> warnings;
     try {
       CheckSweepAxes(*request);
@@ -415,7 +418,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
         JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
         job.sweep_index = static_cast<int>(runs[k].index);
         job.sweep_values = runs[k].values;
-        job.command_line = KeptCommandLine(context, request->command_line());
+        job.command_line = command_line;
         jobs.push_back(std::move(job));
       }
     } catch (const SceneError& e) {
@@ -646,8 +649,7 @@ Status DembufService::FetchResults(grpc::ServerContext* context,
     std::optional<JobRecord> job;
     if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
     // A damaged summary fails the fetch (DATA_LOSS) rather than coming back empty.
-    if (job->state == JobState::kDone) m_store.Summary(job->id);
-    FillJob(*job, true, response->mutable_job());
+    FillJob(*job, true, response->mutable_job(), /*damaged_summary_fails=*/true);
     const std::int64_t length = m_store.ResultSeriesLength(job->id);
     response->set_series_length(length);
     // A short series comes with the answer; a long one is streamed (FetchSeries).

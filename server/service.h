@@ -99,7 +99,10 @@ class DembufService final : public DembufServiceBase {
   bool AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
                    v1::SubmitJobResponse* job_answer, v1::SubmitSweepResponse* sweep_answer,
                    grpc::Status* status);
-  void FillJob(const JobRecord& record, bool with_details, v1::Job* out);
+  /// The job's answer. With details, a damaged summary is left out and named as the job's
+  /// note, or, with `damaged_summary_fails` (a fetch), thrown (DamagedData).
+  void FillJob(const JobRecord& record, bool with_details, v1::Job* out,
+               bool damaged_summary_fails = false);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);
 
   Store& m_store;

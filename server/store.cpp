@@ -5,6 +5,7 @@
 #include <ctime>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <tuple>
 
 #include "dembuf/study/provenance.h"
 #include "dembuf/study/run_output.h"
@@ -567,51 +568,71 @@ void Store::PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultF
         .Run();
 }
 
-std::string Store::JobFileSha256Locked(std::int64_t id, const std::string& path) {
-  report::Sha256Stream hash;
+std::string Store::ReadJobFilePieceLocked(std::int64_t id, const std::string& path,
+                                          std::int64_t offset, std::int64_t max) {
+  // substr counts bytes of a blob from 1.
   Statement& s =
       m_db->Prepare("SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
+  s.Bind(offset, max, id, path);
+  std::string data = s.Step() ? s.Blob(0) : std::string();
+  s.Run();
+  return data;
+}
+
+std::optional<std::string> Store::JobFileChecksumLocked(std::int64_t id, const std::string& path) {
+  Statement& s = m_db->Prepare("SELECT sha256 FROM job_files WHERE job_id = ? AND path = ?");
+  s.Bind(id, path);
+  if (!s.Step()) return std::nullopt;
+  std::string sha = s.Text(0);
+  s.Run();
+  return sha;
+}
+
+std::string Store::JobFileSha256(std::int64_t id, const std::string& path, bool locked) {
+  // A caller without the lock takes it for one piece at a time: a large file is checked
+  // without holding the store for every other request meanwhile.
+  report::Sha256Stream hash;
   for (std::int64_t offset = 0;; offset += kHashPieceBytes) {
-    s.Bind(offset, kHashPieceBytes, id, path);
-    const std::string piece = s.Step() ? s.Blob(0) : std::string();
-    s.Run();
+    std::unique_lock lock(m_mutex, std::defer_lock);
+    if (!locked) lock.lock();
+    const std::string piece = ReadJobFilePieceLocked(id, path, offset, kHashPieceBytes);
+    if (lock.owns_lock()) lock.unlock();
     hash.Add(piece);
     if (static_cast<std::int64_t>(piece.size()) < kHashPieceBytes) break;
   }
   return hash.Hex();
 }
 
-void Store::CheckJobFileLocked(std::int64_t id, const std::string& path) {
-  Statement& s = m_db->Prepare("SELECT sha256 FROM job_files WHERE job_id = ? AND path = ?");
-  s.Bind(id, path);
-  if (!s.Step()) return;  // no such file: nothing to serve
-  const std::string sha = s.Text(0);
-  s.Run();
-  if (sha.empty() || JobFileSha256Locked(id, path) != sha)
+void Store::CheckJobFile(std::int64_t id, const std::string& path, bool locked) {
+  std::optional<std::string> sha;
+  if (locked) {
+    sha = JobFileChecksumLocked(id, path);
+  } else {
+    std::lock_guard lock(m_mutex);
+    sha = JobFileChecksumLocked(id, path);
+  }
+  if (!sha) return;  // no such file: nothing to serve
+  if (sha->empty() || JobFileSha256(id, path, locked) != *sha)
     throw DamagedData("the result file " + path + " of job " + std::to_string(id) +
                       " is damaged: it does not match its checksum");
 }
 
 void Store::HideTokensInCommandLinesLocked() {
-  std::vector<std::pair<std::int64_t, std::string>> lines;
-  Statement& jobs =
-      m_db->Prepare("SELECT id, command_line FROM jobs WHERE command_line LIKE '%--token%'");
-  jobs.Bind();
-  while (jobs.Step()) lines.push_back({jobs.Int(0), jobs.Text(1)});
-  for (const auto& [id, line] : lines)
-    m_db->Prepare("UPDATE jobs SET command_line = ? WHERE id = ?")
-        .Bind(report::WithoutSecrets(line, ""), id)
-        .Run();
-  // The summaries' provenance repeats the line.
-  std::vector<std::pair<std::int64_t, std::string>> summaries;
-  Statement& results =
-      m_db->Prepare("SELECT job_id, summary_json FROM results WHERE summary_json LIKE '%--token%'");
-  results.Bind();
-  while (results.Step()) summaries.push_back({results.Int(0), results.Text(1)});
-  for (const auto& [id, summary] : summaries)
-    m_db->Prepare("UPDATE results SET summary_json = ? WHERE job_id = ?")
-        .Bind(report::WithoutSecrets(summary, ""), id)
-        .Run();
+  // The jobs' command lines, and the summaries' provenance, which repeats them. (Table and
+  // column names are this code's own, never a request's.)
+  for (const auto& [table, key, column] :
+       {std::tuple{"jobs", "id", "command_line"}, {"results", "job_id", "summary_json"}}) {
+    std::vector<std::pair<std::int64_t, std::string>> rows;
+    Statement& select = m_db->Prepare(std::string("SELECT ") + key + ", " + column + " FROM " +
+                                      table + " WHERE " + column + " LIKE '%--token%'");
+    select.Bind();
+    while (select.Step()) rows.push_back({select.Int(0), select.Text(1)});
+    for (const auto& [id, text] : rows)
+      m_db->Prepare(std::string("UPDATE ") + table + " SET " + column + " = ? WHERE " + key +
+                    " = ?")
+          .Bind(report::WithoutSecrets(text, ""), id)
+          .Run();
+  }
 }
 
 void Store::AddMissingChecksumsLocked() {
@@ -636,7 +657,7 @@ void Store::AddMissingChecksumsLocked() {
   while (list.Step()) files.push_back({list.Int(0), list.Text(1)});
   for (const auto& [id, path] : files)
     m_db->Prepare("UPDATE job_files SET sha256 = ? WHERE job_id = ? AND path = ?")
-        .Bind(JobFileSha256Locked(id, path), id, path)
+        .Bind(JobFileSha256(id, path, /*locked=*/true), id, path)
         .Run();
 }
 
@@ -695,7 +716,7 @@ CheckReport Store::Check() {
   for (const auto& [id, path] : files) {
     ++report.files;
     try {
-      CheckJobFileLocked(id, path);
+      CheckJobFile(id, path, /*locked=*/true);
     } catch (const DamagedData& e) {
       report.problems.push_back(e.what());
     }
@@ -715,15 +736,9 @@ std::vector<JobFileInfo> Store::JobFiles(std::int64_t id) {
 
 std::string Store::ReadJobFile(std::int64_t id, const std::string& path, std::int64_t offset,
                                std::int64_t max) {
+  if (offset == 0) CheckJobFile(id, path, /*locked=*/false);
   std::lock_guard lock(m_mutex);
-  if (offset == 0) CheckJobFileLocked(id, path);
-  // substr counts bytes of a blob from 1.
-  Statement& s =
-      m_db->Prepare("SELECT substr(data, ? + 1, ?) FROM job_files WHERE job_id = ? AND path = ?");
-  s.Bind(offset, max, id, path);
-  std::string data = s.Step() ? s.Blob(0) : std::string();
-  s.Run();
-  return data;
+  return ReadJobFilePieceLocked(id, path, offset, max);
 }
 
 std::optional<JobResults> Store::GetResults(std::int64_t id) {

@@ -268,9 +268,15 @@ class Store {
   std::vector<SlurmBedJob> SlurmBedsWhere(const std::string& column, const std::string& value);
   void InsertJobLocked(JobRecord& job);
   void PutJobFilesLocked(std::int64_t id, const std::vector<report::ResultFile>& files);
-  std::string JobFileSha256Locked(std::int64_t id, const std::string& path);
+  std::string ReadJobFilePieceLocked(std::int64_t id, const std::string& path, std::int64_t offset,
+                                     std::int64_t max);
+  /// A result file's stored checksum ("" for none), or nothing when there is no such file.
+  std::optional<std::string> JobFileChecksumLocked(std::int64_t id, const std::string& path);
+  /// SHA-256 of a stored file read in pieces; `locked`: the caller holds the store's lock,
+  /// else it is taken for one piece at a time.
+  std::string JobFileSha256(std::int64_t id, const std::string& path, bool locked);
   /// Throws DamagedData when the stored file does not match its checksum.
-  void CheckJobFileLocked(std::int64_t id, const std::string& path);
+  void CheckJobFile(std::int64_t id, const std::string& path, bool locked);
   /// Checksums for the rows stored before the database had them (its upgrade).
   void AddMissingChecksumsLocked();
   /// Any --token value in the command lines (and summaries) kept before version 8, hidden.

@@ -64,10 +64,6 @@ class DembufService final : public DembufServiceBase {
                                                          const v1::FetchSeriesRequest*) override;
   grpc::ServerWriteReactor<v1::FileChunk>* FetchFiles(grpc::CallbackServerContext*,
                                                       const v1::FetchFilesRequest*) override;
-
-  /// Streams open now (for the load test's figures and the log).
-  int open_watch_streams() const { return m_watch_streams.open(); }
-  int open_fetch_streams() const { return m_fetch_streams.open(); }
   grpc::Status ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,
                           v1::ServerInfoResponse*) override;
 

@@ -21,11 +21,6 @@ void StreamClock::At(Clock::time_point when, std::function<void()> task) {
   m_wake.notify_one();
 }
 
-std::size_t StreamClock::pending() const {
-  std::lock_guard lock(m_mutex);
-  return m_entries.size();
-}
-
 void StreamClock::Run() {
   std::unique_lock lock(m_mutex);
   while (!m_stopping) {

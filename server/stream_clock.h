@@ -28,9 +28,6 @@ class StreamClock {
   /// A task must be short: every stream's next step waits for it.
   void At(Clock::time_point when, std::function<void()> task);
 
-  /// Tasks waiting to run.
-  std::size_t pending() const;
-
  private:
   struct Entry {
     Clock::time_point when;
@@ -42,7 +39,7 @@ class StreamClock {
   };
   void Run();
 
-  mutable std::mutex m_mutex;
+  std::mutex m_mutex;
   std::condition_variable m_wake;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> m_entries;
   std::uint64_t m_next_order = 0;

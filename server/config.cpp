@@ -189,19 +189,19 @@ void ValidateConfig(ServerConfig& config) {
   require(config.tls_cert.empty() == config.tls_key.empty(),
           "tls_cert and tls_key: give both (or neither)");
   require(config.quota_queued_jobs >= 0, "quota_queued_jobs: must be >= 0 (0: no limit)");
-  require(config.max_watch_streams >= 1 && config.max_watch_streams <= 100000,
-          "max_watch_streams: must be 1 to 100000");
-  require(config.max_watch_streams_per_user >= 1 &&
-              config.max_watch_streams_per_user <= config.max_watch_streams,
-          "max_watch_streams_per_user: must be 1 to max_watch_streams (" +
-              std::to_string(config.max_watch_streams) + ")");
-  require(config.max_fetch_streams >= 1 && config.max_fetch_streams <= 10000,
-          "max_fetch_streams: must be 1 to 10000, not " + std::to_string(config.max_fetch_streams));
-  require(config.max_fetch_streams_per_user >= 1 &&
-              config.max_fetch_streams_per_user <= config.max_fetch_streams,
-          "max_fetch_streams_per_user: must be 1 to max_fetch_streams (" +
-              std::to_string(config.max_fetch_streams) + "), not " +
-              std::to_string(config.max_fetch_streams_per_user));
+  // A cap on streams in all, up to `most`, and one per user within it.
+  auto require_caps = [&](const std::string& total_name, int total, int most,
+                          const std::string& per_user_name, int per_user) {
+    require(total >= 1 && total <= most, total_name + ": must be 1 to " + std::to_string(most) +
+                                             ", not " + std::to_string(total));
+    require(per_user >= 1 && per_user <= total, per_user_name + ": must be 1 to " + total_name +
+                                                    " (" + std::to_string(total) + "), not " +
+                                                    std::to_string(per_user));
+  };
+  require_caps("max_watch_streams", config.max_watch_streams, 100000, "max_watch_streams_per_user",
+               config.max_watch_streams_per_user);
+  require_caps("max_fetch_streams", config.max_fetch_streams, 10000, "max_fetch_streams_per_user",
+               config.max_fetch_streams_per_user);
   require(config.stream_write_timeout_s >= 1 && config.stream_write_timeout_s <= 3600,
           "stream_write_timeout_s: must be 1 to 3600, not " +
               std::to_string(config.stream_write_timeout_s));
@@ -221,13 +221,8 @@ void ValidateConfig(ServerConfig& config) {
             "not \"" +
                 config.http + "\" (use access = \"tokens\")");
   }
-  require(config.http_max_streams >= 1 && config.http_max_streams <= 10000,
-          "http_max_streams: must be 1 to 10000, not " + std::to_string(config.http_max_streams));
-  require(config.http_max_streams_per_user >= 1 &&
-              config.http_max_streams_per_user <= config.http_max_streams,
-          "http_max_streams_per_user: must be 1 to http_max_streams (" +
-              std::to_string(config.http_max_streams) + "), not " +
-              std::to_string(config.http_max_streams_per_user));
+  require_caps("http_max_streams", config.http_max_streams, 10000, "http_max_streams_per_user",
+               config.http_max_streams_per_user);
   for (const auto& [name, value] : {std::pair{"quota_beads", config.quota_beads},
                                     {"quota_steps", config.quota_steps},
                                     {"quota_bead_steps", config.quota_bead_steps},

@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "dembuf/study/paper_comparison.h"
-#include "dembuf/study/run_output.h"
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/sweep/paper_comparison.h"
 #include "plots.h"
 
 namespace dembuf::cli {

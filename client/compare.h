@@ -1,4 +1,5 @@
-// dembuf compare: runs and sweeps beside the paper's numbers (dembuf/study/paper_comparison.h).
+// dembuf compare: runs and sweeps beside the paper's numbers
+// (dembuf/study/sweep/paper_comparison.h).
 #pragma once
 
 #include <filesystem>

@@ -1,4 +1,4 @@
-// The CLI's side of the resource estimate (dembuf/study/resource_estimate.h): `--dry-run`
+// The CLI's side of the resource estimate (dembuf/study/run/resource_estimate.h): `--dry-run`
 // prints it, and a run or sweep past this machine's limits (half its memory, the free space
 // where it writes, a day of computing) stops before starting unless given `--yes`.
 #pragma once
@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/resource_estimate.h"
-#include "dembuf/study/scene.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/run/resource_estimate.h"
+#include "dembuf/study/scene/scene.h"
 
 namespace dembuf::cli {
 

@@ -9,8 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "dembuf/study/program.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "program.h"
 
 namespace dembuf::cli {
 

@@ -6,8 +6,8 @@
 #include <chrono>
 #include <cstdio>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/impact.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/impact/impact.h"
 
 namespace dembuf::cli {
 

@@ -17,12 +17,12 @@
 #include <sstream>
 #include <thread>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/run_output.h"
-#include "dembuf/study/snapshot_report.h"
-#include "dembuf/study/sweep_plan.h"
-#include "dembuf/study/sweep_report.h"
-#include "dembuf/study/text_limits.h"
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/files/snapshot_report.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/sweep/sweep_plan.h"
+#include "dembuf/study/sweep/sweep_report.h"
+#include "dembuf/study/text/text_limits.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "plots.h"
 #include "progress.h"

@@ -1,7 +1,7 @@
 #include "scene_input.h"
 
-#include "dembuf/study/presets.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/scene/presets.h"
+#include "dembuf/study/scene/scene_fields.h"
 
 namespace dembuf::cli {
 

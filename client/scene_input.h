@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/study/scene.h"
+#include "dembuf/study/scene/scene.h"
 
 namespace dembuf::cli {
 

@@ -13,13 +13,13 @@
 #include <optional>
 #include <set>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/run_output.h"
-#include "dembuf/study/run_queue.h"
-#include "dembuf/study/scene_fields.h"
-#include "dembuf/study/sweep_plan.h"
-#include "dembuf/study/sweep_report.h"
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/sweep/run_queue.h"
+#include "dembuf/study/sweep/sweep_plan.h"
+#include "dembuf/study/sweep/sweep_report.h"
 
 namespace dembuf::cli {
 

@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/critical_thickness_search.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/scene.h"
-#include "dembuf/study/sweep_plan.h"
-#include "dembuf/study/sweep_report.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/scene.h"
+#include "dembuf/study/sweep/critical_thickness_search.h"
+#include "dembuf/study/sweep/sweep_plan.h"
+#include "dembuf/study/sweep/sweep_report.h"
 
 namespace dembuf::cli {
 

@@ -15,7 +15,7 @@ if(NOT failed AND head MATCHES "^[0-9a-f]+$")
   endif()
 endif()
 set(text "// Generated at build time by cmake/build_info.cmake.
-#include \"dembuf/study/provenance.h\"
+#include \"dembuf/study/files/provenance.h\"
 
 namespace dembuf::report {
 const char* BuildCommit() { return \"${commit}\"; }

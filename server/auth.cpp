@@ -5,7 +5,7 @@
 #include <fstream>
 #include <stdexcept>
 
-#include "dembuf/study/provenance.h"
+#include "dembuf/study/files/provenance.h"
 #include "store.h"
 
 namespace dembuf::server {

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "auth.h"
-#include "dembuf/study/text_limits.h"
+#include "dembuf/study/text/text_limits.h"
 #include "slurm.h"
 
 namespace dembuf::server {

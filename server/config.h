@@ -45,7 +45,7 @@ struct ServerConfig {
   /// web server's threads, and its pool is sized above the total.
   int http_max_streams_per_user = 8;
   int http_max_streams = 64;
-  // Per job, against its resource estimate (dembuf/study/resource_estimate.h) before it is
+  // Per job, against its resource estimate (dembuf/study/run/resource_estimate.h) before it is
   // accepted; 0: no limit. The defaults pass the paper's experiments at the reference
   // accuracy with room to spare and refuse what would take the server for days.
   double quota_beads = 1e6;        ///< beads in its largest bed (E2's source bed: 36,805)
@@ -78,7 +78,7 @@ class ConfigError : public std::runtime_error {
 
 /// Reads a TOML configuration file over `config` (keys as the struct's members). Throws
 /// ConfigError naming the file and key for unknown keys, wrong types or bad values, and for
-/// a file past the limits of text inputs (dembuf/study/text_limits.h).
+/// a file past the limits of text inputs (dembuf/study/text/text_limits.h).
 void LoadConfigFile(const std::string& path, ServerConfig& config);
 /// The same for the file's text (`path` names it in messages).
 void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config);

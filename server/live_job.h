@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/study/impact.h"
+#include "dembuf/study/impact/impact.h"
 #include "store.h"
 
 namespace dembuf::server {

@@ -24,7 +24,7 @@
 #include "access_policy.h"
 #include "auth.h"
 #include "config.h"
-#include "dembuf/study/provenance.h"
+#include "dembuf/study/files/provenance.h"
 #include "dembuf/study/version.h"
 #include "instance.h"
 #include "reflection_v1.h"

@@ -3,9 +3,9 @@
 #include <charconv>
 #include <string>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/presets.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/presets.h"
+#include "dembuf/study/scene/scene_fields.h"
 
 namespace dembuf::server {
 

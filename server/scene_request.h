@@ -3,7 +3,7 @@
 
 #include <cstddef>
 
-#include "dembuf/study/scene.h"
+#include "dembuf/study/scene/scene.h"
 #include "dembuf/v1/dembuf.pb.h"
 
 namespace dembuf::server {

@@ -11,7 +11,7 @@
 
 #include "access_policy.h"
 #include "auth.h"
-#include "dembuf/study/resource_estimate.h"
+#include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "executor.h"
 #include "store.h"

@@ -4,7 +4,7 @@
 #include <charconv>
 #include <sstream>
 
-#include "dembuf/study/program.h"
+#include "program.h"
 
 namespace dembuf::server::slurm {
 

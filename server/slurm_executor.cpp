@@ -8,12 +8,12 @@
 #include <set>
 #include <sstream>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/resource_estimate.h"
-#include "dembuf/study/run_output.h"
-#include "dembuf/study/scene_fields.h"
-#include "dembuf/study/snapshot_report.h"
-#include "dembuf/study/text_limits.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/files/snapshot_report.h"
+#include "dembuf/study/run/resource_estimate.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/text/text_limits.h"
 #include "dembuf/study/version.h"
 #include "scene_request.h"
 

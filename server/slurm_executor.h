@@ -23,7 +23,7 @@
 #include <mutex>
 #include <thread>
 
-#include "dembuf/study/scene.h"
+#include "dembuf/study/scene/scene.h"
 #include "executor.h"
 #include "slurm.h"
 

@@ -7,8 +7,8 @@
 #include <random>
 #include <tuple>
 
-#include "dembuf/study/provenance.h"
-#include "dembuf/study/run_output.h"
+#include "dembuf/study/files/provenance.h"
+#include "dembuf/study/files/run_output.h"
 #include "fault_injection.h"
 
 namespace dembuf::server {

@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/snapshot_report.h"
-#include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/files/snapshot_report.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/sweep/sweep_plan.h"
 #include "sqlite.h"
 
 namespace dembuf::server {

@@ -4,11 +4,11 @@
 
 #include <algorithm>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/run_output.h"
-#include "dembuf/study/scene_fields.h"
-#include "dembuf/study/snapshot_report.h"
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/files/snapshot_report.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/version.h"
 #include "fault_injection.h"
 

@@ -18,8 +18,8 @@
 #include <thread>
 #include <vector>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/run_queue.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/sweep/run_queue.h"
 #include "executor.h"
 
 namespace dembuf::server {

@@ -2,7 +2,9 @@
 # The layers' rule, checked on the sources: engine/core includes nothing of engine/study, the
 # service or the client; engine/study nothing of the service or the client; neither needs
 # gRPC, Protobuf, SQLite or a TOML parser in core, nor OpenSSL (which engine/study uses for
-# SHA-256 and base64).
+# SHA-256 and base64). Inside engine/study, each room includes only itself and the rooms below
+# it (the order of `rooms` below), and no file of study includes itself through others (no
+# include cycle, which tsort finds).
 # Usage: dependency_check.sh SOURCE_DIR
 set -eu
 root=$1
@@ -34,6 +36,39 @@ forbidden engine/core "openssl/" "needs OpenSSL"
 forbidden engine/study "${service%|openssl/}" "needs the service's libraries"
 forbidden engine/study "($own)\"" "includes a header of server/ or client/"
 
+# The rooms of engine/study, lowest first: a room may include itself and those before it.
+rooms=(text scene bed impact files run sweep)
+study=engine/study
+for index in "${!rooms[@]}"; do
+  room=${rooms[$index]}
+  higher=$(printf '%s|' "${rooms[@]:$((index + 1))}")
+  for folder in "$study/include/dembuf/study/$room" "$study/src/$room"; do
+    [ -d "$root/$folder" ] || { echo "FAIL: $folder is missing"; status=1; continue; }
+    [ -n "$higher" ] && forbidden "$folder" "dembuf/study/(${higher%|})/" \
+      "(room $room) includes a room above it"
+  done
+done
+# Every header and source of study lives in a room (the generated version.h apart).
+strays=$(cd "$root/$study" && find include/dembuf/study src -maxdepth 1 -type f \
+           \( -name '*.h' -o -name '*.cpp' \) | sort)
+if [ -n "$strays" ]; then
+  echo "FAIL: files of engine/study outside its rooms:"
+  echo "$strays"
+  status=1
+fi
+# Files of study as nodes, "a includes b" as edges (a header and its source are one node):
+# tsort names a loop when the includes go round.
+edges=$(cd "$root/$study" && grep -rHoE --include='*.h' --include='*.cpp' \
+          '^[[:space:]]*#[[:space:]]*include[[:space:]]*"dembuf/study/[a-z_]+/[a-z_0-9]+\.h"' \
+          include src |
+        sed -E 's|^(include/dembuf/study/\|src/)([a-z_]+/[a-z_0-9]+)\.(h\|cpp):.*"dembuf/study/([a-z_]+/[a-z_0-9]+)\.h"|\2 \4|' |
+        awk '$1 != $2' | sort -u)
+if ! loop=$(echo "$edges" | tsort 2>&1 >/dev/null) || [ -n "$loop" ]; then
+  echo "FAIL: an include cycle inside engine/study:"
+  echo "$loop" | grep -v 'input contains a loop' | sed 's/^tsort: /  /'
+  status=1
+fi
+
 # The core's names live in dembuf::dem (and its detail), so that code above says where they
 # come from; anonymous namespaces apart.
 hits=$(grep -rnE --include='*.h' --include='*.cpp' '^[[:space:]]*namespace[[:space:]]+[A-Za-z_:]+[[:space:]]*\{' \
@@ -54,5 +89,5 @@ if grep -qE 'gRPC|protobuf|SQLite|spdlog|dembuf::proto|dembuf_server|dembuf_cli'
   echo "FAIL: engine/study/CMakeLists.txt links the service or the client"
   status=1
 fi
-[ "$status" = 0 ] && echo "layers: engine/core and engine/study include and link nothing above them"
+[ "$status" = 0 ] && echo "layers: engine/core and engine/study include and link nothing above them; study's rooms in order, without cycles"
 exit "$status"

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "auth.h"
-#include "dembuf/study/provenance.h"
+#include "dembuf/study/files/provenance.h"
 
 namespace dembuf::server::web {
 

@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 #include "auth.h"
-#include "dembuf/study/run_output.h"
+#include "dembuf/study/files/run_output.h"
 #include "dembuf/study/version.h"
 #include "job_feed.h"
 #include "sessions.h"

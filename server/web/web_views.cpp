@@ -3,8 +3,8 @@
 #include <charconv>
 #include <cmath>
 
-#include "dembuf/study/scene_fields.h"
-#include "dembuf/study/sweep_report.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/sweep/sweep_report.h"
 
 namespace dembuf::server::web {
 

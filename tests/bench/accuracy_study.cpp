@@ -23,9 +23,9 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/presets.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/presets.h"
 
 using namespace dembuf;
 

@@ -9,7 +9,7 @@
 #include <numbers>
 
 #include "dembuf/core/damping.h"
-#include "dembuf/study/impact.h"
+#include "dembuf/study/impact/impact.h"
 #include "engine/two_body.h"
 
 using namespace dembuf;

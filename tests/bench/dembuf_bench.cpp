@@ -49,12 +49,12 @@
 #include <thread>
 #include <vector>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/bed_export.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/presets.h"
-#include "dembuf/study/scene_fields.h"
-#include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/files/bed_export.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/presets.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/sweep/sweep_plan.h"
 #include "sweep.h"
 
 using namespace dembuf;

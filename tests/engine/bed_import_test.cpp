@@ -8,10 +8,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/study/bed_io.h"
-#include "dembuf/study/errors.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/bed/bed_io.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
 #include "engine/squeezed_bed.h"
 #include "engine/temp_path.h"
 

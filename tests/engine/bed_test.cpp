@@ -14,11 +14,11 @@
 #include <set>
 #include <thread>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/core_share.h"
-#include "dembuf/study/errors.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/sweep/core_share.h"
 
 #include "engine/small_bed.h"
 #include "engine/temp_path.h"

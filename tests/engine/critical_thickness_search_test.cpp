@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "dembuf/study/critical_thickness_search.h"
+#include "dembuf/study/sweep/critical_thickness_search.h"
 
 namespace dembuf {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include "dembuf/study/impact.h"
+#include "dembuf/study/impact/impact.h"
 
 namespace dembuf {
 namespace {

@@ -6,7 +6,7 @@
 #include <random>
 
 #include "contact_kernels.h"
-#include "dembuf/study/impact.h"
+#include "dembuf/study/impact/impact.h"
 
 namespace dembuf {
 namespace {

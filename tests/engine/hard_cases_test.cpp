@@ -8,10 +8,10 @@
 #include <fstream>
 #include <numbers>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/errors.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
 #include "engine/impact_audit.h"
 #include "engine/small_bed.h"
 #include "engine/squeezed_bed.h"

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/study/impact.h"
+#include "dembuf/study/impact/impact.h"
 
 namespace dembuf::test {
 

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <fstream>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
 #include "engine/temp_path.h"
 #include "engine/two_body.h"
 

@@ -4,9 +4,9 @@
 
 #include <cmath>
 
-#include "dembuf/study/paper_comparison.h"
-#include "dembuf/study/presets.h"
-#include "dembuf/study/run_output.h"
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/scene/presets.h"
+#include "dembuf/study/sweep/paper_comparison.h"
 
 namespace dembuf {
 namespace {

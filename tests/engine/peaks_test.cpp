@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "dembuf/study/peaks.h"
+#include "dembuf/study/impact/peaks.h"
 
 namespace dembuf {
 namespace {

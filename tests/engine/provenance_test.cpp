@@ -1,6 +1,6 @@
 // Provenance: the SHA-256 is the standard one, a command line reads back in a shell into the
 // same arguments, and a bed's content hash follows its beads, not how long it took to make.
-#include "dembuf/study/provenance.h"
+#include "dembuf/study/files/provenance.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "dembuf/study/bed.h"
+#include "dembuf/study/bed/bed.h"
 
 namespace dembuf {
 namespace {

@@ -11,7 +11,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/study/impact.h"
+#include "dembuf/study/impact/impact.h"
 #include "engine/small_bed.h"
 
 namespace dembuf {

@@ -5,11 +5,11 @@
 
 #include <cmath>
 
-#include "dembuf/study/bed.h"
-#include "dembuf/study/errors.h"
-#include "dembuf/study/impact.h"
-#include "dembuf/study/resource_estimate.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/run/resource_estimate.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
 #include "engine/small_bed.h"
 
 namespace dembuf {

@@ -8,8 +8,8 @@
 #include <numbers>
 
 #include "dembuf/core/simulation.h"
-#include "dembuf/study/bed.h"
-#include "dembuf/study/impact.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/impact/impact.h"
 
 namespace dembuf::test {
 namespace {

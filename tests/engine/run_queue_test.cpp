@@ -6,7 +6,7 @@
 #include <chrono>
 #include <thread>
 
-#include "dembuf/study/run_queue.h"
+#include "dembuf/study/sweep/run_queue.h"
 
 namespace dembuf::test {
 namespace {

@@ -4,9 +4,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/presets.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/presets.h"
+#include "dembuf/study/scene/scene_fields.h"
 #include "engine/temp_path.h"
 
 namespace dembuf {

@@ -1,7 +1,7 @@
 // The small scene the engine tests share: a bed that settles in seconds.
 #pragma once
 
-#include "dembuf/study/scene.h"
+#include "dembuf/study/scene/scene.h"
 
 namespace dembuf::test {
 

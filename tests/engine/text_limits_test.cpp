@@ -7,10 +7,10 @@
 #include <sstream>
 #include <string>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/presets.h"
-#include "dembuf/study/scene_fields.h"
-#include "dembuf/study/text_limits.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/presets.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/text/text_limits.h"
 #include "engine/temp_path.h"
 
 namespace dembuf {

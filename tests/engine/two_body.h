@@ -6,7 +6,7 @@
 #include <optional>
 
 #include "dembuf/core/simulation.h"
-#include "dembuf/study/impact.h"
+#include "dembuf/study/impact/impact.h"
 
 namespace dembuf::test {
 

@@ -7,8 +7,8 @@
 #include <sstream>
 #include <string>
 
-#include "dembuf/study/bed_io.h"
-#include "dembuf/study/errors.h"
+#include "dembuf/study/bed/bed_io.h"
+#include "dembuf/study/scene/errors.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

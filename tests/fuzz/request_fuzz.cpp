@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <string>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/sweep_plan.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/sweep/sweep_plan.h"
 #include "dembuf/v1/dembuf.pb.h"
 #include "google/protobuf/stubs/logging.h"
 #include "scene_request.h"

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <string>
 
-#include "dembuf/study/errors.h"
-#include "dembuf/study/scene_fields.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

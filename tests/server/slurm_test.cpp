@@ -8,9 +8,9 @@
 
 #include "../engine/temp_path.h"
 #include "config.h"
-#include "dembuf/study/program.h"
-#include "dembuf/study/run_output.h"
-#include "dembuf/study/snapshot_report.h"
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/files/snapshot_report.h"
+#include "program.h"
 #include "slurm.h"
 
 namespace dembuf::server {

@@ -1,0 +1,60 @@
+// Beds as files: the plain text exchange format (one bead per line: x y z radius, SI units;
+// '#' starts a comment), so that packings made by other codes can be used.
+//
+// A bed file is checked as hostile input: its size and line lengths are bounded, every bead
+// must lie inside the container, and overlaps are measured. A bed at rest has small overlaps
+// at its contacts (LAMMPS leaves 0.3 um between 4 mm glass beads and on the plate, 0.015% of
+// a radius): up to kMaxRestingOverlap they are accepted as the resting contacts they are and
+// reported. Larger ones store enough elastic energy to throw beads out when relaxed (5% of a
+// radius did, in a hard-case test): they are refused naming the worst bead, or, with
+// bed.import_overlaps = "relax", separated by moving the beads apart before the bed relaxes.
+#pragma once
+
+#include <cstddef>
+#include <istream>
+#include <string>
+#include <vector>
+
+#include "dembuf/core/particles.h"
+#include "dembuf/study/scene/scene.h"
+
+namespace dembuf {
+
+/// The largest overlap accepted as a resting contact, as a fraction of the (smaller) radius.
+inline constexpr double kMaxRestingOverlap = 0.01;
+/// The largest bed file read, and its longest line.
+inline constexpr std::size_t kMaxBedFileBytes = std::size_t{512} << 20;
+inline constexpr std::size_t kMaxBedLineBytes = 4096;
+
+/// The overlaps of one kind of contact, as fractions of the (smaller) radius.
+struct OverlapStats {
+  std::size_t contacts = 0;  ///< touching bead pairs, or beads touching the plate or the wall
+  double max_ratio = 0.0;
+  double mean_ratio = 0.0;
+};
+
+/// A bed read from a text file, and what its contacts look like.
+struct ImportedBed {
+  dem::ParticleState beads;  ///< with the scene's density
+  std::vector<long> lines;   ///< each bead's line in the file
+  OverlapStats pairs, plate, wall;
+  std::size_t moved = 0;          ///< beads moved apart (bed.import_overlaps = "relax")
+  double max_move_m = 0.0;        ///< the farthest one moved
+  double max_ratio_before = 0.0;  ///< the largest overlap before they were moved
+
+  /// One paragraph for people: the beads, their resting contacts, what was separated.
+  std::string Describe() const;
+};
+
+/// The smallest bead radius an imported bed may hold: 1 um. Finer powders are held together by
+/// adhesion and moved by the air, which the model leaves out; and the neighbour grid, in cells
+/// of a bead's size across the whole container, would take more memory than a machine has.
+inline constexpr double kMinBeadRadius_m = 1e-6;
+
+/// Reads and checks a text bed (see above). Throws SceneError (field "bed.import") naming the
+/// line of a malformed, non-finite or out-of-container bead, or the worst overlap.
+ImportedBed ReadTextBed(const std::string& path, const Scene& scene);
+/// The same for a stream; `name` names it in messages.
+ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene& scene);
+
+}  // namespace dembuf

@@ -1,0 +1,86 @@
+// The files of a run: plate_force.csv (the sampled series) and summary.json. The same writer
+// serves a local run and results fetched from the daemon.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dembuf/study/files/provenance.h"
+#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/scene/scene.h"
+
+namespace dembuf::report {
+
+/// The scene as nested JSON: {"projectile": {"mass_kg": 0.167, ...}, ...}.
+nlohmann::json SceneToJson(const Scene& scene);
+
+/// The summary.json document of a finished run, with its provenance (provenance.h).
+nlohmann::json SummaryToJson(const ImpactSummary& summary, const Scene& scene,
+                             const RunContext& run);
+
+/// Streams samples to CSV. Writes to NAME.partial and renames to NAME on Commit(), so that a
+/// file with the final name is always complete.
+class SampleCsvWriter {
+ public:
+  explicit SampleCsvWriter(std::filesystem::path path);
+  void Write(const ImpactSample& sample);
+  void Commit();
+  const std::filesystem::path& partial_path() const { return m_partial; }
+
+ private:
+  std::filesystem::path m_final;
+  std::filesystem::path m_partial;
+  std::ofstream m_out;
+};
+
+/// Samples as the text of plate_force.csv.
+std::string SamplesToCsv(const std::vector<ImpactSample>& samples);
+
+/// Samples as bytes: rows of six little-endian doubles (the columns of plate_force.csv), exact
+/// to the bit. The daemon stores series so, and a cluster job streams them so.
+std::string PackSamples(const std::vector<ImpactSample>& samples);
+/// The whole rows of `bytes` (a trailing part row, still being written, is left out).
+std::vector<ImpactSample> UnpackSamples(std::string_view bytes);
+inline constexpr std::size_t kPackedSampleBytes = 6 * sizeof(double);
+
+/// Streams samples, packed, to a file that another process follows while the run goes (the
+/// daemon following a cluster job): the bytes reach the file at least every `flush_every`.
+class SampleStreamWriter {
+ public:
+  explicit SampleStreamWriter(
+      const std::filesystem::path& path,
+      std::chrono::milliseconds flush_every = std::chrono::milliseconds(200));
+  void Write(const ImpactSample& sample);
+  /// Flushes; throws when the file could not be written.
+  void Close();
+
+ private:
+  std::filesystem::path m_path;
+  std::ofstream m_out;
+  std::chrono::milliseconds m_flush_every;
+  std::chrono::steady_clock::time_point m_last_flush;
+};
+
+/// The whole samples of a stream file from byte `offset` on (a multiple of kPackedSampleBytes),
+/// at most `max_samples` of them; none when the file does not exist yet.
+std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path, std::uint64_t offset,
+                                           std::uint64_t max_samples = UINT64_MAX);
+
+/// The files and folders a run writes into its folder (results, failure or interruption
+/// reports, plots, snapshots), so that replacing a run removes all of the run before and
+/// nothing else.
+const std::vector<std::string>& RunOutputNames();
+
+/// Removes the outputs of a run (RunOutputNames) from `dir`; other files stay.
+void RemoveRunOutputs(const std::filesystem::path& dir);
+
+/// Writes text to path atomically (temporary file, then rename).
+void WriteFileAtomically(const std::filesystem::path& path, const std::string& text);
+
+}  // namespace dembuf::report

@@ -1,0 +1,80 @@
+// Files of a contact-network snapshot, in snapshots/<label>/ of a run's folder:
+//   snapshot.json     when it was taken (simulated time, time after the first contact), counts
+//   beads.vtp         beads (vertices with radius, velocity, id, force) and projectile, for
+//                     ParaView (VTK XML, vtk_files.h)
+//   contacts.vtp      bead/projectile contacts (lines between centres, normal force)
+//   contacts.csv      every contact: bodies, contact point, force vector, normal force
+//   plate_radial.csv  plate load by ring of width one bead diameter: force and pressure
+//   plate_map.csv     plate load on a square grid of 1 cm cells
+//   force_pdf.csv     probability density of bead-bead normal forces over their mean
+// snapshots.pvd in the run's folder collects the snapshots' .vtp files with their times.
+// Animation frames (output.animation_interval_s) are frames/frame_NNNNN.vtp, collected by
+// frames.pvd. They are made in memory, so that a local run writes them to its folder and the
+// daemon stores them with the job; both give the same bytes.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "dembuf/study/files/vtk_files.h"
+#include "dembuf/study/impact/impact.h"
+
+namespace dembuf::report {
+
+/// One file of a run's results: its path relative to the run's folder, and its bytes.
+struct ResultFile {
+  std::string path;
+  std::string data;
+};
+
+/// The files of one snapshot, under "snapshots/<label>/".
+std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinder_radius_m,
+                                      double bead_diameter_m);
+
+/// A run's ParaView files as they come: each snapshot or frame gives its files and the .pvd
+/// collection updated to hold it, so that the folder opens in ParaView at any moment.
+class ParaViewFiles {
+ public:
+  ParaViewFiles(double cylinder_radius_m, double bead_diameter_m)
+      : m_cylinder_radius_m(cylinder_radius_m), m_bead_diameter_m(bead_diameter_m) {}
+  /// SnapshotFiles and snapshots.pvd.
+  std::vector<ResultFile> AddSnapshot(const ImpactSnapshot& snap);
+  /// frames/<label>.vtp and frames.pvd.
+  std::vector<ResultFile> AddFrame(const ImpactSnapshot& frame);
+
+ private:
+  double m_cylinder_radius_m, m_bead_diameter_m;
+  std::vector<PvdEntry> m_snapshots, m_frames;
+};
+
+/// Whether `path` may name a result file: relative, made of folder and file names of letters,
+/// digits, '.', '-' and '_' (none of them "." or ".."), at most kMaxResultPathLength long and
+/// kMaxResultPathDepth deep. Result files come from a cluster's shared folder and from a
+/// server's answers: a name that could leave the run's folder is refused.
+bool IsSafeResultPath(std::string_view path);
+inline constexpr std::size_t kMaxResultPathLength = 200;
+inline constexpr int kMaxResultPathDepth = 3;
+
+/// Whether `path` is the name of a result file a run writes besides its series and summary:
+/// plate_force_bare.csv, snapshots.pvd, frames.pvd, snapshots/LABEL/ one of the files of
+/// SnapshotFiles, or frames/LABEL.vtp, LABEL as SafeLabel makes it (never starting with a
+/// dot). An allow-list, not a rule about characters: what a server or a cluster's folder
+/// sends under any other name (.git/config, .envrc, a/b where a is a file) is refused.
+bool IsResultFileName(std::string_view path);
+
+/// Writes the files under `dir` (each atomically), creating their folders. Throws
+/// std::runtime_error for a path IsSafeResultPath refuses, before writing anything.
+void WriteResultFiles(const std::vector<ResultFile>& files, const std::filesystem::path& dir);
+
+/// The files `names` name in `dir` (files, or folders read whole; absent ones are skipped),
+/// read back for storing, in path order: only regular files with paths IsSafeResultPath
+/// accepts, at most `max_files` of them and `max_bytes` in all. Throws std::runtime_error
+/// naming what broke a rule (a link, a name, a size): the folder is another program's output
+/// on a shared disk.
+std::vector<ResultFile> ReadResultFiles(const std::filesystem::path& dir,
+                                        const std::vector<std::string>& names,
+                                        std::uint64_t max_bytes, std::size_t max_files);
+
+}  // namespace dembuf::report

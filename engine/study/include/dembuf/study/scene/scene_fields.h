@@ -1,0 +1,71 @@
+// The table of scene fields: one entry per dotted name, with its unit, help text and allowed
+// range. Scene files, `--set` overrides, `scene --print` and validation all go through it, so
+// a field is declared once.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <span>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "dembuf/study/scene/scene.h"
+
+namespace dembuf {
+
+/// One scene field. `ref` gives access to the member inside a Scene.
+struct SceneField {
+  using Ref = std::variant<double& (*)(Scene&), std::int64_t& (*)(Scene&), bool& (*)(Scene&),
+                           std::string& (*)(Scene&), std::vector<double>& (*)(Scene&)>;
+  std::string_view name;  ///< dotted name, e.g. "projectile.mass_kg"
+  std::string_view unit;  ///< SI unit, "" when dimensionless
+  std::string_view help;
+  Ref ref;
+  double min = 0.0;  ///< numeric range (of each element of a list); inclusive unless *_open
+  double max = 0.0;
+  bool min_open = false;
+  bool max_open = false;
+  std::vector<std::string_view> choices = {};  ///< allowed values of a string field, if restricted
+};
+
+/// All fields in display order.
+std::span<const SceneField> SceneFields();
+
+/// The field of that dotted name, or nullptr.
+const SceneField* FindSceneField(std::string_view name);
+
+/// The field of that dotted name; throws SceneError naming the closest known fields.
+const SceneField& RequireSceneField(std::string_view name);
+
+/// Sets one field from text (as given to `--set name=value`). Throws SceneError naming the
+/// field when the name is unknown or the value does not parse or is out of range.
+void SetSceneField(Scene& scene, std::string_view name, std::string_view value);
+
+/// Parses "name=value" and applies it with SetSceneField.
+void ApplyOverride(Scene& scene, std::string_view assignment);
+
+/// Reads a TOML scene file on top of `base` (fields absent from the file keep their value).
+/// Unknown tables or keys, wrong types and out-of-range values throw SceneError.
+Scene LoadSceneFile(const std::string& path, const Scene& base = Scene{});
+
+/// The same for TOML text; `name` is used in messages (e.g. "preset e2").
+Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base = Scene{});
+
+/// Checks every field's range and the relations between fields. Throws SceneError.
+void ValidateScene(const Scene& scene);
+
+/// Legal values that are physically absurd, or beyond what has been tested to give sound
+/// results, as "field: what is absurd and why" (empty for an ordinary scene). Such a scene
+/// runs; the callers show the warnings and keep them with the results.
+std::vector<std::string> SceneWarnings(const Scene& scene);
+
+/// Writes the complete scene as TOML, each field with its unit and help as a comment.
+void PrintScene(const Scene& scene, std::ostream& out);
+
+/// The value of a field as text (as PrintScene writes it).
+std::string FormatSceneField(const Scene& scene, const SceneField& field);
+
+}  // namespace dembuf

@@ -1,0 +1,85 @@
+// The queue of runs that parallel workers take from: a local sweep's workers and the daemon's
+// alike. Runs go in their order, except that a run whose bed another running run is preparing
+// is passed over (WaitsForBed) while the workers take others, so a bed is prepared once, by one
+// worker; when every run left waits, a worker sleeps until a bed is ready or a run ends. The
+// machine's cores are shared among the running runs (CoreShare): when every run left waits for
+// one source bed, the worker settling it gets all the cores instead of one.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
+
+#include "dembuf/study/bed/bed.h"
+
+namespace dembuf {
+
+class RunQueue {
+ public:
+  using Id = std::int64_t;
+  using Clock = std::chrono::steady_clock;
+
+  /// Runs share `cores` engine threads; `beds` tells which beds are ready. A set `cancel`
+  /// makes Next return nothing (checked at least once a second).
+  RunQueue(BedCache& beds, int cores, const std::atomic<bool>* cancel = nullptr);
+
+  /// Adds a run at the back, or at the front (a run that keeps its turn).
+  void Push(Id id, const BedNeeds& needs);
+  void PushFront(Id id, const BedNeeds& needs);
+  /// Takes a queued run out; its bed needs, or nothing if it is not queued.
+  std::optional<BedNeeds> Remove(Id id);
+  /// Puts a running run back at the front (it could not finish now and keeps its turn).
+  void Requeue(Id id);
+
+  /// Blocks until a run may start and returns it, having called start(id), which returns
+  /// where the run's share of the cores is to be written (kept up to date until Done). start
+  /// runs under the queue's lock, so the run is never seen neither queued nor started.
+  /// Returns nothing once the queue is stopped, cancelled, or closed and empty.
+  std::optional<Id> Next(const std::function<std::atomic<int>*(Id)>& start);
+  /// The run has ended; its cores go to the others.
+  void Done(Id id);
+
+  /// No more runs will be pushed: Next returns nothing once the queue is empty.
+  void Close();
+  /// Next returns nothing from now on (runs left stay queued).
+  void Stop();
+  /// No run starts before `until` (the workers pause, e.g. while the disk is full).
+  void PauseUntil(Clock::time_point until);
+  /// Something a waiting run may need has changed (a bed was prepared).
+  void Wake();
+
+  std::size_t queued() const;
+  std::size_t running() const;
+
+ private:
+  struct Entry {
+    Id id;
+    BedNeeds needs;
+  };
+  struct Running {
+    BedNeeds needs;
+    std::atomic<int>* threads;
+  };
+  bool WaitsLocked(const Entry& run);
+  void ShareCoresLocked();
+
+  BedCache& m_beds;
+  const int m_cores;
+  const std::atomic<bool>* m_cancel;
+  mutable std::mutex m_mutex;
+  std::condition_variable m_changed;
+  std::deque<Entry> m_queue;
+  std::map<Id, Running> m_running;
+  bool m_closed = false;
+  bool m_stopped = false;
+  Clock::time_point m_paused_until{};
+};
+
+}  // namespace dembuf

@@ -1,0 +1,65 @@
+// A sweep's plan: the product of varied scene fields (and bed seeds) as a list of validated
+// scenes, ordered so that runs on the same settled source bed are spread out. Shared by the
+// local `dembuf sweep` and the daemon, which expands a sweep request into jobs.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/scene/scene.h"
+
+namespace dembuf {
+
+/// One varied field and its values (as text, applied with SetSceneField).
+struct SweepAxis {
+  std::string field;
+  std::vector<std::string> values;
+};
+
+/// The parts of "dotted.field=START:STOP:STEP" or "dotted.field=v1,v2,...", not checked
+/// (a client passes them on to the daemon, which checks them).
+struct SweepSpec {
+  std::string field;
+  std::vector<std::string> values;  ///< the listed values, or
+  std::string range;                ///< "START:STOP:STEP"
+};
+SweepSpec SplitSweepSpec(const std::string& spec);
+
+/// Parses and checks "dotted.field=START:STOP:STEP" (inclusive) or "dotted.field=v1,v2,...".
+/// Throws SceneError naming the field.
+SweepAxis ParseSweepAxis(const std::string& spec);
+
+/// An axis from a field and either explicit values or a "START:STOP:STEP" range; every value
+/// is checked against the field, and no two may be the same value. Range values keep the
+/// digits that tell them apart. Throws SceneError naming the field.
+SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>& values,
+                        const std::string& range);
+
+/// Adds the axis bed.seed = first_seed .. first_seed + seeds - 1 unless bed.seed is already
+/// varied. Throws SceneError unless 1 <= seeds <= 1000.
+std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
+                                    std::int64_t first_seed = 1);
+
+/// One run of a sweep.
+struct SweepRun {
+  std::size_t index = 0;
+  std::vector<std::string> values;  ///< one per axis
+  Scene scene;
+  BedNeeds beds;     ///< the source bed it is cut from and its own bed
+  std::string name;  ///< e.g. "003_thickness_m=0.01_seed=2"
+};
+
+/// The product of the axes on top of `base`, every scene validated. Throws SceneError naming
+/// the field (a field varied twice among them), or when the product has more than max_runs
+/// runs.
+std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
+                                  std::size_t max_runs = 100000);
+
+/// Run indices in round-robin order over the source beds, so that parallel workers start by
+/// settling different beds instead of waiting for the same one.
+std::vector<std::size_t> InterleaveBySourceBed(const std::vector<SweepRun>& runs);
+
+}  // namespace dembuf

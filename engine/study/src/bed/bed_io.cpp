@@ -1,0 +1,307 @@
+#include "dembuf/study/bed/bed_io.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unordered_map>
+#include <vector>
+
+#include "dembuf/study/scene/bed_plan.h"
+#include "dembuf/study/scene/errors.h"
+
+namespace dembuf {
+
+namespace {
+
+// Moving beads apart aims below the accepted overlap, so that relaxing them does not push
+// the next ones over it; it gives up after this many passes over the bed.
+constexpr double kSeparationTarget = 0.5 * kMaxRestingOverlap;
+constexpr int kSeparationPasses = 2000;
+
+std::string Percent(double ratio) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g%%", 100 * ratio);
+  return text;
+}
+
+// The beads in cells one largest diameter wide, for finding overlapping pairs.
+class BeadGrid {
+ public:
+  explicit BeadGrid(const dem::ParticleState& beads) : m_beads(beads) {
+    double r_max = 0.0;
+    for (double r : beads.radius) r_max = std::max(r_max, r);
+    m_cell = 2.0 * r_max;
+    for (std::size_t i = 0; i < beads.size(); ++i) m_cells[Key(beads.position[i])].push_back(i);
+  }
+
+  // Calls visit(i, j, overlap) for every overlapping pair i < j.
+  template <class Visit>
+  void ForEachOverlap(Visit&& visit) const {
+    for (std::size_t i = 0; i < m_beads.size(); ++i) {
+      const dem::Vec3& x = m_beads.position[i];
+      const long cx = Index(x.x()), cy = Index(x.y()), cz = Index(x.z());
+      for (long dx = -1; dx <= 1; ++dx)
+        for (long dy = -1; dy <= 1; ++dy)
+          for (long dz = -1; dz <= 1; ++dz) {
+            const auto it = m_cells.find(Hash(cx + dx, cy + dy, cz + dz));
+            if (it == m_cells.end()) continue;
+            for (std::size_t j : it->second) {
+              if (j <= i) continue;
+              const double overlap = m_beads.radius[i] + m_beads.radius[j] -
+                                     (m_beads.position[j] - m_beads.position[i]).norm();
+              if (overlap > 0.0) visit(i, j, overlap);
+            }
+          }
+    }
+  }
+
+ private:
+  // A cell index, clamped: beads far away in cells of tiny beads would not fit in a long
+  // (a bed file is checked for its beads' sizes and places after its overlaps are measured).
+  long Index(double v) const {
+    double cell = std::floor(v / m_cell);
+    if (!(std::abs(cell) < 1e15)) cell = cell > 0.0 ? 1e15 : -1e15;  // NaN too
+    return static_cast<long>(cell);
+  }
+  // In unsigned arithmetic, whose products wrap where a long's would overflow.
+  static long Hash(long ix, long iy, long iz) {
+    const auto u = [](long v) { return static_cast<unsigned long>(v); };
+    return static_cast<long>((u(ix) * 73856093UL) ^ (u(iy) * 19349663UL) ^ (u(iz) * 83492791UL));
+  }
+  long Key(const dem::Vec3& x) const { return Hash(Index(x.x()), Index(x.y()), Index(x.z())); }
+
+  const dem::ParticleState& m_beads;
+  double m_cell = 1.0;
+  std::unordered_map<long, std::vector<std::size_t>> m_cells;
+};
+
+// How far bead i sinks into the plate and into the side wall.
+double PlateOverlap(const dem::ParticleState& b, std::size_t i) {
+  return b.radius[i] - b.position[i].z();
+}
+double WallOverlap(const dem::ParticleState& b, std::size_t i, double wall_radius) {
+  return std::hypot(b.position[i].x(), b.position[i].y()) + b.radius[i] - wall_radius;
+}
+
+struct Measured {
+  OverlapStats pairs, plate, wall;
+  std::size_t worst_i = 0, worst_j = 0;  // the worst pair
+  std::size_t worst_plate = 0, worst_wall = 0;
+};
+
+void Note(OverlapStats& stats, double ratio) {
+  ++stats.contacts;
+  stats.max_ratio = std::max(stats.max_ratio, ratio);
+  stats.mean_ratio += ratio;  // a sum until Finish
+}
+
+void Finish(OverlapStats& stats) {
+  if (stats.contacts > 0) stats.mean_ratio /= static_cast<double>(stats.contacts);
+}
+
+Measured MeasureOverlaps(const dem::ParticleState& b, double wall_radius) {
+  Measured m;
+  BeadGrid(b).ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
+    const double ratio = overlap / std::min(b.radius[i], b.radius[j]);
+    if (ratio > m.pairs.max_ratio) {
+      m.worst_i = i;
+      m.worst_j = j;
+    }
+    Note(m.pairs, ratio);
+  });
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    if (const double plate = PlateOverlap(b, i) / b.radius[i]; plate > 0.0) {
+      if (plate > m.plate.max_ratio) m.worst_plate = i;
+      Note(m.plate, plate);
+    }
+    if (const double wall = WallOverlap(b, i, wall_radius) / b.radius[i]; wall > 0.0) {
+      if (wall > m.wall.max_ratio) m.worst_wall = i;
+      Note(m.wall, wall);
+    }
+  }
+  Finish(m.pairs);
+  Finish(m.plate);
+  Finish(m.wall);
+  return m;
+}
+
+double Worst(const Measured& m) {
+  return std::max({m.pairs.max_ratio, m.plate.max_ratio, m.wall.max_ratio});
+}
+
+// Moves overlapping beads apart until no overlap passes kSeparationTarget of a radius: each
+// pass pushes every bead out of the plate and the wall and every overlapping pair apart along
+// its line of centres, each bead by half the excess. Returns false if passes run out.
+bool Separate(dem::ParticleState& b, double wall_radius) {
+  for (int pass = 0; pass < kSeparationPasses; ++pass) {
+    bool moved = false;
+    for (std::size_t i = 0; i < b.size(); ++i) {
+      const double r = b.radius[i];
+      if (PlateOverlap(b, i) > kSeparationTarget * r) {
+        b.position[i].z() = r * (1.0 - 0.5 * kSeparationTarget);
+        moved = true;
+      }
+      if (const double wall = WallOverlap(b, i, wall_radius); wall > kSeparationTarget * r) {
+        const double rho = std::hypot(b.position[i].x(), b.position[i].y());
+        const double inward = (rho - (wall - 0.5 * kSeparationTarget * r)) / rho;
+        b.position[i].x() *= inward;
+        b.position[i].y() *= inward;
+        moved = true;
+      }
+    }
+    BeadGrid(b).ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
+      const double r_min = std::min(b.radius[i], b.radius[j]);
+      if (overlap <= kSeparationTarget * r_min) return;
+      const dem::Vec3 d = b.position[j] - b.position[i];
+      const double dist = d.norm();
+      const dem::Vec3 n = dist > 0.0 ? dem::Vec3(d / dist) : dem::Vec3::UnitZ();
+      const double half = 0.5 * (overlap - 0.5 * kSeparationTarget * r_min);
+      b.position[i] -= half * n;
+      b.position[j] += half * n;
+      moved = true;
+    });
+    if (!moved) return true;
+  }
+  return Worst(MeasureOverlaps(b, wall_radius)) <= kMaxRestingOverlap;
+}
+
+// One line of at most kMaxBedLineBytes into `line`; false at the end of the stream.
+bool ReadLine(std::istream& in, std::string& line, long line_no, const std::string& name) {
+  static thread_local std::vector<char> buf(kMaxBedLineBytes + 2);
+  if (!in.getline(buf.data(), static_cast<std::streamsize>(buf.size() - 1))) {
+    if (in.eof() && in.gcount() == 0) return false;
+    if (!in.eof())
+      throw SceneError("bed.import", name + ":" + std::to_string(line_no) +
+                                         ": a line longer than " +
+                                         std::to_string(kMaxBedLineBytes) + " bytes");
+  }
+  line.assign(buf.data());
+  return true;
+}
+
+}  // namespace
+
+std::string ImportedBed::Describe() const {
+  std::ostringstream out;
+  auto part = [&](const char* what, const OverlapStats& s, const char* noun, const char* of) {
+    out << what << s.contacts << noun;
+    if (s.contacts > 0)
+      out << ", overlap at most " << Percent(s.max_ratio) << " of " << of << " (mean "
+          << Percent(s.mean_ratio) << ")";
+  };
+  out << beads.size() << " beads";
+  part("; resting on the plate: ", plate, " beads", "a radius");
+  part("; touching the side wall: ", wall, " beads", "a radius");
+  part("; bead pairs touching: ", pairs, "", "the smaller radius");
+  if (moved > 0) {
+    char move[32];
+    std::snprintf(move, sizeof move, "%.3g mm", 1e3 * max_move_m);
+    out << "; separated: " << moved << " beads moved, at most " << move
+        << ", the largest overlap from " << Percent(max_ratio_before) << " to "
+        << Percent(std::max({pairs.max_ratio, plate.max_ratio, wall.max_ratio}));
+  }
+  return out.str();
+}
+
+ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene& scene) {
+  ImportedBed bed;
+  const double R = scene.cylinder.radius_m;
+  std::string line;
+  long line_no = 0;
+  auto fail = [&](const std::string& why) {
+    throw SceneError("bed.import", name + ":" + std::to_string(line_no) + ": " + why);
+  };
+  auto number = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.6g", v);
+    return std::string(text);
+  };
+  while (ReadLine(in, line, line_no + 1, name)) {
+    ++line_no;
+    if (auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    std::istringstream fields(line);
+    double x, y, z, r;
+    if (!(fields >> x)) {
+      if (line.find_first_not_of(" \t\r") != std::string::npos) fail("expected four numbers");
+      continue;  // blank or comment line
+    }
+    if (!(fields >> y >> z >> r)) fail("expected four numbers: x y z radius");
+    std::string extra;
+    if (fields >> extra) fail("unexpected text \"" + extra.substr(0, 40) + "\" after the radius");
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(r))
+      fail("non-finite value");
+    if (!(r >= kMinBeadRadius_m))
+      fail("radius " + number(r) + " m is below " + number(kMinBeadRadius_m) +
+           " m, the smallest bead this model covers (finer powders are held by adhesion and the "
+           "air, which it leaves out)");
+    if (r >= 0.5 * R) fail("radius " + number(r) + " m must be below half the cylinder's radius");
+    // Outside the container: no overlap to accept or separate.
+    if (std::hypot(x, y) + 0.5 * r > R)
+      fail("bead reaches outside the cylinder (radius " + number(R) + " m)");
+    if (z < 0.5 * r) fail("bead reaches below the plate (its centre is at z = " + number(z) + ")");
+    if (z + r > scene.cylinder.height_m)
+      fail("bead reaches above the side wall (cylinder.height_m = " +
+           number(scene.cylinder.height_m) + " m)");
+    if (static_cast<double>(bed.beads.size()) >= kMaxBeads)
+      fail("more beads than a simulation can hold");
+    bed.beads.Add(dem::Vec3(x, y, z), r, scene.material.density_kg_m3);
+    bed.lines.push_back(line_no);
+  }
+  if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
+
+  Measured m = MeasureOverlaps(bed.beads, R);
+  bed.max_ratio_before = Worst(m);
+  if (bed.max_ratio_before > kMaxRestingOverlap && scene.bed.import_overlaps == "relax") {
+    const std::vector<dem::Vec3> before = bed.beads.position;
+    if (!Separate(bed.beads, R))
+      throw SceneError("bed.import", name + ": the beads could not be separated within " +
+                                         std::to_string(kSeparationPasses) +
+                                         " passes; the bed is too crowded for its container");
+    for (std::size_t i = 0; i < before.size(); ++i) {
+      const double move = (bed.beads.position[i] - before[i]).norm();
+      bed.moved += move > 0.0;
+      bed.max_move_m = std::max(bed.max_move_m, move);
+    }
+    m = MeasureOverlaps(bed.beads, R);
+  }
+  const std::string hint =
+      "; a settled bed's resting contacts overlap by far less (at most " +
+      Percent(kMaxRestingOverlap) +
+      " is accepted): separate them, or set bed.import_overlaps = \"relax\" to have them moved "
+      "apart";
+  const auto at_line = [&](std::size_t i) { return name + ":" + std::to_string(bed.lines[i]); };
+  if (m.pairs.max_ratio > kMaxRestingOverlap)
+    throw SceneError("bed.import",
+                     name + ": the beads of lines " + std::to_string(bed.lines[m.worst_i]) +
+                         " and " + std::to_string(bed.lines[m.worst_j]) + " overlap by " +
+                         Percent(m.pairs.max_ratio) + " of the smaller radius" + hint);
+  if (m.plate.max_ratio > kMaxRestingOverlap)
+    throw SceneError("bed.import", at_line(m.worst_plate) + ": the bead sinks into the plate by " +
+                                       Percent(m.plate.max_ratio) + " of its radius" + hint);
+  if (m.wall.max_ratio > kMaxRestingOverlap)
+    throw SceneError("bed.import", at_line(m.worst_wall) +
+                                       ": the bead sinks into the side wall by " +
+                                       Percent(m.wall.max_ratio) + " of its radius" + hint);
+  bed.pairs = m.pairs;
+  bed.plate = m.plate;
+  bed.wall = m.wall;
+  return bed;
+}
+
+ImportedBed ReadTextBed(const std::string& path, const Scene& scene) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error))
+    throw SceneError("bed.import", "\"" + path + "\" does not exist or is not a file");
+  if (const auto size = std::filesystem::file_size(path, error); !error && size > kMaxBedFileBytes)
+    throw SceneError("bed.import", "\"" + path + "\" holds " + std::to_string(size) +
+                                       " bytes; a bed file may hold at most " +
+                                       std::to_string(kMaxBedFileBytes));
+  std::ifstream in(path);
+  if (!in) throw SceneError("bed.import", "cannot open \"" + path + "\"");
+  return ParseTextBed(in, path, scene);
+}
+
+}  // namespace dembuf

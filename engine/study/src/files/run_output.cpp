@@ -1,0 +1,243 @@
+#include "dembuf/study/files/run_output.h"
+
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <iterator>
+#include <stdexcept>
+
+#include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/version.h"
+
+namespace dembuf::report {
+
+nlohmann::json SceneToJson(const Scene& scene) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const SceneField& f : SceneFields()) {
+    // The field table's own text form is TOML, which JSON parses for numbers, booleans and
+    // the quoted strings it writes.
+    nlohmann::json value = nlohmann::json::parse(FormatSceneField(scene, f));
+    auto dot = f.name.find('.');
+    if (dot == std::string_view::npos) {
+      out[std::string(f.name)] = value;
+    } else {
+      out[std::string(f.name.substr(0, dot))][std::string(f.name.substr(dot + 1))] = value;
+    }
+  }
+  return out;
+}
+
+nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const RunContext& run) {
+  nlohmann::json curve = nlohmann::json::array();
+  for (const auto& point : s.damping.restitution_curve)
+    curve.push_back({{"speed_m_s", point.speed_m_s}, {"restitution", point.restitution}});
+  nlohmann::json j = {
+      {"dembuf_version", kVersion},
+      {"peak_plate_force_N", s.peak_plate_force_N},
+      {"peak_plate_force_time_s", s.peak_plate_force_time_s},
+      {"beads", s.beads},
+      {"dt_s", s.dt_s},
+      {"critical_dt_s", s.critical_dt_s},
+      {"alpha", scene.time.alpha},
+      {"steps", s.steps},
+      {"wall_time_s", s.wall_time_s},
+      {"damping",
+       {{"A_s", s.damping.damping_A_s},
+        {"target_restitution", s.damping.target_restitution},
+        {"v_ref_m_s", s.damping.ref_speed_m_s},
+        {"e_at_vref", s.damping.restitution_at_ref},
+        {"restitution_vs_speed", curve}}},
+      {"bed_surface_m", s.bed_surface_m},
+      {"free_flight_s", s.free_flight_s},
+      {"impact_speed_m_s", s.impact_speed_m_s},
+      {"end_time_s", s.end_time_s},
+      {"end_reason", s.end_reason},
+      {"scene", SceneToJson(scene)},
+      {"warnings", SceneWarnings(scene)},
+      {"provenance", ProvenanceJson(run, scene, s.bed)},
+  };
+  // The paper's measurements (docs/model.md section 6).
+  const PeakAnalysis& pk = s.peaks;
+  auto optional = [](bool has, double v) { return has ? nlohmann::json(v) : nlohmann::json(); };
+  j["P_N"] = pk.p_N;
+  j["P_time_s"] = pk.p_time_s;
+  j["Pa_N"] = optional(pk.has_pa, pk.pa.force_N);
+  j["Pa_time_s"] = optional(pk.has_pa, pk.pa.time_s);
+  j["Pb_N"] = optional(pk.has_pb, pk.pb.force_N);
+  j["Pb_time_s"] = optional(pk.has_pb, pk.pb.time_s);
+  j["dS_m"] = optional(pk.has_pa && pk.has_pb, pk.ds_m);
+  j["dt_peaks_s"] = optional(pk.has_pa && pk.has_pb, pk.dt_peaks_s);
+  j["load_duration_s"] = pk.load_duration_s;
+  j["lambda"] = s.lambda;
+  j["reference_peak_N"] = s.reference_peak_N;
+  j["reference_first_contact_time_s"] = s.reference_first_contact_time_s >= 0.0
+                                            ? nlohmann::json(s.reference_first_contact_time_s)
+                                            : nlohmann::json();
+  j["crater_depth_m"] = s.crater_depth_m;
+  j["max_overlap_ratio"] = s.max_overlap_ratio;
+  j["bed_thickness_m"] = s.bed.thickness_m;
+  j["C0"] = s.bed.solid_fraction;
+  j["bed"] = {{"hash", s.bed.hash},
+              {"rest_plate_force_N", s.bed.rest_plate_force_N},
+              {"rest_wall_force_z_N", s.bed.rest_wall_force_z_N},
+              {"weight_N", s.bed.weight_N}};
+  if (!s.bed.note.empty()) j["bed"]["imported"] = s.bed.note;
+  nlohmann::json peaks = nlohmann::json::array();
+  for (const ForcePeak& p : pk.peaks)
+    peaks.push_back({{"force_N", p.force_N},
+                     {"time_s", p.time_s},
+                     {"kind", p.is_push ? "Pa" : "Pb"},
+                     {"projectile_z_m", p.projectile_z_m}});
+  j["peaks"] = peaks;
+  j["first_contact_time_s"] =
+      s.first_contact_time_s >= 0.0 ? nlohmann::json(s.first_contact_time_s) : nlohmann::json();
+  return j;
+}
+
+namespace {
+
+constexpr const char* kSampleCsvHeader =
+    "t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N\n";
+
+// One row of plate_force.csv; returns its length.
+int SampleCsvRow(const ImpactSample& s, char (&line)[256]) {
+  int n =
+      std::snprintf(line, sizeof line, "%.9g,%.9g,%.9g", s.t_s, s.plate_force_N, s.wall_force_z_N);
+  // Scenes without a projectile leave its columns empty.
+  if (std::isfinite(s.projectile_z_m)) {
+    n += std::snprintf(line + n, sizeof line - n, ",%.9g,%.9g,%.9g\n", s.projectile_z_m,
+                       s.projectile_vz_m_s, s.projectile_force_z_N);
+  } else {
+    n += std::snprintf(line + n, sizeof line - n, ",,,\n");
+  }
+  return n;
+}
+
+}  // namespace
+
+SampleCsvWriter::SampleCsvWriter(std::filesystem::path path)
+    : m_final(std::move(path)), m_partial(m_final.string() + ".partial") {
+  m_out.open(m_partial);
+  if (!m_out) throw std::runtime_error("cannot write " + m_partial.string());
+  m_out << kSampleCsvHeader;
+}
+
+void SampleCsvWriter::Write(const ImpactSample& s) {
+  char line[256];
+  m_out.write(line, SampleCsvRow(s, line));
+}
+
+std::string SamplesToCsv(const std::vector<ImpactSample>& samples) {
+  std::string text = kSampleCsvHeader;
+  char line[256];
+  for (const ImpactSample& s : samples) text.append(line, SampleCsvRow(s, line));
+  return text;
+}
+
+void SampleCsvWriter::Commit() {
+  m_out.close();
+  if (!m_out) throw std::runtime_error("error writing " + m_partial.string());
+  std::filesystem::rename(m_partial, m_final);
+}
+
+std::string PackSamples(const std::vector<ImpactSample>& samples) {
+  static_assert(std::endian::native == std::endian::little, "packed samples are little-endian");
+  std::string bytes(samples.size() * kPackedSampleBytes, '\0');
+  char* out = bytes.data();
+  for (const ImpactSample& s : samples) {
+    const double row[6] = {s.t_s,
+                           s.plate_force_N,
+                           s.wall_force_z_N,
+                           s.projectile_z_m,
+                           s.projectile_vz_m_s,
+                           s.projectile_force_z_N};
+    std::memcpy(out, row, sizeof row);
+    out += sizeof row;
+  }
+  return bytes;
+}
+
+std::vector<ImpactSample> UnpackSamples(std::string_view bytes) {
+  std::vector<ImpactSample> samples(bytes.size() / kPackedSampleBytes);
+  const char* in = bytes.data();
+  for (ImpactSample& s : samples) {
+    double row[6];
+    std::memcpy(row, in, sizeof row);
+    in += sizeof row;
+    s = {row[0], row[1], row[2], row[3], row[4], row[5]};
+  }
+  return samples;
+}
+
+SampleStreamWriter::SampleStreamWriter(const std::filesystem::path& path,
+                                       std::chrono::milliseconds flush_every)
+    : m_path(path), m_out(path, std::ios::binary | std::ios::trunc), m_flush_every(flush_every) {
+  if (!m_out) throw std::runtime_error("cannot write " + path.string());
+  m_last_flush = std::chrono::steady_clock::now();
+}
+
+void SampleStreamWriter::Write(const ImpactSample& sample) {
+  const std::string bytes = PackSamples({sample});
+  m_out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  const auto now = std::chrono::steady_clock::now();
+  if (now - m_last_flush >= m_flush_every) {
+    m_out.flush();
+    m_last_flush = now;
+  }
+}
+
+void SampleStreamWriter::Close() {
+  m_out.close();
+  if (!m_out) throw std::runtime_error("error writing " + m_path.string());
+}
+
+std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path, std::uint64_t offset,
+                                           std::uint64_t max_samples) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return {};
+  in.seekg(0, std::ios::end);
+  const auto size = static_cast<std::uint64_t>(std::max<std::streamoff>(in.tellg(), 0));
+  if (size <= offset) return {};
+  const std::uint64_t whole = (size - offset) / kPackedSampleBytes;
+  std::string bytes(std::min(whole, max_samples) * kPackedSampleBytes, '\0');
+  in.seekg(static_cast<std::streamoff>(offset));
+  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  bytes.resize(static_cast<std::size_t>(in.gcount()));
+  return UnpackSamples(bytes);
+}
+
+const std::vector<std::string>& RunOutputNames() {
+  static const std::vector<std::string> names = {"summary.json",
+                                                 "failure.json",
+                                                 "incomplete.json",
+                                                 "plate_force.csv",
+                                                 "plate_force.csv.partial",
+                                                 "plate_force.png",
+                                                 "plate_force_bare.csv",
+                                                 "plate_force.gp",
+                                                 "snapshots",
+                                                 "snapshots.pvd",
+                                                 "frames",
+                                                 "frames.pvd",
+                                                 "scene.toml",
+                                                 "job.json"};
+  return names;
+}
+
+void RemoveRunOutputs(const std::filesystem::path& dir) {
+  for (const std::string& name : RunOutputNames()) std::filesystem::remove_all(dir / name);
+}
+
+void WriteFileAtomically(const std::filesystem::path& path, const std::string& text) {
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    out.close();
+    if (!out) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace dembuf::report

@@ -1,0 +1,398 @@
+#include "dembuf/study/impact/impact.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "dembuf/core/time_step.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
+
+namespace dembuf {
+
+World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request) {
+  ValidateScene(scene);
+  World world;
+  if (!scene.bed.import.empty() || scene.bed.thickness_m > 0.0) {
+    BedCache private_cache;
+    PreparedBed bed =
+        GetBed(scene, cache ? *cache : private_cache, request ? *request : BedRequest{});
+    const std::string sha256 = BedContentSha256(bed);
+    world.beads = std::move(bed.beads);
+    world.history = std::move(bed.history);
+    world.bed_surface_m = bed.surface_m;
+    world.bed = BedSummary{
+        bed.hash,           sha256,       bed.surface_m, bed.solid_fraction, bed.plate_force_N,
+        bed.wall_force_z_N, bed.weight_N, bed.note};
+  }
+  double min_radius = 0.5 * scene.beads.diameter_min_m;
+  for (double r : world.beads.radius) min_radius = std::min(min_radius, r);
+  ContactSetup setup = MakeContactSetup(scene, min_radius);
+  world.params = setup.params;
+  world.damping = setup.damping;
+  world.critical_dt_s = setup.critical_dt_s;
+
+  if (scene.projectile.enabled) {
+    dem::RigidSphere p;
+    p.radius = 0.5 * scene.projectile.diameter_m;
+    p.mass = scene.projectile.mass_kg;
+    p.position =
+        dem::Vec3(scene.projectile.offset_m, 0.0, world.bed_surface_m + scene.projectile.height_m);
+    p.velocity = dem::Vec3(0.0, 0.0, -scene.projectile.speed_m_s);
+    world.projectile = p;
+  }
+  return world;
+}
+
+namespace {
+
+// Emits samples on the global grid t = k * interval, so that runs line up sample by sample.
+// At most one sample a step: an interval below the step samples every step.
+class SampleClock {
+ public:
+  explicit SampleClock(double interval) : m_interval(interval) {}
+  bool Due(double t) const { return t >= m_next * m_interval * (1.0 - 1e-12); }
+  /// Moves past every grid time up to t. The index is computed, not counted: a long flight
+  /// at a tiny interval passes more grid times than any loop could count, and k is a double
+  /// because it can pass 2^63 (it stays exact below 2^53).
+  void Advance(double t) {
+    if (!Due(t)) return;
+    m_next = std::max(m_next, std::floor(t / (m_interval * (1.0 - 1e-12))));
+    while (Due(t)) m_next = std::max(m_next + 1.0, std::nextafter(m_next, HUGE_VAL));
+  }
+
+ private:
+  double m_interval;
+  double m_next = 0.0;  ///< k of the next grid time
+};
+
+ImpactSample MakeSample(const dem::Simulation& sim) {
+  const dem::StepObservables& o = sim.observables();
+  ImpactSample s{sim.time_s(),
+                 o.plate_force_N,
+                 o.wall_force_z_N,
+                 std::numeric_limits<double>::quiet_NaN(),
+                 0.0,
+                 0.0};
+  if (sim.projectile()) {
+    s.projectile_z_m = sim.projectile()->position.z();
+    s.projectile_vz_m_s = sim.projectile()->velocity.z();
+    s.projectile_force_z_N = o.projectile_force_N.z();
+  }
+  return s;
+}
+
+}  // namespace
+
+ImpactSummary RunImpact(const Scene& scene, const RunControl& control) {
+  return RunImpact(BuildWorld(scene, control.beds, control.bed_request), scene, control);
+}
+
+namespace {
+
+ImpactSnapshot TakeSnapshot(const dem::Simulation& sim, const std::string& label,
+                            bool with_contacts = true) {
+  ImpactSnapshot snap;
+  snap.label = label;
+  snap.t_s = sim.time_s();
+  snap.positions = sim.beads().position;
+  snap.radii = sim.beads().radius;
+  snap.velocities = sim.beads().velocity;
+  snap.forces = sim.beads().force;
+  snap.ids = sim.BeadOrigins();
+  snap.projectile = sim.projectile();
+  if (with_contacts) snap.contacts = sim.Contacts();
+  return snap;
+}
+
+// A snapshot's folder name: a time in milliseconds, to a microsecond at most, after a prefix
+// ("t_57.2ms", "after_contact_0.5ms"); letters, digits, '.' and '_' only.
+std::string TimeLabel(const char* prefix, double t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%s%.6gms", prefix, std::round(t * 1e6) / 1e3);
+  return buf;
+}
+
+// A snapshot due at `t_s`, and its label.
+struct DueSnapshot {
+  double t_s;
+  std::string label;
+  bool operator<(const DueSnapshot& other) const { return t_s < other.t_s; }
+};
+
+// One pass of the impact. `peak_step` >= 0 asks for a "peak" snapshot at that step (known from
+// an earlier pass of the same deterministic run).
+ImpactSummary RunPass(World world, const Scene& scene, const RunControl& control,
+                      std::int64_t peak_step, std::int64_t* found_peak_step) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  ImpactSummary summary;
+  summary.beads = world.beads.size();
+  summary.dt_s = world.params.dt_s;
+  summary.critical_dt_s = world.critical_dt_s;
+  summary.damping = world.damping;
+  summary.bed_surface_m = world.bed_surface_m;
+  summary.bed = world.bed;
+
+  dem::Simulation sim(world.params, std::move(world.beads), world.projectile, world.history);
+  sim.RefreshForces();  // the resting load of the bed, felt during the free flight
+  const double rest_force = sim.observables().plate_force_N;
+  SampleClock clock(scene.time.output_interval_s);
+  auto emit = [&](const ImpactSample& s) {
+    if (control.on_sample) control.on_sample(s);
+  };
+  std::vector<DueSnapshot> snapshot_times;
+  for (double t : scene.output.snapshot_times_s) snapshot_times.push_back({t, TimeLabel("t_", t)});
+  std::stable_sort(snapshot_times.begin(), snapshot_times.end());
+  std::size_t next_snapshot = 0;
+  auto snapshot = [&](ImpactSnapshot snap) {
+    if (summary.first_contact_time_s >= 0.0)
+      snap.t_after_contact_s = snap.t_s - summary.first_contact_time_s;
+    if (control.on_snapshot) control.on_snapshot(snap);
+  };
+
+  const double g = scene.gravity_m_s2;
+  const double t_limit =
+      scene.time.end_s > 0.0 ? scene.time.end_s : std::numeric_limits<double>::infinity();
+  double t_end_estimate = t_limit;
+
+  // Free flight: nothing but gravity acts on the projectile until it reaches the first bead
+  // below it (or the plate), and the resting bed does not change meanwhile. Jump there
+  // analytically, stopping a few steps short so that the first contact is integrated whole.
+  if (sim.projectile()) {
+    dem::RigidSphere p = *sim.projectile();
+    // The centre height at first contact: touching bead i at horizontal distance rho needs
+    // z_c = z_i + sqrt((R + r_i)^2 - rho^2); the plate needs z_c = R.
+    double contact_z = p.radius;
+    const dem::ParticleState& beads = sim.beads();
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      const double reach = p.radius + beads.radius[i];
+      const double dx = beads.position[i].x() - p.position.x();
+      const double dy = beads.position[i].y() - p.position.y();
+      const double rho2 = dx * dx + dy * dy;
+      if (rho2 < reach * reach)
+        contact_z = std::max(contact_z, beads.position[i].z() + std::sqrt(reach * reach - rho2));
+    }
+    const double speed_bound = std::abs(p.velocity.z()) + std::sqrt(2.0 * g * p.position.z());
+    const double margin = 4.0 * speed_bound * world.params.dt_s;
+    double t_fly = FallTime(p.position.z(), p.velocity.z(), contact_z + margin, g);
+    if (t_fly < 0.0) t_fly = std::isfinite(t_limit) ? t_limit : 0.0;
+    t_fly = std::min(t_fly, t_limit);
+    if (t_fly > 0.0) {
+      const double z0 = p.position.z(), vz0 = p.velocity.z();
+      const ImpactSnapshot at_rest =
+          snapshot_times.empty() ? ImpactSnapshot{} : TakeSnapshot(sim, "");
+      while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot].t_s <= t_fly) {
+        const DueSnapshot& due = snapshot_times[next_snapshot++];
+        const double t = due.t_s;
+        ImpactSnapshot snap = at_rest;
+        snap.label = due.label;
+        snap.t_s = t;
+        snap.projectile->position.z() = z0 + vz0 * t - 0.5 * g * t * t;
+        snap.projectile->velocity.z() = vz0 - g * t;
+        snapshot(snap);
+      }
+      // The record starts after the flight: a resting bed under a falling sphere has nothing
+      // to show, and its samples would cost up to a gigabyte (summary.free_flight_s says how
+      // long it fell).
+      clock.Advance(t_fly);
+      p.position.z() = z0 + vz0 * t_fly - 0.5 * g * t_fly * t_fly;
+      p.velocity.z() = vz0 - g * t_fly;
+      sim.SetProjectile(p, t_fly);
+      sim.RefreshForces();
+      summary.free_flight_s = t_fly;
+    }
+    summary.impact_speed_m_s = sim.projectile()->velocity.norm();
+    if (scene.time.end_s == 0.0) t_end_estimate = t_fly + scene.time.impact_window_s;
+  }
+
+  // The impact, step by step. The steps of the impact window (time.impact_window_s from the
+  // first contact, or from the start without one) go into the series the peaks are found in,
+  // so that its memory is bounded however long the run goes on (time.end_s).
+  ImpactSeries series;
+  const double series_start = sim.time_s();
+  double peak = sim.observables().plate_force_N;
+  double peak_time = sim.time_s();
+  std::int64_t peak_at_step = 0;
+  double crater = -std::numeric_limits<double>::infinity();
+  double rest_since = -1.0;  // when the projectile last became slow
+  // When the plate force last stood above the load duration's level: the peak analysis's
+  // share of the peak's excess over the resting load, here on the raw force and peak (the
+  // analysis smooths both; the E2 sweeps' durations came out the same to the bit).
+  const PeakOptions peak_options;
+  double loaded_until = sim.time_s();
+  const double slow_speed = 0.01 * std::max(summary.impact_speed_m_s, 1e-3);
+  std::int64_t next_progress = control.progress_every_steps;
+  // Animation frames from the start of the impact on, every output.animation_interval_s.
+  const double frame_interval = scene.output.animation_interval_s;
+  const bool animate = control.on_frame && frame_interval > 0.0;
+  std::int64_t frames = 0;
+  auto frame_due = [&](double t) {
+    return animate && frames < kMaxAnimationFrames && t >= series_start + frames * frame_interval;
+  };
+  auto take_frame = [&] {
+    char label[32];
+    std::snprintf(label, sizeof label, "frame_%05lld", static_cast<long long>(frames));
+    control.on_frame(TakeSnapshot(sim, label, false));
+    ++frames;
+  };
+  if (frame_due(series_start)) take_frame();
+  while (true) {
+    if (sim.time_s() >= t_limit) {
+      summary.end_reason = "reached time.end_s";
+      break;
+    }
+    if (control.threads) sim.SetThreads(control.threads->load(std::memory_order_relaxed));
+    sim.Step();
+    const dem::StepObservables& o = sim.observables();
+    const double t = sim.time_s();
+    summary.max_overlap_ratio = std::max(summary.max_overlap_ratio, o.max_overlap_ratio);
+    if (o.plate_force_N > peak) {
+      peak = o.plate_force_N;
+      peak_time = t;
+      peak_at_step = sim.steps();
+    }
+    if (o.plate_force_N - rest_force > peak_options.duration_fraction * (peak - rest_force))
+      loaded_until = t;
+    const double window_start =
+        summary.first_contact_time_s >= 0.0 ? summary.first_contact_time_s : series_start;
+    const bool in_window = t <= window_start + scene.time.impact_window_s;
+    if (in_window) {
+      series.t_s.push_back(t);
+      series.plate_force_N.push_back(o.plate_force_N);
+    }
+    if (sim.projectile()) {
+      const dem::RigidSphere& p = *sim.projectile();
+      if (in_window) series.projectile_z_m.push_back(p.position.z());
+      crater = std::max(crater, world.bed_surface_m - (p.position.z() - p.radius));
+    }
+    if (clock.Due(t)) {
+      emit(MakeSample(sim));
+      clock.Advance(t);
+    }
+    while (next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot].t_s <= t)
+      snapshot(TakeSnapshot(sim, snapshot_times[next_snapshot++].label));
+    if (sim.steps() == peak_step) snapshot(TakeSnapshot(sim, "peak"));
+    if (frame_due(t)) {
+      take_frame();
+      // A step longer than the interval skips the frames it jumped over.
+      while (frame_due(t)) ++frames;
+    }
+    // Every step: a step of a large bed takes milliseconds, a cancel must act within a second.
+    if (control.cancel && control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+    if (sim.steps() >= next_progress) {
+      next_progress += control.progress_every_steps;
+      if (control.on_progress) control.on_progress({t, t_end_estimate, sim.steps()});
+    }
+    if (!sim.projectile()) continue;
+
+    const dem::RigidSphere& p = *sim.projectile();
+    if (summary.first_contact_time_s < 0.0) {
+      if (o.projectile_contacts > 0) {
+        summary.first_contact_time_s = t;
+        // Snapshots counted from first contact join the schedule now that it is known.
+        for (double after : scene.output.snapshot_after_contact_s)
+          snapshot_times.push_back({t + after, TimeLabel("after_contact_", after)});
+        std::stable_sort(snapshot_times.begin() + next_snapshot, snapshot_times.end());
+      }
+      continue;
+    }
+    if (scene.time.end_s > 0.0) continue;
+    // Automatic end (time.end_s = 0): the projectile has bounced clear of the bed (rising,
+    // touching nothing, its lowest point above the bed's original surface), or has rebounded
+    // in its crater too fast to come back down to where it left the beads before the window
+    // ends, or has been at rest for a millisecond, or the window has passed. After such a
+    // rebound the plate carries only the bed settling back (in the E2 sweeps, at most 67 N
+    // against peaks of 650 N and more: docs/accuracy-cost.md), and the deepest penetration is
+    // behind; a slower rebound is followed through its landing. The run goes on until the
+    // plate force has stayed below the load duration's level for the peak analysis's smoothing
+    // width, so that the measured duration is not cut short, and while snapshots are due in
+    // the window or animation frames are asked for.
+    const double window_end = summary.first_contact_time_s + scene.time.impact_window_s;
+    const bool rising_free = o.projectile_contacts == 0 && p.velocity.z() > 0.0;
+    if (rising_free && p.position.z() - p.radius > world.bed_surface_m) {
+      summary.end_reason = "projectile rebounded clear";
+      break;
+    }
+    const bool lands_after_window = g <= 0.0 || t + 2.0 * p.velocity.z() / g > window_end;
+    const bool snapshot_due =
+        next_snapshot < snapshot_times.size() && snapshot_times[next_snapshot].t_s <= window_end;
+    const bool unloaded = t - loaded_until >= peak_options.smoothing_s;
+    if (rising_free && lands_after_window && unloaded && !snapshot_due && !animate) {
+      summary.end_reason =
+          "projectile rebounded in its crater, too fast to fall back within time.impact_window_s";
+      break;
+    }
+    if (p.velocity.norm() < slow_speed) {
+      if (rest_since < 0.0) rest_since = t;
+      if (t - rest_since >= 1e-3) {
+        summary.end_reason = "projectile at rest";
+        break;
+      }
+    } else {
+      rest_since = -1.0;
+    }
+    if (t >= window_end) {
+      summary.end_reason = "time.impact_window_s elapsed";
+      break;
+    }
+  }
+  if (control.on_progress) control.on_progress({sim.time_s(), sim.time_s(), sim.steps()});
+  if (found_peak_step) *found_peak_step = peak_at_step;
+
+  summary.peak_plate_force_N = peak;
+  summary.peak_plate_force_time_s = peak_time;
+  summary.peaks = AnalyzePeaks(
+      series, {rest_force, world.bed_surface_m, sim.projectile() ? sim.projectile()->radius : 0.0,
+               summary.beads > 0 ? scene.beads.MeanDiameter() : 0.0});
+  summary.crater_depth_m = std::isfinite(crater) ? crater : 0.0;
+  summary.steps = sim.steps();
+  summary.stage_times = sim.stage_times();
+  summary.end_time_s = sim.time_s();
+  summary.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return summary;
+}
+
+}  // namespace
+
+ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& control) {
+  ImpactSummary summary;
+  if (scene.output.snapshot_at_peak) {
+    // The run is deterministic: a first pass finds the step of the peak, the second takes the
+    // snapshot there.
+    RunControl quiet;
+    quiet.cancel = control.cancel;
+    std::int64_t peak_step = -1;
+    RunPass(world, scene, quiet, -1, &peak_step);
+    summary = RunPass(std::move(world), scene, control, peak_step, nullptr);
+  } else {
+    summary = RunPass(std::move(world), scene, control, -1, nullptr);
+  }
+  // The buffer ratio needs the same impact on the bare plate (a few hundred steps).
+  if (summary.beads == 0 || !scene.projectile.enabled) {
+    summary.reference_peak_N = summary.peaks.p_N;
+  } else if (control.compute_reference) {
+    Scene bare = scene;
+    bare.bed.thickness_m = 0.0;
+    bare.bed.import.clear();
+    bare.output = OutputSpec{};
+    // Its peak is the first impact: the bare run ends when the sphere bounces clear, however
+    // long the scene's own run goes on (time.end_s).
+    bare.time.end_s = 0.0;
+    RunControl quiet;
+    quiet.cancel = control.cancel;
+    quiet.compute_reference = false;
+    quiet.on_sample = control.on_reference_sample;
+    const ImpactSummary reference = RunImpact(bare, quiet);
+    summary.reference_peak_N = reference.peaks.p_N;
+    summary.reference_first_contact_time_s = reference.first_contact_time_s;
+  }
+  if (summary.reference_peak_N > 0.0)
+    summary.lambda = (summary.reference_peak_N - summary.peaks.p_N) / summary.reference_peak_N;
+  return summary;
+}
+
+}  // namespace dembuf

@@ -1,0 +1,133 @@
+#include "dembuf/study/sweep/run_queue.h"
+
+#include <algorithm>
+#include <vector>
+
+#include "dembuf/study/sweep/core_share.h"
+
+namespace dembuf {
+
+RunQueue::RunQueue(BedCache& beds, int cores, const std::atomic<bool>* cancel)
+    : m_beds(beds), m_cores(std::max(cores, 1)), m_cancel(cancel) {}
+
+void RunQueue::Push(Id id, const BedNeeds& needs) {
+  {
+    std::lock_guard lock(m_mutex);
+    m_queue.push_back({id, needs});
+  }
+  m_changed.notify_all();
+}
+
+void RunQueue::PushFront(Id id, const BedNeeds& needs) {
+  {
+    std::lock_guard lock(m_mutex);
+    m_queue.push_front({id, needs});
+  }
+  m_changed.notify_all();
+}
+
+std::optional<BedNeeds> RunQueue::Remove(Id id) {
+  std::lock_guard lock(m_mutex);
+  const auto it =
+      std::find_if(m_queue.begin(), m_queue.end(), [&](const Entry& e) { return e.id == id; });
+  if (it == m_queue.end()) return std::nullopt;
+  BedNeeds needs = it->needs;
+  m_queue.erase(it);
+  return needs;
+}
+
+void RunQueue::Requeue(Id id) {
+  {
+    std::lock_guard lock(m_mutex);
+    const auto it = m_running.find(id);
+    if (it == m_running.end()) return;
+    m_queue.push_front({id, it->second.needs});
+    m_running.erase(it);
+    ShareCoresLocked();
+  }
+  m_changed.notify_all();
+}
+
+bool RunQueue::WaitsLocked(const Entry& run) {
+  // A bed another worker is preparing will be ready soon; preparing it twice would waste a
+  // worker, and waiting for it would idle one.
+  std::vector<BedNeeds> busy;
+  for (const auto& [id, running] : m_running) busy.push_back(running.needs);
+  return WaitsForBed(run.needs, busy, m_beds);
+}
+
+std::optional<RunQueue::Id> RunQueue::Next(const std::function<std::atomic<int>*(Id)>& start) {
+  std::unique_lock lock(m_mutex);
+  while (true) {
+    if (m_stopped || (m_cancel && m_cancel->load())) return std::nullopt;
+    if (m_queue.empty() && m_closed) return std::nullopt;
+    if (Clock::now() < m_paused_until) {
+      m_changed.wait_until(lock, m_paused_until);
+      continue;
+    }
+    for (auto it = m_queue.begin(); it != m_queue.end(); ++it) {
+      if (WaitsLocked(*it)) continue;
+      const Entry run = *it;
+      m_queue.erase(it);
+      m_running[run.id] = {run.needs, start(run.id)};
+      ShareCoresLocked();
+      return run.id;
+    }
+    // Nothing may start: wait for a new run, an ended one or a prepared bed. The timeout
+    // covers a cancel flag set by a signal handler and a bed stored by another process.
+    m_changed.wait_for(lock, std::chrono::seconds(1));
+  }
+}
+
+void RunQueue::Done(Id id) {
+  {
+    std::lock_guard lock(m_mutex);
+    m_running.erase(id);
+    ShareCoresLocked();
+  }
+  m_changed.notify_all();
+}
+
+void RunQueue::ShareCoresLocked() {
+  const int running = static_cast<int>(m_running.size());
+  int rank = 0;
+  for (auto& [id, run] : m_running)
+    if (run.threads) *run.threads = CoreShare(m_cores, running, rank++);
+}
+
+void RunQueue::Close() {
+  {
+    std::lock_guard lock(m_mutex);
+    m_closed = true;
+  }
+  m_changed.notify_all();
+}
+
+void RunQueue::Stop() {
+  {
+    std::lock_guard lock(m_mutex);
+    m_stopped = true;
+  }
+  m_changed.notify_all();
+}
+
+void RunQueue::PauseUntil(Clock::time_point until) {
+  std::lock_guard lock(m_mutex);
+  m_paused_until = until;
+}
+
+void RunQueue::Wake() {
+  m_changed.notify_all();
+}
+
+std::size_t RunQueue::queued() const {
+  std::lock_guard lock(m_mutex);
+  return m_queue.size();
+}
+
+std::size_t RunQueue::running() const {
+  std::lock_guard lock(m_mutex);
+  return m_running.size();
+}
+
+}  // namespace dembuf

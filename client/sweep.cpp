@@ -15,6 +15,7 @@
 
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/impact/impact.h"
+#include "dembuf/study/run/folder_recorder.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/sweep/run_queue.h"
@@ -32,6 +33,133 @@ struct RunResult {
   nlohmann::json summary;
 };
 
+// The runs of one sweep, run by the workers of one queue, each into its folder of runs/.
+class SweepRunner {
+ public:
+  SweepRunner(const SweepOptions& options, BedCache& beds, const std::vector<SweepRun>& runs)
+      : m_options(options), m_beds(beds), m_runs(runs), m_results(runs.size()) {}
+  /// Runs every run, options.jobs at a time.
+  void RunAll();
+  const std::vector<RunResult>& results() const { return m_results; }
+
+ private:
+  void RunOne(const SweepRun& job, const std::atomic<int>* threads);
+  // A run finished by an earlier, interrupted invocation of the same sweep is kept: its
+  // summary records its scene, and only an identical scene counts.
+  bool KeptFromEarlier(const SweepRun& job, const std::filesystem::path& dir, RunResult& result);
+  void PrintEnd(const SweepRun& job, const RunResult& result,
+                std::chrono::steady_clock::time_point start);
+
+  const SweepOptions& m_options;
+  BedCache& m_beds;
+  const std::vector<SweepRun>& m_runs;
+  std::vector<RunResult> m_results;
+  std::atomic<int> m_finished{0};
+  std::mutex m_print_mutex;
+};
+
+bool SweepRunner::KeptFromEarlier(const SweepRun& job, const std::filesystem::path& dir,
+                                  RunResult& result) {
+  std::ifstream previous{dir / "summary.json"};
+  if (!previous) return false;
+  try {
+    nlohmann::json done = nlohmann::json::parse(previous);
+    if (done["scene"] != report::SceneToJson(job.scene)) return false;
+    result.summary = std::move(done);
+    result.ok = true;
+  } catch (const std::exception&) {
+    return false;  // unreadable: run it again
+  }
+  std::lock_guard lock(m_print_mutex);
+  std::printf("[%d/%zu] %s: done earlier, kept\n", ++m_finished, m_runs.size(), job.name.c_str());
+  return true;
+}
+
+void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
+  const std::filesystem::path dir = m_options.out_dir / "runs" / job.name;
+  RunResult& result = m_results[job.index];
+  if (KeptFromEarlier(job, dir, result)) return;
+  auto last_report = std::chrono::steady_clock::now();
+  const auto job_start = last_report;
+  auto bed_progress = [&](const BedProgress& p) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_report < std::chrono::seconds(30)) return;
+    last_report = now;
+    std::lock_guard lock(m_print_mutex);
+    std::printf(
+        "  run %zu: %s, %zu beads, t = %.0f ms, kinetic %.2g m g d, balance %.2g%%, %d "
+        "threads\n",
+        job.index, p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, 100 * p.balance_error,
+        threads->load());
+    std::fflush(stdout);
+  };
+  try {
+    report::RemoveRunOutputs(dir);  // what an interrupted run of this point left
+    FolderRecorder recorder(dir, job.scene);
+    JobControl control;
+    control.context = report::RunStartingNow(m_options.command_line);
+    control.cancel = m_options.cancel;
+    control.threads = threads;
+    control.on_bed_progress = bed_progress;
+    const ImpactSummary summary = RunJob(job.scene, m_beds, control, recorder);
+    if (m_options.on_run_done) m_options.on_run_done(job, summary);
+    result.summary = recorder.summary_json();
+    result.ok = true;
+  } catch (const Cancelled&) {
+    result.interrupted = true;
+    result.error = "interrupted";
+  } catch (const std::exception& e) {
+    result.error = e.what();
+  }
+  if (!result.interrupted) PrintEnd(job, result, job_start);
+}
+
+void SweepRunner::PrintEnd(const SweepRun& job, const RunResult& result,
+                           std::chrono::steady_clock::time_point start) {
+  std::lock_guard lock(m_print_mutex);
+  std::printf("[%d/%zu] %s: ", ++m_finished, m_runs.size(), job.name.c_str());
+  if (result.ok) {
+    const nlohmann::json& s = result.summary;
+    std::printf("P = %.4g N, lambda = %.1f%%, H = %.2f cm, C0 = %.3f (%.0f s with the bed)\n",
+                s["P_N"].get<double>(), 100 * s["lambda"].get<double>(),
+                100 * s["bed_thickness_m"].get<double>(), s["C0"].get<double>(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  } else {
+    std::printf("FAILED: %s\n", result.error.c_str());
+  }
+  std::fflush(stdout);
+}
+
+// The daemon's queue and rule: runs in plan order (interleaved by source bed), a run that
+// would only wait for a bed another worker prepares passed over, the cores shared.
+void SweepRunner::RunAll() {
+  const int jobs = m_options.jobs;
+  RunQueue queue(m_beds, std::max(omp_get_max_threads(), jobs), m_options.cancel);
+  m_beds.OnPrepared([&](const PreparedBed& bed) {
+    if (m_options.on_bed_prepared) m_options.on_bed_prepared(bed);
+    queue.Wake();
+  });
+  for (const std::size_t k : InterleaveBySourceBed(m_runs))
+    queue.Push(static_cast<RunQueue::Id>(k), m_runs[k].beds);
+  queue.Close();
+  std::vector<std::atomic<int>> worker_threads(jobs);
+  for (std::atomic<int>& t : worker_threads) t = 1;
+  // Each worker's engine opens its own team of threads inside the workers' team.
+  omp_set_max_active_levels(2);
+#pragma omp parallel num_threads(jobs)
+  {
+    const int worker = omp_get_thread_num();
+    std::atomic<int>* threads = &worker_threads[worker];
+    omp_set_num_threads(1);  // engine parts that are not lent cores (the bare-plate run) use one
+    while (const std::optional<RunQueue::Id> next =
+               queue.Next([&](RunQueue::Id) { return threads; })) {
+      RunOne(m_runs[static_cast<std::size_t>(*next)], threads);
+      queue.Done(*next);
+    }
+  }
+  m_beds.OnPrepared({});
+}
+
 }  // namespace
 
 int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
@@ -44,118 +172,13 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
     if (!run.beds.source_hash.empty()) sources.insert(run.beds.source_hash);
 
   std::filesystem::create_directories(options.out_dir / "runs");
-  std::vector<RunResult> results(runs.size());
-  std::atomic<int> finished{0};
-  std::mutex print_mutex;
   const auto sweep_start = std::chrono::steady_clock::now();
   std::printf("sweep: %zu runs (%zu source beds), %d at a time, into %s\n", runs.size(),
               sources.size(), options.jobs, options.out_dir.c_str());
   std::fflush(stdout);
-
-  auto run_one = [&](const SweepRun& job, const std::atomic<int>* threads) {
-    const std::filesystem::path dir = options.out_dir / "runs" / job.name;
-    RunResult& result = results[job.index];
-    // A run finished by an earlier, interrupted invocation of the same sweep is kept: its
-    // summary records its scene, and only an identical scene counts.
-    if (std::ifstream previous{dir / "summary.json"}) {
-      try {
-        nlohmann::json done = nlohmann::json::parse(previous);
-        if (done["scene"] == report::SceneToJson(job.scene)) {
-          result.summary = std::move(done);
-          result.ok = true;
-          std::lock_guard lock(print_mutex);
-          std::printf("[%d/%zu] %s: done earlier, kept\n", ++finished, runs.size(),
-                      job.name.c_str());
-          return;
-        }
-      } catch (const std::exception&) {
-        // unreadable: run it again
-      }
-    }
-    auto last_report = std::chrono::steady_clock::now();
-    const auto job_start = last_report;
-    BedRequest bed_request;
-    bed_request.threads = threads;
-    bed_request.cancel = options.cancel;
-    bed_request.on_progress = [&](const BedProgress& p) {
-      const auto now = std::chrono::steady_clock::now();
-      if (now - last_report < std::chrono::seconds(30)) return;
-      last_report = now;
-      std::lock_guard lock(print_mutex);
-      std::printf(
-          "  run %zu: %s, %zu beads, t = %.0f ms, kinetic %.2g m g d, balance %.2g%%, %d "
-          "threads\n",
-          job.index, p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, 100 * p.balance_error,
-          threads->load());
-      std::fflush(stdout);
-    };
-    try {
-      std::filesystem::create_directories(dir);
-      report::WriteFileAtomically(dir / "scene.toml", report::SceneText(job.scene));
-      report::RunContext context = report::RunStartingNow(options.command_line);
-      report::SampleCsvWriter csv(dir / "plate_force.csv");
-      RunControl control;
-      control.beds = &beds;
-      control.bed_request = &bed_request;
-      control.threads = threads;
-      control.cancel = options.cancel;
-      control.on_sample = [&](const ImpactSample& s) { csv.Write(s); };
-      const ImpactSummary summary = RunImpact(job.scene, control);
-      csv.Commit();
-      if (options.on_run_done) options.on_run_done(job, summary);
-      context.threads = threads->load();
-      context.finished_at = report::UtcNow();
-      result.summary = report::SummaryToJson(summary, job.scene, context);
-      report::WriteFileAtomically(dir / "summary.json", result.summary.dump(2) + "\n");
-      result.ok = true;
-    } catch (const Cancelled&) {
-      result.interrupted = true;
-      result.error = "interrupted";
-    } catch (const std::exception& e) {
-      result.error = e.what();
-    }
-    std::lock_guard lock(print_mutex);
-    if (result.interrupted) return;
-    const int done = ++finished;
-    std::printf("[%d/%zu] %s: ", done, runs.size(), job.name.c_str());
-    if (result.ok) {
-      std::printf(
-          "P = %.4g N, lambda = %.1f%%, H = %.2f cm, C0 = %.3f (%.0f s with the bed)\n",
-          result.summary["P_N"].get<double>(), 100 * result.summary["lambda"].get<double>(),
-          100 * result.summary["bed_thickness_m"].get<double>(), result.summary["C0"].get<double>(),
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - job_start).count());
-    } else {
-      std::printf("FAILED: %s\n", result.error.c_str());
-    }
-    std::fflush(stdout);
-  };
-
-  // The daemon's queue and rule: runs in plan order (interleaved by source bed), a run that
-  // would only wait for a bed another worker prepares passed over, the cores shared.
-  RunQueue queue(beds, std::max(omp_get_max_threads(), options.jobs), options.cancel);
-  beds.OnPrepared([&](const PreparedBed& bed) {
-    if (options.on_bed_prepared) options.on_bed_prepared(bed);
-    queue.Wake();
-  });
-  for (const std::size_t k : InterleaveBySourceBed(runs))
-    queue.Push(static_cast<RunQueue::Id>(k), runs[k].beds);
-  queue.Close();
-  std::vector<std::atomic<int>> worker_threads(options.jobs);
-  for (std::atomic<int>& t : worker_threads) t = 1;
-  // Each worker's engine opens its own team of threads inside the workers' team.
-  omp_set_max_active_levels(2);
-#pragma omp parallel num_threads(options.jobs)
-  {
-    const int worker = omp_get_thread_num();
-    std::atomic<int>* threads = &worker_threads[worker];
-    omp_set_num_threads(1);  // engine parts that are not lent cores (the bare-plate run) use one
-    while (const std::optional<RunQueue::Id> next =
-               queue.Next([&](RunQueue::Id) { return threads; })) {
-      run_one(runs[static_cast<std::size_t>(*next)], threads);
-      queue.Done(*next);
-    }
-  }
-  beds.OnPrepared({});
+  SweepRunner runner(options, beds, runs);
+  runner.RunAll();
+  const std::vector<RunResult>& results = runner.results();
 
   std::vector<report::SweepRunReport> reports;
   for (std::size_t k = 0; k < runs.size(); ++k)

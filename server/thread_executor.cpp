@@ -6,11 +6,12 @@
 
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
-#include "dembuf/study/impact/impact.h"
+#include "dembuf/study/run/run_job.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/version.h"
 #include "fault_injection.h"
+#include "store_recorder.h"
 
 namespace dembuf::server {
 
@@ -179,17 +180,6 @@ void ThreadExecutor::FailAfterError(std::int64_t id, const std::shared_ptr<LiveJ
   live->End(JobState::kFailed);
 }
 
-void ThreadExecutor::StoreSamples(std::int64_t id, LiveJob& live) {
-  auto [first, samples] = live.UnstoredSamples();
-  m_store.AppendSeries(id, first, samples);
-  live.Stored(first + static_cast<std::int64_t>(samples.size()));
-}
-
-JobResults ThreadExecutor::Rest(const LiveJob& live, const std::string& summary_json) {
-  auto [first, samples] = live.UnstoredSamples();
-  return {summary_json, std::move(samples), first, {}};
-}
-
 void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) {
   const std::optional<JobRecord> job = m_store.GetJob(id);
   if (!job) {
@@ -203,51 +193,28 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
   m_store.MarkStarted(id, first_state, m_options.host, kVersion);
   FaultPoint("kill-at-job-start");  // a job that crashes the daemon (the poison-job test)
   live->SetState(first_state);
+  StoreRecorder recorder(m_store, id, *live,
+                         static_cast<std::size_t>(m_store.options().chunk_samples));
   try {
     const Scene scene = LoadSceneText(job->scene_toml, "job " + std::to_string(id));
-    BedRequest bed_request;
-    bed_request.cancel = &live->cancel;
-    bed_request.threads = &live->threads;
-    bed_request.on_progress = [&](const BedProgress& p) {
+    JobControl control;
+    control.context = {job->command_line, m_options.host, started_at, "", 0};
+    control.cancel = &live->cancel;
+    control.threads = &live->threads;
+    control.on_bed_progress = [&](const BedProgress& p) {
       live->SetProgress("bed: " + p.stage, p.t_max_s > 0 ? p.t_s / p.t_max_s : 0.0, p.t_s, 0);
     };
-    World world = BuildWorld(scene, &m_beds, &bed_request);
-    if (first_state != JobState::kRunning) {
+    control.on_bed_ready = [&](const World&) {
+      if (first_state == JobState::kRunning) return;
       m_store.SetState(id, JobState::kRunning);
       live->SetState(JobState::kRunning);
-    }
-    RunControl control;
-    const auto chunk = static_cast<std::size_t>(m_store.options().chunk_samples);
-    control.on_sample = [&](const ImpactSample& s) {
-      live->Append(s);
-      if (live->Unstored() >= chunk) StoreSamples(id, *live);
     };
     control.on_progress = [&](const ImpactProgress& p) {
       live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0, p.t_s,
                         p.steps);
     };
-    std::vector<ImpactSample> bare;  // the bare-plate impact run for lambda: a few hundred
-    control.on_reference_sample = [&](const ImpactSample& s) { bare.push_back(s); };
-    report::ParaViewFiles paraview(scene.cylinder.radius_m, scene.beads.diameter_max_m);
-    control.on_snapshot = [&](const ImpactSnapshot& snap) {
-      m_store.PutJobFiles(id, paraview.AddSnapshot(snap));
-    };
-    control.on_frame = [&](const ImpactSnapshot& frame) {
-      m_store.PutJobFiles(id, paraview.AddFrame(frame));
-    };
     control.progress_every_steps = kProgressEverySteps;
-    control.cancel = &live->cancel;
-    control.threads = &live->threads;
-    control.beds = &m_beds;
-    control.bed_request = &bed_request;
-    const ImpactSummary summary = RunImpact(std::move(world), scene, control);
-    const report::RunContext context{job->command_line, m_options.host, started_at,
-                                     report::UtcNow(), live->threads.load()};
-    const std::string summary_json = report::SummaryToJson(summary, scene, context).dump(2) + "\n";
-    JobResults results = Rest(*live, summary_json);
-    if (!bare.empty())
-      results.files.push_back({"plate_force_bare.csv", report::SamplesToCsv(bare)});
-    m_store.FinishJob(id, JobState::kDone, "", results);
+    const ImpactSummary summary = RunJob(scene, m_beds, control, recorder);
     live->End(JobState::kDone);
     m_log->info("job {}: done in {:.1f} s: P = {:.5g} N, lambda = {:.3f}", id,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
@@ -262,14 +229,14 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
       live->End(JobState::kQueued);
       m_log->warn("job {}: {}", id, note);
     } else {
-      m_store.FinishJob(id, JobState::kCancelled, "cancelled while running", Rest(*live, ""));
+      m_store.FinishJob(id, JobState::kCancelled, "cancelled while running", recorder.Unfinished());
       live->End(JobState::kCancelled);
       m_log->info("job {}: cancelled while running", id);
     }
   } catch (const std::exception& e) {
     // A bad scene (it was checked at submission, so only a changed engine gets here), a run
     // that became unstable, or a bed that would not settle: the job fails with the reason.
-    m_store.FinishJob(id, JobState::kFailed, e.what(), Rest(*live, ""));
+    m_store.FinishJob(id, JobState::kFailed, e.what(), recorder.Unfinished());
     live->End(JobState::kFailed);
     m_log->error("job {}: failed: {}", id, e.what());
   }

@@ -67,10 +67,6 @@ class ThreadExecutor final : public Executor {
   /// The job's live state, made as the queue hands the job to a worker.
   std::atomic<int>* StartLive(std::int64_t id);
   void Run(std::int64_t id, const std::shared_ptr<LiveJob>& live);
-  /// Stores the samples the live job holds, and drops them from it.
-  void StoreSamples(std::int64_t id, LiveJob& live);
-  /// The results of a job that ends now: its summary and the samples not yet stored.
-  static JobResults Rest(const LiveJob& live, const std::string& summary_json);
   /// Something outside the job's own run failed (the database, say): the job fails with the
   /// reason, and the worker goes on.
   void FailAfterError(std::int64_t id, const std::shared_ptr<LiveJob>& live,

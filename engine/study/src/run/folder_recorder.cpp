@@ -1,0 +1,46 @@
+#include "dembuf/study/run/folder_recorder.h"
+
+#include "dembuf/study/files/provenance.h"
+
+namespace dembuf {
+
+FolderRecorder::FolderRecorder(std::filesystem::path dir, const Scene& scene,
+                               std::filesystem::path samples_stream)
+    : m_dir(std::move(dir)), m_stream_path(std::move(samples_stream)) {
+  std::filesystem::create_directories(m_dir);
+  // What ran, in a file that runs it again.
+  report::WriteFileAtomically(m_dir / "scene.toml", report::SceneText(scene));
+}
+
+void FolderRecorder::Sample(const ImpactSample& sample) {
+  if (!m_csv) {
+    m_csv.emplace(m_dir / "plate_force.csv");
+    if (!m_stream_path.empty()) m_stream.emplace(m_stream_path);
+  }
+  m_csv->Write(sample);
+  if (m_stream) m_stream->Write(sample);
+}
+
+void FolderRecorder::ReferenceSample(const ImpactSample& sample) {
+  m_bare.push_back(sample);
+}
+
+void FolderRecorder::Files(const std::vector<report::ResultFile>& files) {
+  report::WriteResultFiles(files, m_dir);
+}
+
+void FolderRecorder::Finished(const ImpactSummary&, const nlohmann::json& summary_json) {
+  if (!m_csv) m_csv.emplace(m_dir / "plate_force.csv");  // a run without samples: the header
+  m_csv->Commit();
+  if (!m_bare.empty())
+    report::WriteFileAtomically(m_dir / "plate_force_bare.csv", report::SamplesToCsv(m_bare));
+  if (m_stream) m_stream->Close();
+  report::WriteFileAtomically(m_dir / "summary.json", summary_json.dump(2) + "\n");
+  m_summary = summary_json;
+}
+
+std::filesystem::path FolderRecorder::partial_samples() const {
+  return m_csv && m_summary.is_null() ? m_csv->partial_path() : std::filesystem::path();
+}
+
+}  // namespace dembuf

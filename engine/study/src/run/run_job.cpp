@@ -1,0 +1,41 @@
+#include "dembuf/study/run/run_job.h"
+
+#include "dembuf/study/files/run_output.h"
+
+namespace dembuf {
+
+ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& control,
+                     RunRecorder& recorder) {
+  report::RunContext context = control.context;
+  if (context.started_at.empty()) context.started_at = report::UtcNow();
+
+  BedRequest bed_request;
+  bed_request.cancel = control.cancel;
+  bed_request.threads = control.threads;
+  bed_request.on_progress = control.on_bed_progress;
+  World world = BuildWorld(scene, &beds, &bed_request);
+  if (control.on_bed_ready) control.on_bed_ready(world);
+
+  RunControl impact;
+  impact.on_sample = [&](const ImpactSample& s) { recorder.Sample(s); };
+  impact.on_reference_sample = [&](const ImpactSample& s) { recorder.ReferenceSample(s); };
+  report::ParaViewFiles paraview(scene.cylinder.radius_m, scene.beads.diameter_max_m);
+  impact.on_snapshot = [&](const ImpactSnapshot& snap) {
+    recorder.Files(paraview.AddSnapshot(snap));
+  };
+  impact.on_frame = [&](const ImpactSnapshot& frame) { recorder.Files(paraview.AddFrame(frame)); };
+  impact.on_progress = control.on_progress;
+  impact.progress_every_steps = control.progress_every_steps;
+  impact.cancel = control.cancel;
+  impact.threads = control.threads;
+  impact.beds = &beds;
+  impact.bed_request = &bed_request;
+  const ImpactSummary summary = RunImpact(std::move(world), scene, impact);
+
+  context.finished_at = report::UtcNow();
+  if (control.threads) context.threads = control.threads->load();
+  recorder.Finished(summary, report::SummaryToJson(summary, scene, context));
+  return summary;
+}
+
+}  // namespace dembuf

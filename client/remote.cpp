@@ -24,6 +24,7 @@
 #include "dembuf/study/sweep/sweep_report.h"
 #include "dembuf/study/text/text_limits.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
+#include "exit_codes.h"
 #include "plots.h"
 #include "progress.h"
 #include "remote_json.h"
@@ -41,11 +42,6 @@ std::string Shown(const std::string& text) {
 }
 
 constexpr const char* kDefaultServer = "127.0.0.1:50051";
-constexpr int kExitError = 1;
-constexpr int kExitInvalid = 2;
-constexpr int kExitJobFailed = 3;
-// What the daemon keeps of a command line (longer ones are refused, so cut here).
-constexpr std::size_t kMaxCommandLine = 4096;
 
 std::unique_ptr<v1::Dembuf::Stub> Connect(const Remote& remote) {
   grpc::ChannelArguments args;
@@ -95,19 +91,19 @@ int Report(const Remote& remote, const grpc::Status& status) {
     case grpc::StatusCode::INVALID_ARGUMENT:
       std::fprintf(stderr, "dembuf: the server refused the request: %s\n",
                    status.error_message().c_str());
-      return kExitInvalid;
+      return kExitBadInput;
     case grpc::StatusCode::UNAVAILABLE:
       std::fprintf(stderr,
                    "dembuf: cannot reach dembufd at %s (%s); start it, or point --server or "
                    "DEMBUF_SERVER at it\n",
                    remote.address.c_str(), status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
     case grpc::StatusCode::UNAUTHENTICATED:
       std::fprintf(stderr, "dembuf: not allowed in: %s\n", status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
     case grpc::StatusCode::PERMISSION_DENIED:
       std::fprintf(stderr, "dembuf: not yours: %s\n", status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
       // gRPC's own refusal of a request larger than the server reads.
       if (status.error_message().find("larger than max") != std::string::npos) {
@@ -115,34 +111,34 @@ int Report(const Remote& remote, const grpc::Status& status) {
                      "dembuf: the request is larger than this server accepts (max_request_kb): "
                      "%s\n",
                      status.error_message().c_str());
-        return kExitInvalid;
+        return kExitBadInput;
       }
       // A job past the server's limits names the field to change (bad input); a full queue
       // or disk is worth trying again later.
       if (status.error_details().rfind("field=", 0) == 0) {
         std::fprintf(stderr, "dembuf: refused by the server's limits: %s\n",
                      status.error_message().c_str());
-        return kExitInvalid;
+        return kExitBadInput;
       }
       std::fprintf(stderr, "dembuf: the server is full: %s\n", status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
     case grpc::StatusCode::NOT_FOUND:
       std::fprintf(stderr, "dembuf: not found: %s\n", status.error_message().c_str());
-      return kExitInvalid;
+      return kExitBadInput;
     case grpc::StatusCode::FAILED_PRECONDITION:
       std::fprintf(stderr, "dembuf: not now: %s\n", status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
     case grpc::StatusCode::DEADLINE_EXCEEDED:
       std::fprintf(stderr, "dembuf: dembufd at %s did not answer in time (%s)\n",
                    remote.address.c_str(), status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
     case grpc::StatusCode::INTERNAL:
       std::fprintf(stderr, "dembuf: %s\n", status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
     default:
       std::fprintf(stderr, "dembuf: dembufd answered %s: %s\n", StatusName(status.error_code()),
                    status.error_message().c_str());
-      return kExitError;
+      return kExitRuntime;
   }
 }
 
@@ -355,7 +351,7 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::stri
   *request.mutable_scene() = MakeSceneSpec(scene);
   request.set_name(name);
   request.set_owner(remote.owner);
-  request.set_command_line(remote.command_line.substr(0, kMaxCommandLine));
+  request.set_command_line(remote.command_line.substr(0, kMaxCommandLineBytes));
   request.set_request_id(NewRequestId());
   v1::SubmitJobResponse response;
   const auto stub = Connect(remote);
@@ -386,7 +382,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   request.set_seeds(seeds);
   request.set_name(name);
   request.set_owner(remote.owner);
-  request.set_command_line(remote.command_line.substr(0, kMaxCommandLine));
+  request.set_command_line(remote.command_line.substr(0, kMaxCommandLineBytes));
   request.set_request_id(NewRequestId());
   v1::SubmitSweepResponse response;
   const auto stub = Connect(remote);
@@ -398,7 +394,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   if (response.job_ids_size() == 0) {
     std::fprintf(stderr, "dembuf: the server at %s answered sweep %lld with no jobs\n",
                  remote.address.c_str(), static_cast<long long>(sweep.id()));
-    return kExitError;
+    return kExitRuntime;
   }
   PrintWarnings(response.warnings());
   if (json) {
@@ -460,7 +456,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
                    "dembuf: --state %s: use queued, preparing_bed, running, done, failed or "
                    "cancelled\n",
                    options.state.c_str());
-      return kExitInvalid;
+      return kExitBadInput;
     }
     request.set_state(state);
   }
@@ -519,7 +515,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   if (!status.ok()) return Report(remote, status);
   if (json) {
     std::printf("%s\n", JobJson(j, true).dump(2).c_str());
-    return j.state() == v1::JOB_STATE_FAILED ? kExitJobFailed : 0;
+    return j.state() == v1::JOB_STATE_FAILED ? kExitFailed : 0;
   }
   std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), Shown(j.name()).c_str(),
               StateText(j.state()).c_str());
@@ -561,7 +557,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
         100 * s.value("lambda", 0.0), 100 * s.value("crater_depth_m", 0.0),
         100 * s.value("bed_thickness_m", 0.0), s.value("C0", 0.0));
   }
-  return j.state() == v1::JOB_STATE_FAILED ? kExitJobFailed : 0;
+  return j.state() == v1::JOB_STATE_FAILED ? kExitFailed : 0;
 }
 
 int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index) {
@@ -621,7 +617,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   Note("job %lld %s; %lld samples received\n", static_cast<long long>(id), StateText(state).c_str(),
        static_cast<long long>(received));
   if (state == v1::JOB_STATE_DONE) return 0;
-  return state == v1::JOB_STATE_FAILED ? kExitJobFailed : kExitError;
+  return state == v1::JOB_STATE_FAILED ? kExitFailed : kExitRuntime;
 }
 
 // A job's result files (snapshots), streamed piece by piece into `dir`. The server's answers
@@ -701,7 +697,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
                    "dembuf: %s already exists and is not empty; choose another --out, or pass "
                    "--force to replace an earlier fetch's files\n",
                    dir.c_str());
-      return kExitInvalid;
+      return kExitBadInput;
     }
     // Only what a fetch writes: a job's files, or a sweep's tables, plots and runs.
     report::RemoveRunOutputs(dir);
@@ -728,7 +724,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
                 StateText(result.job().state()).c_str(), dir.c_str());
     if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
-    return result.job().state() == v1::JOB_STATE_DONE ? 0 : kExitJobFailed;
+    return result.job().state() == v1::JOB_STATE_DONE ? 0 : kExitFailed;
   }
   v1::Sweep s;
   {
@@ -761,7 +757,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
                  "dembuf: the server sent a sweep axis that is no scene field, or a value that "
                  "is not one of it: %s\n",
                  e.what());
-    return kExitError;
+    return kExitRuntime;
   }
   // A count from the server is checked before anything is sized by it.
   constexpr int kMaxSweepJobs = 1000000;  // the daemon's max_sweep_jobs at most
@@ -771,7 +767,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
                  "listed (must be that many to %d)\n",
                  remote.address.c_str(), static_cast<long long>(id), s.jobs_total(),
                  jobs.jobs_size(), kMaxSweepJobs);
-    return kExitError;
+    return kExitRuntime;
   }
   std::vector<report::SweepRunReport> runs(static_cast<std::size_t>(s.jobs_total()));
   int pending = 0;
@@ -808,7 +804,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
               static_cast<long long>(id), dir.c_str(), s.jobs_total(),
               summary["failed"].get<int>() - pending, pending);
   if (plots) PlotIfPossible(dir);
-  return pending == 0 && summary["failed"].get<int>() == 0 ? 0 : kExitJobFailed;
+  return pending == 0 && summary["failed"].get<int>() == 0 ? 0 : kExitFailed;
 }
 
 int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {

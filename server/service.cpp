@@ -31,8 +31,6 @@ constexpr std::size_t kSamplesPerMessage = 512;
 // FetchResults answers with a series of at most this many samples (3 MB); FetchSeries streams
 // longer ones.
 constexpr std::int64_t kMaxSamplesInResults = 65536;
-// A client's command line, kept as provenance: a long one is cut by the client, not stored.
-constexpr std::size_t kMaxCommandLine = 4096;
 
 Status Invalid(const std::string& field, const std::string& message) {
   return Status(StatusCode::INVALID_ARGUMENT, field.empty() ? message : field + ": " + message);
@@ -327,7 +325,8 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     const Caller caller = Identify(context);
     const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
-    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
+    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLineBytes);
+        !s.ok())
       return s;
     if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
     std::unique_lock<std::mutex> retry_lock(m_submissions, std::defer_lock);
@@ -378,7 +377,8 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     const Caller caller = Identify(context);
     const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
-    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLine); !s.ok())
+    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLineBytes);
+        !s.ok())
       return s;
     if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
     std::unique_lock<std::mutex> retry_lock(m_submissions, std::defer_lock);

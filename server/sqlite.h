@@ -59,10 +59,8 @@ class Statement {
   }
 
   std::int64_t Int(int column) const { return sqlite3_column_int64(m_stmt, column); }
-  double Real(int column) const { return sqlite3_column_double(m_stmt, column); }
   std::string Text(int column) const;
   std::string Blob(int column) const;
-  bool IsNull(int column) const { return sqlite3_column_type(m_stmt, column) == SQLITE_NULL; }
 
  private:
   void BindOne(int index, std::int64_t v);

@@ -43,6 +43,10 @@ std::string DisplayTextProblem(std::string_view text);
 /// replaced by '?': what a client prints of a server's names.
 std::string PrintableText(std::string_view text);
 
+/// The longest command line kept with a job as its provenance: the client cuts a longer one,
+/// the daemon refuses it.
+inline constexpr std::size_t kMaxCommandLineBytes = 4096;
+
 /// The content of a regular file of at most `max_bytes`, read without reading more (a device
 /// or a huge file is refused, not read). Throws InputLimitError naming `what` and the path.
 std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes,

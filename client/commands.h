@@ -1,0 +1,97 @@
+// dembuf's commands. main() builds the CLI11 application and asks each group to add its
+// commands: the local ones (run, prepare-bed, bed export, sweep, scene, plot, compare) and the
+// remote ones (submit, list, status, watch, fetch, cancel, server-info, and sweep on a
+// server), which a build without the service replaces by commands that say so.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace dembuf::cli {
+
+/// The options the local commands share (and the remote ones that send a scene).
+struct RunOptions {
+  std::string scene_file;
+  std::string preset;
+  std::string accuracy;
+  std::vector<std::string> overrides;
+  std::string out_dir;
+  bool force = false;
+  std::string bed_cache;
+  bool no_bed_cache = false;
+  std::vector<std::string> vary;
+  std::string find_hc;  ///< "LOW:HIGH[:TOLERANCE]" in metres: dembuf sweep --find-hc
+  int seeds = 1;
+  int jobs = 1;
+  bool local = false;
+  std::string name;
+  std::string samples_out;  ///< also stream the samples, packed, to this file
+  bool no_plots = false;
+  bool source_only = false;   ///< prepare-bed: only the source bed
+  bool dry_run = false;       ///< print the estimate and stop
+  bool yes = false;           ///< run even past this machine's limits
+  bool json = false;          ///< print the result as JSON on stdout, the rest on stderr
+  std::string command_line;   ///< this program's arguments, for the results' provenance
+  std::string export_format;  ///< bed export: text, lammps or vtp
+  std::string export_out;     ///< bed export: the file
+};
+
+/// The commands added, each with what runs it when it was the one given.
+class CommandTable {
+ public:
+  void Add(CLI::App* command, std::function<int()> run);
+  /// Runs the command given (kExitRuntime when none was).
+  int RunParsed() const;
+  /// Set by the remote commands: runs a sweep on a server when one is named and --local is
+  /// not given (nothing otherwise, and then the sweep runs here).
+  std::function<std::optional<int>(const RunOptions&)> sweep_elsewhere;
+
+ private:
+  std::vector<std::pair<CLI::App*, std::function<int()>>> m_commands;
+};
+
+/// The scene arguments of a command: the file, --preset, --accuracy, --set.
+void AddSceneArguments(CLI::App* command, RunOptions& options);
+
+/// run, prepare-bed, bed export, sweep, scene, plot and compare (local_commands.cpp).
+void AddLocalCommands(CLI::App& app, RunOptions& options, CommandTable& commands);
+/// The remote commands and the options that name the server (remote_commands.cpp), or, in a
+/// build without the service, commands of those names that say so (remote_absent.cpp).
+void AddRemoteCommands(CLI::App& app, RunOptions& options, CommandTable& commands);
+
+// The local commands, each in a file of its own.
+int RunCommand(const RunOptions& options);         // run_command.cpp
+int PrepareBedCommand(const RunOptions& options);  // bed_commands.cpp
+int SweepCommand(const RunOptions& options);       // sweep_command.cpp
+
+// What the local commands share (local_commands.cpp).
+
+/// Where prepared beds are kept: --bed-cache, $DEMBUF_BED_CACHE, $XDG_CACHE_HOME/dembuf/beds or
+/// ~/.cache/dembuf/beds; none with --no-bed-cache.
+std::filesystem::path BedCacheDir(const RunOptions& options);
+/// A new folder "dembuf-KIND-<UTC time>" (with "-2", "-3", ... when taken).
+std::filesystem::path DefaultOutputDir(const std::string& kind);
+void PrintWarnings(const std::vector<std::string>& warnings);
+/// The logical cores of this machine.
+int Cores();
+
+/// Where the report for people goes: stdout (the default), stderr (with --json, so that stdout
+/// carries the JSON alone) or nowhere (-q); the report's own prints and gnuplot's too.
+class ReportDestination {
+ public:
+  explicit ReportDestination(const RunOptions& options);
+  ReportDestination(const ReportDestination&) = delete;
+  ReportDestination& operator=(const ReportDestination&) = delete;
+  ~ReportDestination() { Restore(); }
+  /// Stdout is stdout again (for the JSON).
+  void Restore();
+
+ private:
+  int m_saved = -1;
+};
+
+}  // namespace dembuf::cli

@@ -73,7 +73,29 @@ void ExpectSameBits(const dem::Vec3& batched, const dem::Vec3& reference, const 
   }
 }
 
-void CompareWithScalarLaw(bool friction) {
+// The scalar law (Resolve) for these effects.
+ContactOutcome ScalarLaw(bool friction, bool rolling, const dem::ContactGeometry& g, double ai,
+                         double aj, const dem::PairParams& params, double dt, dem::Vec3& shear,
+                         const RollingPair& pair) {
+  if (friction)
+    return rolling ? Resolve<true, true>(g, ai, aj, params, dt, shear, pair)
+                   : Resolve<true, false>(g, ai, aj, params, dt, shear, pair);
+  return rolling ? Resolve<false, true>(g, ai, aj, params, dt, shear, pair)
+                 : Resolve<false, false>(g, ai, aj, params, dt, shear, pair);
+}
+
+// Glass beads' masses for the radii.
+std::vector<double> Masses(const std::vector<double>& radius) {
+  std::vector<double> mass;
+  for (double r : radius) mass.push_back(2500.0 * 4.0 / 3.0 * 3.14159265358979 * r * r * r);
+  return mass;
+}
+
+// Rolling resistance mu_r of the tests with it: a tenth of a radius, so that both of its
+// limits (mu_r R* Fn, and the torque that stops the rolling within a step) are met.
+constexpr double kRollingFriction = 0.1;
+
+void CompareWithScalarLaw(bool friction, bool rolling) {
   // A full batch but one: not a multiple of any vector width, so the loop's tail runs too.
   constexpr int kCount = PairBatch::kTarget - 1;
   Contacts c = RandomContacts(kCount, friction ? 7u : 8u);
@@ -87,14 +109,24 @@ void CompareWithScalarLaw(bool friction) {
     batch.entry[k] = k;
   }
   batch.size = kCount;
+  const std::vector<double> mass = Masses(c.radius);
+  // A third of the pairs roll slowly, so that rolling resistance stops them within the step.
+  if (rolling)
+    for (int k = 0; k < kCount; k += 3) {
+      c.angular_velocity[2 * k] *= 1e-3;
+      c.angular_velocity[2 * k + 1] *= 1e-3;
+    }
   const PairBatchInputs inputs{c.position.front().data(),
                                c.velocity.front().data(),
                                c.angular_velocity.front().data(),
                                c.radius.data(),
+                               mass.data(),
                                c.shear.front().data(),
                                params,
+                               kRollingFriction,
                                dt};
-  ResolvePairBatch(friction, inputs, batch);
+  ResolvePairBatch(friction, rolling, inputs, batch);
+  int rolling_limited = 0, rolling_stopped = 0;
 
   int sliding = 0, sticking_with_history = 0, clamped = 0;
   for (int k = 0; k < kCount; ++k) {
@@ -110,8 +142,20 @@ void CompareWithScalarLaw(bool friction) {
     const dem::ContactGeometry g =
         MakeGeometry(normal, overlap, c.velocity[i] - c.velocity[j], w_arm, c.r_star[k]);
     dem::Vec3 shear = c.shear[k];
-    const ContactOutcome out = friction ? Resolve<true>(g, ai, aj, params, dt, shear)
-                                        : Resolve<false>(g, ai, aj, params, dt, shear);
+    const RollingPair pair{c.angular_velocity[i] - c.angular_velocity[j],
+                           1.0 / (ParticleState::InverseSphereInertia(mass[i], c.radius[i]) +
+                                  ParticleState::InverseSphereInertia(mass[j], c.radius[j])),
+                           kRollingFriction};
+    const ContactOutcome out = ScalarLaw(friction, rolling, g, ai, aj, params, dt, shear, pair);
+    if (rolling && out.normal > 0.0) {
+      dem::Vec3 spring = c.shear[k];  // (the call above advanced `shear`)
+      const ContactOutcome without =
+          ScalarLaw(friction, false, g, ai, aj, params, dt, spring, pair);
+      const double torque = (out.torque_i - without.torque_i).norm();
+      rolling_limited += torque >= 0.999999 * kRollingFriction * c.r_star[k] * out.normal;
+      rolling_stopped +=
+          torque > 0.0 && torque < 0.99 * kRollingFriction * c.r_star[k] * out.normal;
+    }
     sliding += friction && out.force.squaredNorm() > 0.0 &&
                (out.force - out.normal * normal).norm() >= 0.999999 * params.friction * out.normal;
     clamped += out.normal == 0.0;
@@ -122,16 +166,22 @@ void CompareWithScalarLaw(bool friction) {
     EXPECT_TRUE(SameBits(batch.overlap[k], overlap)) << "overlap of contact " << k;
     ExpectSameBits(dem::Vec3(batch.force[0][k], batch.force[1][k], batch.force[2][k]), out.force,
                    "force", k);
-    if (friction) {
+    if (friction || rolling) {
       ExpectSameBits(
           dem::Vec3(batch.torque_bead[0][k], batch.torque_bead[1][k], batch.torque_bead[2][k]),
           out.torque_i, "torque on the bead", k);
       ExpectSameBits(dem::Vec3(batch.torque_partner[0][k], batch.torque_partner[1][k],
                                batch.torque_partner[2][k]),
                      out.torque_j, "torque on the partner", k);
+    }
+    if (friction)
       ExpectSameBits(dem::Vec3(batch.shear[0][k], batch.shear[1][k], batch.shear[2][k]), shear,
                      "history", k);
-    }
+  }
+  // Rolling resistance meets both of its limits in the set.
+  if (rolling) {
+    EXPECT_GT(rolling_limited, kCount / 20);
+    EXPECT_GT(rolling_stopped, kCount / 20);
   }
   // The random set exercises the law's branches (counted with the scalar law).
   if (friction) {
@@ -142,18 +192,23 @@ void CompareWithScalarLaw(bool friction) {
 }
 
 TEST(PairBatch, FrictionalLawGivesTheScalarLawsBits) {
-  CompareWithScalarLaw(true);
+  CompareWithScalarLaw(true, false);
 }
 
 TEST(PairBatch, FrictionlessLawGivesTheScalarLawsBits) {
-  CompareWithScalarLaw(false);
+  CompareWithScalarLaw(false, false);
+}
+
+TEST(PairBatch, RollingResistanceGivesTheScalarLawsBits) {
+  CompareWithScalarLaw(true, true);
+  CompareWithScalarLaw(false, true);
 }
 
 // Beads pressed into the plate (even ones) or the side wall (odd ones: half of them into its
 // face, half onto its rim from above), one contact each, with the histories of SomeHistory: the
 // batched wall law against ContainerContacts' arithmetic (MakeGeometry and Resolve with the wall's
 // normal, lever arm 0 on the wall's side).
-void CompareWallsWithScalarLaw(bool friction) {
+void CompareWallsWithScalarLaw(bool friction, bool rolling) {
   // A full batch on the plate, all but one on the side wall (the vector loop's tail).
   constexpr int kCount = 2 * WallBatch::kTarget - 1;
   const dem::Container box{0.05, 0.1};
@@ -191,12 +246,15 @@ void CompareWallsWithScalarLaw(bool friction) {
   const double dt = 2e-7;
   // The histories are kept per slot, not per bead: here bead k's is in slot kCount - 1 - k.
   std::vector<dem::Vec3> shear_by_slot(shear.rbegin(), shear.rend());
+  const std::vector<double> mass = Masses(radius);
   const WallBatchInputs inputs{position.front().data(),
                                velocity.front().data(),
                                angular_velocity.front().data(),
                                radius.data(),
+                               mass.data(),
                                shear_by_slot.front().data(),
                                params,
+                               kRollingFriction,
                                dt,
                                box};
 
@@ -209,7 +267,7 @@ void CompareWallsWithScalarLaw(bool friction) {
       batch.bead[batch.size] = k;
       batch.slot[batch.size++] = kCount - 1 - k;
     }
-    ResolveWallBatch(friction, wall, inputs, batch);
+    ResolveWallBatch(friction, rolling, wall, inputs, batch);
 
     for (std::size_t c = 0; c < batch.size; ++c) {
       const int k = static_cast<int>(batch.bead[c]);
@@ -223,8 +281,11 @@ void CompareWallsWithScalarLaw(bool friction) {
       const dem::ContactGeometry g =
           MakeGeometry(normal, overlap, velocity[k], arm * angular_velocity[k], r);
       dem::Vec3 history = shear[k];
-      const ContactOutcome out = friction ? Resolve<true>(g, arm, 0.0, params, dt, history)
-                                          : Resolve<false>(g, arm, 0.0, params, dt, history);
+      const RollingPair pair{angular_velocity[k],
+                             1.0 / ParticleState::InverseSphereInertia(mass[k], r),
+                             kRollingFriction};
+      const ContactOutcome out =
+          ScalarLaw(friction, rolling, g, arm, 0.0, params, dt, history, pair);
       clamped += out.normal == 0.0;
       sliding +=
           friction && out.normal > 0.0 &&
@@ -233,12 +294,12 @@ void CompareWallsWithScalarLaw(bool friction) {
       EXPECT_TRUE(SameBits(batch.normal_force[c], out.normal)) << "normal force of bead " << k;
       ExpectSameBits(dem::Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]), out.force,
                      "force", k);
-      if (friction) {
+      if (friction || rolling)
         ExpectSameBits(dem::Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]),
                        out.torque_i, "torque", k);
+      if (friction)
         ExpectSameBits(dem::Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]), history,
                        "history", k);
-      }
     }
   }
   EXPECT_GT(clamped, kCount / 20);
@@ -248,11 +309,16 @@ void CompareWallsWithScalarLaw(bool friction) {
 }
 
 TEST(WallBatch, FrictionalLawGivesTheScalarLawsBits) {
-  CompareWallsWithScalarLaw(true);
+  CompareWallsWithScalarLaw(true, false);
 }
 
 TEST(WallBatch, FrictionlessLawGivesTheScalarLawsBits) {
-  CompareWallsWithScalarLaw(false);
+  CompareWallsWithScalarLaw(false, false);
+}
+
+TEST(WallBatch, RollingResistanceGivesTheScalarLawsBits) {
+  CompareWallsWithScalarLaw(true, true);
+  CompareWallsWithScalarLaw(false, true);
 }
 
 }  // namespace

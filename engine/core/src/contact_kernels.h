@@ -32,11 +32,22 @@ inline double LeverArm(double radius, double overlap) {
   return radius - 0.5 * overlap;
 }
 
+/// What rolling resistance reads of a contact besides its geometry: the bodies' relative
+/// angular velocity w_i - w_j (w_i for a wall), the pair's inertia 1 / (1/I_i + 1/I_j) (I_i for
+/// a wall) and mu_r.
+struct RollingPair {
+  Vec3 w_rel = Vec3::Zero();
+  double inertia = 0.0;
+  double mu_r = 0.0;
+};
+
 /// Applies the law to a contact of geometry c between sphere i (lever arm ai) and body j
-/// (lever arm aj; a wall uses aj = 0, which gives it no torque).
-template <bool kFriction>
+/// (lever arm aj; a wall uses aj = 0, which gives it no torque): the normal and tangential
+/// forces and, with kRolling, the rolling resistance torque (on i, its opposite on j). The
+/// contact loops' lanes (pair_batch.cpp) do the same operations in the same order.
+template <bool kFriction, bool kRolling = false>
 inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, const PairParams& p,
-                              double dt, Vec3& shear) {
+                              double dt, Vec3& shear, const RollingPair& rolling = {}) {
   const ContactForce f = HertzMindlinForce<kFriction>(c, p, dt, shear);
   ContactOutcome out;
   out.normal = f.normal;
@@ -48,6 +59,12 @@ inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, co
   } else {
     out.force = f.normal * c.normal;
     out.torque_i = out.torque_j = Vec3::Zero();
+  }
+  if constexpr (kRolling) {
+    const Vec3 torque = RollingResistanceTorque(c.normal, rolling.w_rel, f.normal, c.r_star,
+                                                rolling.mu_r, rolling.inertia, dt);
+    out.torque_i += torque;
+    out.torque_j -= torque;
   }
   return out;
 }

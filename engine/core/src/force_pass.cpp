@@ -13,13 +13,6 @@ namespace dembuf::dem::detail {
 
 namespace {
 
-// Rolling resistance of a contact between a bead (or the projectile) and the plate or the
-// side wall, whose normal into the sphere is n.
-inline Vec3 WallRolling(const WorldParams& params, const Vec3& n, const Vec3& w, double normal,
-                        double r, double inertia) {
-  return RollingResistanceTorque(n, w, normal, r, params.rolling_friction, inertia, params.dt_s);
-}
-
 // Clears the springs [first, last) of `history` in one sweep. The force pass clears a whole
 // batch's once the law has read them and writes the touching contacts' new ones back, so a
 // contact that has opened forgets its spring without a list of those apart.
@@ -37,13 +30,10 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
   if (begin == end) return;  // (a system without beads may have no list at all)
   const std::uint32_t* offsets = pairs.offsets.data();
   const std::uint32_t* partners = pairs.partners.data();
-  const PairBatchInputs inputs{Components(b.position),
-                               Components(b.velocity),
-                               Components(b.angular_velocity),
-                               b.radius.data(),
-                               Components(pairs.shear),
-                               params.sphere_pair,
-                               params.dt_s};
+  const PairBatchInputs inputs{
+      Components(b.position), Components(b.velocity),  Components(b.angular_velocity),
+      b.radius.data(),        b.mass.data(),           Components(pairs.shear),
+      params.sphere_pair,     params.rolling_friction, params.dt_s};
   // One flat loop over the entries (not beads, then their entries): no loop exit per bead to
   // mispredict.
   const std::uint32_t stop = offsets[end];
@@ -81,7 +71,7 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     batch.size = n;
 
     // 2. The contact law, vectorized.
-    ResolvePairBatch(E::kFriction, inputs, batch);
+    ResolvePairBatch(E::kFriction, E::kRolling, inputs, batch);
 
     // 2b. The law has read the touching entries' springs: the batch's are cleared, and the
     // touching ones get their new springs below.
@@ -118,21 +108,13 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
         const Vec3 f(out.force[0][c], out.force[1][c], out.force[2][c]);
         force_i += f;
         force[j] -= f;
-        if constexpr (E::kFriction) {
+        if constexpr (E::kRotate) {
           torque_i += Vec3(out.torque_bead[0][c], out.torque_bead[1][c], out.torque_bead[2][c]);
           torque[j] +=
               Vec3(out.torque_partner[0][c], out.torque_partner[1][c], out.torque_partner[2][c]);
+        }
+        if constexpr (E::kFriction)
           shear[entry[c]] = Vec3(out.shear[0][c], out.shear[1][c], out.shear[2][c]);
-        }
-        if constexpr (E::kRolling) {
-          const Vec3 normal = (b.position[i] - b.position[j]).normalized();
-          const double r_star = EffectiveRadius(radius[i], radius[j]);
-          const Vec3 rolling = RollingResistanceTorque(
-              normal, b.angular_velocity[i] - b.angular_velocity[j], f.dot(normal), r_star,
-              params.rolling_friction, 1.0 / (b.InvInertia(i) + b.InvInertia(j)), params.dt_s);
-          torque_i += rolling;
-          torque[j] -= rolling;
-        }
         deepest.NoteOverlap(out.overlap[c], std::min(radius[i], radius[j]), i, j);
       }
       force[current] = force_i;
@@ -175,28 +157,23 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
                                    Components(b.velocity),
                                    Components(b.angular_velocity),
                                    b.radius.data(),
+                                   b.mass.data(),
                                    Components(history),
                                    params.sphere_wall,
+                                   params.rolling_friction,
                                    params.dt_s,
                                    box};
-      ResolveWallBatch(E::kFriction, wall, inputs, batch);
+      ResolveWallBatch(E::kFriction, E::kRolling, wall, inputs, batch);
       // The law has read the touching beads' springs: the batch's are cleared, and the
       // touching ones get their new springs below.
       if constexpr (E::kFriction) ClearSprings(history, first, last);
       for (std::size_t c = 0; c < n; ++c) {
         const std::uint32_t i = batch.bead[c];
         b.force[i] += Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
-        if constexpr (E::kFriction) {
+        if constexpr (E::kRotate)
           b.torque[i] += Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]);
+        if constexpr (E::kFriction)
           history[batch.slot[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
-        }
-        if constexpr (E::kRolling) {
-          Vec3 normal = Vec3::UnitZ();
-          double overlap;
-          if (!plate) SideWallContact(box, b.position[i], b.radius[i], overlap, normal);
-          b.torque[i] += WallRolling(params, normal, b.angular_velocity[i], batch.normal_force[c],
-                                     b.radius[i], 1.0 / b.InvInertia(i));
-        }
         if (plate)
           obs.plate_force_N += batch.normal_force[c];
         else
@@ -221,11 +198,11 @@ int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulat
     const double arm = LeverArm(r, overlap);
     const ContactGeometry c =
         MakeGeometry(normal, overlap, p.velocity, arm * p.angular_velocity, r);
-    const auto out = Resolve<E::kFriction>(c, arm, 0.0, params.sphere_wall, params.dt_s, shear);
+    const RollingPair rolling{p.angular_velocity, p.Inertia(), params.rolling_friction};
+    const auto out = Resolve<E::kFriction, E::kRolling>(c, arm, 0.0, params.sphere_wall,
+                                                        params.dt_s, shear, rolling);
     p.force += out.force;
     p.torque += out.torque_i;
-    if constexpr (E::kRolling)
-      p.torque += WallRolling(params, normal, p.angular_velocity, out.normal, r, p.Inertia());
     return out;
   };
   int touching = 0;
@@ -276,18 +253,14 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
     const double r_star = EffectiveRadius(p.radius, rj);
     const ContactGeometry c =
         MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, r_star);
-    const auto out = Resolve<E::kFriction>(c, ap, aj, params.sphere_pair, params.dt_s, h);
+    const RollingPair rolling{p.angular_velocity - b.angular_velocity[j],
+                              1.0 / (1.0 / p.Inertia() + b.InvInertia(j)), params.rolling_friction};
+    const auto out =
+        Resolve<E::kFriction, E::kRolling>(c, ap, aj, params.sphere_pair, params.dt_s, h, rolling);
     p.force += out.force;
     p.torque += out.torque_i;
     b.force[j] -= out.force;
-    if constexpr (E::kFriction) b.torque[j] += out.torque_j;
-    if constexpr (E::kRolling) {
-      const Vec3 rolling = RollingResistanceTorque(
-          normal, p.angular_velocity - b.angular_velocity[j], out.normal, r_star,
-          params.rolling_friction, 1.0 / (1.0 / p.Inertia() + b.InvInertia(j)), params.dt_s);
-      p.torque += rolling;
-      b.torque[j] -= rolling;
-    }
+    if constexpr (E::kRotate) b.torque[j] += out.torque_j;
     ++contacts;
     cond.NoteOverlap(overlap, rj, kProjectile, j);
   }

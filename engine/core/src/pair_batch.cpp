@@ -28,6 +28,8 @@ struct LaneGeometry {
   double vx, vy, vz;
   double wx, wy, wz;
   double r_star, ai, aj;
+  // Rolling resistance's inputs (RollingPair): w_bead - w_partner, the pair's inertia.
+  double rwx, rwy, rwz, inertia;
 };
 
 // Contact c (one lane of a vectorized loop): the slip from MakeGeometry's expression, the law
@@ -35,11 +37,11 @@ struct LaneGeometry {
 // component by component in the same operation order, so the same bits. Its history before
 // this step is history[3 k .. 3 k + 2] (indexed here, not through a pointer to it: that form
 // gathers).
-template <bool kFriction, Partner kPartner>
+template <bool kFriction, bool kRolling, Partner kPartner>
 inline __attribute__((always_inline)) void ResolveLane(const LaneGeometry& g, const PairParams& p,
-                                                       double dt, const double* history,
-                                                       std::size_t k, const LawResults& out,
-                                                       std::size_t c) {
+                                                       double mu_r, double dt,
+                                                       const double* history, std::size_t k,
+                                                       const LawResults& out, std::size_t c) {
   const double nx = g.nx, ny = g.ny, nz = g.nz;
   ContactLawInput in;
   in.nx = nx;
@@ -62,6 +64,7 @@ inline __attribute__((always_inline)) void ResolveLane(const LaneGeometry& g, co
   const ContactLawOutput law = ApplyContactLaw<kFriction>(in, p, dt);
   const double fn = law.normal;
   if constexpr (kPartner == Partner::kWall) out.normal_force[c] = fn;
+  double tix = 0.0, tiy = 0.0, tiz = 0.0, tjx = 0.0, tjy = 0.0, tjz = 0.0;
   if constexpr (!kFriction) {
     out.fx[c] = fn * nx;
     out.fy[c] = fn * ny;
@@ -76,20 +79,38 @@ inline __attribute__((always_inline)) void ResolveLane(const LaneGeometry& g, co
     out.fz[c] = fn * nz + tz;
     // Both torques are -a (n x Ft).
     const double mx = ny * tz - nz * ty, my = nz * tx - nx * tz, mz = nx * ty - ny * tx;
-    out.tix[c] = -g.ai * mx;
-    out.tiy[c] = -g.ai * my;
-    out.tiz[c] = -g.ai * mz;
+    tix = -g.ai * mx;
+    tiy = -g.ai * my;
+    tiz = -g.ai * mz;
+    tjx = -g.aj * mx;
+    tjy = -g.aj * my;
+    tjz = -g.aj * mz;
+  }
+  if constexpr (kRolling) {
+    const RollingOutput rolling = ApplyRollingResistance(
+        {nx, ny, nz, g.rwx, g.rwy, g.rwz, fn, g.r_star, g.inertia}, mu_r, dt);
+    tix = tix + rolling.tx;
+    tiy = tiy + rolling.ty;
+    tiz = tiz + rolling.tz;
+    tjx = tjx - rolling.tx;
+    tjy = tjy - rolling.ty;
+    tjz = tjz - rolling.tz;
+  }
+  if constexpr (kFriction || kRolling) {
+    out.tix[c] = tix;
+    out.tiy[c] = tiy;
+    out.tiz[c] = tiz;
     if constexpr (kPartner == Partner::kBead) {
-      out.tjx[c] = -g.aj * mx;
-      out.tjy[c] = -g.aj * my;
-      out.tjz[c] = -g.aj * mz;
+      out.tjx[c] = tjx;
+      out.tjy[c] = tjy;
+      out.tjz[c] = tjz;
     }
   }
 }
 
 // Bead pairs, one contact per loop iteration (the loop vectorizes: gathers of both beads'
 // state, vector square roots and divisions, masks for the law's branches).
-template <bool kFriction>
+template <bool kFriction, bool kRolling>
 inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in,
                                                        PairBatch& batch) {
   const std::uint32_t* bead = batch.bead.data();
@@ -113,9 +134,11 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
   const double* v = in.velocity;
   const double* w = in.angular_velocity;
   const double* radius = in.radius;
+  const double* mass = in.mass;
   const double* shear = in.shear;
   // Copies: the stores to the result arrays could otherwise alias them.
   const PairParams params = in.params;
+  const double mu_r = in.rolling_friction;
   const double dt = in.dt;
   const std::size_t n = batch.size;
 
@@ -146,15 +169,22 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
       g.wx = g.wy = g.wz = 0.0;
     }
     g.r_star = EffectiveRadius(ri, rj);
+    if constexpr (kRolling) {
+      g.rwx = w[3 * i] - w[3 * j];
+      g.rwy = w[3 * i + 1] - w[3 * j + 1];
+      g.rwz = w[3 * i + 2] - w[3 * j + 2];
+      g.inertia = 1.0 / (ParticleState::InverseSphereInertia(mass[i], ri) +
+                         ParticleState::InverseSphereInertia(mass[j], rj));
+    }
     overlap_out[c] = g.overlap;
-    ResolveLane<kFriction, Partner::kBead>(g, params, dt, shear, entry[c], out, c);
+    ResolveLane<kFriction, kRolling, Partner::kBead>(g, params, mu_r, dt, shear, entry[c], out, c);
   }
 }
 
 // Beads against the plate (kOnPlate) or the side wall, one contact per loop iteration, as
 // the projectile's contacts with them are resolved: the wall does not move and takes no torque (aj
 // = 0).
-template <bool kFriction, bool kOnPlate>
+template <bool kFriction, bool kRolling, bool kOnPlate>
 inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs& in,
                                                            WallBatch& batch) {
   const std::uint32_t* bead = batch.bead.data();
@@ -177,9 +207,11 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
   const double* v = in.velocity;
   const double* w = in.angular_velocity;
   const double* radius = in.radius;
+  const double* mass = in.mass;
   const double* shear = in.shear;
   // Copies: the stores to the result arrays could otherwise alias them.
   const PairParams params = in.params;
+  const double mu_r = in.rolling_friction;
   const double dt = in.dt;
   const Container box = in.box;
   const std::size_t n = batch.size;
@@ -209,45 +241,67 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
     g.wy = g.ai * w[3 * i + 1];
     g.wz = g.ai * w[3 * i + 2];
     g.r_star = r;
+    if constexpr (kRolling) {
+      g.rwx = w[3 * i];
+      g.rwy = w[3 * i + 1];
+      g.rwz = w[3 * i + 2];
+      g.inertia = 1.0 / ParticleState::InverseSphereInertia(mass[i], r);
+    }
     overlap_out[c] = g.overlap;
-    ResolveLane<kFriction, Partner::kWall>(g, params, dt, shear, slot[c], out, c);
+    ResolveLane<kFriction, kRolling, Partner::kWall>(g, params, mu_r, dt, shear, slot[c], out, c);
   }
 }
 
-DEMBUF_VECTOR_COPIES(void, ResolveWithFriction, (const PairBatchInputs& in, PairBatch& batch),
-                     ResolveBody<true>(in, batch))
-DEMBUF_VECTOR_COPIES(void, ResolveWithoutFriction, (const PairBatchInputs& in, PairBatch& batch),
-                     ResolveBody<false>(in, batch))
-DEMBUF_VECTOR_COPIES(void, ResolvePlateWithFriction, (const WallBatchInputs& in, WallBatch& batch),
-                     (ResolveWallBody<true, true>(in, batch)))
-DEMBUF_VECTOR_COPIES(void, ResolvePlateWithoutFriction,
-                     (const WallBatchInputs& in, WallBatch& batch),
-                     (ResolveWallBody<false, true>(in, batch)))
-DEMBUF_VECTOR_COPIES(void, ResolveSideWallWithFriction,
-                     (const WallBatchInputs& in, WallBatch& batch),
-                     (ResolveWallBody<true, false>(in, batch)))
-DEMBUF_VECTOR_COPIES(void, ResolveSideWallWithoutFriction,
-                     (const WallBatchInputs& in, WallBatch& batch),
-                     (ResolveWallBody<false, false>(in, batch)))
+// One copy of each kind of contact for each set of effects (friction, rolling), each compiled
+// for several instruction sets.
+#define DEMBUF_PAIR_COPY(name, friction, rolling)                                 \
+  DEMBUF_VECTOR_COPIES(void, name, (const PairBatchInputs& in, PairBatch& batch), \
+                       (ResolveBody<friction, rolling>(in, batch)))
+#define DEMBUF_WALL_COPY(name, friction, rolling, plate)                          \
+  DEMBUF_VECTOR_COPIES(void, name, (const WallBatchInputs& in, WallBatch& batch), \
+                       (ResolveWallBody<friction, rolling, plate>(in, batch)))
+DEMBUF_PAIR_COPY(ResolvePairs, false, false)
+DEMBUF_PAIR_COPY(ResolvePairsFriction, true, false)
+DEMBUF_PAIR_COPY(ResolvePairsRolling, false, true)
+DEMBUF_PAIR_COPY(ResolvePairsFrictionRolling, true, true)
+DEMBUF_WALL_COPY(ResolvePlate, false, false, true)
+DEMBUF_WALL_COPY(ResolvePlateFriction, true, false, true)
+DEMBUF_WALL_COPY(ResolvePlateRolling, false, true, true)
+DEMBUF_WALL_COPY(ResolvePlateFrictionRolling, true, true, true)
+DEMBUF_WALL_COPY(ResolveSide, false, false, false)
+DEMBUF_WALL_COPY(ResolveSideFriction, true, false, false)
+DEMBUF_WALL_COPY(ResolveSideRolling, false, true, false)
+DEMBUF_WALL_COPY(ResolveSideFrictionRolling, true, true, false)
+#undef DEMBUF_PAIR_COPY
+#undef DEMBUF_WALL_COPY
+
+// The copy for these effects, of four in the order (none, friction, rolling, both).
+template <class F>
+F Pick(bool friction, bool rolling, const F (&copies)[4]) {
+  return copies[(friction ? 1 : 0) + (rolling ? 2 : 0)];
+}
 
 }  // namespace
 
 // Each calls the copy for this CPU (vector_copies.h), chosen at the first call.
-void ResolveWallBatch(bool friction, BodyId wall, const WallBatchInputs& in, WallBatch& batch) {
-  static const auto plate_with = DEMBUF_PICK_COPY(ResolvePlateWithFriction);
-  static const auto plate_without = DEMBUF_PICK_COPY(ResolvePlateWithoutFriction);
-  static const auto side_with = DEMBUF_PICK_COPY(ResolveSideWallWithFriction);
-  static const auto side_without = DEMBUF_PICK_COPY(ResolveSideWallWithoutFriction);
-  if (wall == kPlate)
-    (friction ? plate_with : plate_without)(in, batch);
-  else
-    (friction ? side_with : side_without)(in, batch);
+void ResolveWallBatch(bool friction, bool rolling, BodyId wall, const WallBatchInputs& in,
+                      WallBatch& batch) {
+  using Copy = void (*)(const WallBatchInputs&, WallBatch&);
+  static const Copy plate[4] = {
+      DEMBUF_PICK_COPY(ResolvePlate), DEMBUF_PICK_COPY(ResolvePlateFriction),
+      DEMBUF_PICK_COPY(ResolvePlateRolling), DEMBUF_PICK_COPY(ResolvePlateFrictionRolling)};
+  static const Copy side[4] = {DEMBUF_PICK_COPY(ResolveSide), DEMBUF_PICK_COPY(ResolveSideFriction),
+                               DEMBUF_PICK_COPY(ResolveSideRolling),
+                               DEMBUF_PICK_COPY(ResolveSideFrictionRolling)};
+  Pick(friction, rolling, wall == kPlate ? plate : side)(in, batch);
 }
 
-void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch) {
-  static const auto with = DEMBUF_PICK_COPY(ResolveWithFriction);
-  static const auto without = DEMBUF_PICK_COPY(ResolveWithoutFriction);
-  (friction ? with : without)(in, batch);
+void ResolvePairBatch(bool friction, bool rolling, const PairBatchInputs& in, PairBatch& batch) {
+  using Copy = void (*)(const PairBatchInputs&, PairBatch&);
+  static const Copy copies[4] = {
+      DEMBUF_PICK_COPY(ResolvePairs), DEMBUF_PICK_COPY(ResolvePairsFriction),
+      DEMBUF_PICK_COPY(ResolvePairsRolling), DEMBUF_PICK_COPY(ResolvePairsFrictionRolling)};
+  Pick(friction, rolling, copies)(in, batch);
 }
 
 }  // namespace dembuf::dem::detail

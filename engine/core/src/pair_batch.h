@@ -46,14 +46,18 @@ struct PairBatchInputs {
   const double* velocity;
   const double* angular_velocity;
   const double* radius;
+  const double* mass;   ///< read with rolling resistance (the beads' inertia)
   const double* shear;  ///< per list entry, 3 doubles
   PairParams params;
+  double rolling_friction;  ///< mu_r
   double dt;
 };
 
-/// Resolves the contacts of `batch`, filling its result arrays (the advanced histories too).
-/// Compiled for several instruction sets (the widest the CPU has is chosen at load time).
-void ResolvePairBatch(bool friction, const PairBatchInputs& in, PairBatch& batch);
+/// Resolves the contacts of `batch`, filling its result arrays (the advanced histories too),
+/// with the law's parts the effects ask for: friction (tangential springs) and rolling
+/// resistance (its torques join the friction's). Compiled for several instruction sets (the
+/// widest the CPU has is chosen at load time).
+void ResolvePairBatch(bool friction, bool rolling, const PairBatchInputs& in, PairBatch& batch);
 
 /// Contacts of beads with the plate or the side wall, batched like the pairs: the beads that
 /// touch (picked out beforehand), where each one's history is (`slot`), and the law's result
@@ -74,14 +78,17 @@ struct WallBatchInputs {
   const double* velocity;
   const double* angular_velocity;
   const double* radius;
+  const double* mass;   ///< read with rolling resistance (the beads' inertia)
   const double* shear;  ///< per history slot, 3 doubles: a bead's history with this wall
   PairParams params;
+  double rolling_friction;  ///< mu_r
   double dt;
   Container box;
 };
 
 /// Resolves the contacts of `batch` with the plate or the side wall (the same arithmetic as
 /// the projectile's contacts with them, so the same bits), filling its result arrays.
-void ResolveWallBatch(bool friction, BodyId wall, const WallBatchInputs& in, WallBatch& batch);
+void ResolveWallBatch(bool friction, bool rolling, BodyId wall, const WallBatchInputs& in,
+                      WallBatch& batch);
 
 }  // namespace dembuf::dem::detail

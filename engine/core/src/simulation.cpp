@@ -40,7 +40,7 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   s.friction = params.sphere_pair.friction > 0.0 || params.sphere_wall.friction > 0.0;
   s.rolling = params.rolling_friction > 0.0;
   s.pending_history = history;
-  s.parallel = m_beads.size() >= detail::kParallelMinBeads;
+  s.parallel = m_beads.size() >= kParallelMinBeads;
   s.threads = params.threads > 0 ? params.threads : omp_get_max_threads();
   s.blocks.start = {0, static_cast<std::uint32_t>(m_beads.size())};
   s.origin.resize(m_beads.size());

@@ -18,10 +18,6 @@ namespace dembuf::dem {
 
 namespace detail {
 
-// Beds of at least this many beads are kept in cell order and processed in parallel blocks;
-// smaller systems (two-body tests, a few hundred beads) keep their order and run serially.
-inline constexpr std::size_t kParallelMinBeads = 1024;
-
 // What went wrong in a pass, recorded inside the loops and acted on after them (no throwing
 // inside the hot loops). Bodies are BodyIds; kNoBody: none.
 inline constexpr BodyId kNoBody = kProjectile - 1;

@@ -175,14 +175,37 @@ inline ContactForce HertzMindlinForce(const ContactGeometry& c, const PairParams
 /// w_other less its spin about n (twisting is not rolling). A torque that would reverse the
 /// rolling within one step of dt stops it instead, so that a body at rest stays at rest
 /// instead of rocking; `inertia` is the pair's 1 / (1/I_this + 1/I_other) (I_this for a wall).
-/// Returns the torque on this body; the other body gets its opposite.
+/// The law's third part, in component form like ApplyContactLaw: the contact loops resolve it
+/// in the same lanes, and the torque on this body is added to the tangential force's (the
+/// other body gets its opposite).
+struct RollingInput {
+  double nx, ny, nz;  ///< the contact's unit normal
+  double wx, wy, wz;  ///< w_rel = w_this - w_other
+  double normal;      ///< the normal force's magnitude, from ApplyContactLaw
+  double r_star;
+  double inertia;
+};
+struct RollingOutput {
+  double tx, ty, tz;  ///< the torque on this body
+};
+DEMBUF_ALWAYS_INLINE RollingOutput ApplyRollingResistance(const RollingInput& c, double mu_r,
+                                                          double dt) {
+  const double along = c.wx * c.nx + c.wy * c.ny + c.wz * c.nz;
+  const double rx = c.wx - along * c.nx, ry = c.wy - along * c.ny, rz = c.wz - along * c.nz;
+  const double rate = std::sqrt(rx * rx + ry * ry + rz * rz);
+  const double limit = mu_r * c.r_star * c.normal;
+  const double stop = c.inertia * rate / dt;
+  const double torque = stop < limit ? stop : limit;
+  const double scale = rate > 0.0 ? -torque / rate : 0.0;  // no rolling, no torque
+  return {scale * rx, scale * ry, scale * rz};
+}
+
+/// The same in vector form: the torque on this body.
 inline Vec3 RollingResistanceTorque(const Vec3& n, const Vec3& w_rel, double normal, double r_star,
                                     double mu_r, double inertia, double dt) {
-  const Vec3 rolling = w_rel - w_rel.dot(n) * n;
-  const double rate = rolling.norm();
-  if (!(rate > 0.0)) return Vec3::Zero();
-  const double torque = std::min(mu_r * r_star * normal, inertia * rate / dt);
-  return (-torque / rate) * rolling;
+  const RollingOutput out = ApplyRollingResistance(
+      {n.x(), n.y(), n.z(), w_rel.x(), w_rel.y(), w_rel.z(), normal, r_star, inertia}, mu_r, dt);
+  return Vec3(out.tx, out.ty, out.tz);
 }
 
 /// Normal force magnitude alone (eq. 1 with the clamp).

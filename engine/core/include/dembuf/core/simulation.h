@@ -12,6 +12,11 @@
 
 namespace dembuf::dem {
 
+/// Beds of at least this many beads are kept in cell order and processed in parallel blocks;
+/// smaller systems (two-body tests, a few hundred beads) keep their order and run on one
+/// thread whatever SetThreads says.
+inline constexpr std::size_t kParallelMinBeads = 1024;
+
 /// Constants of the world, fixed for a run.
 struct WorldParams {
   Container container;

@@ -346,9 +346,9 @@ bool SettleInLammps(const Scene& scene, const World& world, const fs::path& work
 // wall) tiled side by side on the plate, a bead's diameter apart so that no two copies
 // overlap, with the core's tangential springs; then the `count` beads nearest the axis, in a
 // cylinder just wide enough for them. A bed for timing, not for physics. (Copies stacked on
-// top of each other, as earlier versions of this bench had them, fall freely: their contacts
-// unload within a few hundred steps, so 100,000 beads timed over 50 steps held 2.1 contacts
-// per bead and 1,000 timed over 2,000 steps about 1.3: the size fit compared unlike beds.)
+// top of each other would fall freely: their contacts unload within a few hundred steps, so
+// 100,000 beads timed over 50 steps would hold 2.1 contacts per bead and 1,000 timed over
+// 2,000 steps about 1.3, and a fit over sizes would compare unlike beds.)
 World TiledWorld(const World& base, std::size_t count) {
   const dem::ParticleState& b = base.beads;
   const double r_max = *std::max_element(b.radius.begin(), b.radius.end());

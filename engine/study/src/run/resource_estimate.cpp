@@ -26,7 +26,6 @@ constexpr double kSettleSecondsPerBeadStep = 60e-9;
 constexpr double kImpactSecondsPerBeadStep = 47e-9;
 constexpr double kSecondsPerStep = 1.4e-6;
 constexpr double kParallelEfficiency = 0.9;
-constexpr double kParallelMinBeads = 1024;  // smaller beds run on one thread
 
 // Memory: a simulation's resident bytes per bead (352 to 391 measured on 100,000 beads, its
 // lists and springs included); a bed kept in a cache (15 doubles and about three springs);
@@ -125,7 +124,9 @@ double ResourceEstimate::BeadStepsMax(const std::vector<std::string>& skip) cons
 
 double ResourceEstimate::PredictedSeconds(int threads, const std::vector<std::string>& skip) const {
   auto speedup = [&](double beads) {
-    return beads >= kParallelMinBeads && threads > 1 ? kParallelEfficiency * threads : 1.0;
+    return beads >= static_cast<double>(dem::kParallelMinBeads) && threads > 1
+               ? kParallelEfficiency * threads
+               : 1.0;
   };
   double seconds = 0.0;
   for (const StageEstimate& s : stages) {

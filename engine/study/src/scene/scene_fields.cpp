@@ -42,9 +42,10 @@ bool IsRegularFile(const std::string& path) {
 }
 
 // Ranges are wide enough for any physical scene the engine can handle and tight enough to
-// catch unit slips (millimetres typed as metres, GPa typed as Pa).
-const std::vector<SceneField>& FieldTable() {
-  static const std::vector<SceneField> table = {
+// catch unit slips (millimetres typed as metres, GPa typed as Pa). The table in three parts:
+// the container, the beads' material and sizes.
+std::vector<SceneField> WorldFields() {
+  return {
       {"gravity_m_s2", "m/s^2", "gravitational acceleration, downward", DEMBUF_FIELD(gravity_m_s2),
        0.0, 1000.0},
 
@@ -91,7 +92,12 @@ const std::vector<SceneField>& FieldTable() {
        DEMBUF_FIELD(beads.diameter_min_m), 0.0, 1.0, true},
       {"beads.diameter_max_m", "m", "largest bead diameter (uniform distribution)",
        DEMBUF_FIELD(beads.diameter_max_m), 0.0, 1.0, true},
+  };
+}
 
+// how the bed is made or imported.
+std::vector<SceneField> BedFields() {
+  return {
       {"bed.thickness_m", "m", "settled bed thickness H; 0 = no beads",
        DEMBUF_FIELD(bed.thickness_m), 0.0, 10.0},
       {"bed.prep_friction", "", "bead friction while the bed settles (sets the packing C0)",
@@ -141,7 +147,12 @@ const std::vector<SceneField>& FieldTable() {
        DEMBUF_FIELD(bed.max_settle_s), 0.0, 1e3, true},
       {"bed.friction_ramp_s", "s", "duration of the slow change from prep_friction to mu_pp",
        DEMBUF_FIELD(bed.friction_ramp_s), 0.0, 10.0},
+  };
+}
 
+// the projectile, the run's times and its output.
+std::vector<SceneField> ImpactFields() {
+  return {
       {"projectile.enabled", "", "drop a projectile", DEMBUF_FIELD(projectile.enabled)},
       {"projectile.diameter_m", "m", "projectile diameter D", DEMBUF_FIELD(projectile.diameter_m),
        0.0, 10.0, true},
@@ -180,6 +191,14 @@ const std::vector<SceneField>& FieldTable() {
        "0 = none",
        DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
   };
+}
+
+const std::vector<SceneField>& FieldTable() {
+  static const std::vector<SceneField> table = [] {
+    std::vector<SceneField> all = WorldFields();
+    for (auto part : {BedFields(), ImpactFields()}) all.insert(all.end(), part.begin(), part.end());
+    return all;
+  }();
   return table;
 }
 

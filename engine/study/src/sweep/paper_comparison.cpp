@@ -15,24 +15,13 @@ namespace dembuf::report {
 
 namespace {
 
-// Fields that do not change the physics the paper describes: the thickness (compared point by
-// point), the seed, the cut convention, the accuracy knobs, the outputs.
+// Fields that do not change the physics the paper describes: the bed's thickness (compared
+// point by point), its seed and every knob of how it is made (its accuracy), or imported
+// (bed.*, but for the friction it settles with, which sets its packing); the run's times and
+// its outputs.
 bool IgnoredField(const std::string& name) {
-  static const std::set<std::string> ignored = {"bed.thickness_m",
-                                                "bed.seed",
-                                                "bed.cut",
-                                                "bed.source_thickness_m",
-                                                "bed.settle_tolerance",
-                                                "bed.friction_settle_tolerance",
-                                                "bed.quench_cut_relaxation",
-                                                "bed.local_settling",
-                                                "bed.quench_cut_beads",
-                                                "bed.soft_settling",
-                                                "bed.max_settle_s",
-                                                "bed.friction_ramp_s",
-                                                "bed.import",
-                                                "bed.import_overlaps"};
-  return ignored.count(name) > 0 || name.rfind("time.", 0) == 0 || name.rfind("output.", 0) == 0;
+  const bool how_the_bed_is_made = name.rfind("bed.", 0) == 0 && name != "bed.prep_friction";
+  return how_the_bed_is_made || name.rfind("time.", 0) == 0 || name.rfind("output.", 0) == 0;
 }
 
 // The dotted names of the fields where `scene` differs from `reference` (nested JSON).

@@ -34,24 +34,17 @@ namespace dembuf {
 
 /// Version of the preparation procedure; part of every bed hash. Raise it with any change
 /// that alters the beds the procedure makes (insertion, settling, the integrator's sums), so
-/// that stale cached beds are not reused. Version 4: springs kept across a renumbering of the
-/// beads land on their own contacts (version 3 and before lost most of them at every cut and
-/// every local-settling region). Version 5: the wider list skin builds the lists at other
-/// steps, so the beads are put in cell order at other times and the force sums run in
-/// another order (another realisation of every bed).
+/// that stale cached beds are not reused. What each version changed: CHANGELOG.md.
 inline constexpr int kBedPreparationVersion = 5;
 /// Version of local settling (bed.local_settling), in the hash of the beds it makes. Raise it
-/// with any change to how it settles (its thresholds among them). Version 3: stalled regions
-/// are stopped.
+/// with any change to how it settles (its thresholds among them).
 inline constexpr int kLocalSettlingVersion = 3;
 /// Version of soft settling (bed.soft_settling), in the hash of the beds it makes.
 inline constexpr int kSoftSettlingVersion = 1;
 /// Version of the bead-by-bead kinetic damping of the cut beds (bed.quench_cut_beads), in the
 /// hash of the cut beds it makes.
 inline constexpr int kCutBeadQuenchVersion = 1;
-/// Version of the surface cut (bed.cut = "surface"), in the hash of the beds it cuts. Version
-/// 2: the cut height that puts the surface nearest to H is found also where the secant steps
-/// circled a step of the surface (version 1 kept their last, up to a radius off).
+/// Version of the surface cut (bed.cut = "surface"), in the hash of the beds it cuts.
 inline constexpr int kSurfaceCutVersion = 2;
 
 /// A bed at rest, with what was measured on it.

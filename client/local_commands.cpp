@@ -108,9 +108,10 @@ void AddSweep(CLI::App& app, RunOptions& opt, CommandTable& commands) {
                     "(P within 10% of its value at HIGH), to TOL (default 0.001)");
   sweep->add_option("--seeds", opt.seeds,
                     "N bed seeds for every point, from bed.seed on (default 1)");
-  sweep->add_option("--jobs", opt.jobs,
-                    "runs at once (default 1); the cores are shared among the runs going, so a run "
-                    "that the others wait for gets them all");
+  sweep->add_option(
+      "--jobs", opt.jobs,
+      "runs at once (default 1; at most the CPUs this process may use); the cores are "
+      "shared among the runs going, so a run that the others wait for gets them all");
   sweep->add_option("--out", opt.out_dir, "output folder (default: dembuf-sweep-<UTC time>)");
   sweep->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds");
   sweep->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");

@@ -13,6 +13,7 @@
 #include <optional>
 #include <set>
 
+#include "dembuf/core/threads.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/run/folder_recorder.h"
@@ -134,7 +135,9 @@ void SweepRunner::PrintEnd(const SweepRun& job, const RunResult& result,
 // would only wait for a bed another worker prepares passed over, the cores shared.
 void SweepRunner::RunAll() {
   const int jobs = m_options.jobs;
-  RunQueue queue(m_beds, std::max(omp_get_max_threads(), jobs), m_options.cancel);
+  // The CPUs this process may use (dem::UsableCpus), whatever --jobs says: runs beyond them
+  // wait for a core.
+  RunQueue queue(m_beds, dem::UsableCpus(), m_options.cancel);
   m_beds.OnPrepared([&](const PreparedBed& bed) {
     if (m_options.on_bed_prepared) m_options.on_bed_prepared(bed);
     queue.Wake();

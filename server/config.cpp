@@ -1,5 +1,7 @@
 #include "config.h"
 
+#include "dembuf/core/threads.h"
+
 #include <spdlog/common.h>
 
 #include <algorithm>
@@ -263,8 +265,7 @@ void ValidateConfig(ServerConfig& config) {
                   "\" must be one sbatch option, written --name=value (not --wrap)");
   }
   if (config.threads_per_job == 0) {
-    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    config.threads_per_job = std::max(1, cores / config.workers);
+    config.threads_per_job = std::max(1, dem::UsableCpus() / config.workers);
   }
 }
 

@@ -12,7 +12,7 @@ struct ServerConfig {
   std::string listen = "127.0.0.1:50051";  ///< loopback unless told otherwise
   std::string db = "dembuf.db";
   int workers = 1;
-  int threads_per_job = 0;  ///< 0: the cores divided among the workers
+  int threads_per_job = 0;  ///< 0: the usable CPUs divided among the workers
   int queue_limit = 1000;
   int max_sweep_jobs = 10000;
   std::string log_file;  ///< "" for the console only

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "dembuf/core/threads.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
 #include "dembuf/study/run/run_job.h"
@@ -33,7 +34,7 @@ ThreadExecutor::ThreadExecutor(Store& store, ThreadExecutorOptions options,
       m_options(std::move(options)),
       m_log(std::move(log)),
       m_beds(std::shared_ptr<BedStore>(&store.beds(), [](BedStore*) {}), 4),
-      m_queue(m_beds, m_options.workers * m_options.threads_per_job) {
+      m_queue(m_beds, std::min(m_options.workers * m_options.threads_per_job, dem::UsableCpus())) {
   m_beds.OnPrepared([this](const PreparedBed& bed) {
     if (t_current_job != 0) m_store.RecordBedPreparation(bed.hash, bed.stage, t_current_job);
     m_log->info("job {}: prepared the {} bed {} ({} beads, H = {:.4f} m, C0 = {:.3f})",

@@ -35,6 +35,37 @@ TEST(RunQueue, RunsGoInOrderAndAClosedQueueEndsWhenEmpty) {
   EXPECT_EQ(queue.Next(Into(threads)), std::nullopt);
 }
 
+// More workers than cores (dembuf sweep --jobs 8 on 2 cores): no more runs go at once than
+// there are cores; the others start as runs end.
+TEST(RunQueue, NoMoreRunsGoAtOnceThanThereAreCores) {
+  BedCache beds;
+  RunQueue queue(beds, 2);
+  for (RunQueue::Id id = 1; id <= 4; ++id) queue.Push(id, {});
+  queue.Close();
+  std::atomic<int> a{0}, b{0};
+  EXPECT_EQ(queue.Next(Into(a)), 1);
+  EXPECT_EQ(queue.Next(Into(b)), 2);
+  std::atomic<bool> started{false};
+  std::jthread third([&] {
+    std::atomic<int> threads{0};
+    EXPECT_EQ(queue.Next(Into(threads)), 3);
+    EXPECT_EQ(threads, 1);
+    started = true;
+    queue.Done(3);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_FALSE(started) << "a third run started on two cores";
+  EXPECT_EQ(queue.running(), 2u);
+  queue.Done(1);
+  third.join();
+  EXPECT_TRUE(started);
+  queue.Done(2);
+  std::atomic<int> last{0};
+  EXPECT_EQ(queue.Next(Into(last)), 4);
+  EXPECT_EQ(last, 2);  // alone again: both cores
+  queue.Done(4);
+}
+
 TEST(RunQueue, ARunWaitingForABedBeingPreparedIsPassedOver) {
   BedCache beds;  // empty: no bed is ready
   RunQueue queue(beds, 2);

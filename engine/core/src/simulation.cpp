@@ -4,6 +4,8 @@
 // contact_survey (histories, snapshots, energy).
 #include "dembuf/core/simulation.h"
 
+#include "dembuf/core/threads.h"
+
 #include <omp.h>
 
 #include <algorithm>
@@ -41,7 +43,8 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   s.rolling = params.rolling_friction > 0.0;
   s.pending_history = history;
   s.parallel = m_beads.size() >= kParallelMinBeads;
-  s.threads = params.threads > 0 ? params.threads : omp_get_max_threads();
+  s.threads =
+      params.threads > 0 ? params.threads : EffectiveThreads(0, m_beads.size(), UsableCpus());
   s.blocks.start = {0, static_cast<std::uint32_t>(m_beads.size())};
   s.origin.resize(m_beads.size());
   for (std::size_t i = 0; i < s.origin.size(); ++i) s.origin[i] = static_cast<std::uint32_t>(i);
@@ -216,7 +219,11 @@ std::size_t Simulation::MemoryBytes() const {
 
 void Simulation::SetThreads(int threads) {
   m_params.threads = threads;
-  m_impl->threads = threads > 0 ? threads : omp_get_max_threads();
+  m_impl->threads = threads > 0 ? threads : EffectiveThreads(0, m_beads.size(), UsableCpus());
+}
+
+int Simulation::threads() const {
+  return m_impl->threads;
 }
 
 void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
@@ -250,6 +257,7 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   s.lists.near_projectile = detail::CandidateList{};
   s.lists.valid = false;
   s.forces_valid = false;
+  if (m_params.threads <= 0) s.threads = EffectiveThreads(0, m_beads.size(), UsableCpus());
 }
 
 }  // namespace dembuf::dem

@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "dembuf/core/neighbor_list.h"
+#include "dembuf/core/threads.h"
 #include "dembuf/study/bed/bed_io.h"
 #include "dembuf/study/scene/contact_setup.h"
 #include "dembuf/study/scene/errors.h"
@@ -425,7 +426,10 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
   bool quenching = relaxation.quench;
   KineticPeak peak(sim.BeadKineticEnergy());
   while (true) {
-    if (request.threads) sim.SetThreads(request.threads->load(std::memory_order_relaxed));
+    // The share of the cores lent now, as many as the beads settling can feed (threads.h).
+    if (request.threads)
+      sim.SetThreads(dem::EffectiveThreads(request.threads->load(std::memory_order_relaxed),
+                                           sim.beads().size(), dem::UsableCpus()));
     double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
     for (int k = 0; k < kCheckEvery; ++k) {
       // Every step: 200 steps of a large bed take seconds, a cancel must act within one.

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dembuf/core/threads.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/version.h"
 
@@ -116,7 +117,8 @@ std::string WithoutSecrets(std::string line, const std::string& secret) {
 }
 
 RunContext RunStartingNow(std::string command_line) {
-  return {std::move(command_line), HostName(), UtcNow(), "", omp_get_max_threads()};
+  return {std::move(command_line), HostName(), UtcNow(), "",
+          std::min(omp_get_max_threads(), dem::UsableCpus())};
 }
 
 std::string SceneText(const Scene& scene) {

@@ -6,6 +6,7 @@
 #include <limits>
 #include <numbers>
 
+#include "dembuf/core/threads.h"
 #include "dembuf/core/time_step.h"
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/scene/errors.h"
@@ -381,7 +382,10 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
       m_summary.end_reason = "reached time.end_s";
       break;
     }
-    if (m_control.threads) m_sim.SetThreads(m_control.threads->load(std::memory_order_relaxed));
+    // The share of the cores this run has now, as many as its beads can feed (threads.h).
+    if (m_control.threads)
+      m_sim.SetThreads(dem::EffectiveThreads(m_control.threads->load(std::memory_order_relaxed),
+                                             m_summary.beads, dem::UsableCpus()));
     m_sim.Step();
     Record();
     if (const char* reason = EndReason()) {
@@ -400,6 +404,7 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
                               m_summary.beads > 0 ? m_scene.beads.MeanDiameter() : 0.0});
   m_summary.crater_depth_m = std::isfinite(m_crater) ? m_crater : 0.0;
   m_summary.steps = m_sim.steps();
+  m_summary.threads = m_sim.threads();
   m_summary.stage_times = m_sim.stage_times();
   m_summary.end_time_s = m_sim.time_s();
   m_summary.wall_time_s =

@@ -33,7 +33,7 @@ ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& contr
   const ImpactSummary summary = RunImpact(std::move(world), scene, impact);
 
   context.finished_at = report::UtcNow();
-  if (control.threads) context.threads = control.threads->load();
+  context.threads = summary.threads;
   recorder.Finished(summary, report::SummaryToJson(summary, scene, context));
   return summary;
 }

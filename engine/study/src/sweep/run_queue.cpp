@@ -65,7 +65,10 @@ std::optional<RunQueue::Id> RunQueue::Next(const std::function<std::atomic<int>*
       m_changed.wait_until(lock, m_paused_until);
       continue;
     }
-    for (auto it = m_queue.begin(); it != m_queue.end(); ++it) {
+    // A run gets a core at least: more runs than cores would wait for each other at every
+    // step (8 runs on 2 cores took 3.3 times as long as 2).
+    const bool core_free = m_running.size() < static_cast<std::size_t>(m_cores);
+    for (auto it = m_queue.begin(); core_free && it != m_queue.end(); ++it) {
       if (WaitsLocked(*it)) continue;
       const Entry run = *it;
       m_queue.erase(it);

@@ -131,8 +131,11 @@ class Simulation {
   /// applies their damping, computed with the stopped beads' old velocities.
   void StopBeads(const std::vector<std::uint32_t>& ids);
 
-  /// Threads of the next steps (0: omp_get_max_threads()). Results do not depend on it.
+  /// Threads of the next steps: exactly `threads`, or for 0 OpenMP's default within
+  /// threads.h's rule (the usable CPUs, the beads). Results do not depend on it.
   void SetThreads(int threads);
+  /// The threads the steps run on now.
+  int threads() const;
 
   /// The tangential histories of all bead contacts in touch (pairs, plate, side wall).
   std::vector<ContactHistoryEntry> ExportHistory() const;

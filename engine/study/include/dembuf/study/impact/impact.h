@@ -111,6 +111,7 @@ struct ImpactSummary {
   double dt_s = 0.0;
   double critical_dt_s = 0.0;
   std::int64_t steps = 0;  ///< integrated steps (the analytic free flight takes none)
+  int threads = 0;         ///< the engine threads of the impact's last step (dem/threads.h)
   double wall_time_s = 0.0;
   dem::DampingCalibration damping;
   double bed_surface_m = 0.0;

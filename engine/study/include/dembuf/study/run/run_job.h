@@ -39,8 +39,8 @@ class RunRecorder {
 
 /// How the caller watches and steers a run.
 struct JobControl {
-  /// Who asked and where it runs; RunJob sets started_at (when empty), finished_at and, with
-  /// `threads` given, the threads it had at the end.
+  /// Who asked and where it runs; RunJob sets started_at (when empty), finished_at and the
+  /// threads the impact ran on at its end.
   report::RunContext context;
   const std::atomic<bool>* cancel = nullptr;  ///< checked every step; RunJob throws Cancelled
   /// How many engine threads the run may use now, read as it goes (null: OpenMP's default).

@@ -3,7 +3,8 @@
 // is passed over (WaitsForBed) while the workers take others, so a bed is prepared once, by one
 // worker; when every run left waits, a worker sleeps until a bed is ready or a run ends. The
 // machine's cores are shared among the running runs (CoreShare): when every run left waits for
-// one source bed, the worker settling it gets all the cores instead of one.
+// one source bed, the worker settling it gets all the cores instead of one. No more runs go at
+// once than there are cores: workers beyond them wait for a core.
 #pragma once
 
 #include <atomic>
@@ -26,7 +27,8 @@ class RunQueue {
   using Id = std::int64_t;
   using Clock = std::chrono::steady_clock;
 
-  /// Runs share `cores` engine threads; `beds` tells which beds are ready. A set `cancel`
+  /// Runs share `cores` engine threads, at most `cores` runs at once; `beds` tells which beds
+  /// are ready. A set `cancel`
   /// makes Next return nothing (checked at least once a second).
   RunQueue(BedCache& beds, int cores, const std::atomic<bool>* cancel = nullptr);
 

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Threads by the CPUs at hand: a run asked for 16 threads (OMP_NUM_THREADS) under
+# `taskset -c 0` runs on one, and without it on no more than the CPUs this process may use
+# nor than its beads can feed (a thousand a thread); the results are the same bits.
+# Usage: threads_test.sh DEMBUF_BINARY
+set -eu
+dembuf=$1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+command -v taskset > /dev/null || { echo "taskset not installed: skipped"; exit 0; }
+
+# A bed of about 3,000 beads: enough for three threads by the bead rule.
+small=(--preset e2 --accuracy draft --set bed.thickness_m=0.01 --set bed.source_thickness_m=0.015)
+OMP_NUM_THREADS=16 taskset -c 0 "$dembuf" run "${small[@]}" --bed-cache "$work/beds" --no-plots \
+  --out "$work/one_cpu" > "$work/one.log" 2>&1 || { cat "$work/one.log"; fail "run on one CPU"; }
+OMP_NUM_THREADS=16 "$dembuf" run "${small[@]}" --bed-cache "$work/beds" --no-plots \
+  --out "$work/all_cpus" > "$work/all.log" 2>&1 || { cat "$work/all.log"; fail "run"; }
+python3 - "$work/one_cpu/summary.json" "$work/all_cpus/summary.json" <<'PY' ||
+import json, os, sys
+one, every = (json.load(open(f)) for f in sys.argv[1:3])
+cpus = len(os.sched_getaffinity(0))  # (nproc would follow OMP_NUM_THREADS)
+assert one["provenance"]["threads"] == 1, f'taskset -c 0 ran on {one["provenance"]["threads"]} threads'
+beads = every["beads"]
+allowed = max(1, min(cpus, beads // 1000))
+assert every["provenance"]["threads"] == allowed, \
+    f'{beads} beads on {cpus} CPUs ran on {every["provenance"]["threads"]} threads, not {allowed}'
+print(f'16 threads asked: 1 run under taskset -c 0, {allowed} for {beads} beads on {cpus} CPUs')
+PY
+  fail "the thread counts"
+cmp "$work/one_cpu/plate_force.csv" "$work/all_cpus/plate_force.csv" ||
+  fail "the series differ between the thread counts"
+echo "1 passed, 0 failed"

@@ -178,6 +178,26 @@ nlohmann::json StagesJson(const dem::StageTimes& t) {
           {"pair_sorts", t.pair_sorts}};
 }
 
+// The serial fraction of a speedup `speedup` on `threads` threads (Karp and Flatt, 1990):
+// e = (1/S - 1/p) / (1 - 1/p), the share of the work that did not run in parallel, as Amdahl's
+// law would have it. Measured at a few threads it predicts more: S(p) = 1 / (e + (1 - e) / p).
+double KarpFlatt(double speedup, int threads) {
+  if (threads <= 1 || speedup <= 0.0) return 0.0;
+  const double inverse_p = 1.0 / threads;
+  return (1.0 / speedup - inverse_p) / (1.0 - inverse_p);
+}
+
+// Each stage's serial fraction against its one-thread time, and the whole step's.
+nlohmann::json SerialFractions(const Timing& one, const Timing& t, int threads) {
+  auto fraction = [&](double one_s, double t_s) {
+    return t_s > 0.0 ? KarpFlatt(one_s / t_s, threads) : 0.0;
+  };
+  return {{"step", fraction(one.seconds, t.seconds)},
+          {"integration", fraction(one.stages.integration_s, t.stages.integration_s)},
+          {"neighbours", fraction(one.stages.neighbours_s, t.stages.neighbours_s)},
+          {"force_pass", fraction(one.stages.forces_s, t.stages.forces_s)}};
+}
+
 Timing Best(int repeats, const std::function<Timing()>& run) {
   Timing best;
   for (int r = 0; r < repeats; ++r) {
@@ -704,9 +724,18 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
       // Where the threads' time goes: a stage that runs on one thread (or scales badly) shows
       // here as a share growing with the thread count.
       if (projectile) PrintStages(t.stages);
+      nlohmann::json serial = nullptr;
+      if (projectile && threads > 1) {
+        serial = SerialFractions(one, t, threads);
+        std::printf("  %-44s step %.3f: integration %.3f, neighbours %.3f, force pass %.3f\n",
+                    "serial fraction (Karp-Flatt), by stage:", serial["step"].get<double>(),
+                    serial["integration"].get<double>(), serial["neighbours"].get<double>(),
+                    serial["force_pass"].get<double>());
+      }
       scaling.push_back({{"threads", threads},
                          {"timing", TimingJson(t)},
                          {"speedup", one.seconds / t.seconds},
+                         {"serial_fraction", serial},
                          {"stages", StagesJson(t.stages)}});
     }
     return scaling;

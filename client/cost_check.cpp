@@ -126,12 +126,53 @@ std::string DescribeSweep(const std::vector<ResourceEstimate>& costs, BedCache& 
                 "at most %.3g time steps, %.3g bead-steps, %.3g force samples, %s of files\n",
                 t.steps, t.bead_steps, t.samples, HumanBytes(t.files).c_str());
   out << line;
-  out << "memory: at most " << HumanBytes(t.memory) << " per run, " << jobs << " at once\n";
+  // No more runs go at once than there are cores (RunQueue).
+  const int at_once = std::max(1, std::min(jobs, cores));
+  out << "memory: at most " << HumanBytes(t.memory) << " per run, " << at_once << " at once\n";
   // Runs at once share the cores; a run alone (a source bed the others wait for) gets them all.
   const double parallel = std::max(1.0, 0.9 * std::min(std::max(jobs, 1), std::max(cores, 1)));
-  out << "predicted wall time: about " << HumanSeconds(t.seconds / parallel) << " with " << jobs
-      << (jobs == 1 ? " run" : " runs") << " at once on " << cores
-      << (cores == 1 ? " core" : " cores") << " (measured costs per bead-step, typical settling)\n";
+  out << "predicted wall time: about " << HumanSeconds(t.seconds / parallel) << " with " << at_once
+      << (at_once == 1 ? " run" : " runs") << " at once on " << cores
+      << (cores == 1 ? " usable CPU" : " usable CPUs")
+      << " (measured costs per bead-step, typical settling)\n";
+  return out.str();
+}
+
+std::string DescribeSweepPlan(const std::vector<SweepRun>& runs, BedCache& beds, int jobs,
+                              int cores) {
+  struct SourceBed {
+    std::string hash;
+    std::vector<std::string> runs;
+  };
+  std::vector<SourceBed> sources;  // in the order the queue reaches them
+  std::vector<std::string> without_source;
+  for (const std::size_t k : InterleaveBySourceBed(runs)) {
+    const SweepRun& run = runs[k];
+    if (run.beds.source_hash.empty()) {
+      without_source.push_back(run.name);
+      continue;
+    }
+    auto it = std::find_if(sources.begin(), sources.end(),
+                           [&](const SourceBed& s) { return s.hash == run.beds.source_hash; });
+    if (it == sources.end()) it = sources.insert(sources.end(), {run.beds.source_hash, {}});
+    it->runs.push_back(run.name);
+  }
+  std::ostringstream out;
+  out << "plan: " << runs.size() << " runs, " << std::max(1, std::min(jobs, cores))
+      << " at once (--jobs " << jobs << ", " << cores << " usable CPUs)\n";
+  for (const SourceBed& s : sources) {
+    out << "  source bed " << s.hash << ": ";
+    if (beds.Contains(s.hash))
+      out << "in the cache; ";
+    else
+      out << "prepared by " << s.runs.front() << ", while the other runs of it wait; ";
+    out << s.runs.size() << (s.runs.size() == 1 ? " run: " : " runs: ") << s.runs.front();
+    if (s.runs.size() > 1) out << " ... " << s.runs.back();
+    out << "\n";
+  }
+  if (!without_source.empty())
+    out << "  no source bed (bare plate or an imported bed): " << without_source.size()
+        << (without_source.size() == 1 ? " run\n" : " runs\n");
   return out.str();
 }
 

@@ -10,6 +10,7 @@
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/study/scene/scene.h"
+#include "dembuf/study/sweep/sweep_plan.h"
 
 namespace dembuf::cli {
 
@@ -29,5 +30,10 @@ std::string DescribeRun(const ResourceEstimate& estimate, BedCache& beds, int th
 /// predicted wall time with `jobs` runs at once.
 std::string DescribeSweep(const std::vector<ResourceEstimate>& costs, BedCache& beds, int jobs,
                           int cores);
+/// The order a sweep's runs go in and the beds they wait for: each source bed (prepared by
+/// the first run that needs it, or found in the cache) and the runs cut from it, with how
+/// many runs go at once (--jobs, at most `cores`).
+std::string DescribeSweepPlan(const std::vector<SweepRun>& runs, BedCache& beds, int jobs,
+                              int cores);
 
 }  // namespace dembuf::cli

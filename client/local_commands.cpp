@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "compare.h"
+#include "dembuf/core/threads.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "exit_codes.h"
 #include "plots.h"
@@ -201,7 +202,7 @@ void PrintWarnings(const std::vector<std::string>& warnings) {
 }
 
 int Cores() {
-  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return dem::UsableCpus();
 }
 
 ReportDestination::ReportDestination(const RunOptions& opt) {

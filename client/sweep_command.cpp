@@ -87,7 +87,9 @@ int SweepCommand(const RunOptions& opt) {
         std::ceil(std::log2((hc_search->high_m - hc_search->low_m) / hc_search->tolerance_m)));
     repeats = 2 + std::min(halvings, hc_search->max_steps);
   }
-  for (const SweepRun& run : ExpandSweep(base, WithSeedAxis(planned, opt.seeds, base.bed.seed))) {
+  const std::vector<SweepRun> planned_runs =
+      ExpandSweep(base, WithSeedAxis(planned, opt.seeds, base.bed.seed));
+  for (const SweepRun& run : planned_runs) {
     for (int k = 0; k < repeats; ++k) {
       scenes.push_back(run.scene);
       costs.push_back(EstimateResources(run.scene));
@@ -98,6 +100,8 @@ int SweepCommand(const RunOptions& opt) {
   PrintWarnings(warnings);
   if (opt.dry_run) {
     std::printf("%s", DescribeSweep(costs, beds, opt.jobs, Cores()).c_str());
+    if (!hc_search)
+      std::printf("%s", DescribeSweepPlan(planned_runs, beds, opt.jobs, Cores()).c_str());
     return 0;
   }
   CheckLocalCost(scenes, costs, sweep.out_dir, opt.jobs, beds, opt.yes);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Threads by the CPUs at hand: a run asked for 16 threads (OMP_NUM_THREADS) under
 # `taskset -c 0` runs on one, and without it on no more than the CPUs this process may use
-# nor than its beads can feed (a thousand a thread); the results are the same bits.
+# nor than its beads can feed (a thousand a thread); the results are the same bits. A sweep's
+# --dry-run plan runs no more at once than those CPUs.
 # Usage: threads_test.sh DEMBUF_BINARY
 set -eu
 dembuf=$1
@@ -30,4 +31,15 @@ PY
   fail "the thread counts"
 cmp "$work/one_cpu/plate_force.csv" "$work/all_cpus/plate_force.csv" ||
   fail "the series differ between the thread counts"
+# The sweep's plan: no more runs at once than CPUs, each seed's source bed once, the one the
+# runs above prepared found in the cache.
+cpus=$(python3 -c 'import os; print(len(os.sched_getaffinity(0)))')
+at_once=$((cpus < 8 ? cpus : 8))
+"$dembuf" sweep "${small[@]}" --vary bed.thickness_m=0.0099,0.01 --seeds 2 --jobs 8 --local \
+  --bed-cache "$work/beds" --dry-run > "$work/plan.txt" 2>&1 || { cat "$work/plan.txt"; fail "dry run"; }
+grep -q "^plan: 4 runs, $at_once at once (--jobs 8, $cpus usable CPUs)" "$work/plan.txt" ||
+  { cat "$work/plan.txt"; fail "the plan does not say $at_once runs at once"; }
+[ "$(grep -c '^  source bed .*: in the cache; 2 runs' "$work/plan.txt")" = 1 ] &&
+  [ "$(grep -c '^  source bed .*: prepared by .*; 2 runs' "$work/plan.txt")" = 1 ] ||
+  { cat "$work/plan.txt"; fail "the plan's source beds"; }
 echo "1 passed, 0 failed"

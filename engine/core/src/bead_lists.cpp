@@ -204,7 +204,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
 // have closed it, and takes the present positions as the reference for the next time; what
 // the beads had moved is kept for the tests of the whole lists' age.
 void SortFarPairs(const ParticleState& b, Simulation::Impl& s) {
-  ResortPairList(b, s.lists.near_gap, s.lists.pairs);
+  ResortPairList(b, s.lists.near_gap, s.lists.pairs, s.parallel ? s.threads : 1);
   s.lists.displacement_before_sort += s.lists.max_bead_displacement;
   s.lists.projectile_list_displacement += s.lists.max_bead_displacement;
   KeepReferencePositions(b, s.lists);

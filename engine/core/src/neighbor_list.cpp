@@ -170,21 +170,37 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
   list = std::move(fresh);
 }
 
-void ResortPairList(const ParticleState& beads, double near_gap, PairList& list) {
+void ResortPairList(const ParticleState& beads, double near_gap, PairList& list, int threads) {
   const std::size_t n = beads.size();
   if (list.offsets.size() != n + 1) return;  // nothing listed yet
   const Vec3* x = beads.position.data();
   const double* r = beads.radius.data();
-
-  // 1. The far pairs now near are taken out, in bead and partner order; the others close up
-  // in place. A flat loop over the entries, in blocks: each entry's bead comes from a count of
-  // the beads starting at it, as in the force pass. Every entry is written to both outputs
-  // and each count advances by the test's result: no branch to mispredict. A bead's far
-  // entries now start where the entries kept before its first end.
-  constexpr std::uint32_t kBlock = 256;
   const std::uint32_t* far_offsets = list.far_offsets.data();
   std::uint32_t* far = list.far_partners.data();
   const std::uint32_t entries = far_offsets[n];
+
+  // 1. Which far pairs are now near: the distances, the costly part, in fixed chunks of beads
+  // on the threads (each entry's flag is the same whoever computes it).
+  constexpr std::size_t kChunkBeads = 512;
+  const long chunks = static_cast<long>((n + kChunkBeads - 1) / kChunkBeads);
+  std::vector<std::uint8_t> now_near(entries);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && chunks > 1)
+  for (long c = 0; c < chunks; ++c) {
+    const std::size_t first = c * kChunkBeads, last = std::min(n, first + kChunkBeads);
+    for (std::size_t i = first; i < last; ++i)
+      for (std::uint32_t k = far_offsets[i]; k < far_offsets[i + 1]; ++k) {
+        const std::uint32_t j = far[k];
+        const double reach = r[i] + r[j] + near_gap;
+        now_near[k] = (x[i] - x[j]).squaredNorm() < reach * reach;
+      }
+  }
+
+  // 2. The far pairs now near are taken out, in bead and partner order; the others close up
+  // in place. A flat loop over the entries, in blocks: each entry's bead comes from a count of
+  // the beads starting at it, as in the force pass. Every entry is written to both outputs
+  // and each count advances by the flag: no branch to mispredict. A bead's far entries now
+  // start where the entries kept before its first end.
+  constexpr std::uint32_t kBlock = 256;
   std::vector<std::uint32_t> new_far_offsets(n + 1, 0);
   std::vector<std::uint32_t> promoted_bead, promoted_partner;
   std::uint32_t taken_bead[kBlock], taken_partner[kBlock];
@@ -204,14 +220,13 @@ void ResortPairList(const ParticleState& beads, double near_gap, PairList& list)
     for (std::uint32_t k = first; k < last; ++k) {
       owner += starts[k - first];
       const std::uint32_t j = far[k];
-      const double reach = r[owner] + r[j] + near_gap;
-      const bool now_near = (x[owner] - x[j]).squaredNorm() < reach * reach;
+      const std::uint32_t near = now_near[k];
       kept_at[k - first] = kept;
       far[kept] = j;
       taken_bead[taken] = owner;
       taken_partner[taken] = j;
-      kept += !now_near;
-      taken += now_near;
+      kept += 1 - near;
+      taken += near;
     }
     for (std::size_t next = first_owner + 1; far_offsets[next] < last; ++next) {
       new_far_offsets[next] = kept_at[far_offsets[next] - first];
@@ -224,7 +239,7 @@ void ResortPairList(const ParticleState& beads, double near_gap, PairList& list)
   list.far_offsets = std::move(new_far_offsets);
   list.far_partners.resize(kept);
 
-  // 2. They join the near part in bead and partner order, without history: a merge from the
+  // 3. They join the near part in bead and partner order, without history: a merge from the
   // back, in place. (Near pairs that have come apart stay near until the next build: they
   // cost the force pass a check each, and taking them out costs a pass over all near pairs.)
   const std::size_t promoted = promoted_bead.size();

@@ -144,8 +144,9 @@ void RebuildPairList(const ParticleState& beads, const CellGrid& grid, double sk
                      PairList& list, int threads = 1);
 
 /// Moves the far pairs of `list` that are now closer than r_i + r_j + near_gap into its near
-/// part (without history), in place. The near pairs stay, history and all.
-void ResortPairList(const ParticleState& beads, double near_gap, PairList& list);
+/// part (without history), in place. The near pairs stay, history and all. The far pairs'
+/// distances are tested on `threads` threads; the result does not depend on them.
+void ResortPairList(const ParticleState& beads, double near_gap, PairList& list, int threads = 1);
 
 /// Beads that may touch the projectile (sorted ids) and the history of each contact.
 struct CandidateList {

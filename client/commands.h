@@ -76,8 +76,6 @@ std::filesystem::path BedCacheDir(const RunOptions& options);
 /// A new folder "dembuf-KIND-<UTC time>" (with "-2", "-3", ... when taken).
 std::filesystem::path DefaultOutputDir(const std::string& kind);
 void PrintWarnings(const std::vector<std::string>& warnings);
-/// The CPUs this process may use (dem::UsableCpus: its affinity mask and CPU quota).
-int Cores();
 
 /// Where the report for people goes: stdout (the default), stderr (with --json, so that stdout
 /// carries the JSON alone) or nowhere (-q); the report's own prints and gnuplot's too.

@@ -9,7 +9,6 @@
 
 #include "commands.h"
 #include "compare.h"
-#include "dembuf/core/threads.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "exit_codes.h"
 #include "plots.h"
@@ -199,10 +198,6 @@ fs::path BedCacheDir(const RunOptions& opt) {
 
 void PrintWarnings(const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "dembuf: warning: %s\n", w.c_str());
-}
-
-int Cores() {
-  return dem::UsableCpus();
 }
 
 ReportDestination::ReportDestination(const RunOptions& opt) {

@@ -1,6 +1,7 @@
 // The commands that talk to a dembufd (remote.h), and the options that name it and say who
 // asks. Built with the service only; remote_absent.cpp stands in for it otherwise.
 #include <cstdlib>
+#include <memory>
 
 #include "commands.h"
 #include "remote.h"
@@ -101,22 +102,22 @@ void AddResultCommands(CLI::App& app, RemoteArgs& a, CommandTable& commands) {
 }  // namespace
 
 void AddRemoteCommands(CLI::App& app, RunOptions& opt, CommandTable& commands) {
-  // The arguments live as long as the program: the commands run after main's parse.
-  static RemoteArgs args;
-  app.add_option("--server", args.server_flag,
+  // The arguments live as long as the commands that read them (they run after main's parse).
+  const auto args = std::make_shared<RemoteArgs>();
+  app.add_option("--server", args->server_flag,
                  "dembufd address host:port (default: $DEMBUF_SERVER, else 127.0.0.1:50051)");
-  app.add_option("--owner", args.remote.owner, "owner of submitted jobs (default: $USER)");
-  app.add_option("--token", args.remote.token,
+  app.add_option("--owner", args->remote.owner, "owner of submitted jobs (default: $USER)");
+  app.add_option("--token", args->remote.token,
                  "API token of a server that needs one (default: $DEMBUF_TOKEN)");
-  app.add_option("--tls-ca", args.remote.tls_ca,
+  app.add_option("--tls-ca", args->remote.tls_ca,
                  "speak TLS, trusting this PEM certificate (default: $DEMBUF_TLS_CA)");
-  AddJobCommands(app, opt, args, commands);
-  AddResultCommands(app, args, commands);
+  AddJobCommands(app, opt, *args, commands);
+  AddResultCommands(app, *args, commands);
   // After the parse, before any command runs.
-  app.parse_complete_callback([&opt] { CompleteFromEnvironment(args, opt.command_line); });
-  commands.sweep_elsewhere = [](const RunOptions& o) -> std::optional<int> {
-    if (o.local || !ServerGiven(args.server_flag)) return std::nullopt;
-    return RemoteSweep(args.remote, SceneOf(o), o.vary, o.seeds, o.name, o.json);
+  app.parse_complete_callback([args, &opt] { CompleteFromEnvironment(*args, opt.command_line); });
+  commands.sweep_elsewhere = [args](const RunOptions& o) -> std::optional<int> {
+    if (o.local || !ServerGiven(args->server_flag)) return std::nullopt;
+    return RemoteSweep(args->remote, SceneOf(o), o.vary, o.seeds, o.name, o.json);
   };
 }
 

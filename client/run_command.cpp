@@ -8,6 +8,7 @@
 
 #include "commands.h"
 #include "cost_check.h"
+#include "dembuf/core/threads.h"
 #include "dembuf/study/files/provenance.h"
 #include "dembuf/study/run/folder_recorder.h"
 #include "dembuf/study/run/resource_estimate.h"
@@ -165,7 +166,7 @@ int RunCommand(const RunOptions& opt) {
   BedCache beds(BedCacheDir(opt));
   const ResourceEstimate cost = EstimateResources(scene);
   if (opt.dry_run) {
-    std::printf("%s", DescribeRun(cost, beds, Cores()).c_str());
+    std::printf("%s", DescribeRun(cost, beds, dem::UsableCpus()).c_str());
     return kExitDone;
   }
   const fs::path dir = opt.out_dir.empty() ? DefaultOutputDir("run") : fs::path(opt.out_dir);

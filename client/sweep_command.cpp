@@ -7,6 +7,7 @@
 
 #include "commands.h"
 #include "cost_check.h"
+#include "dembuf/core/threads.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/study/scene/errors.h"
@@ -99,9 +100,9 @@ int SweepCommand(const RunOptions& opt) {
   }
   PrintWarnings(warnings);
   if (opt.dry_run) {
-    std::printf("%s", DescribeSweep(costs, beds, opt.jobs, Cores()).c_str());
+    std::printf("%s", DescribeSweep(costs, beds, opt.jobs, dem::UsableCpus()).c_str());
     if (!hc_search)
-      std::printf("%s", DescribeSweepPlan(planned_runs, beds, opt.jobs, Cores()).c_str());
+      std::printf("%s", DescribeSweepPlan(planned_runs, beds, opt.jobs, dem::UsableCpus()).c_str());
     return 0;
   }
   CheckLocalCost(scenes, costs, sweep.out_dir, opt.jobs, beds, opt.yes);

@@ -43,8 +43,7 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   s.rolling = params.rolling_friction > 0.0;
   s.pending_history = history;
   s.parallel = m_beads.size() >= kParallelMinBeads;
-  s.threads =
-      params.threads > 0 ? params.threads : EffectiveThreads(0, m_beads.size(), UsableCpus());
+  ApplyThreads();
   s.blocks.start = {0, static_cast<std::uint32_t>(m_beads.size())};
   s.origin.resize(m_beads.size());
   for (std::size_t i = 0; i < s.origin.size(); ++i) s.origin[i] = static_cast<std::uint32_t>(i);
@@ -219,7 +218,21 @@ std::size_t Simulation::MemoryBytes() const {
 
 void Simulation::SetThreads(int threads) {
   m_params.threads = threads;
-  m_impl->threads = threads > 0 ? threads : EffectiveThreads(0, m_beads.size(), UsableCpus());
+  m_impl->threads_lent = false;
+  ApplyThreads();
+}
+
+void Simulation::LendThreads(int threads) {
+  m_params.threads = threads;
+  m_impl->threads_lent = true;
+  ApplyThreads();
+}
+
+void Simulation::ApplyThreads() {
+  Impl& s = *m_impl;
+  const int asked = m_params.threads;
+  s.threads =
+      asked > 0 && !s.threads_lent ? asked : EffectiveThreads(asked, m_beads.size(), UsableCpus());
 }
 
 int Simulation::threads() const {
@@ -257,7 +270,7 @@ void Simulation::RemoveBeadsMasked(const std::vector<bool>& keep) {
   s.lists.near_projectile = detail::CandidateList{};
   s.lists.valid = false;
   s.forces_valid = false;
-  if (m_params.threads <= 0) s.threads = EffectiveThreads(0, m_beads.size(), UsableCpus());
+  ApplyThreads();  // fewer beads may feed fewer threads
 }
 
 }  // namespace dembuf::dem

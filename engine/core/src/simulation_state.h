@@ -157,7 +157,8 @@ struct Simulation::Impl {
   detail::StepConditions conditions;  // what went wrong in the last pass
   bool forces_valid = false;
   int threads = 1;
-  bool parallel = false;  // beds of kParallelMinBeads or more: blocks, threads
+  bool threads_lent = false;  // LendThreads: the rule applies to the count, also as beads go
+  bool parallel = false;      // beds of kParallelMinBeads or more: blocks, threads
 };
 
 }  // namespace dembuf::dem

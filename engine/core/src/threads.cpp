@@ -65,7 +65,7 @@ double CgroupQuota() {
 }
 
 int CountUsableCpus() {
-  int cpus = std::max(1, omp_get_num_procs());  // the affinity mask's CPUs (libgomp reads it)
+  int cpus = 1;
   cpu_set_t mask;
   if (sched_getaffinity(0, sizeof mask, &mask) == 0) cpus = std::max(1, CPU_COUNT(&mask));
   const double quota = CgroupQuota();
@@ -82,9 +82,9 @@ int UsableCpus() {
 
 int EffectiveThreads(int requested, std::size_t beads, int cpus) {
   const int asked = requested > 0 ? requested : omp_get_max_threads();
-  const std::size_t fed = std::max<std::size_t>(1, beads / kMinBeadsPerThread);
-  return std::max(1, std::min({asked, std::max(cpus, 1),
-                               static_cast<int>(std::min<std::size_t>(fed, 1u << 20))}));
+  const std::size_t fed = beads / kMinBeadsPerThread;  // threads the beads can feed
+  const int allowed = std::min(asked, std::max(cpus, 1));
+  return std::max(1, fed < static_cast<std::size_t>(allowed) ? static_cast<int>(fed) : allowed);
 }
 
 }  // namespace dembuf::dem

@@ -11,7 +11,6 @@
 #include <unordered_map>
 
 #include "dembuf/core/neighbor_list.h"
-#include "dembuf/core/threads.h"
 #include "dembuf/study/bed/bed_io.h"
 #include "dembuf/study/scene/contact_setup.h"
 #include "dembuf/study/scene/errors.h"
@@ -300,6 +299,7 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
 
   const std::vector<dem::Vec3> start = region.position;
   dem::Simulation sim(params, std::move(region), std::nullopt, region_history);
+  sim.LendThreads(params.threads);  // the bed's threads, as many as the region's beads feed
   sim.SetClock(time_s, step);
   // Large regions are reordered in memory at list builds; origin maps back to region order.
   const std::vector<std::uint32_t>& origin = sim.BeadOrigins();
@@ -426,10 +426,7 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
   bool quenching = relaxation.quench;
   KineticPeak peak(sim.BeadKineticEnergy());
   while (true) {
-    // The share of the cores lent now, as many as the beads settling can feed (threads.h).
-    if (request.threads)
-      sim.SetThreads(dem::EffectiveThreads(request.threads->load(std::memory_order_relaxed),
-                                           sim.beads().size(), dem::UsableCpus()));
+    if (request.threads) sim.LendThreads(request.threads->load(std::memory_order_relaxed));
     double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
     for (int k = 0; k < kCheckEvery; ++k) {
       // Every step: 200 steps of a large bed take seconds, a cancel must act within one.

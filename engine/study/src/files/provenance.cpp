@@ -10,7 +10,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "dembuf/core/threads.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/version.h"
 
@@ -117,8 +116,7 @@ std::string WithoutSecrets(std::string line, const std::string& secret) {
 }
 
 RunContext RunStartingNow(std::string command_line) {
-  return {std::move(command_line), HostName(), UtcNow(), "",
-          std::min(omp_get_max_threads(), dem::UsableCpus())};
+  return {std::move(command_line), HostName(), UtcNow(), "", omp_get_max_threads()};
 }
 
 std::string SceneText(const Scene& scene) {

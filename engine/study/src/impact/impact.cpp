@@ -6,7 +6,6 @@
 #include <limits>
 #include <numbers>
 
-#include "dembuf/core/threads.h"
 #include "dembuf/core/time_step.h"
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/scene/errors.h"
@@ -382,10 +381,7 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
       m_summary.end_reason = "reached time.end_s";
       break;
     }
-    // The share of the cores this run has now, as many as its beads can feed (threads.h).
-    if (m_control.threads)
-      m_sim.SetThreads(dem::EffectiveThreads(m_control.threads->load(std::memory_order_relaxed),
-                                             m_summary.beads, dem::UsableCpus()));
+    if (m_control.threads) m_sim.LendThreads(m_control.threads->load(std::memory_order_relaxed));
     m_sim.Step();
     Record();
     if (const char* reason = EndReason()) {

@@ -134,6 +134,10 @@ class Simulation {
   /// Threads of the next steps: exactly `threads`, or for 0 OpenMP's default within
   /// threads.h's rule (the usable CPUs, the beads). Results do not depend on it.
   void SetThreads(int threads);
+  /// Threads lent to this run now (0: OpenMP's default): as many of them as threads.h's rule
+  /// allows for its beads and the usable CPUs, now and as beads are removed. What a run given
+  /// a share of the cores calls; SetThreads is for a count wanted exactly (the tests').
+  void LendThreads(int threads);
   /// The threads the steps run on now.
   int threads() const;
 
@@ -168,6 +172,9 @@ class Simulation {
   void ComputeForces();
   void CheckConditions();
   void CompleteKick() const;
+  /// The threads of the steps from m_params.threads: exact, or by threads.h's rule when lent
+  /// or not given.
+  void ApplyThreads();
 
   WorldParams m_params;
   // Step leaves the beads' closing half kick pending: the next step fuses it with its opening

@@ -8,6 +8,8 @@
 #include <map>
 #include <sstream>
 
+#include "dembuf/study/sweep/schedule.h"
+
 namespace dembuf::cli {
 
 namespace fs = std::filesystem;
@@ -129,50 +131,65 @@ std::string DescribeSweep(const std::vector<ResourceEstimate>& costs, BedCache& 
   // No more runs go at once than there are cores (RunQueue).
   const int at_once = std::max(1, std::min(jobs, cores));
   out << "memory: at most " << HumanBytes(t.memory) << " per run, " << at_once << " at once\n";
-  // Runs at once share the cores; a run alone (a source bed the others wait for) gets them all.
-  const double parallel = std::max(1.0, 0.9 * std::min(std::max(jobs, 1), std::max(cores, 1)));
-  out << "predicted wall time: about " << HumanSeconds(t.seconds / parallel) << " with " << at_once
-      << (at_once == 1 ? " run" : " runs") << " at once on " << cores
-      << (cores == 1 ? " usable CPU" : " usable CPUs")
-      << " (measured costs per bead-step, typical settling)\n";
   return out.str();
 }
 
 std::string DescribeSweepPlan(const std::vector<SweepRun>& runs, BedCache& beds, int jobs,
-                              int cores) {
-  struct SourceBed {
-    std::string hash;
-    std::vector<std::string> runs;
-  };
-  std::vector<SourceBed> sources;  // in the order the queue reaches them
-  std::vector<std::string> without_source;
-  for (const std::size_t k : InterleaveBySourceBed(runs)) {
-    const SweepRun& run = runs[k];
-    if (run.beds.source_hash.empty()) {
-      without_source.push_back(run.name);
-      continue;
-    }
-    auto it = std::find_if(sources.begin(), sources.end(),
-                           [&](const SourceBed& s) { return s.hash == run.beds.source_hash; });
-    if (it == sources.end()) it = sources.insert(sources.end(), {run.beds.source_hash, {}});
-    it->runs.push_back(run.name);
-  }
+                              int cores, int rounds) {
+  const std::vector<RunLoad> loads = LoadsOf(runs, &beds);
+  const SchedulePlan plan = PlanSchedule(loads, StartOrder(loads), cores, jobs);
   std::ostringstream out;
+  char line[512];
   out << "plan: " << runs.size() << " runs, " << std::max(1, std::min(jobs, cores))
       << " at once (--jobs " << jobs << ", " << cores << " usable CPUs)\n";
-  for (const SourceBed& s : sources) {
-    out << "  source bed " << s.hash << ": ";
-    if (beds.Contains(s.hash))
-      out << "in the cache; ";
+  // Each source bed: cached, or prepared by the run that starts first with it.
+  std::vector<std::string> listed;
+  for (const PlannedRun& p : plan.runs) {
+    const std::string& hash = runs[p.run].beds.source_hash;
+    if (hash.empty() || std::find(listed.begin(), listed.end(), hash) != listed.end()) continue;
+    listed.push_back(hash);
+    const auto of_bed = std::count_if(
+        runs.begin(), runs.end(), [&](const SweepRun& r) { return r.beds.source_hash == hash; });
+    if (!p.prepares_source)
+      std::snprintf(line, sizeof line, "  source bed %s: in the cache; %td %s\n", hash.c_str(),
+                    of_bed, of_bed == 1 ? "run" : "runs");
     else
-      out << "prepared by " << s.runs.front() << ", while the other runs of it wait; ";
-    out << s.runs.size() << (s.runs.size() == 1 ? " run: " : " runs: ") << s.runs.front();
-    if (s.runs.size() > 1) out << " ... " << s.runs.back();
-    out << "\n";
+      std::snprintf(line, sizeof line,
+                    "  source bed %s: prepared by %s on %d %s, while the other runs of it wait; "
+                    "%td %s\n",
+                    hash.c_str(), runs[p.run].name.c_str(), p.threads_at_start,
+                    p.threads_at_start == 1 ? "thread" : "threads", of_bed,
+                    of_bed == 1 ? "run" : "runs");
+    out << line;
   }
-  if (!without_source.empty())
-    out << "  no source bed (bare plate or an imported bed): " << without_source.size()
-        << (without_source.size() == 1 ? " run\n" : " runs\n");
+  const auto without_source = std::count_if(
+      runs.begin(), runs.end(), [](const SweepRun& r) { return r.beds.source_hash.empty(); });
+  if (without_source > 0)
+    out << "  no source bed (bare plate or an imported bed): " << without_source
+        << (without_source == 1 ? " run, beside the others\n" : " runs, beside the others\n");
+  // When each run starts, heaviest first within a source bed.
+  out << "  start order (predicted start, threads):";
+  for (std::size_t k = 0; k < plan.runs.size(); ++k) {
+    if (k == 8 && plan.runs.size() > 10) {
+      out << " ... (" << plan.runs.size() - 9 << " more)";
+      k = plan.runs.size() - 1;
+    }
+    std::snprintf(line, sizeof line, "%s %s at %s (%d)", k == 0 ? "" : ",",
+                  runs[plan.runs[k].run].name.c_str(), HumanSeconds(plan.runs[k].start_s).c_str(),
+                  plan.runs[k].threads_at_start);
+    out << line;
+  }
+  out << "\n";
+  const double busy = plan.wall_s > 0 ? plan.one_thread_s / (plan.wall_s * plan.cores) : 0.0;
+  out << "predicted wall time: about " << HumanSeconds(rounds * plan.wall_s);
+  if (rounds > 1)
+    out << " (" << rounds << " steps of the search, " << HumanSeconds(plan.wall_s) << " each)";
+  std::snprintf(line, sizeof line,
+                " on %d usable %s (%s of one thread's work, %.0f%% of the cores; measured costs "
+                "per bead-step, typical settling, a serial fraction of %.2f a step)\n",
+                cores, cores == 1 ? "CPU" : "CPUs",
+                HumanSeconds(rounds * plan.one_thread_s).c_str(), 100 * busy, kStepSerialFraction);
+  out << line;
   return out.str();
 }
 

@@ -26,14 +26,16 @@ void CheckLocalCost(const std::vector<Scene>& scenes, const std::vector<Resource
 
 /// The text of `dembuf run --dry-run`.
 std::string DescribeRun(const ResourceEstimate& estimate, BedCache& beds, int threads);
-/// The text of `dembuf sweep --dry-run`: its beds (each once, cached or not), its runs and the
-/// predicted wall time with `jobs` runs at once.
+/// The text of `dembuf sweep --dry-run`: its beds (each once, cached or not), its runs, their
+/// files and memory with `jobs` runs at once.
 std::string DescribeSweep(const std::vector<ResourceEstimate>& costs, BedCache& beds, int jobs,
                           int cores);
-/// The order a sweep's runs go in and the beds they wait for: each source bed (prepared by
-/// the first run that needs it, or found in the cache) and the runs cut from it, with how
-/// many runs go at once (--jobs, at most `cores`).
+/// The schedule of a sweep's runs (schedule.h): each source bed, prepared by the run that
+/// starts first with it on the threads it is given, or found in the cache; the order the runs
+/// start in with their predicted start and threads; and the predicted wall time on `cores`
+/// usable CPUs with at most `jobs` runs at once, times `rounds` for a search that runs the
+/// same runs once a step.
 std::string DescribeSweepPlan(const std::vector<SweepRun>& runs, BedCache& beds, int jobs,
-                              int cores);
+                              int cores, int rounds = 1);
 
 }  // namespace dembuf::cli

@@ -101,8 +101,8 @@ int SweepCommand(const RunOptions& opt) {
   PrintWarnings(warnings);
   if (opt.dry_run) {
     std::printf("%s", DescribeSweep(costs, beds, opt.jobs, dem::UsableCpus()).c_str());
-    if (!hc_search)
-      std::printf("%s", DescribeSweepPlan(planned_runs, beds, opt.jobs, dem::UsableCpus()).c_str());
+    std::printf(
+        "%s", DescribeSweepPlan(planned_runs, beds, opt.jobs, dem::UsableCpus(), repeats).c_str());
     return 0;
   }
   CheckLocalCost(scenes, costs, sweep.out_dir, opt.jobs, beds, opt.yes);

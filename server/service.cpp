@@ -12,6 +12,7 @@
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/sweep/schedule.h"
 #include "dembuf/study/sweep/sweep_plan.h"
 #include "dembuf/study/text/content_hash.h"
 #include "dembuf/study/text/text_limits.h"
@@ -409,7 +410,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
       sweep.owner = owner;
       sweep.name = request->name().empty() ? "sweep" : request->name();
       sweep.axes = axes;
-      for (std::size_t k : InterleaveBySourceBed(runs)) {
+      for (std::size_t k : StartOrder(LoadsOf(runs))) {
         for (const std::string& w : SceneWarnings(runs[k].scene))
           if (std::find(warnings.begin(), warnings.end(), w) == warnings.end())
             warnings.push_back(w);

@@ -7,6 +7,7 @@
 #include "dembuf/core/threads.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
+#include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/study/run/run_job.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
@@ -25,6 +26,19 @@ thread_local std::int64_t t_current_job = 0;
 // How often the engine reports progress and checks the cancel flag, in steps: a few
 // milliseconds even for the largest beds, so that a cancel takes effect within a second.
 constexpr std::int64_t kProgressEverySteps = 64;
+
+// What the queue needs to know of a job: its beds, and how many threads they can feed. A
+// scene the estimate cannot take (a bed file gone) fails when it runs, and may take any core.
+RunQueue::Needs QueueNeeds(const JobRecord& job) {
+  RunQueue::Needs needs{{job.source_hash, job.bed_hash}, {}};
+  try {
+    const Scene scene = LoadSceneText(job.scene_toml, "job " + std::to_string(job.id));
+    needs.load = LoadOf(EstimateResources(scene), job.source_hash);
+  } catch (const std::exception&) {
+    needs.load.source_hash = job.source_hash;
+  }
+  return needs;
+}
 
 }  // namespace
 
@@ -59,8 +73,7 @@ void ThreadExecutor::Start() {
         "job {} was {} when the daemon stopped, for the second time: failed as a poison job, "
         "not run again",
         job.id, StateName(job.state));
-  for (const JobRecord& job : m_store.QueuedJobs())
-    m_queue.Push(job.id, {job.source_hash, job.bed_hash});
+  for (const JobRecord& job : m_store.QueuedJobs()) m_queue.Push(job.id, QueueNeeds(job));
   m_log->info("{} jobs queued; starting {} workers with {} threads each", m_queue.queued(),
               m_options.workers, m_options.threads_per_job);
   for (int w = 0; w < m_options.workers; ++w) m_workers.emplace_back([this, w] { WorkerLoop(w); });
@@ -73,11 +86,11 @@ void ThreadExecutor::Admit(std::size_t count, const std::function<std::vector<Jo
     if (m_stopping) throw QueueFull("the daemon is shutting down");
   }
   CheckQueueRoom(m_queue.queued(), count, m_options.queue_limit);
-  for (const JobRecord& job : add()) m_queue.Push(job.id, {job.source_hash, job.bed_hash});
+  for (const JobRecord& job : add()) m_queue.Push(job.id, QueueNeeds(job));
 }
 
 bool ThreadExecutor::Cancel(std::int64_t id) {
-  if (const std::optional<BedNeeds> needs = m_queue.Remove(id)) {
+  if (const std::optional<RunQueue::Needs> needs = m_queue.Remove(id)) {
     try {
       m_store.FinishJob(id, JobState::kCancelled, "cancelled while queued", {});
     } catch (const StorageFull&) {

@@ -18,7 +18,6 @@
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
-#include "dembuf/study/sweep/core_share.h"
 
 #include "engine/small_bed.h"
 #include "engine/temp_path.h"
@@ -697,16 +696,6 @@ TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
   Scene mu = s;
   mu.material.friction_bead_bead = 0.2;
   EXPECT_EQ(BedSourceHash(mu), BedSourceHash(s));
-}
-
-TEST(CoreShare, IdleRunnersLendTheirCores) {
-  EXPECT_EQ(CoreShare(2, 1, 0), 2);  // a sweep's last run, or a bed the other worker waits for
-  EXPECT_EQ(CoreShare(2, 2, 0), 1);
-  EXPECT_EQ(CoreShare(2, 2, 1), 1);
-  EXPECT_EQ(CoreShare(5, 2, 0), 3);  // the remainder goes to the first
-  EXPECT_EQ(CoreShare(5, 2, 1), 2);
-  EXPECT_EQ(CoreShare(2, 4, 3), 1);  // more runners than cores: one thread each
-  EXPECT_EQ(CoreShare(8, 0, 0), 8);
 }
 
 // 1500 beads (enough for the parallel blocks, >= 1024) in a 3 cm cylinder, thrown in random

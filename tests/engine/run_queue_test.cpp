@@ -69,9 +69,9 @@ TEST(RunQueue, NoMoreRunsGoAtOnceThanThereAreCores) {
 TEST(RunQueue, ARunWaitingForABedBeingPreparedIsPassedOver) {
   BedCache beds;  // empty: no bed is ready
   RunQueue queue(beds, 2);
-  queue.Push(1, {"source-a", "bed-a1"});
-  queue.Push(2, {"source-a", "bed-a2"});  // same source bed as run 1
-  queue.Push(3, {"source-b", "bed-b1"});
+  queue.Push(1, {{"source-a", "bed-a1"}, {}});
+  queue.Push(2, {{"source-a", "bed-a2"}, {}});  // same source bed as run 1
+  queue.Push(3, {{"source-b", "bed-b1"}, {}});
   queue.Close();
   std::atomic<int> first{0}, second{0};
   EXPECT_EQ(queue.Next(Into(first)), 1);
@@ -93,14 +93,43 @@ TEST(RunQueue, ARunWaitingForABedBeingPreparedIsPassedOver) {
   EXPECT_TRUE(started);
 }
 
+// On 16 cores: the run preparing a source bed that others wait for keeps the cores its beds
+// can feed while an independent run goes beside it; once the bed is ready, the cores follow
+// what each run's own bed can feed.
+TEST(RunQueue, ARunOthersWaitForGetsTheCoresItsBedsCanFeed) {
+  BedCache beds;
+  RunQueue queue(beds, 16);
+  const RunLoad heavy{true, "source-a", 36805, 100, 8000, 10};
+  queue.Push(1, {{"source-a", "bed-a1"}, heavy});
+  queue.Push(2, {{"source-a", "bed-a2"}, heavy});
+  queue.Push(3, {{"source-a", "bed-a3"}, heavy});
+  queue.Push(4, {{"", ""}, {true, "", 0, 0, 0, 1}});  // a bare plate: one thread's work
+  queue.Close();
+  std::atomic<int> preparer{0}, bare{0};
+  EXPECT_EQ(queue.Next(Into(preparer)), 1);
+  EXPECT_EQ(preparer, 16);
+  EXPECT_EQ(queue.Next(Into(bare)), 4);  // runs 2 and 3 wait for run 1's bed
+  EXPECT_EQ(preparer, 15);
+  EXPECT_EQ(bare, 1);
+  // The source bed is ready: run 1 goes on to its 8,000-bead cut, which feeds 8 threads.
+  PreparedBed source;
+  source.hash = "source-a";
+  beds.FindOrMake("source-a", "source", [&] { return source; });
+  queue.Wake();
+  EXPECT_EQ(preparer, 8);
+  EXPECT_EQ(bare, 1);
+  queue.Done(4);
+  queue.Done(1);
+}
+
 TEST(RunQueue, RemovedRequeuedAndStopped) {
   BedCache beds;
   RunQueue queue(beds, 1);
-  queue.Push(1, {"s", "b"});
+  queue.Push(1, {{"s", "b"}, {}});
   queue.Push(2, {});
-  const std::optional<BedNeeds> removed = queue.Remove(1);
+  const std::optional<RunQueue::Needs> removed = queue.Remove(1);
   ASSERT_TRUE(removed);
-  EXPECT_EQ(removed->bed_hash, "b");
+  EXPECT_EQ(removed->beds.bed_hash, "b");
   EXPECT_FALSE(queue.Remove(1));
   std::atomic<int> threads{0};
   EXPECT_EQ(queue.Next(Into(threads)), 2);

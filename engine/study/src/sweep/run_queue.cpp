@@ -3,14 +3,12 @@
 #include <algorithm>
 #include <vector>
 
-#include "dembuf/study/sweep/core_share.h"
-
 namespace dembuf {
 
 RunQueue::RunQueue(BedCache& beds, int cores, const std::atomic<bool>* cancel)
     : m_beds(beds), m_cores(std::max(cores, 1)), m_cancel(cancel) {}
 
-void RunQueue::Push(Id id, const BedNeeds& needs) {
+void RunQueue::Push(Id id, const Needs& needs) {
   {
     std::lock_guard lock(m_mutex);
     m_queue.push_back({id, needs});
@@ -18,7 +16,7 @@ void RunQueue::Push(Id id, const BedNeeds& needs) {
   m_changed.notify_all();
 }
 
-void RunQueue::PushFront(Id id, const BedNeeds& needs) {
+void RunQueue::PushFront(Id id, const Needs& needs) {
   {
     std::lock_guard lock(m_mutex);
     m_queue.push_front({id, needs});
@@ -26,13 +24,14 @@ void RunQueue::PushFront(Id id, const BedNeeds& needs) {
   m_changed.notify_all();
 }
 
-std::optional<BedNeeds> RunQueue::Remove(Id id) {
+std::optional<RunQueue::Needs> RunQueue::Remove(Id id) {
   std::lock_guard lock(m_mutex);
   const auto it =
       std::find_if(m_queue.begin(), m_queue.end(), [&](const Entry& e) { return e.id == id; });
   if (it == m_queue.end()) return std::nullopt;
-  BedNeeds needs = it->needs;
+  Needs needs = it->needs;
   m_queue.erase(it);
+  ShareCoresLocked();  // a run that waited for a bed no longer does
   return needs;
 }
 
@@ -52,8 +51,8 @@ bool RunQueue::WaitsLocked(const Entry& run) {
   // A bed another worker is preparing will be ready soon; preparing it twice would waste a
   // worker, and waiting for it would idle one.
   std::vector<BedNeeds> busy;
-  for (const auto& [id, running] : m_running) busy.push_back(running.needs);
-  return WaitsForBed(run.needs, busy, m_beds);
+  for (const auto& [id, running] : m_running) busy.push_back(running.needs.beds);
+  return WaitsForBed(run.needs.beds, busy, m_beds);
 }
 
 std::optional<RunQueue::Id> RunQueue::Next(const std::function<std::atomic<int>*(Id)>& start) {
@@ -92,10 +91,25 @@ void RunQueue::Done(Id id) {
 }
 
 void RunQueue::ShareCoresLocked() {
-  const int running = static_cast<int>(m_running.size());
-  int rank = 0;
-  for (auto& [id, run] : m_running)
-    if (run.threads) *run.threads = CoreShare(m_cores, running, rank++);
+  std::vector<CoreClaim> claims;
+  for (const auto& [id, run] : m_running) {
+    // A running run whose source bed is not ready is the one preparing it (WaitsForBed).
+    const std::string& source = run.needs.beds.source_hash;
+    const bool preparing = !source.empty() && !m_beds.Contains(source);
+    CoreClaim claim{ThreadsMax(run.needs.load, preparing, m_cores), 0};
+    if (preparing)
+      claim.waiting =
+          static_cast<int>(std::count_if(m_queue.begin(), m_queue.end(), [&](const Entry& e) {
+            return e.needs.beds.source_hash == source;
+          }));
+    claims.push_back(claim);
+  }
+  const std::vector<int> threads = ShareCores(m_cores, claims);
+  std::size_t k = 0;
+  for (auto& [id, run] : m_running) {
+    if (run.threads) *run.threads = threads[k];
+    ++k;
+  }
 }
 
 void RunQueue::Close() {
@@ -120,6 +134,10 @@ void RunQueue::PauseUntil(Clock::time_point until) {
 }
 
 void RunQueue::Wake() {
+  {
+    std::lock_guard lock(m_mutex);
+    ShareCoresLocked();
+  }
   m_changed.notify_all();
 }
 

@@ -164,14 +164,4 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
   return runs;
 }
 
-std::vector<std::size_t> InterleaveBySourceBed(const std::vector<SweepRun>& runs) {
-  std::map<std::string, std::vector<std::size_t>> by_source;
-  for (const SweepRun& run : runs) by_source[run.beds.source_hash].push_back(run.index);
-  std::vector<std::size_t> order;
-  for (std::size_t round = 0; order.size() < runs.size(); ++round)
-    for (const auto& [hash, list] : by_source)
-      if (round < list.size()) order.push_back(list[round]);
-  return order;
-}
-
 }  // namespace dembuf

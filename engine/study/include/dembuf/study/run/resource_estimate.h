@@ -23,6 +23,7 @@ struct StageEstimate {
   double beads = 0.0;             ///< beads settled in this stage
   double steps_max = 0.0;         ///< time steps if it settles for bed.max_settle_s
   double typical_settle_s = 0.0;  ///< simulated time a typical bed needs (for the prediction)
+  double step_factor = 1.0;       ///< its time step over the impact's (soft settling)
 };
 
 struct ResourceEstimate {
@@ -45,6 +46,9 @@ struct ResourceEstimate {
   double BeadStepsMax(const std::vector<std::string>& skip = {}) const;
   /// Predicted wall time on `threads` engine threads, with typical settling times.
   double PredictedSeconds(int threads, const std::vector<std::string>& skip = {}) const;
+  /// The same for one stage, and for the impact alone.
+  double StageSeconds(const StageEstimate& stage, int threads) const;
+  double ImpactSeconds(int threads) const;
 };
 
 /// The estimate for a validated scene. Reads an imported bed file (bounded in size) for its

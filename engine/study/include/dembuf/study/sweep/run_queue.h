@@ -2,9 +2,10 @@
 // alike. Runs go in their order, except that a run whose bed another running run is preparing
 // is passed over (WaitsForBed) while the workers take others, so a bed is prepared once, by one
 // worker; when every run left waits, a worker sleeps until a bed is ready or a run ends. The
-// machine's cores are shared among the running runs (CoreShare): when every run left waits for
-// one source bed, the worker settling it gets all the cores instead of one. No more runs go at
-// once than there are cores: workers beyond them wait for a core.
+// machine's cores are shared among the running runs by what each can use (ShareCores): a run
+// preparing a source bed others wait for gets the cores its beds can feed first, and cores no
+// run can feed stay free. No more runs go at once than there are cores: workers beyond them
+// wait for a core.
 #pragma once
 
 #include <atomic>
@@ -19,6 +20,7 @@
 #include <optional>
 
 #include "dembuf/study/bed/bed.h"
+#include "dembuf/study/sweep/schedule.h"
 
 namespace dembuf {
 
@@ -26,6 +28,12 @@ class RunQueue {
  public:
   using Id = std::int64_t;
   using Clock = std::chrono::steady_clock;
+  /// What the queue knows of a run: the beds it needs, and how many threads they can feed
+  /// (without a load, it may take every core).
+  struct Needs {
+    BedNeeds beds;
+    RunLoad load;
+  };
 
   /// Runs share `cores` engine threads, at most `cores` runs at once; `beds` tells which beds
   /// are ready. A set `cancel`
@@ -33,10 +41,10 @@ class RunQueue {
   RunQueue(BedCache& beds, int cores, const std::atomic<bool>* cancel = nullptr);
 
   /// Adds a run at the back, or at the front (a run that keeps its turn).
-  void Push(Id id, const BedNeeds& needs);
-  void PushFront(Id id, const BedNeeds& needs);
-  /// Takes a queued run out; its bed needs, or nothing if it is not queued.
-  std::optional<BedNeeds> Remove(Id id);
+  void Push(Id id, const Needs& needs);
+  void PushFront(Id id, const Needs& needs);
+  /// Takes a queued run out; its needs, or nothing if it is not queued.
+  std::optional<Needs> Remove(Id id);
   /// Puts a running run back at the front (it could not finish now and keeps its turn).
   void Requeue(Id id);
 
@@ -54,7 +62,8 @@ class RunQueue {
   void Stop();
   /// No run starts before `until` (the workers pause, e.g. while the disk is full).
   void PauseUntil(Clock::time_point until);
-  /// Something a waiting run may need has changed (a bed was prepared).
+  /// Something a waiting run may need has changed (a bed was prepared): the runs waiting
+  /// for it may go, and the cores are shared again.
   void Wake();
 
   std::size_t queued() const;
@@ -63,10 +72,10 @@ class RunQueue {
  private:
   struct Entry {
     Id id;
-    BedNeeds needs;
+    Needs needs;
   };
   struct Running {
-    BedNeeds needs;
+    Needs needs;
     std::atomic<int>* threads;
   };
   bool WaitsLocked(const Entry& run);

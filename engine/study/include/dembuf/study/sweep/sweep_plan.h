@@ -58,8 +58,4 @@ struct SweepRun {
 std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
                                   std::size_t max_runs = 100000);
 
-/// Run indices in round-robin order over the source beds, so that parallel workers start by
-/// settling different beds instead of waiting for the same one.
-std::vector<std::size_t> InterleaveBySourceBed(const std::vector<SweepRun>& runs);
-
 }  // namespace dembuf

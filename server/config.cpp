@@ -5,6 +5,7 @@
 #include <spdlog/common.h>
 
 #include <algorithm>
+#include <charconv>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -115,6 +116,10 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
                         "request on every address carries a token) or \"local\"");
     if (setting == settings.end())
       throw ConfigError("configuration " + path + ": unknown setting \"" + key + "\"");
+    if (key == "workers" && value.is_string()) {  // "auto", or a number
+      config.workers = ParseWorkers(value.as_string());
+      continue;
+    }
     std::visit(
         [&](auto* target) {
           using T = std::remove_pointer_t<decltype(target)>;
@@ -133,6 +138,16 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
         },
         setting->second);
   }
+}
+
+int ParseWorkers(const std::string& text) {
+  if (text == "auto") return kAutoWorkers;
+  int workers = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), workers);
+  if (error != std::errc() || end != text.data() + text.size() || workers < 1 || workers > 256)
+    throw ConfigError("workers: \"" + text +
+                      "\" is not a number of workers: 1 to 256, or \"auto\" (one per usable CPU)");
+  return workers;
 }
 
 int ListenPort(const std::string& listen) {
@@ -174,7 +189,8 @@ void ValidateConfig(ServerConfig& config) {
   };
   ListenPort(config.listen);
   require(!config.db.empty(), "db: give a database file");
-  require(config.workers >= 1 && config.workers <= 256, "workers: must be 1 to 256");
+  require(config.workers >= 0 && config.workers <= 256,
+          "workers: " + std::to_string(config.workers) + " is out of range: 1 to 256, or \"auto\"");
   require(config.threads_per_job >= 0 && config.threads_per_job <= 256,
           "threads_per_job: must be 0 (automatic) to 256");
   require(config.queue_limit >= 1 && config.queue_limit <= 1000000,
@@ -264,6 +280,7 @@ void ValidateConfig(ServerConfig& config) {
               "slurm.extra_args: \"" + arg +
                   "\" must be one sbatch option, written --name=value (not --wrap)");
   }
+  if (config.workers == kAutoWorkers) config.workers = std::min(256, dem::UsableCpus());
   if (config.threads_per_job == 0) {
     config.threads_per_job = std::max(1, dem::UsableCpus() / config.workers);
   }

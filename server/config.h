@@ -8,10 +8,14 @@
 
 namespace dembuf::server {
 
+/// workers = "auto": one worker per CPU this process may use; the running jobs share the
+/// CPUs by what their beds can feed (schedule.h).
+inline constexpr int kAutoWorkers = 0;
+
 struct ServerConfig {
   std::string listen = "127.0.0.1:50051";  ///< loopback unless told otherwise
   std::string db = "dembuf.db";
-  int workers = 1;
+  int workers = 0;          ///< kAutoWorkers ("auto"): one per usable CPU
   int threads_per_job = 0;  ///< 0: the usable CPUs divided among the workers
   int queue_limit = 1000;
   int max_sweep_jobs = 10000;
@@ -85,6 +89,10 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
 
 /// The port of a listen address "HOST:PORT" or "[IPv6]:PORT" (0: any free port); -1 for a
 /// "unix:PATH" socket. Throws ConfigError naming `listen` for anything else.
+/// A worker count as written in the configuration or on the command line: 1 to 256, or
+/// "auto" (kAutoWorkers). Throws ConfigError naming the value and the range.
+int ParseWorkers(const std::string& text);
+
 int ListenPort(const std::string& listen);
 
 /// The web side's address: "HOST:PORT", or "127.0.0.1:PORT" for a port alone. Throws

@@ -27,7 +27,8 @@ inline constexpr int kReflectionStreams = 16;
 /// What the command line asked for.
 struct DaemonArgs {
   std::string config_file;
-  ServerConfig flags;  ///< the flags' values; only those given override the file
+  ServerConfig flags;   ///< the flags' values; only those given override the file
+  std::string workers;  ///< --workers as given ("auto" or a number)
   std::vector<std::pair<const CLI::Option*, std::function<void(ServerConfig&)>>> given;
   CLI::App* token_create = nullptr;
   CLI::App* token_revoke = nullptr;

@@ -31,7 +31,11 @@ void SetupDaemonArgs(CLI::App& app, DaemonArgs& args) {
       ->check(CLI::ExistingFile);
   AddSetting(app, args, "--listen", &ServerConfig::listen, "address to serve, host:port");
   AddSetting(app, args, "--db", &ServerConfig::db, "SQLite database file (created if absent)");
-  AddSetting(app, args, "--workers", &ServerConfig::workers, "jobs run at once");
+  const CLI::Option* workers =
+      app.add_option("--workers", args.workers,
+                     "jobs run at once: 1 to 256, or auto (one per usable CPU; the default)");
+  args.given.emplace_back(
+      workers, [&args](ServerConfig& config) { config.workers = ParseWorkers(args.workers); });
   AddSetting(app, args, "--threads-per-job", &ServerConfig::threads_per_job,
              "engine threads per job (0: cores / workers)");
   AddSetting(app, args, "--queue-limit", &ServerConfig::queue_limit, "queued jobs at most");

@@ -26,7 +26,8 @@ struct RunOptions {
   std::vector<std::string> vary;
   std::string find_hc;  ///< "LOW:HIGH[:TOLERANCE]" in metres: dembuf sweep --find-hc
   int seeds = 1;
-  int jobs = 1;
+  int jobs = 0;       ///< sweep runs at once; 0: one per usable CPU
+  int plan_cpus = 0;  ///< sweep --dry-run: plan for this many CPUs (0: this machine's)
   bool local = false;
   std::string name;
   std::string samples_out;  ///< also stream the samples, packed, to this file

@@ -110,8 +110,12 @@ void AddSweep(CLI::App& app, RunOptions& opt, CommandTable& commands) {
                     "N bed seeds for every point, from bed.seed on (default 1)");
   sweep->add_option(
       "--jobs", opt.jobs,
-      "runs at once (default 1; at most the CPUs this process may use); the cores are "
-      "shared among the runs going, so a run that the others wait for gets them all");
+      "runs at once (default 0: one per CPU this process may use, never more); the cores are "
+      "shared among the runs going by what their beds can feed, a run that others wait for "
+      "first");
+  sweep->add_option("--plan-cpus", opt.plan_cpus,
+                    "with --dry-run: plan for this many CPUs instead of this machine's (a lab "
+                    "server's, a cluster node's), 1 to 1024");
   sweep->add_option("--out", opt.out_dir, "output folder (default: dembuf-sweep-<UTC time>)");
   sweep->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds");
   sweep->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");

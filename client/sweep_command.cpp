@@ -68,10 +68,15 @@ int SweepCommand(const RunOptions& opt) {
   for (const auto& spec : opt.vary) sweep.axes.push_back(ParseSweepAxis(spec));
   if (opt.seeds < 1 || opt.seeds > 1000)
     throw SceneError("--seeds", std::to_string(opt.seeds) + " is out of range: 1 to 1000");
-  if (opt.jobs < 1 || opt.jobs > 256)
-    throw SceneError("--jobs", std::to_string(opt.jobs) + " is out of range: 1 to 256");
+  if (opt.jobs < 0 || opt.jobs > 256)
+    throw SceneError("--jobs", std::to_string(opt.jobs) +
+                                   " is out of range: 1 to 256, or 0 for one per usable CPU");
+  if (opt.plan_cpus != 0 && (!opt.dry_run || opt.plan_cpus < 1 || opt.plan_cpus > 1024))
+    throw SceneError("--plan-cpus", std::to_string(opt.plan_cpus) +
+                                        (opt.dry_run ? " is out of range: 1 to 1024"
+                                                     : ": it plans a dry run; add --dry-run"));
   sweep.seeds = opt.seeds;
-  sweep.jobs = opt.jobs;
+  sweep.jobs = opt.jobs > 0 ? opt.jobs : std::min(256, dem::UsableCpus());
   sweep.command_line = opt.command_line;
   sweep.out_dir = opt.out_dir.empty() ? DefaultOutputDir("sweep") : fs::path(opt.out_dir);
   BedCache beds(BedCacheDir(opt));
@@ -100,12 +105,13 @@ int SweepCommand(const RunOptions& opt) {
   }
   PrintWarnings(warnings);
   if (opt.dry_run) {
-    std::printf("%s", DescribeSweep(costs, beds, opt.jobs, dem::UsableCpus()).c_str());
-    std::printf(
-        "%s", DescribeSweepPlan(planned_runs, beds, opt.jobs, dem::UsableCpus(), repeats).c_str());
+    const int cpus = opt.plan_cpus > 0 ? opt.plan_cpus : dem::UsableCpus();
+    const int jobs = opt.jobs > 0 ? opt.jobs : std::min(256, cpus);
+    std::printf("%s", DescribeSweep(costs, beds, jobs, cpus).c_str());
+    std::printf("%s", DescribeSweepPlan(planned_runs, beds, jobs, cpus, repeats).c_str());
     return 0;
   }
-  CheckLocalCost(scenes, costs, sweep.out_dir, opt.jobs, beds, opt.yes);
+  CheckLocalCost(scenes, costs, sweep.out_dir, sweep.jobs, beds, opt.yes);
   // An existing folder is resumed: runs whose summary.json matches their scene are kept.
   CatchInterrupts();
   sweep.cancel = &Interrupted();

@@ -42,4 +42,16 @@ grep -q "^plan: 4 runs, $at_once at once (--jobs 8, $cpus usable CPUs)" "$work/p
 [ "$(grep -c '^  source bed .*: in the cache; 2 runs' "$work/plan.txt")" = 1 ] &&
   [ "$(grep -c '^  source bed .*: prepared by .*; 2 runs' "$work/plan.txt")" = 1 ] ||
   { cat "$work/plan.txt"; fail "the plan's source beds"; }
+# The plan for a bigger machine: each seed's source bed on the threads its beds feed.
+"$dembuf" sweep "${small[@]}" --vary bed.thickness_m=0.0099,0.01 --seeds 2 --local --no-bed-cache \
+  --dry-run --plan-cpus 16 > "$work/plan16.txt" 2>&1 || { cat "$work/plan16.txt"; fail "dry run, 16 CPUs"; }
+grep -q "^plan: 4 runs, 16 at once (--jobs 16, 16 usable CPUs)" "$work/plan16.txt" &&
+  grep -q "^predicted wall time: about .* on 16 usable CPUs" "$work/plan16.txt" &&
+  [ "$(grep -c '^  source bed .*: prepared by .* on [0-9]* threads\?, while' "$work/plan16.txt")" = 2 ] ||
+  { cat "$work/plan16.txt"; fail "the plan for 16 CPUs"; }
+if "$dembuf" sweep "${small[@]}" --vary bed.thickness_m=0.01 --local --plan-cpus 16 \
+  > "$work/refused.txt" 2>&1 || [ $? != 2 ]; then
+  cat "$work/refused.txt"; fail "--plan-cpus without --dry-run was not refused with exit 2"
+fi
+grep -q -- "--plan-cpus.*add --dry-run" "$work/refused.txt" || fail "$(cat "$work/refused.txt")"
 echo "1 passed, 0 failed"

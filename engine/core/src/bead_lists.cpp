@@ -103,13 +103,19 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
 // Keeps the positions of the list build in single precision. Rounding moves a component by at
 // most 2^-24 of its size, so a displacement from the kept position is within sqrt(3) 2^-24
 // times the largest coordinate of the true one; the bound allows twice that.
-void KeepReferencePositions(const ParticleState& b, NeighbourLists& lists) {
+void KeepReferencePositions(const ParticleState& b, NeighbourLists& lists, int threads) {
+  const long n = static_cast<long>(b.size());
   lists.reference_position.resize(3 * b.size());
-  double largest = 0.0;
-  for (std::size_t i = 0; i < b.size(); ++i)
+  float* kept = lists.reference_position.data();
+  const Vec3* x = b.position.data();
+  double largest = 0.0;  // (a maximum: the same whatever the threads' order)
+#pragma omp parallel for schedule(static) reduction(max        \
+                                                    : largest) \
+    num_threads(threads) if (threads > 1)
+  for (long i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d) {
-      lists.reference_position[3 * i + d] = static_cast<float>(b.position[i][d]);
-      largest = std::max(largest, std::abs(b.position[i][d]));
+      kept[3 * i + d] = static_cast<float>(x[i][d]);
+      largest = std::max(largest, std::abs(x[i][d]));
     }
   lists.reference_rounding = std::sqrt(3.0) * std::numeric_limits<float>::epsilon() * largest;
 }
@@ -185,7 +191,7 @@ void RebuildLists(const WorldParams& params, ParticleState& b,
     RebuildPairList(b, s.lists.grid, s.lists.skin, s.lists.near_gap, s.lists.pairs,
                     s.parallel ? s.threads : 1);
     wall_history = ApplyPairHistory(s);
-    KeepReferencePositions(b, s.lists);
+    KeepReferencePositions(b, s.lists, s.parallel ? s.threads : 1);
     if (projectile)
       RebuildCandidateList(b, s.lists.grid, projectile->position, projectile->radius,
                            s.lists.max_radius, s.lists.skin, s.lists.near_projectile);
@@ -207,7 +213,7 @@ void SortFarPairs(const ParticleState& b, Simulation::Impl& s) {
   ResortPairList(b, s.lists.near_gap, s.lists.pairs, s.parallel ? s.threads : 1);
   s.lists.displacement_before_sort += s.lists.max_bead_displacement;
   s.lists.projectile_list_displacement += s.lists.max_bead_displacement;
-  KeepReferencePositions(b, s.lists);
+  KeepReferencePositions(b, s.lists, s.parallel ? s.threads : 1);
   s.lists.max_bead_displacement = 0.0;
   ++s.lists.sorts;
 }

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <numeric>
 
 namespace dembuf::dem::detail {
 
@@ -180,69 +182,71 @@ void ResortPairList(const ParticleState& beads, double near_gap, PairList& list,
   const std::uint32_t entries = far_offsets[n];
 
   // 1. Which far pairs are now near: the distances, the costly part, in fixed chunks of beads
-  // on the threads (each entry's flag is the same whoever computes it).
+  // on the threads (each entry's flag is the same whoever computes it), with each chunk's count
+  // of pairs kept far.
   constexpr std::size_t kChunkBeads = 512;
   const long chunks = static_cast<long>((n + kChunkBeads - 1) / kChunkBeads);
+  const bool parallel = threads > 1 && chunks > 1;
+  auto chunk_beads = [&](long c) {
+    return std::pair{c * kChunkBeads, std::min(n, (c + 1) * kChunkBeads)};
+  };
   std::vector<std::uint8_t> now_near(entries);
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && chunks > 1)
+  std::vector<std::uint32_t> kept_in(chunks + 1, 0), taken_in(chunks + 1, 0);
+#pragma omp parallel for schedule(static) num_threads(threads) if (parallel)
   for (long c = 0; c < chunks; ++c) {
-    const std::size_t first = c * kChunkBeads, last = std::min(n, first + kChunkBeads);
+    const auto [first, last] = chunk_beads(c);
+    std::uint32_t taken = 0;
     for (std::size_t i = first; i < last; ++i)
       for (std::uint32_t k = far_offsets[i]; k < far_offsets[i + 1]; ++k) {
         const std::uint32_t j = far[k];
         const double reach = r[i] + r[j] + near_gap;
         now_near[k] = (x[i] - x[j]).squaredNorm() < reach * reach;
+        taken += now_near[k];
       }
+    taken_in[c + 1] = taken;
+    kept_in[c + 1] = far_offsets[last] - far_offsets[first] - taken;
   }
+  // Where each chunk's kept and taken entries go: the counts of the chunks before it.
+  std::partial_sum(kept_in.begin(), kept_in.end(), kept_in.begin());
+  std::partial_sum(taken_in.begin(), taken_in.end(), taken_in.begin());
+  const std::uint32_t kept = kept_in[chunks];
+  const std::size_t promoted = taken_in[chunks];
 
-  // 2. The far pairs now near are taken out, in bead and partner order; the others close up
-  // in place. A flat loop over the entries, in blocks: each entry's bead comes from a count of
-  // the beads starting at it, as in the force pass. Every entry is written to both outputs
-  // and each count advances by the flag: no branch to mispredict. A bead's far entries now
-  // start where the entries kept before its first end.
-  constexpr std::uint32_t kBlock = 256;
-  std::vector<std::uint32_t> new_far_offsets(n + 1, 0);
-  std::vector<std::uint32_t> promoted_bead, promoted_partner;
-  std::uint32_t taken_bead[kBlock], taken_partner[kBlock];
-  std::uint32_t starts[kBlock] = {}, kept_at[kBlock];
-  std::uint32_t kept = 0;
-  std::size_t first_owner = 0;
-  for (std::uint32_t first = 0; first < entries; first += kBlock) {
-    const std::uint32_t last = std::min(entries, first + kBlock);
-    while (far_offsets[first_owner + 1] <= first) {
-      ++first_owner;  // (beads starting before `first` have their new offset already)
-      if (far_offsets[first_owner] == first) new_far_offsets[first_owner] = kept;
+  // 2. The far pairs now near are taken out, in bead and partner order, and the others close
+  // up: each chunk within its own entries on the threads (the writes never pass the reads, and
+  // chunks do not share entries), then the chunks' kept entries move down in order, one after
+  // the other (their new places may overlap the chunk before's old ones).
+  std::vector<std::uint32_t> new_far_offsets(n + 1);
+  std::vector<std::uint32_t> promoted_bead(promoted), promoted_partner(promoted);
+#pragma omp parallel for schedule(static) num_threads(threads) if (parallel)
+  for (long c = 0; c < chunks; ++c) {
+    const auto [first, last] = chunk_beads(c);
+    const std::uint32_t start = far_offsets[first];
+    std::uint32_t write = start;
+    std::size_t taken = taken_in[c];
+    for (std::size_t i = first; i < last; ++i) {
+      new_far_offsets[i] = kept_in[c] + (write - start);
+      for (std::uint32_t k = far_offsets[i]; k < far_offsets[i + 1]; ++k) {
+        if (now_near[k]) {
+          promoted_bead[taken] = static_cast<std::uint32_t>(i);
+          promoted_partner[taken++] = far[k];
+        } else {
+          far[write++] = far[k];
+        }
+      }
     }
-    for (std::size_t next = first_owner + 1; far_offsets[next] < last; ++next)
-      ++starts[far_offsets[next] - first];
-    auto owner = static_cast<std::uint32_t>(first_owner);
-    std::uint32_t taken = 0;
-    for (std::uint32_t k = first; k < last; ++k) {
-      owner += starts[k - first];
-      const std::uint32_t j = far[k];
-      const std::uint32_t near = now_near[k];
-      kept_at[k - first] = kept;
-      far[kept] = j;
-      taken_bead[taken] = owner;
-      taken_partner[taken] = j;
-      kept += 1 - near;
-      taken += near;
-    }
-    for (std::size_t next = first_owner + 1; far_offsets[next] < last; ++next) {
-      new_far_offsets[next] = kept_at[far_offsets[next] - first];
-      starts[far_offsets[next] - first] = 0;
-    }
-    promoted_bead.insert(promoted_bead.end(), taken_bead, taken_bead + taken);
-    promoted_partner.insert(promoted_partner.end(), taken_partner, taken_partner + taken);
   }
-  for (std::size_t i = n; i > 0 && far_offsets[i] == entries; --i) new_far_offsets[i] = kept;
+  for (long c = 1; c < chunks; ++c) {
+    const std::uint32_t from = far_offsets[chunk_beads(c).first];
+    std::memmove(far + kept_in[c], far + from, (kept_in[c + 1] - kept_in[c]) * sizeof *far);
+  }
+  new_far_offsets[n] = kept;
   list.far_offsets = std::move(new_far_offsets);
   list.far_partners.resize(kept);
 
   // 3. They join the near part in bead and partner order, without history: a merge from the
   // back, in place. (Near pairs that have come apart stay near until the next build: they
   // cost the force pass a check each, and taking them out costs a pass over all near pairs.)
-  const std::size_t promoted = promoted_bead.size();
   if (promoted == 0) return;
   std::uint32_t* offsets = list.offsets.data();
   std::size_t read = offsets[n], write = offsets[n] + promoted;  // one past the next to move

@@ -2,8 +2,9 @@
 # ParaView files, read back: a run's snapshots (beads.vtp, contacts.vtp) and animation frames
 # (frames/*.vtp) are valid VTK XML whose counts, arrays and times agree with each other and
 # with the run's other files (tests/cli/vtk_check.py; through VTK itself when python3-vtk9 is
-# installed); `dembuf bed export` writes a text bed that imports back to the same beads, a
-# LAMMPS data file that LAMMPS reads (when `lmp` is installed) and a .vtp.
+# installed); `dembuf bed export` writes a text bed and a LAMMPS data file that import back to
+# the same beads, a .vtp, and (when `lmp` is installed) a data file LAMMPS reads, whose dump by
+# LAMMPS imports too.
 # Usage: paraview_test.sh DEMBUF_BINARY
 set -eu
 dembuf=$1
@@ -44,6 +45,11 @@ PY
   --out "$work/bed.data" > /dev/null || fail "bed export lammps"
 /usr/bin/python3 "$here/vtk_check.py" bed "$work/bed.vtp" "$work/bed.txt" "$work/bed.data" ||
   fail "the exported bed's files"
+# The LAMMPS data file imports to the same beads as the text: the same bed after relaxing.
+"$dembuf" bed export "${small[@]}" --set bed.import="$work/bed.data" --bed-cache "$work/beds" \
+  --format text --out "$work/again_data.txt" > /dev/null || fail "import of the LAMMPS data file"
+cmp <(grep -v '^#' "$work/again.txt") <(grep -v '^#' "$work/again_data.txt") ||
+  fail "the LAMMPS data file imported to other beads than the text file"
 if command -v lmp > /dev/null; then
   printf 'units si\natom_style sphere\nboundary f f f\nread_data %s\nrun 0\n' "$work/bed.data" \
     > "$work/in.read"
@@ -53,6 +59,16 @@ if command -v lmp > /dev/null; then
   grep -q "reading atoms" "$work/lammps.out" && grep -Eq "^ +$beads atoms" "$work/lammps.out" ||
     { cat "$work/lammps.out"; fail "LAMMPS read another number of atoms than $beads"; }
   echo "LAMMPS read the exported bed: $beads atoms"
+  # LAMMPS's own dump of that bed imports too (6 digits: the beads as LAMMPS printed them).
+  printf 'units si\natom_style sphere\nboundary f f f\nread_data %s\n%s\nrun 0\n' \
+    "$work/bed.data" "dump d all custom 1 bed.dump id type x y z radius" > "$work/in.dump"
+  (cd "$work" && lmp -in in.dump -log none > lammps_dump.out 2>&1) ||
+    { tail -5 "$work/lammps_dump.out"; fail "LAMMPS could not dump the bed"; }
+  "$dembuf" bed export "${small[@]}" --set bed.import="$work/bed.dump" \
+    --set bed.import_overlaps=relax --bed-cache "$work/beds" --format text \
+    --out "$work/from_dump.txt" > /dev/null || fail "import of LAMMPS's dump"
+  [ "$(grep -vc '^#' "$work/from_dump.txt")" = "$beads" ] || fail "the dump imported to another count"
+  echo "LAMMPS's dump of it imported: $beads beads"
 else
   echo "LAMMPS (lmp) not installed: its reading of the exported bed not checked"
 fi

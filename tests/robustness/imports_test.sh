@@ -63,14 +63,14 @@ memory=$(sed -n 's/^memory: at most \([0-9.]*\) GB$/\1/p' "$work/dry.txt")
 lammps_bed=$(cd "$(dirname "$0")/../data" && pwd)/lammps_settled_bed.txt
 "$dembuf" run "${scene[@]}" --set bed.import="$lammps_bed" --no-bed-cache --out "$work/lammps" \
   > /dev/null 2> "$work/err" || fail "the bed settled by LAMMPS: $(cat "$work/err")"
-grep -q "imported bed: 690 beads; resting on the plate: [0-9]* beads, overlap at most 0.01" \
+grep -q "imported bed: 690 beads (text file); resting on the plate: [0-9]* beads, overlap at most 0.01" \
   "$work/err" || fail "LAMMPS bed report: $(cat "$work/err")"
 
 "$dembuf" run "${scene[@]}" --set bed.import="$work/resting.txt" --no-bed-cache --out "$work/resting" \
   > /dev/null 2> "$work/err" || fail "the resting bed: $(cat "$work/err")"
-grep -q "imported bed: 89 beads; resting on the plate: 89 beads, overlap at most 0.015% of a radius" \
+grep -q "imported bed: 89 beads (text file); resting on the plate: 89 beads, overlap at most 0.015% of a radius" \
   "$work/err" || fail "no overlap report: $(cat "$work/err")"
-grep -q '"imported": "89 beads; resting on the plate: 89 beads' "$work/resting/summary.json" ||
+grep -q '"imported": "89 beads (text file); resting on the plate: 89 beads' "$work/resting/summary.json" ||
   fail "no overlap report in summary.json"
 
 code=0

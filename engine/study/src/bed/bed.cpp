@@ -646,8 +646,10 @@ std::string ImportHash(const Scene& scene) {
   const std::string relax = scene.bed.import_overlaps == "relax"
                                 ? FieldText(scene, "bed.import_overlaps")
                                 : std::string();
+  const std::string units =
+      scene.bed.import_units != "m" ? FieldText(scene, "bed.import_units") : std::string();
   return ContentHash(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
-                     relax + "import\n" + content.str());
+                     relax + units + "import\n" + content.str());
 }
 
 PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,

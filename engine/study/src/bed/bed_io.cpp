@@ -9,6 +9,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "dembuf/study/bed/bed_formats.h"
 #include "dembuf/study/scene/bed_plan.h"
 #include "dembuf/study/scene/errors.h"
 
@@ -168,20 +169,6 @@ bool Separate(dem::ParticleState& b, double wall_radius) {
   return Worst(MeasureOverlaps(b, wall_radius)) <= kMaxRestingOverlap;
 }
 
-// One line of at most kMaxBedLineBytes into `line`; false at the end of the stream.
-bool ReadLine(std::istream& in, std::string& line, long line_no, const std::string& name) {
-  static thread_local std::vector<char> buf(kMaxBedLineBytes + 2);
-  if (!in.getline(buf.data(), static_cast<std::streamsize>(buf.size() - 1))) {
-    if (in.eof() && in.gcount() == 0) return false;
-    if (!in.eof())
-      throw SceneError("bed.import", name + ":" + std::to_string(line_no) +
-                                         ": a line longer than " +
-                                         std::to_string(kMaxBedLineBytes) + " bytes");
-  }
-  line.assign(buf.data());
-  return true;
-}
-
 }  // namespace
 
 std::string ImportedBed::Describe() const {
@@ -192,7 +179,7 @@ std::string ImportedBed::Describe() const {
       out << ", overlap at most " << Percent(s.max_ratio) << " of " << of << " (mean "
           << Percent(s.mean_ratio) << ")";
   };
-  out << beads.size() << " beads";
+  out << beads.size() << " beads (" << BedFileFormatName(format) << " file)";
   part("; resting on the plate: ", plate, " beads", "a radius");
   part("; touching the side wall: ", wall, " beads", "a radius");
   part("; bead pairs touching: ", pairs, "", "the smaller radius");
@@ -209,34 +196,24 @@ std::string ImportedBed::Describe() const {
 ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene& scene) {
   ImportedBed bed;
   const double R = scene.cylinder.radius_m;
-  std::string line;
-  long line_no = 0;
-  auto fail = [&](const std::string& why) {
-    throw SceneError("bed.import", name + ":" + std::to_string(line_no) + ": " + why);
-  };
+  const BeadRecords records = ReadBeadRecords(in, name, scene.bed.import_units, kMaxBeads);
+  bed.format = records.format;
   auto number = [](double v) {
     char text[32];
     std::snprintf(text, sizeof text, "%.6g", v);
     return std::string(text);
   };
-  while (ReadLine(in, line, line_no + 1, name)) {
-    ++line_no;
-    if (auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
-    std::istringstream fields(line);
-    double x, y, z, r;
-    if (!(fields >> x)) {
-      if (line.find_first_not_of(" \t\r") != std::string::npos) fail("expected four numbers");
-      continue;  // blank or comment line
-    }
-    if (!(fields >> y >> z >> r)) fail("expected four numbers: x y z radius");
-    std::string extra;
-    if (fields >> extra) fail("unexpected text \"" + extra.substr(0, 40) + "\" after the radius");
+  for (const BeadRecord& b : records.beads) {
+    auto fail = [&](const std::string& why) {
+      throw SceneError("bed.import", name + ":" + std::to_string(b.line) + ": " + why);
+    };
+    const double x = b.x, y = b.y, z = b.z, r = b.radius;
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(r))
       fail("non-finite value");
     if (!(r >= kMinBeadRadius_m))
       fail("radius " + number(r) + " m is below " + number(kMinBeadRadius_m) +
            " m, the smallest bead this model covers (finer powders are held by adhesion and the "
-           "air, which it leaves out)");
+           "air, which it leaves out; a file in millimetres needs bed.import_units = \"mm\")");
     if (r >= 0.5 * R) fail("radius " + number(r) + " m must be below half the cylinder's radius");
     // Outside the container: no overlap to accept or separate.
     if (std::hypot(x, y) + 0.5 * r > R)
@@ -245,10 +222,8 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
     if (z + r > scene.cylinder.height_m)
       fail("bead reaches above the side wall (cylinder.height_m = " +
            number(scene.cylinder.height_m) + " m)");
-    if (static_cast<double>(bed.beads.size()) >= kMaxBeads)
-      fail("more beads than a simulation can hold");
     bed.beads.Add(dem::Vec3(x, y, z), r, scene.material.density_kg_m3);
-    bed.lines.push_back(line_no);
+    bed.lines.push_back(b.line);
   }
   if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
 

@@ -1,5 +1,7 @@
-// Beds as files: the plain text exchange format (one bead per line: x y z radius, SI units;
-// '#' starts a comment), so that packings made by other codes can be used.
+// Beds as files, so that packings made by other codes can be used: dembuf's plain text (one
+// bead per line: x y z radius, in bed.import_units, metres by default; '#' starts a comment; an
+// optional first line naming the columns and their units), LAMMPS data and dump files
+// (bed_formats.h).
 //
 // A bed file is checked as hostile input: its size and line lengths are bounded, every bead
 // must lie inside the container, and overlaps are measured. A bed at rest has small overlaps
@@ -16,6 +18,7 @@
 #include <vector>
 
 #include "dembuf/core/particles.h"
+#include "dembuf/study/bed/bed_formats.h"
 #include "dembuf/study/scene/scene.h"
 
 namespace dembuf {
@@ -35,7 +38,8 @@ struct OverlapStats {
 
 /// A bed read from a text file, and what its contacts look like.
 struct ImportedBed {
-  dem::ParticleState beads;  ///< with the scene's density
+  BedFileFormat format = BedFileFormat::kText;
+  dem::ParticleState beads;  ///< with the scene's density (a LAMMPS file's is not read)
   std::vector<long> lines;   ///< each bead's line in the file
   OverlapStats pairs, plate, wall;
   std::size_t moved = 0;          ///< beads moved apart (bed.import_overlaps = "relax")

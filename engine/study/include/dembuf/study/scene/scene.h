@@ -55,10 +55,13 @@ struct BedSpec {
   double thickness_m = 0.0;     ///< H, settled thickness
   double prep_friction = 0.50;  ///< bead friction while settling; controls the packing C0
   std::int64_t seed = 1;        ///< random seed of the bead insertion
-  std::string import;           ///< text file "x y z radius" per line; empty: prepare a bed
+  std::string import;           ///< bed file (text, LAMMPS data or dump); empty: prepare a bed
   /// What to do with an imported bed whose beads overlap by more than a settled bed's resting
   /// contacts (1% of a radius): "refuse" it, naming the worst bead, or "relax": separate them.
   std::string import_overlaps = "refuse";
+  /// The length unit of bed.import's numbers: "m", "cm", "mm" or "um" (a text file's header
+  /// may name its own per column).
+  std::string import_units = "m";
   /// Beds are cut from one settled bed of this thickness, so that every H of a study shares
   /// one settling (a bed thicker than this minus d_max gets a source of H + 2 d_max).
   double source_thickness_m = 0.09;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -24,6 +25,7 @@
 #include "dembuf/study/sweep/schedule.h"
 #include "dembuf/study/sweep/sweep_plan.h"
 #include "dembuf/study/sweep/sweep_report.h"
+#include "progress.h"
 
 namespace dembuf::cli {
 
@@ -52,6 +54,9 @@ class SweepRunner {
   bool KeptFromEarlier(const SweepRun& job, const std::filesystem::path& dir, RunResult& result);
   void PrintEnd(const SweepRun& job, const RunResult& result,
                 std::chrono::steady_clock::time_point start);
+  // Notes what run `index` is doing; every PlainProgressInterval() one line on stderr says
+  // how far the sweep is and what each running run does.
+  void Report(std::size_t index, std::string doing);
 
   const SweepOptions& m_options;
   BedCache& m_beds;
@@ -59,7 +64,25 @@ class SweepRunner {
   std::vector<RunResult> m_results;
   std::atomic<int> m_finished{0};
   std::mutex m_print_mutex;
+  std::map<std::size_t, std::string> m_doing;  ///< what each running run does
+  std::chrono::steady_clock::time_point m_last_report = std::chrono::steady_clock::now();
 };
+
+void SweepRunner::Report(std::size_t index, std::string doing) {
+  std::lock_guard lock(m_print_mutex);
+  if (doing.empty())
+    m_doing.erase(index);
+  else
+    m_doing[index] = std::move(doing);
+  const auto now = std::chrono::steady_clock::now();
+  if (GetVerbosity() == Verbosity::kQuiet ||
+      now - m_last_report < std::chrono::duration<double>(PlainProgressInterval()))
+    return;
+  m_last_report = now;
+  std::fprintf(stderr, "sweep: %d of %zu runs done", m_finished.load(), m_runs.size());
+  for (const auto& [run, what] : m_doing) std::fprintf(stderr, "; run %zu: %s", run, what.c_str());
+  std::fprintf(stderr, "\n");
+}
 
 bool SweepRunner::KeptFromEarlier(const SweepRun& job, const std::filesystem::path& dir,
                                   RunResult& result) {
@@ -82,19 +105,17 @@ void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
   const std::filesystem::path dir = m_options.out_dir / "runs" / job.name;
   RunResult& result = m_results[job.index];
   if (KeptFromEarlier(job, dir, result)) return;
-  auto last_report = std::chrono::steady_clock::now();
-  const auto job_start = last_report;
+  const auto job_start = std::chrono::steady_clock::now();
+  char text[160];
   auto bed_progress = [&](const BedProgress& p) {
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_report < std::chrono::seconds(30)) return;
-    last_report = now;
-    std::lock_guard lock(m_print_mutex);
-    std::printf(
-        "  run %zu: %s, %zu beads, t = %.0f ms, kinetic %.2g m g d, balance %.2g%%, %d "
-        "threads\n",
-        job.index, p.stage.c_str(), p.beads, p.t_s * 1e3, p.kinetic_ratio, 100 * p.balance_error,
-        threads->load());
-    std::fflush(stdout);
+    std::snprintf(text, sizeof text, "%s, %zu beads, t = %.0f ms, %d threads", p.stage.c_str(),
+                  p.beads, p.t_s * 1e3, threads->load());
+    Report(job.index, text);
+  };
+  auto impact_progress = [&](const ImpactProgress& p) {
+    std::snprintf(text, sizeof text, "impact, %.1f of %.1f ms, %d threads", p.t_s * 1e3,
+                  p.t_end_estimate_s * 1e3, threads->load());
+    Report(job.index, text);
   };
   try {
     report::RemoveRunOutputs(dir);  // what an interrupted run of this point left
@@ -104,6 +125,7 @@ void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
     control.cancel = m_options.cancel;
     control.threads = threads;
     control.on_bed_progress = bed_progress;
+    control.on_progress = impact_progress;
     const ImpactSummary summary = RunJob(job.scene, m_beds, control, recorder);
     if (m_options.on_run_done) m_options.on_run_done(job, summary);
     result.summary = recorder.summary_json();
@@ -114,6 +136,7 @@ void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
   } catch (const std::exception& e) {
     result.error = e.what();
   }
+  Report(job.index, "");
   if (!result.interrupted) PrintEnd(job, result, job_start);
 }
 

@@ -7,6 +7,7 @@
 # - Token names of no character or of thousands were accepted: now 1 to 64 of [A-Za-z0-9._-].
 # - An admin's jobs were filed under the $USER of the admin's machine: now under the token's
 #   user, unless the admin names another owner.
+# - A sweep's progress went to stdout every 30 s whatever DEMBUF_PROGRESS_S said: now stderr.
 # Usage: sweeps_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
 
@@ -29,6 +30,14 @@ points=$(tail -n +2 "$work/fine/points.csv" | cut -d, -f1 | sort -u | wc -l)
   --out "$work/plain" > /dev/null 2>&1 || fail "the plain sweep"
 [ "$(tail -n +2 "$work/plain/points.csv" | cut -d, -f1 | tr '\n' ' ')" = "0.1 0.2 0.3 " ] ||
   fail "plain values: $(cut -d, -f1 "$work/plain/points.csv" | tr '\n' ' ')"
+# Progress: a line on stderr at the DEMBUF_PROGRESS_S interval with the runs done and what
+# each running run does; stdout keeps the results alone.
+DEMBUF_PROGRESS_S=0.1 "$dembuf" sweep "${bare[@]}" --vary projectile.speed_m_s=0.5:2:0.5 \
+  --set time.end_s=0.2 --no-bed-cache --out "$work/progress" > "$work/progress.out" \
+  2> "$work/progress.err" || fail "the progress sweep: $(cat "$work/progress.err")"
+grep -q "^sweep: [0-9]* of 4 runs done; run [0-9]*: impact, [0-9.]* of [0-9.]* ms" \
+  "$work/progress.err" || fail "no progress on stderr: $(head -c 600 "$work/progress.err")"
+! grep -q "runs done" "$work/progress.out" || fail "progress went to stdout"
 
 # Tokens: names of 1 to 64 characters of [A-Za-z0-9._-].
 expect_exit 2 "name: \"\" must be 1 to 64 characters" "$dembufd" --db "$work/dembuf.db" token-create ""

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <stdexcept>
 
 #include "dembuf/study/files/run_output.h"
@@ -35,14 +36,31 @@ struct Runs {
   std::vector<nlohmann::json> summaries;
   std::optional<double> hc_m;
   double hc_sd_m = std::numeric_limits<double>::quiet_NaN();
+  std::set<std::string> seen;        ///< each run's scene and bed, once
+  std::vector<fs::path> duplicates;  ///< runs already counted from another folder
+  void Add(const fs::path& summary_path);
 };
+
+// A run is its scene and its bed: the same run found in two folders (a sweep and a `dembuf
+// run` of one of its points, a folder given twice) counts once.
+void Runs::Add(const fs::path& summary_path) {
+  nlohmann::json summary = ReadSummary(summary_path);
+  const nlohmann::json bed = summary.value("bed", nlohmann::json::object());
+  const std::string key = summary.value("scene", nlohmann::json()).dump() + "\n" +
+                          (bed.is_object() ? bed.value("hash", std::string()) : std::string());
+  if (!seen.insert(key).second) {
+    duplicates.push_back(summary_path.parent_path());
+    return;
+  }
+  summaries.push_back(std::move(summary));
+}
 
 // The runs of a run folder or a sweep folder (its runs/ that finished).
 void ReadFolder(const fs::path& dir, Runs& runs) {
   if (fs::is_directory(dir / "runs")) {
     for (const auto& entry : fs::directory_iterator(dir / "runs"))
       if (fs::is_regular_file(entry.path() / "summary.json"))
-        runs.summaries.push_back(ReadSummary(entry.path() / "summary.json"));
+        runs.Add(entry.path() / "summary.json");
     if (fs::is_regular_file(dir / "summary.json")) {
       const nlohmann::json sweep = ReadSummary(dir / "summary.json");
       if (sweep.contains("Hc_m") && sweep["Hc_m"].is_number()) {
@@ -55,7 +73,7 @@ void ReadFolder(const fs::path& dir, Runs& runs) {
     return;
   }
   if (fs::is_regular_file(dir / "summary.json")) {
-    runs.summaries.push_back(ReadSummary(dir / "summary.json"));
+    runs.Add(dir / "summary.json");
     return;
   }
   throw std::runtime_error(dir.string() +
@@ -96,8 +114,12 @@ int CompareCommand(const std::vector<fs::path>& folders, const fs::path& out_dir
   if (runs.summaries.empty())
     throw std::runtime_error("no finished run in " + folders.front().string());
   const report::Comparison c = report::CompareWithPaper(runs.summaries, runs.hc_m, runs.hc_sd_m);
-  std::printf("%zu runs beside the paper\n%s", runs.summaries.size(),
-              report::ComparisonTable(c).c_str());
+  std::printf("%zu runs beside the paper", runs.summaries.size());
+  if (!runs.duplicates.empty())
+    std::printf(" (%zu more found twice, the same scene and bed, counted once: %s%s)",
+                runs.duplicates.size(), runs.duplicates.front().c_str(),
+                runs.duplicates.size() > 1 ? ", ..." : "");
+  std::printf("\n%s", report::ComparisonTable(c).c_str());
   const fs::path out = out_dir.empty() ? folders.front() : out_dir;
   fs::create_directories(out);
   report::WriteFileAtomically(out / "compare.csv", report::ComparisonCsv(c));

@@ -116,6 +116,11 @@ fi
 awk -F, '$1 == "P_N" && $2 == 0 { found = 1; dev = $10 < 0 ? -$10 : $10 }
          END { exit !(found && dev < 0.02) }' "$work/e2-bare/compare.csv" \
   || fail "bare-plate Pa0 against the paper: $(cat "$work/e2-bare/compare.csv")"
+# The same run in two folders (given twice here) counts once, and says so.
+"$dembuf" compare "$work/e2-bare" "$work/e2-bare" --no-plots --out "$work/twice" \
+  > "$work/compare.log" || fail "compare twice"
+grep -q "^1 runs beside the paper (1 more found twice, the same scene and bed, counted once" \
+  "$work/compare.log" || fail "a run given twice: $(cat "$work/compare.log")"
 "$dembuf" compare "$work/sweep" --no-plots > "$work/compare.log" || fail "compare of a sweep"
 grep -q "no paper numbers.*projectile.speed_m_s" "$work/compare.log" \
   || fail "a sweep of another scene: $(cat "$work/compare.log")"

@@ -96,6 +96,19 @@ TEST(PaperComparison, AnotherSceneGetsNoPaperNumbers) {
   EXPECT_TRUE(report::CompareWithPaper({E2Run(0.008, 6500, 0.5, knobs)}).is_paper_e2);
 }
 
+// E2 runs at a thickness the paper gives no number for: the table says which thicknesses do.
+TEST(PaperComparison, AnEmptyTableSaysWhichThicknessesTheFiguresAreAt) {
+  const auto c = report::CompareWithPaper({E2Run(0.003, 9000, 0.3)});
+  EXPECT_TRUE(c.is_paper_e2);
+  EXPECT_TRUE(c.rows.empty());
+  EXPECT_NE(report::ComparisonTable(c).find("no paper number at these runs' thicknesses: the "
+                                            "paper gives P at 0 and 0.8 cm"),
+            std::string::npos);
+  EXPECT_EQ(report::ComparisonTable(report::CompareWithPaper({E2Run(0.008, 6500, 0.5)}))
+                .find("no paper number"),
+            std::string::npos);
+}
+
 // Hertz: the peak force F = K x^(3/2) at the deepest overlap x, where the kinetic energy is all
 // elastic, 1/2 m v^2 = 2/5 K x^(5/2). The paper's projectile on the bare plate: MODEL.md says
 // about 13.5 kN.

@@ -201,6 +201,10 @@ std::string ComparisonTable(const Comparison& c) {
                   r.paper * r.scale, dembuf.c_str(), 100 * r.deviation, within.c_str());
     out << line;
   }
+  if (c.rows.empty())
+    out << "no paper number at these runs' thicknesses: the paper gives P at 0 and 0.8 cm, "
+           "lambda at 0.8 cm and from 2 cm on, dS (its fit) from 0.35 cm and dt from 0.86 cm on; "
+           "for example dembuf sweep --preset e2 --vary bed.thickness_m=0,0.008,0.02,0.04,0.08\n";
   return out.str();
 }
 

@@ -1,5 +1,6 @@
 // The commands that talk to a dembufd (remote.h), and the options that name it and say who
 // asks. Built with the service only; remote_absent.cpp stands in for it otherwise.
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 
@@ -117,6 +118,13 @@ void AddRemoteCommands(CLI::App& app, RunOptions& opt, CommandTable& commands) {
   app.parse_complete_callback([args, &opt] { CompleteFromEnvironment(*args, opt.command_line); });
   commands.sweep_elsewhere = [args](const RunOptions& o) -> std::optional<int> {
     if (o.local || !ServerGiven(args->server_flag)) return std::nullopt;
+    // A dry run submits nothing: it plans here, on this machine's CPUs or --plan-cpus.
+    if (o.dry_run) {
+      std::fprintf(stderr,
+                   "dembuf: a dry run is planned here, not on the server (--plan-cpus N plans "
+                   "for the server's N CPUs; --local runs the sweep here)\n");
+      return std::nullopt;
+    }
     return RemoteSweep(args->remote, SceneOf(o), o.vary, o.seeds, o.name, o.json);
   };
 }

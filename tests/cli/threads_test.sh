@@ -54,4 +54,11 @@ if "$dembuf" sweep "${small[@]}" --vary bed.thickness_m=0.01 --local --plan-cpus
   cat "$work/refused.txt"; fail "--plan-cpus without --dry-run was not refused with exit 2"
 fi
 grep -q -- "--plan-cpus.*add --dry-run" "$work/refused.txt" || fail "$(cat "$work/refused.txt")"
+# With a server configured, a dry run still plans here and submits nothing (it went to the
+# server, which ran the sweep).
+DEMBUF_SERVER=127.0.0.1:1 "$dembuf" sweep "${small[@]}" --vary bed.thickness_m=0.01 \
+  --no-bed-cache --dry-run > "$work/served.txt" 2>&1 || { cat "$work/served.txt"; fail "served dry run"; }
+grep -q "^predicted wall time" "$work/served.txt" &&
+  grep -q "a dry run is planned here, not on the server" "$work/served.txt" ||
+  { cat "$work/served.txt"; fail "the dry run with a server configured"; }
 echo "1 passed, 0 failed"

@@ -1,8 +1,13 @@
 // The commands that talk to a dembufd (remote.h), and the options that name it and say who
 // asks. Built with the service only; remote_absent.cpp stands in for it otherwise.
+#include <pwd.h>
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "commands.h"
 #include "remote.h"
@@ -26,6 +31,20 @@ struct RemoteArgs {
   bool fetch_force = false;
 };
 
+// Who this process runs as, one rule for the CLI and the Python package: $USER, else
+// $LOGNAME, else the name of its user id, else "anonymous" (a container's uid may have none).
+std::string LocalUserName() {
+  for (const char* name : {"USER", "LOGNAME"})
+    if (const char* value = std::getenv(name); value && *value) return value;
+  std::vector<char> buf(16384);
+  passwd entry{};
+  passwd* found = nullptr;
+  if (getpwuid_r(getuid(), &entry, buf.data(), buf.size(), &found) == 0 && found &&
+      found->pw_name && *found->pw_name)
+    return found->pw_name;
+  return "anonymous";
+}
+
 // The server's address, the token and the TLS trust from the environment where the command
 // line gives none. A token says who the user is; without one (a loopback daemon trusting its
 // machine) the owner is --owner, else $USER.
@@ -38,10 +57,7 @@ void CompleteFromEnvironment(RemoteArgs& args, const std::string& command_line) 
   };
   from_env(remote.token, "DEMBUF_TOKEN");
   from_env(remote.tls_ca, "DEMBUF_TLS_CA");
-  if (remote.owner.empty() && remote.token.empty()) {
-    const char* user = std::getenv("USER");
-    remote.owner = user && *user ? user : "anonymous";
-  }
+  if (remote.owner.empty() && remote.token.empty()) remote.owner = LocalUserName();
 }
 
 RemoteScene SceneOf(const RunOptions& opt) {

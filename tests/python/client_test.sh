@@ -10,6 +10,22 @@ PYTHONPATH="$3" DEMBUF_CLI="$dembuf" DEMBUF_TEST_WORK="$work" DEMBUF_TEST_SCENE=
   /usr/bin/python3 "$(dirname "$0")/test_client.py" -v ||
   fail "the Python client"
 
+# One owner rule: with $USER and $LOGNAME unset, the CLI and the package file jobs under the
+# same name (the user id's; the CLI said "anonymous" where the package said "root").
+cli_job=$(env -u USER -u LOGNAME "$dembuf" submit --set bed.thickness_m=0 --set time.end_s=0.001 \
+  2>&1 | sed -n 's/^job \([0-9]*\) queued.*/\1/p')
+[ -n "$cli_job" ] || fail "the CLI's submit without USER"
+env -u USER -u LOGNAME PYTHONPATH="$3" /usr/bin/python3 - "$cli_job" <<'PY' || fail "one owner rule"
+import pwd, os, sys
+import dembuf
+with dembuf.connect() as daemon:
+    job = daemon.submit(set={"bed.thickness_m": 0, "time.end_s": 0.001})
+    mine, cli = daemon.job(job)["owner"], daemon.job(int(sys.argv[1]))["owner"]
+expected = pwd.getpwuid(os.getuid()).pw_name
+assert mine == cli == expected, (mine, cli, expected)
+print(f"without USER and LOGNAME both file jobs under {mine!r}")
+PY
+
 # Token and TLS, from the environment as the CLI takes them: a daemon that needs tokens over
 # TLS (a certificate made here) answers the package with alice's token, files her job under
 # her name, and refuses it without one.

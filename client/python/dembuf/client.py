@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import getpass
 import os
+import pwd
 import pathlib
 import re
 import sys
@@ -42,6 +42,18 @@ class Sample(NamedTuple):
     proj_z_m: float
     proj_vz_m_s: float
     proj_force_z_N: float
+
+
+def _local_user_name() -> str:
+    """Who this process runs as, the CLI's rule: $USER, else $LOGNAME, else the name of its
+    user id, else "anonymous" (a container's uid may have none)."""
+    for name in ("USER", "LOGNAME"):
+        if os.environ.get(name):
+            return os.environ[name]
+    try:
+        return pwd.getpwuid(os.getuid()).pw_name or "anonymous"
+    except KeyError:
+        return "anonymous"
 
 
 def state_name(state: int) -> str:
@@ -83,7 +95,7 @@ def _sample(s: pb.ForceSample) -> Sample:
 class Client:
     """A dembufd. Arguments left out come from $DEMBUF_SERVER (else 127.0.0.1:50051),
     $DEMBUF_TOKEN and $DEMBUF_TLS_CA; without a token, jobs are filed under `owner`, else
-    $USER, as the CLI does."""
+    $USER, $LOGNAME or the user id's name (else "anonymous"), as the CLI does."""
 
     def __init__(self, address: str | None = None, token: str | None = None,
                  tls_ca: str | os.PathLike | None = None, owner: str | None = None,
@@ -91,8 +103,7 @@ class Client:
         self.address = address or os.environ.get("DEMBUF_SERVER") or "127.0.0.1:50051"
         self._token = token or os.environ.get("DEMBUF_TOKEN") or ""
         tls_ca = tls_ca or os.environ.get("DEMBUF_TLS_CA")
-        self.owner = owner or ("" if self._token else (os.environ.get("USER")
-                                                       or getpass.getuser() or "anonymous"))
+        self.owner = owner or ("" if self._token else _local_user_name())
         self.timeout_s = timeout_s
         if tls_ca:
             pem = pathlib.Path(tls_ca).read_bytes()

@@ -146,6 +146,14 @@ bool Ended(v1::JobState s) {
   return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
 }
 
+// One exit code per job state for status, watch and fetch: 0 done (or still going), 3 failed,
+// 4 cancelled.
+int ExitOfJob(v1::JobState s) {
+  if (s == v1::JOB_STATE_FAILED) return kExitFailed;
+  if (s == v1::JOB_STATE_CANCELLED) return kExitCancelled;
+  return kExitDone;
+}
+
 void PrintWarnings(const google::protobuf::RepeatedPtrField<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "dembuf: warning: %s\n", w.c_str());
 }
@@ -291,6 +299,12 @@ grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
   report::WriteFileAtomically(dir / "job.json", provenance.dump(2) + "\n");
   if (job.state() == v1::JOB_STATE_DONE) {
     report::WriteFileAtomically(dir / "summary.json", job.summary_json());
+  } else if (job.state() == v1::JOB_STATE_CANCELLED) {
+    // As a local run stopped before its end: what it had computed, marked incomplete.
+    report::WriteFileAtomically(
+        dir / "incomplete.json",
+        nlohmann::json{{"cancelled", true}, {"complete", false}, {"note", job.error()}}.dump(2) +
+            "\n");
   } else {
     report::WriteFileAtomically(
         dir / "failure.json",
@@ -515,7 +529,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   if (!status.ok()) return Report(remote, status);
   if (json) {
     std::printf("%s\n", JobJson(j, true).dump(2).c_str());
-    return j.state() == v1::JOB_STATE_FAILED ? kExitFailed : 0;
+    return ExitOfJob(j.state());
   }
   std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), Shown(j.name()).c_str(),
               StateText(j.state()).c_str());
@@ -557,7 +571,26 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
         100 * s.value("lambda", 0.0), 100 * s.value("crater_depth_m", 0.0),
         100 * s.value("bed_thickness_m", 0.0), s.value("C0", 0.0));
   }
-  return j.state() == v1::JOB_STATE_FAILED ? kExitFailed : 0;
+  return ExitOfJob(j.state());
+}
+
+// The finished job's numbers as its summary gives them (the stream's peak is that of the
+// samples it carried, at the output interval).
+void PrintFinalNumbers(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id) {
+  grpc::ClientContext context;
+  Prepare(context, remote, 0);
+  v1::GetJobRequest request;
+  request.set_id(id);
+  v1::Job job;
+  if (!stub.GetJob(&context, request, &job).ok() || job.summary_json().empty()) return;
+  const nlohmann::json s = nlohmann::json::parse(job.summary_json(), nullptr, false);
+  if (!s.is_object()) return;
+  auto number = [&](const char* key) {
+    return s.contains(key) && s[key].is_number() ? s[key].get<double>() : std::nan("");
+  };
+  std::printf("job %lld done: peak plate force %.5g N, P = %.5g N, lambda = %.2f%%\n",
+              static_cast<long long>(id), number("peak_plate_force_N"), number("P_N"),
+              100 * number("lambda"));
 }
 
 int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index) {
@@ -577,13 +610,15 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   v1::WatchJobResponse message;
   v1::JobState state = v1::JOB_STATE_UNSPECIFIED;
   std::int64_t received = 0;
-  std::string last_line;
+  std::string last_line, last_printed;
+  double last_t = 0.0;
   auto last_print = std::chrono::steady_clock::time_point{};
   while (reader->Read(&message)) {
     state = message.state();
     for (int k = 0; k < message.samples_size(); ++k) {
       const auto& s = message.samples(k);
       forces.push_back(s.plate_force_n());
+      last_t = s.t_s();
       if (csv)
         std::printf("%lld,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s\n",
                     static_cast<long long>(message.first_index() + k), s.t_s(), s.plate_force_n(),
@@ -592,20 +627,26 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
     }
     received += message.samples_size();
     const double force = forces.empty() ? 0.0 : forces.back();
+    // The stage only where it says more than the state; an ended job's time is its last
+    // sample's.
+    const std::string stage =
+        message.progress().stage() == StateText(state) ? "" : Shown(message.progress().stage());
+    const double t = message.progress().sim_time_s() > 0 ? message.progress().sim_time_s() : last_t;
     char line[256];
     std::snprintf(
         line, sizeof line, "job %lld %-13s %-14s t = %8.3f ms  F = %9.4g N  peak %9.4g N  %s",
-        static_cast<long long>(id), StateText(state).c_str(),
-        Shown(message.progress().stage()).c_str(), message.progress().sim_time_s() * 1e3, force,
+        static_cast<long long>(id), StateText(state).c_str(), stage.c_str(), t * 1e3, force,
         message.progress().peak_plate_force_n(), Percent(message.progress().fraction()).c_str());
     if (tty) {
       // Two lines, redrawn in place: the numbers and a chart of F(t) so far.
       std::printf("\r\033[K%s\n\033[K%s\033[1A\r", line, Sparkline(forces, 72).c_str());
       std::fflush(stdout);
-    } else if (!csv && std::chrono::steady_clock::now() - last_print > std::chrono::seconds(1)) {
-      std::printf("%s\n", line);  // a log, one line a second
+    } else if (!csv && line != last_printed &&
+               std::chrono::steady_clock::now() - last_print > std::chrono::seconds(1)) {
+      std::printf("%s\n", line);  // a log: a line a second at most, and only when it changed
       std::fflush(stdout);
       last_print = std::chrono::steady_clock::now();
+      last_printed = line;
     }
     last_line = line;
     if (csv) std::fflush(stdout);
@@ -613,11 +654,11 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   const grpc::Status status = reader->Finish();
   if (tty) std::printf("\n\n");
   if (!status.ok()) return Report(remote, status);
-  if (!csv && !tty) std::printf("%s\n", last_line.c_str());
+  if (!csv && !tty && last_line != last_printed) std::printf("%s\n", last_line.c_str());
+  if (!csv && state == v1::JOB_STATE_DONE) PrintFinalNumbers(*stub, remote, id);
   Note("job %lld %s; %lld samples received\n", static_cast<long long>(id), StateText(state).c_str(),
        static_cast<long long>(received));
-  if (state == v1::JOB_STATE_DONE) return 0;
-  return state == v1::JOB_STATE_FAILED ? kExitFailed : kExitRuntime;
+  return Ended(state) ? ExitOfJob(state) : kExitRuntime;
 }
 
 // A job's result files (snapshots), streamed piece by piece into `dir`. The server's answers
@@ -724,7 +765,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
                 StateText(result.job().state()).c_str(), dir.c_str());
     if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
-    return result.job().state() == v1::JOB_STATE_DONE ? 0 : kExitFailed;
+    return ExitOfJob(result.job().state());
   }
   v1::Sweep s;
   {

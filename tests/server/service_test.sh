@@ -25,6 +25,12 @@ sleep 0.5
 "$dembuf" watch "$job" --csv > "$work/watch2.csv"
 wait "$watcher" || fail "first watcher"
 [ "$(job_state "$job")" = done ] || fail "job $job did not finish"
+# Watching the finished job into a file: no line twice in a row, and the summary's numbers.
+"$dembuf" watch "$job" > "$work/watch_log.txt" || fail "watch of a finished job"
+[ -z "$(uniq -d "$work/watch_log.txt")" ] || fail "watch repeated lines: $(uniq -d "$work/watch_log.txt")"
+grep -q "done done" "$work/watch_log.txt" && fail "watch: $(cat "$work/watch_log.txt")"
+grep -q "^job $job done: peak plate force [0-9.e+]* N, P = " "$work/watch_log.txt" ||
+  fail "watch of a finished job lacks the summary's numbers: $(cat "$work/watch_log.txt")"
 "$dembuf" fetch "$job" --out "$work/fetched" --no-plots > /dev/null
 rows=$(($(wc -l < "$work/fetched/plate_force.csv") - 1))
 [ "$rows" -gt 100 ] || fail "only $rows samples"
@@ -118,6 +124,15 @@ latency=$(awk -v id="$long" '
 awk -v t="$latency" 'BEGIN { exit !(t != "unknown" && t < 1.0) }' ||
   fail "cancel took $latency s in the daemon"
 if "$dembuf" cancel "$long" 2>/dev/null; then fail "cancelled an ended job"; fi
+# Cancelled is cancelled everywhere: status, watch and fetch exit 4, and the fetched folder
+# says incomplete.json, as a local run stopped early (fetch wrote failure.json, watch exited 1).
+for command in "status $long" "watch $long" "fetch $long --out $work/cancelled --no-plots"; do
+  code=0
+  "$dembuf" $command > /dev/null 2>&1 || code=$?
+  [ "$code" = 4 ] || fail "dembuf $command of a cancelled job exited $code, not 4"
+done
+[ -f "$work/cancelled/incomplete.json" ] && [ ! -e "$work/cancelled/failure.json" ] ||
+  fail "the cancelled job's folder: $(ls "$work/cancelled")"
 
 # --- bad requests: INVALID_ARGUMENT (exit 2) and the field in the message --------------------
 bad() {  # bad FIELD COMMAND...

@@ -7,7 +7,6 @@
 #include <optional>
 #include <sstream>
 
-#include "dembuf/study/bed/bed_io.h"
 #include "dembuf/study/scene/errors.h"
 
 namespace dembuf {

@@ -5,11 +5,16 @@
 // Every value is checked by the caller (bed_io.h); here only the file's shape is.
 #pragma once
 
+#include <cstddef>
 #include <istream>
 #include <string>
 #include <vector>
 
 namespace dembuf {
+
+/// The largest bed file read, and its longest line.
+inline constexpr std::size_t kMaxBedFileBytes = std::size_t{512} << 20;
+inline constexpr std::size_t kMaxBedLineBytes = 4096;
 
 /// A bead as a file gives it, in metres, with the line it came from.
 struct BeadRecord {

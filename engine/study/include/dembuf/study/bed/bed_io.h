@@ -25,9 +25,6 @@ namespace dembuf {
 
 /// The largest overlap accepted as a resting contact, as a fraction of the (smaller) radius.
 inline constexpr double kMaxRestingOverlap = 0.01;
-/// The largest bed file read, and its longest line.
-inline constexpr std::size_t kMaxBedFileBytes = std::size_t{512} << 20;
-inline constexpr std::size_t kMaxBedLineBytes = 4096;
 
 /// The overlaps of one kind of contact, as fractions of the (smaller) radius.
 struct OverlapStats {

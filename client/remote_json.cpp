@@ -60,9 +60,11 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
         {"sim_time_s", p.sim_time_s()},
         {"steps", p.steps()},
         {"peak_plate_force_N", p.peak_plate_force_n()}}},
+      // The summary's peak once finished, the peak so far while running (as /api/jobs).
       {"peak_plate_force_N", summary.is_object() && summary.contains("peak_plate_force_N")
                                  ? summary["peak_plate_force_N"]
-                                 : nlohmann::json()},
+                             : p.peak_plate_force_n() > 0.0 ? nlohmann::json(p.peak_plate_force_n())
+                                                            : nlohmann::json()},
       {"P_N", summary.is_object() && summary.contains("P_N") ? summary["P_N"] : nlohmann::json()},
       {"slurm_job_id", job.slurm_job_id() ? nlohmann::json(job.slurm_job_id()) : nlohmann::json()},
   };

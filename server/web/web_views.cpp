@@ -36,24 +36,31 @@ nlohmann::json JobJson(const JobRecord& job, const JobProgress& progress,
     peak = progress.peak_plate_force_N;
   nlohmann::json p_n;
   if (summary.is_object() && summary.contains("P_N")) p_n = summary["P_N"];
+  // The shape of `dembuf status --json` and the Python package's job(): null for what is not
+  // there (no sweep, not yet started or finished, no Slurm job).
+  auto time = [](const std::string& iso) {
+    return iso.empty() ? nlohmann::json() : nlohmann::json(iso);
+  };
+  auto id_or_null = [](std::int64_t id) { return id ? nlohmann::json(id) : nlohmann::json(); };
   return {{"id", job.id},
           {"name", job.name},
           {"owner", job.owner},
           {"state", StateName(job.state)},
           {"error", job.error},
-          {"sweep_id", job.sweep_id},
+          {"sweep_id", id_or_null(job.sweep_id)},
           {"sweep_index", job.sweep_index},
           {"sweep_values", job.sweep_values},
           {"attempts", job.attempts},
-          {"created_at", job.created_at},
-          {"started_at", job.started_at},
-          {"finished_at", job.finished_at},
+          {"created_at", time(job.created_at)},
+          {"started_at", time(job.started_at)},
+          {"finished_at", time(job.finished_at)},
           {"host", job.host},
           {"code_version", job.code_version},
           {"command_line", job.command_line},
           {"progress", ProgressObject(progress)},
           {"peak_plate_force_N", peak},
-          {"P_N", p_n}};
+          {"P_N", p_n},
+          {"slurm_job_id", id_or_null(job.slurm_id)}};
 }
 
 nlohmann::json JobDetailsJson(const JobRecord& job, const JobProgress& progress,

@@ -15,7 +15,7 @@
 "$dembufd" --version | grep -Eq '^dembufd [0-9]+\.[0-9]+\.[0-9]+$' || fail "dembufd --version"
 "$dembuf" --version | grep -Eq '^dembuf [0-9]+\.[0-9]+\.[0-9]+$' || fail "dembuf --version"
 
-start_daemon "$work/dembuf.db" "$work/dembufd.log"
+start_daemon "$work/dembuf.db" "$work/dembufd.log" --http 127.0.0.1:0
 /usr/bin/python3 - "$DEMBUF_SERVER" <<'PY' || fail "health answers"
 import sys
 import grpc
@@ -163,7 +163,8 @@ wait_state "$job" done 120
 "$dembuf" fetch "$job" --out "$work/fetched" --no-plots > /dev/null
 "$dembuf" server-info --json > "$work/info.json"
 "$dembuf" server-info > "$work/info.txt"
-/usr/bin/python3 - "$work" "$job" <<'PY' || fail "JSON output"
+DEMBUF_HTTP=$(web_base "$work/dembufd.log") DEMBUF_PYTHON="$(dirname "$dembuf")/../python" \
+  /usr/bin/python3 - "$work" "$job" <<'PY' || fail "JSON output"
 import json, sys
 work, job = sys.argv[1], int(sys.argv[2])
 jobs = json.load(open(f"{work}/list.json"))["jobs"]
@@ -179,6 +180,18 @@ assert status["id"] == job and status["state"] == "done"
 assert status["summary"] == fetched, "status --json summary differs from the fetched one"
 assert status["peak_plate_force_N"] == fetched["peak_plate_force_N"]
 assert status["started_at"] and status["finished_at"] and status["sweep_id"] is None
+# One shape for a job: the web API and the Python package say what status --json says, field
+# by field (the API said "" and 0 where the CLI said null; Python gave the proto's own names).
+import os, urllib.request
+sys.path.insert(0, os.environ["DEMBUF_PYTHON"])
+import dembuf
+api = json.load(urllib.request.urlopen(f"{os.environ['DEMBUF_HTTP']}/api/jobs/{job}"))
+with dembuf.connect() as daemon:
+    python = daemon.job(job)
+for name, other in (("/api/jobs", api), ("Python", python)):
+    assert sorted(other) == sorted(status), (name, sorted(set(other) ^ set(status)))
+    for key in status:
+        assert other[key] == status[key], (name, key, other[key], status[key])
 info = json.load(open(f"{work}/info.json"))
 text = open(f"{work}/info.txt").read()
 assert f"dembufd {info['version']} at {info['address']}" in text, (info, text)

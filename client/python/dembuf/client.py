@@ -87,6 +87,31 @@ def _message_dict(message) -> dict:
     return json_format.MessageToDict(message, preserving_proto_field_name=True)
 
 
+def _job_json(j) -> dict:
+    """A job as `dembuf status --json` writes it (client/remote_json.cpp)."""
+    summary = frames.parse_summary(j.summary_json, f"job {j.id} summary_json") or None
+    p = j.progress
+    peak = (summary["peak_plate_force_N"] if summary and "peak_plate_force_N" in summary
+            else p.peak_plate_force_N if p.peak_plate_force_N > 0 else None)
+    return {
+        "id": j.id, "name": j.name, "owner": j.owner, "state": state_name(j.state),
+        "error": j.error, "sweep_id": j.sweep_id or None, "sweep_index": j.sweep_index,
+        "sweep_values": list(j.sweep_values), "attempts": j.attempts,
+        "created_at": j.created_at or None, "started_at": j.started_at or None,
+        "finished_at": j.finished_at or None, "host": j.host, "code_version": j.code_version,
+        "command_line": j.command_line,
+        "progress": {"stage": p.stage, "fraction": p.fraction, "sim_time_s": p.sim_time_s,
+                     "steps": p.steps, "peak_plate_force_N": p.peak_plate_force_N},
+        "peak_plate_force_N": peak,
+        "P_N": summary.get("P_N") if summary else None,
+        "slurm_job_id": j.slurm_job_id or None,
+        "scene_toml": j.scene_toml, "scene_hash": j.scene_hash, "bed_hash": j.bed_hash,
+        "summary": summary,
+        "files": [{"path": f.path, "size": f.size} for f in j.files],
+        "beds_prepared": list(j.beds_prepared),
+    }
+
+
 def _sample(s: pb.ForceSample) -> Sample:
     return Sample(s.t_s, s.plate_force_N, s.wall_force_z_N, s.proj_z_m, s.proj_vz_m_s,
                   s.proj_force_z_N)
@@ -223,12 +248,11 @@ class Client:
     # -- following -----------------------------------------------------------------------------
 
     def job(self, job: int) -> dict:
-        """The job as the daemon knows it (state, progress, scene, summary, ...), with the
-        proto's field names; `state` as a name ("done")."""
-        message = self._call(self._stub.GetJob, pb.GetJobRequest(id=job))
-        out = _message_dict(message)
-        out["state"] = state_name(message.state)
-        return out
+        """The job as the daemon knows it, in the shape of `dembuf status --json` and
+        /api/jobs/ID: id, name, owner, state ("done"), error, sweep_id (None for a single
+        job), times (None until they happen), progress, peak_plate_force_N and P_N, the
+        scene, the summary (a dict), the files and the beds it prepared."""
+        return _job_json(self._call(self._stub.GetJob, pb.GetJobRequest(id=job)))
 
     def jobs(self, sweep: int = 0, owner: str = "", limit: int = 100) -> pd.DataFrame:
         """Jobs, newest first, one row each: id, name, owner, state, sweep_id, created_at..."""
@@ -285,8 +309,7 @@ class Client:
         """A finished job: its series (DataFrame), its summary.json (dict; empty for a job that
         did not finish well) and the job (dict)."""
         info = self.job(job)
-        summary = frames.parse_summary(info.get("summary_json", ""), f"job {job} summary_json")
-        return frames.Run(series=self.series(job), summary=summary, job=info)
+        return frames.Run(series=self.series(job), summary=info["summary"] or {}, job=info)
 
     def sweep(self, sweep: int) -> pd.DataFrame:
         """A sweep as sweep.csv has it, one row per job: job (its id), the swept fields,

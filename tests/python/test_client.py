@@ -167,8 +167,12 @@ class ClientTest(unittest.TestCase):
         with self.assertRaises(dembuf.DembufError) as caught:
             self.daemon.fetch(999999)
         self.assertEqual(caught.exception.code, "NOT_FOUND")
-        with self.assertRaisesRegex(dembuf.DembufError, "thicknes_m"):
+        # The scene's dotted name, as a scene file or the CLI says it (not the proto's
+        # "thicknesM").
+        with self.assertRaisesRegex(dembuf.DembufError, "INVALID_ARGUMENT.*bed.thicknes_m"):
             self.daemon.submit(scene={"bed": {"thicknes_m": 0.01}})
+        with self.assertRaisesRegex(dembuf.DembufError, "bed.cut"):
+            self.daemon.submit(scene={"bed": {"cut": "sideways"}})
         with self.assertRaisesRegex(dembuf.DembufError, "INVALID_ARGUMENT.*bed.thickness_m"):
             self.daemon.submit(scene={"bed": {"thickness_m": -1}})
 

@@ -87,6 +87,21 @@ def _message_dict(message) -> dict:
     return json_format.MessageToDict(message, preserving_proto_field_name=True)
 
 
+def _flat_fields(scene: Mapping, prefix: str = "") -> Iterator[tuple[str, str]]:
+    """A nested scene ({"bed": {"thickness_m": 0.02}}) as dotted fields and TOML values."""
+    for key, value in scene.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            yield from _flat_fields(value, name + ".")
+        elif isinstance(value, bool):
+            yield name, "true" if value else "false"
+        elif isinstance(value, (list, tuple)):
+            yield name, "[" + ", ".join(repr(v) if isinstance(v, (int, float)) else
+                                        '"' + str(v) + '"' for v in value) + "]"
+        else:
+            yield name, repr(value) if isinstance(value, float) else str(value)
+
+
 def _job_json(j) -> dict:
     """A job as `dembuf status --json` writes it (client/remote_json.cpp)."""
     summary = frames.parse_summary(j.summary_json, f"job {j.id} summary_json") or None
@@ -193,11 +208,10 @@ class Client:
             text = str(toml)
             path = pathlib.Path(text) if "\n" not in text and len(text) < 4096 else None
             spec.scene_toml = path.read_text() if path and path.is_file() else text
+        # The scene's fields as the CLI's --set, by their dotted names: the daemon checks them
+        # and names a wrong one as a scene file would ("bed.thicknes_m"), not as the proto.
         if scene:
-            try:
-                json_format.ParseDict(dict(scene), spec.scene)
-            except json_format.ParseError as e:
-                raise DembufError("INVALID_ARGUMENT", f"scene: {e}") from None
+            spec.set.extend(f"{field}={value}" for field, value in _flat_fields(scene))
         if set:
             items = set.items() if isinstance(set, Mapping) else (s.split("=", 1) for s in set)
             spec.set.extend(f"{field}={value}" for field, value in items)

@@ -174,6 +174,23 @@ std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& 
   return args;
 }
 
+bool SlurmUnreachable(const std::string& error) {
+  // What sbatch and squeue print when slurmctld is down or unknown, or the program cannot run.
+  static const char* const signs[] = {"Unable to contact slurm controller",
+                                      "Socket timed out",
+                                      "Connection refused",
+                                      "Zero Bytes were transmitted",
+                                      "Communication connection failure",
+                                      "unable to status file",
+                                      "Could not establish a configuration source",
+                                      "did not answer in",
+                                      "cannot run",
+                                      "No such file or directory"};
+  for (const char* sign : signs)
+    if (error.find(sign) != std::string::npos) return true;
+  return error.find("submission failed") == std::string::npos;
+}
+
 std::string Client::Run(const std::vector<std::string>& args, bool check) {
   const ProgramResult result = RunProgram(args, std::chrono::seconds(m_settings.command_timeout_s));
   if (result.timed_out)

@@ -20,6 +20,12 @@ class SlurmError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Whether a Slurm command's failure says the cluster could not be reached (no controller, no
+/// configuration, the command missing or silent), so that a job waits for it, rather than
+/// that the cluster refused the job (a partition, memory or time it does not have), which
+/// fails the job. sbatch says "Batch job submission failed" in both cases.
+bool SlurmUnreachable(const std::string& error);
+
 /// A job as squeue or scontrol describes it.
 struct JobStatus {
   std::int64_t id = 0;

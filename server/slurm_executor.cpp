@@ -23,6 +23,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The start of a queued job's note while Slurm cannot be reached (cleared once submitted).
+const std::string kWaitingForSlurm = "waiting: cannot reach Slurm (";
+
 // A run's summary.json or failure.json, from a folder others may write too: bounded (a
 // summary is a few kB) and a JSON object, or a std::runtime_error saying what is wrong.
 nlohmann::json ReadRunJson(const fs::path& path) {
@@ -94,7 +97,13 @@ void SlurmExecutor::Adopt() {
   try {
     in_slurm = m_slurm.FindByNamePrefix("dembuf-" + m_daemon_id + "-");
   } catch (const slurm::SlurmError& e) {
-    m_log->error("cannot ask Slurm for this daemon's jobs: {}", e.what());
+    // Started degraded: the daemon serves, and jobs wait queued, saying why, until Slurm
+    // answers.
+    m_log->error(
+        "cannot ask Slurm for this daemon's jobs: {}; serving anyway, jobs stay queued until "
+        "Slurm answers",
+        e.what());
+    NoteWaitingForSlurm(e.what());
   }
   for (const JobRecord& job : m_store.UnfinishedJobs()) {
     if (job.slurm_id != 0) {
@@ -261,19 +270,35 @@ void SlurmExecutor::SubmitQueued() {
     }
     try {
       Submit(job);
+      if (job.error.rfind(kWaitingForSlurm, 0) == 0) m_store.SetState(job.id, JobState::kQueued);
     } catch (const slurm::SlurmError& e) {
       const std::string what = e.what();
-      // sbatch says "Batch job submission failed" when the cluster refuses this job (a
-      // partition, memory or time it does not have): the job fails. Anything else (no
-      // controller, no configuration) is the cluster's trouble: the job waits for it.
-      if (what.find("submission failed") == std::string::npos) {
-        m_log->error("job {}: cannot reach Slurm; trying again in a moment: {}", job.id, what);
+      if (slurm::SlurmUnreachable(what)) {
+        // The cluster's trouble, not the job's: it waits, and says why where users look
+        // (status, list, the web page, the Python package); logged when the reason changes.
+        if (NoteWaitingForSlurm(what))
+          m_log->error("job {}: cannot reach Slurm; trying again every {} s: {}", job.id,
+                       m_options.slurm.poll_s, what);
         return;
       }
       m_store.FinishJob(job.id, JobState::kFailed, "Slurm refused the job: " + what, {});
       m_log->error("job {}: Slurm refused it: {}", job.id, what);
     }
   }
+}
+
+bool SlurmExecutor::NoteWaitingForSlurm(std::string what) {
+  what = what.substr(0, 400);
+  while (!what.empty() && std::isspace(static_cast<unsigned char>(what.back()))) what.pop_back();
+  const std::string note = kWaitingForSlurm + what + ")";
+  bool changed = false;
+  for (const JobRecord& job : m_store.UnfinishedJobs())
+    if (job.slurm_id == 0 && job.state == JobState::kQueued && !job.cancel_requested &&
+        job.error != note) {
+      m_store.SetState(job.id, JobState::kQueued, note);
+      changed = true;
+    }
+  return changed;
 }
 
 slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const fs::path& folder,

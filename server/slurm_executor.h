@@ -65,6 +65,9 @@ class SlurmExecutor final : public Executor {
   /// Jobs a daemon before this one submitted: found by name in Slurm, or by their results.
   void Adopt();
   void SubmitQueued();
+  /// Notes on every queued job not yet in Slurm that Slurm cannot be reached, and why;
+  /// whether any job's note changed.
+  bool NoteWaitingForSlurm(std::string what);
   void Submit(const JobRecord& job);
   /// The Slurm job preparing this bed, submitting it if none has it: 0 when the bed is ready.
   std::int64_t BedJob(const std::string& hash, const std::string& stage, const JobRecord& job,

@@ -7,7 +7,8 @@
 #    kill-during-result-write, between the series and the job's state): the half-written
 #    result is rolled back, the job runs again and its result is complete.
 # 4. A damaged database file: the daemon refuses to start, says why, and leaves it untouched.
-# 5. The disk fills while a job runs (a small tmpfs; needs root to mount, else skipped with a
+# 5. Slurm cannot be reached: dembufd starts degraded, saying so; a queued job says why.
+# 6. The disk fills while a job runs (a small tmpfs; needs root to mount, else skipped with a
 #    notice): the daemon keeps serving, refuses new jobs with RESOURCE_EXHAUSTED, puts the
 #    job back in the queue, and finishes it once space is freed; earlier results are intact.
 # Usage: fault_test.sh DEMBUF DEMBUFD
@@ -101,6 +102,32 @@ if "$dembufd" --listen 127.0.0.1:0 --db "$work/damaged.db" > "$work/damaged.log"
 fi
 grep -q "cannot be used.*untouched" "$work/damaged.log" || fail "no clear reason: $(cat "$work/damaged.log")"
 [ "$(sha256sum < "$work/damaged.db")" = "$sum_before" ] || fail "the damaged database was changed"
+
+# Slurm cannot be reached (sbatch and squeue answer as they do with slurmctld down): dembufd
+# starts degraded, saying so, and the queued job waits, saying why in status (it had no note,
+# and a submission that failed this way failed the job).
+mkdir "$work/no-slurm"
+for program in sbatch squeue scontrol scancel; do
+  printf '#!/bin/sh\necho "%s: error: Batch job submission failed: Unable to contact slurm controller (connect failure)" >&2\nexit 1\n' \
+    "$program" > "$work/no-slurm/$program"
+  chmod +x "$work/no-slurm/$program"
+done
+printf 'access = "local"\nexecutor = "slurm"\n[slurm]\nwork_dir = "%s"\ndembuf = "%s"\npoll_s = 0.2\n' \
+  "$work/slurm-work" "$dembuf" > "$work/no-slurm.toml"
+PATH="$work/no-slurm:$PATH" start_daemon "$work/no-slurm.db" "$work/no-slurm.log" \
+  --config "$work/no-slurm.toml"
+grep -q "serving anyway, jobs stay queued until Slurm answers" "$work/no-slurm.log" ||
+  fail "no word of the unreachable Slurm at the start: $(cat "$work/no-slurm.log")"
+waiting=$("$dembuf" -q submit --set bed.thickness_m=0)
+[ -n "$waiting" ] || fail "no job submitted to the degraded daemon"
+for _ in $(seq 50); do
+  "$dembuf" status "$waiting" | grep -q "^note: waiting: cannot reach Slurm (.*Unable to contact.*)$" && break
+  sleep 0.1
+done
+"$dembuf" status "$waiting" | grep -q "^note: waiting: cannot reach Slurm" ||
+  fail "the waiting job does not say why: $("$dembuf" status "$waiting")"
+[ "$(job_state "$waiting")" = queued ] || fail "the job is $(job_state "$waiting"), not queued"
+stop_daemon
 
 # The disk fills while a job runs.
 disk=$work/disk

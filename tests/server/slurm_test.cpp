@@ -65,6 +65,26 @@ TEST(Slurm, FinalStatesAreTheOnesThatDoNotRunAgain) {
     EXPECT_FALSE(slurm::IsFinalState(s)) << s;
 }
 
+// sbatch says "Batch job submission failed" when slurmctld is down too: such a job must wait
+// for the cluster, not fail (it failed, with the cluster down for a minute).
+TEST(Slurm, AControllerThatCannotBeReachedIsToldFromARefusal) {
+  using slurm::SlurmUnreachable;
+  EXPECT_TRUE(SlurmUnreachable(
+      "sbatch failed (exit 1): sbatch: error: Batch job submission failed: Unable to contact "
+      "slurm controller (connect failure)"));
+  EXPECT_TRUE(SlurmUnreachable(
+      "sbatch failed (exit 1): sbatch: error: s_p_parse_file: unable to status file "
+      "/etc/slurm/slurm.conf: No such file or directory"));
+  EXPECT_TRUE(SlurmUnreachable("sbatch did not answer in 60 s"));
+  EXPECT_TRUE(SlurmUnreachable("squeue: slurm_load_jobs error: Socket timed out on send/recv"));
+  EXPECT_FALSE(SlurmUnreachable(
+      "sbatch failed (exit 1): sbatch: error: Batch job submission failed: Invalid partition "
+      "name specified"));
+  EXPECT_FALSE(SlurmUnreachable(
+      "sbatch failed (exit 1): sbatch: error: Batch job submission failed: Requested node "
+      "configuration is not available"));
+}
+
 TEST(Slurm, TimeLimitsInEverySlurmForm) {
   EXPECT_EQ(slurm::ParseTimeLimit("30"), 30 * 60);
   EXPECT_EQ(slurm::ParseTimeLimit("0:05"), 5);

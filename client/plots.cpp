@@ -45,9 +45,27 @@ std::string Q(const fs::path& p) {
   return Literal(p.string());
 }
 
+// `text` with every `from` replaced by `to`.
+std::string ReplaceAll(std::string text, const std::string& from, const std::string& to) {
+  for (std::size_t at = text.find(from); at != std::string::npos;
+       at = text.find(from, at + to.size()))
+    text.replace(at, from.size(), to);
+  return text;
+}
+
+// Writes the script beside its figures and runs it there. The script names its files relative
+// to its own folder, so that `cd FOLDER && gnuplot NAME.gp` draws them again (after editing a
+// label, say); it draws every figure twice: PNG for the screen, SVG for print.
 void RunGnuplot(const std::string& script, const fs::path& script_path) {
-  std::ofstream(script_path) << script;
-  const ProgramResult gnuplot = RunProgram({"gnuplot", script_path.string()});
+  const fs::path folder = script_path.parent_path();
+  const std::string quoted_folder = Literal((folder / "").string());  // 'FOLDER/'
+  const std::string relative =
+      ReplaceAll(script, quoted_folder.substr(0, quoted_folder.size() - 1), "'");
+  const std::string vector = ReplaceAll(
+      ReplaceAll(relative, "set terminal pngcairo", "set terminal svg dynamic"), ".png'", ".svg'");
+  std::ofstream(script_path) << relative << "\n# The same figures as SVG, for print.\n" << vector;
+  const ProgramResult gnuplot = RunProgram(
+      {"gnuplot", "-e", "cd " + Literal(folder.string()), script_path.filename().string()});
   if (gnuplot.exit_code != 0)
     throw std::runtime_error("gnuplot failed on " + script_path.string() + ": " + gnuplot.output);
 }

@@ -5,6 +5,8 @@
 #   in summary.json. Now every string reaches gnuplot as a quoted literal and gnuplot runs
 #   without a shell: the plots are drawn and nothing else runs.
 # - A server's names are checked: a sweep whose axis is no scene field is refused by fetch.
+# - The scripts named their files by dembuf's working folder: now by their own, so they run
+#   again from it, drawing each figure as PNG and SVG.
 # - fetch does not overwrite a folder without --force; a failed `run --force` leaves no
 #   summary.json of the run before; a bare-plate run with snapshots plots without error.
 # Usage: plots_test.sh DEMBUF DEMBUFD
@@ -22,7 +24,9 @@ mv "$work/run/snapshots/peak" "$work/run/snapshots/$hostile"
 "$dembuf" plot "$work/run" > "$work/plot.txt" 2>&1 || fail "plot: $(cat "$work/plot.txt")"
 pwned "a snapshot folder's name"
 [ -s "$work/run/snapshots/$hostile/force_chains.png" ] || fail "no force chains drawn"
-grep -q "system \"touch PWNED\"" "$work/run/snapshots/$hostile/force_chains.gp" || fail "the name is not in the title"
+# (The name reaches gnuplot as the folder it runs in: the script names its files from there.)
+grep -q "^set output 'force_chains.png'" "$work/run/snapshots/$hostile/force_chains.gp" ||
+  fail "the script does not name its files from its own folder"
 
 # --- a peak's label in summary.json --------------------------------------------------------
 sed -i "s/\"kind\": \"Pa\"/\"kind\": \"$(printf '%s' "$hostile" | sed 's/"/\\\\"/g')\\\\n!touch PWNED\"/" \
@@ -39,6 +43,16 @@ mv "$work/sweep/runs/000_speed_m_s=1_seed=1" "$work/sweep/runs/000_$hostile"
 "$dembuf" plot "$work/sweep" > "$work/plot.txt" 2>&1 || fail "plot: $(cat "$work/plot.txt")"
 pwned "a CSV header or a run folder's name"
 [ -s "$work/sweep/sweep_peaks.png" ] || fail "no sweep plot drawn"
+
+# --- the scripts draw again from their own folder (they named files by dembuf's working
+# folder: "cannot open file"), each figure as PNG and SVG ----------------------------------
+rm "$work/sweep/sweep_peaks.png" "$work/sweep/sweep_peaks.svg"
+(cd "$work/sweep" && gnuplot sweep.gp) > "$work/again.txt" 2>&1 || fail "sweep.gp: $(cat "$work/again.txt")"
+[ -s "$work/sweep/sweep_peaks.png" ] && grep -q "<svg" "$work/sweep/sweep_peaks.svg" ||
+  fail "sweep.gp run again drew no PNG and SVG"
+(cd "$work/run/snapshots/$hostile" && gnuplot force_chains.gp) > "$work/again.txt" 2>&1 ||
+  fail "force_chains.gp: $(cat "$work/again.txt")"
+pwned "a script run again from its folder"
 
 # --- a bare-plate run with a snapshot: no bead contacts, still plotted --------------------
 "$dembuf" run --set output.snapshot_at_peak=true --out "$work/bare" > "$work/bare.log" 2>&1 ||

@@ -77,6 +77,41 @@ bool HasRows(const fs::path& csv) {
   return std::getline(in, line) && std::getline(in, line) && !line.empty();
 }
 
+// The values of column `k` (0-based) of a CSV file after its header, finite ones only.
+std::vector<double> Column(const fs::path& csv, int k) {
+  std::ifstream in(csv);
+  std::string line;
+  std::vector<double> values;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::string field;
+    for (int c = 0; c <= k && std::getline(fields, field, ','); ++c) {
+      if (c < k) continue;
+      char* end = nullptr;
+      const double v = std::strtod(field.c_str(), &end);
+      if (end != field.c_str() && std::isfinite(v)) values.push_back(v);
+    }
+  }
+  return values;
+}
+
+// The largest value of a column (0 for none).
+double ColumnMax(const fs::path& csv, int k) {
+  const std::vector<double> v = Column(csv, k);
+  return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
+}
+
+// The smallest step between the distinct values of a column: a grid's spacing (1 cm if none).
+double ColumnSpacing(const fs::path& csv, int k) {
+  std::vector<double> v = Column(csv, k);
+  std::sort(v.begin(), v.end());
+  double step = 0.0;
+  for (std::size_t i = 1; i < v.size(); ++i)
+    if (const double d = v[i] - v[i - 1]; d > 1e-12 && (step == 0.0 || d < step)) step = d;
+  return step > 0.0 ? step : 0.01;
+}
+
 // A number from a JSON file for a script: finite, else the fallback.
 double Number(const nlohmann::json& j, const char* key, double fallback) {
   const double v = j.contains(key) && j[key].is_number() ? j[key].get<double>() : fallback;
@@ -312,24 +347,47 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
       }
 
       if (HasRows(snap / "force_pdf.csv")) {
+        // On log-log axes, as the paper's Fig. 16: the strong forces' tail, decades below the
+        // peak of the density, stays visible.
         std::ostringstream pdf;
         pdf << kTerminal << "set output " << Q(snap / "force_pdf.png") << "\n"
-            << "set xlabel 'f / <f>'\nset ylabel 'probability density'\nset logscale y\n"
-            << "set title " << Literal("bead-bead contact forces " + when) << "\n"
+            << "set xlabel 'f / <f>'\nset ylabel 'probability density'\nset logscale xy\n"
+            << "set format y '10^{%T}'\nset termoption enhanced\n"
+            << "set title " << Literal("bead-bead contact forces " + when) << " noenhanced\n"
             << "plot " << Q(snap / "force_pdf.csv")
             << " every ::1 using 1:($2 > 0 ? $2 : 1/0) with linespoints pt 7 title 'bead-bead'\n";
         RunGnuplot(pdf.str(), snap / "force_pdf.gp");
         out.push_back(snap / "force_pdf.png");
       }
 
+      // The pressure in the unit that reads: MPa under the projectile's strike, kPa else.
+      const double max_pressure = ColumnMax(snap / "plate_radial.csv", 3);
+      const bool mpa = max_pressure >= 1e6;
       std::ostringstream radial;
       radial << kTerminal << "set output " << Q(snap / "plate_radial.png") << "\n"
-             << "set xlabel 'radius [cm]'\nset ylabel 'plate pressure [kPa]'\n"
-             << "set title " << Literal("load on the bottom plate by ring " + when) << "\n"
-             << "plot " << Q(snap / "plate_radial.csv")
-             << " every ::1 using (($1+$2)*50):($4/1e3) with histeps lw 2 title 'pressure'\n";
+             << "set xlabel 'radius [cm]'\nset ylabel 'plate pressure [" << (mpa ? "MPa" : "kPa")
+             << "]'\nset title " << Literal("load on the bottom plate by ring " + when) << "\n"
+             << "plot " << Q(snap / "plate_radial.csv") << " every ::1 using (($1+$2)*50):($4/"
+             << (mpa ? "1e6" : "1e3") << ") with histeps lw 2 title 'pressure'\n";
       RunGnuplot(radial.str(), snap / "plate_radial.gp");
       out.push_back(snap / "plate_radial.png");
+
+      // The force on each plate cell, seen from above (the paper's Fig. 15).
+      if (HasRows(snap / "plate_map.csv")) {
+        const double cell_cm = 100 * ColumnSpacing(snap / "plate_map.csv", 0);
+        std::ostringstream map;
+        map << kTerminal << "set terminal pngcairo size 760,640 font 'DejaVu Sans,12'\n"
+            << "set output " << Q(snap / "plate_map.png") << "\n"
+            << "set size ratio -1\nset xlabel 'x [cm]'\nset ylabel 'y [cm]'\n"
+            << "set cblabel 'force on the cell [N]'\nset palette defined (0 'white', 1 '#fdd49e', "
+               "2 '#fc8d59', 3 '#d7301f', 4 '#7f0000')\nset cbrange [0:*]\n"
+            << "set title 'force on the bottom plate by cell' . \"\\n\" . " << Literal(when) << "\n"
+            << "plot " << Q(snap / "plate_map.csv") << " every ::1 using ($1*100):($2*100):("
+            << cell_cm / 2 << "):(" << cell_cm / 2
+            << "):3 with boxxyerror fs solid 1.0 noborder lc palette notitle\n";
+        RunGnuplot(map.str(), snap / "plate_map.gp");
+        out.push_back(snap / "plate_map.png");
+      }
     }
   }
   return out;

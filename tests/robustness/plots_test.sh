@@ -24,6 +24,8 @@ mv "$work/run/snapshots/peak" "$work/run/snapshots/$hostile"
 "$dembuf" plot "$work/run" > "$work/plot.txt" 2>&1 || fail "plot: $(cat "$work/plot.txt")"
 pwned "a snapshot folder's name"
 [ -s "$work/run/snapshots/$hostile/force_chains.png" ] || fail "no force chains drawn"
+[ -s "$work/run/snapshots/$hostile/plate_map.png" ] || fail "no plate map drawn"
+grep -q "set logscale xy" "$work/run/snapshots/$hostile/force_pdf.gp" || fail "the force PDF is not log-log"
 # (The name reaches gnuplot as the folder it runs in: the script names its files from there.)
 grep -q "^set output 'force_chains.png'" "$work/run/snapshots/$hostile/force_chains.gp" ||
   fail "the script does not name its files from its own folder"

@@ -172,6 +172,9 @@ std::string SnapshotTitle(const fs::path& snap) {
 struct ChainStats {
   long count = 0;
   double mean_N = 0.0, max_N = 0.0, top_m = 0.0;
+  /// The line widths' classes among the contacts above the mean: their 50th, 80th and 95th
+  /// percentiles of force.
+  double q50_N = 0.0, q80_N = 0.0, q95_N = 0.0;
 };
 
 ChainStats ReadChainStats(const fs::path& contacts_csv) {
@@ -180,6 +183,7 @@ ChainStats ReadChainStats(const fs::path& contacts_csv) {
   std::string line;
   std::getline(in, line);
   double sum = 0.0;
+  std::vector<double> forces;
   while (std::getline(in, line)) {
     std::vector<std::string> cells;
     std::istringstream row(line);
@@ -189,6 +193,7 @@ ChainStats ReadChainStats(const fs::path& contacts_csv) {
     };
     if (cells.size() < 15 || !is_bead(cells[0]) || !is_bead(cells[1])) continue;
     const double f = std::atof(cells[8].c_str());
+    forces.push_back(f);
     sum += f;
     ++stats.count;
     stats.max_N = std::max(stats.max_N, f);
@@ -196,6 +201,18 @@ ChainStats ReadChainStats(const fs::path& contacts_csv) {
         std::max({stats.top_m, std::atof(cells[11].c_str()), std::atof(cells[14].c_str())});
   }
   stats.mean_N = stats.count ? sum / stats.count : 0.0;
+  std::vector<double> above;  // the contacts drawn
+  for (double f : forces)
+    if (f > stats.mean_N) above.push_back(f);
+  std::sort(above.begin(), above.end());
+  auto quantile = [&](double q) {
+    return above.empty()
+               ? stats.mean_N
+               : above[static_cast<std::size_t>(q * static_cast<double>(above.size() - 1))];
+  };
+  stats.q50_N = quantile(0.5);
+  stats.q80_N = quantile(0.8);
+  stats.q95_N = quantile(0.95);
   return stats;
 }
 
@@ -214,8 +231,6 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
   const nlohmann::json proj = j.value("projectile", nlohmann::json::object());
   const bool has_projectile = proj.is_object() && proj.contains("z_m");
   const double R = 100 * radius, half = 50 * slab, mean = chains.mean_N;
-  const bool capped = chains.max_N > 8 * mean;
-  const double scale_top = capped ? 8 * mean : chains.max_N;
   const double top = 100 * chains.top_m + 0.5;
   const double pz = 100 * Number(proj, "z_m", 0.0), pr = 100 * Number(proj, "radius_m", 0.0);
   const double z_max = std::max(top, has_projectile ? std::min(pz + pr, top + 2 * pr) : top);
@@ -224,8 +239,9 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
   const std::string bead_pair = "($1 >= 0 && $2 >= 0)";
   const std::string in_slab =
       "(abs($11*100) < " + Rounded(half, 6) + " && abs($14*100) < " + Rounded(half, 6) + ")";
-  // Force classes by multiples of the mean: 1-2, 2-3, 3-5, above 5.
-  const double bounds[] = {1, 2, 3, 5, 1e300};
+  // Line widths by quantile of the contacts drawn: the half below the median, then up to the
+  // 80th and 95th percentiles, then the strongest 5%.
+  const double bounds[] = {mean, chains.q50_N, chains.q80_N, chains.q95_N, 1e300};
   // The slice above the top view, each panel as tall as its frame is for the same width, so
   // that no canvas is left blank: panel heights in pixels (plot area plus labels).
   constexpr double kWidth = 1000, kPlotWidth = 760, kPanelMargin = 95, kTitle = 60;
@@ -239,17 +255,22 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
      << Literal("bead-bead contacts above the mean " + Rounded(mean, 2) + " N (largest " +
                 Rounded(chains.max_N, 3) + " N); the projectile's contacts dashed")
      << "\nset size ratio -1\nset key off\n"
-     // The scale ends at 8 times the mean (or the largest force): a few contacts of tens of
-     // means would otherwise leave every other chain the same pale colour.
-     << "set cblabel " << Literal("normal force [N]" + std::string(capped ? ", capped" : ""))
-     << "\nset cbrange [" << mean << ":" << scale_top << "]\n"
+     // A logarithmic colour scale from the mean to the largest force: chains of hundreds of
+     // newtons and of a few share one figure, every decade its colours.
+     << "set cblabel " << Literal("normal force [N], line width by quantile (50, 80, 95%)")
+     << "\nset logscale cb\nset cbrange [" << mean << ":" << std::max(chains.max_N, 1.01 * mean)
+     << "]\nset cbtics (" << Literal(Rounded(mean, 2)) << " " << mean << ", "
+     << Literal(Rounded(chains.q50_N, 2)) << " " << chains.q50_N << ", "
+     << Literal(Rounded(chains.q80_N, 2)) << " " << chains.q80_N << ", "
+     << Literal(Rounded(chains.q95_N, 2)) << " " << chains.q95_N << ", "
+     << Literal(Rounded(chains.max_N, 3)) << " " << chains.max_N << ")\n"
      << "set palette defined (0 '#f2c14e', 0.4 '#e07020', 0.75 '#b01010', 1 '#300000')\n";
   auto layers = [&](const std::string& x, const std::string& y, const std::string& dx,
                     const std::string& dy, const std::string& keep) {
     std::ostringstream p;
     for (int k = 0; k < 4; ++k)
       p << (k ? ", " : "") << data << " every ::1 using ((" << bead_pair << " && " << keep
-        << " && $9 > " << bounds[k] * mean << " && $9 <= " << bounds[k + 1] * mean << ") ? " << x
+        << " && $9 > " << bounds[k] << " && $9 <= " << bounds[k + 1] << ") ? " << x
         << " : 1/0):" << y << ":" << dx << ":" << dy << ":9 with vectors nohead lw "
         << 0.8 + 1.1 * k << " lc palette";
     return p.str();

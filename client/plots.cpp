@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -446,22 +447,28 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   const std::string x = thickness ? "($1*100)" : "1";
   const std::string xlabel = thickness ? "bed thickness H [cm]" : FieldLabel(field);
   const fs::path data = dir / "points.csv";
-  auto series = [&](const std::string& metric, double scale, const std::string& title) {
+  // Each series its own marker; `style` adds a line type or a marker size.
+  auto series = [&](const std::string& metric, double scale, const std::string& title,
+                    const std::string& style = "pt 7") {
     std::ostringstream s;
     s << Q(data) << " every ::1 using " << x << ":($" << col(metric) << "*" << scale
-      << "):" << ErrorBar(col(metric + "_sd"), scale) << " with yerrorlines pt 7 title "
-      << Literal(title);
+      << "):" << ErrorBar(col(metric + "_sd"), scale) << " with yerrorlines lw 1.5 " << style
+      << " title " << Literal(title);
     return s.str();
   };
   std::ostringstream gp;
-  gp << kTerminal << "set xlabel " << Literal(xlabel) << "\n"
+  // Room at the frame for the end markers, and error bars with visible caps.
+  gp << kTerminal << "set offsets graph 0.03, graph 0.03, graph 0.06, graph 0.06\nset bars 2\n"
+     << "set xlabel " << Literal(xlabel) << "\n"
      << "set output " << Q(dir / "sweep_peaks.png") << "\nset ylabel 'force [kN]'\n"
-     << "set title 'peak plate force (mean +- sd over seeds)'\n"
-     << "plot " << series("P_N", 1e-3, "P");
-  for (const char* peak : {"Pa", "Pb"})
+     << "set title 'peak plate force (mean +- sd over seeds)'\nplot ";
+  // Pa and Pb first, dashed with filled markers; P (the larger of them) on top, open and
+  // larger, so that it shows where it is Pa.
+  for (const auto& [peak, style] :
+       {std::pair{"Pa", "dt 2 pt 5 ps 0.9"}, {"Pb", "dt 3 pt 9 ps 1.1"}})
     if (has_data(std::string(peak) + "_N"))
-      gp << ", " << series(std::string(peak) + "_N", 1e-3, peak);
-  gp << "\n"
+      gp << series(std::string(peak) + "_N", 1e-3, peak, style) << ", ";
+  gp << series("P_N", 1e-3, "P", "pt 6 ps 1.8 lc rgb 'black'") << "\n"
      << "set output " << Q(dir / "sweep_lambda.png") << "\nset ylabel 'buffer ratio lambda [%]'\n"
      << "set title 'buffer ratio'\nplot " << series("lambda", 100, "lambda") << "\n"
      << "set output " << Q(dir / "sweep_crater.png") << "\nset ylabel 'crater depth [cm]'\n"
@@ -480,26 +487,37 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
     out.push_back(dir / name);
   if (two_peaks) out.push_back(dir / "sweep_ds_dt.png");
 
-  // F(t) of each point's first run, aligned at first contact.
+  // F(t) of every run, aligned at first contact: a colour per point, its seeds alike.
   std::ostringstream curves;
   curves << kTerminal << "set output " << Q(dir / "sweep_curves.png") << "\n"
          << "set xlabel 'time after first contact [ms]'\nset ylabel 'plate force [kN]'\n"
-         << "set title 'bottom-plate force'\nset xrange [-0.5:*]\nplot ";
+         << "set title 'bottom-plate force, every seed (a colour per point)'\n"
+         << "set palette defined (0 '#440154', 0.33 '#31688e', 0.66 '#35b779', 1 '#e3a000')\n"
+         << "unset colorbox\nset xrange [-0.5:*]\nplot ";
   bool first = true;
   std::vector<fs::path> runs;
   for (const auto& e : fs::directory_iterator(dir / "runs")) runs.push_back(e.path());
   std::sort(runs.begin(), runs.end());
-  std::set<std::string> seen;
+  auto point_of = [](const fs::path& run) {
+    std::string point = run.filename().string();
+    point = point.substr(point.find('_') + 1);
+    return point.substr(0, point.rfind("_seed="));
+  };
+  std::map<std::string, int> colour;  // point -> its place along the palette
+  for (const fs::path& run : runs) colour.try_emplace(point_of(run), 0);
+  int place = 0;
+  for (auto& [point, k] : colour) k = place++;
+  // A colour per point along one palette (not the 8 line types, which repeat).
+  std::set<std::string> titled;
   for (const fs::path& run : runs) {
     if (!fs::exists(run / "summary.json")) continue;
     const nlohmann::json s = ReadJson(run / "summary.json");
-    std::string point = run.filename().string();
-    point = point.substr(point.find('_') + 1);
-    point = point.substr(0, point.rfind("_seed="));
-    if (!seen.insert(point).second) continue;
+    const std::string point = point_of(run);
     const double t0 = Number(s, "first_contact_time_s", 0.0);
+    const double frac = colour.size() > 1 ? colour[point] / (colour.size() - 1.0) : 0.0;
     curves << (first ? "" : ", ") << Q(run / "plate_force.csv") << " every ::1 using (($1-" << t0
-           << ")*1e3):($2/1e3) with lines lw 1.5 title " << Literal(point);
+           << ")*1e3):($2/1e3) with lines lw 1.2 lc palette frac " << frac << " "
+           << (titled.insert(point).second ? "title " + Literal(point) : std::string("notitle"));
     first = false;
   }
   curves << "\n";

@@ -21,6 +21,21 @@ small=(--set cylinder.radius_m=0.02 --set bed.thickness_m=0.01 --set bed.source_
   --bed-cache "$work/beds" --no-plots --out "$work/run" > "$work/run.log" 2>&1 ||
   { cat "$work/run.log"; fail "run with snapshots and frames"; }
 /usr/bin/python3 "$here/vtk_check.py" run "$work/run" 0.0005 || fail "the run's VTK files"
+# The Python package reads a contacts.vtp's lines and their forces (read_vtp gave the points).
+PYTHONPATH="$(dirname "$dembuf")/../python" /usr/bin/python3 - "$work/run" <<'PY' ||
+import glob, re, sys
+import numpy as np
+import dembuf
+for path in glob.glob(f"{sys.argv[1]}/snapshots/*/contacts.vtp"):
+    contacts = dembuf.read_contacts_vtp(path)
+    lines = int(re.search(r'NumberOfLines="(\d+)"', open(path).read(2000)).group(1))
+    assert len(contacts) == lines > 0, (path, len(contacts), lines)
+    points = dembuf.read_vtp(path)[["x_m", "y_m", "z_m"]].to_numpy()
+    assert np.isin(contacts[["x1_m", "x2_m"]].to_numpy(), points[:, 0]).all(), path
+    assert (contacts.normal_force_N >= 0).all() and contacts.normal_force_N.max() > 0, path
+print("contacts.vtp read with its lines and forces")
+PY
+  fail "the Python reader of contacts.vtp"
 
 # bed export: text reads back as an import to the same beads (radii bit for bit).
 "$dembuf" bed export "${small[@]}" --bed-cache "$work/beds" --format text --out "$work/bed.txt" \

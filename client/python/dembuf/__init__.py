@@ -14,7 +14,7 @@ results, from the daemon or from a local run's folder, as pandas DataFrames.
 
 from .client import Client, DembufError, Sample, connect
 from .frames import SERIES_COLUMNS, Run, read_run, read_sweep, sweep_points
-from .vtp import read_pvd, read_vtp
+from .vtp import read_contacts_vtp, read_pvd, read_vtp
 
 __all__ = [
     "Client",
@@ -23,6 +23,7 @@ __all__ = [
     "SERIES_COLUMNS",
     "Sample",
     "connect",
+    "read_contacts_vtp",
     "read_pvd",
     "read_run",
     "read_sweep",

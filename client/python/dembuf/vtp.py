@@ -30,7 +30,8 @@ def _decode(array: ET.Element, order: str, path) -> np.ndarray:
 def read_vtp(path: str | os.PathLike) -> pd.DataFrame:
     """The points of a dembuf .vtp (beads.vtp, frames/frame_NNNNN.vtp, an exported bed): one
     row per body with x_m, y_m, z_m and the point arrays (radius_m, velocity_m_s as vx, vy,
-    vz, id, force_N as fx, fy, fz); the projectile is the row with id -1."""
+    vz, id, force_N as fx, fy, fz); the projectile is the row with id -1. A contacts.vtp's
+    contacts are its lines: read_contacts_vtp."""
     path = pathlib.Path(path)
     if path.stat().st_size > _MAX_FILE_BYTES:
         raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
@@ -50,6 +51,45 @@ def read_vtp(path: str | os.PathLike) -> pd.DataFrame:
                 frame[column] = values[:, k]
         else:
             frame[name] = values
+    return frame
+
+
+def read_contacts_vtp(path: str | os.PathLike) -> pd.DataFrame:
+    """The lines of a dembuf .vtp (a snapshot's contacts.vtp): one row per contact with its
+    two ends (x1_m, y1_m, z1_m, x2_m, y2_m, z2_m) and its cell arrays (normal_force_N, ...).
+    A file without lines gives no rows."""
+    path = pathlib.Path(path)
+    if path.stat().st_size > _MAX_FILE_BYTES:
+        raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
+    root = ET.parse(path).getroot()
+    if root.get("type") != "PolyData":
+        raise ValueError(f"{path}: not VTK PolyData")
+    order = "<" if root.get("byte_order") == "LittleEndian" else ">"
+    piece = root.find("PolyData/Piece")
+    columns = ["x1_m", "y1_m", "z1_m", "x2_m", "y2_m", "z2_m"]
+    lines = piece.find("Lines")
+    if lines is None or int(piece.get("NumberOfLines", "0")) == 0:
+        return pd.DataFrame(columns=columns)
+    points = _decode(piece.find("Points/DataArray"), order, path).reshape(-1, 3)
+    arrays = {a.get("Name"): a for a in lines.findall("DataArray")}
+    connectivity = _decode(arrays["connectivity"], order, path).astype(np.int64)
+    offsets = _decode(arrays["offsets"], order, path).astype(np.int64)
+    starts = np.concatenate(([0], offsets[:-1]))
+    if np.any(offsets - starts != 2) or offsets[-1] != len(connectivity) or \
+            connectivity.size and (connectivity.min() < 0 or connectivity.max() >= len(points)):
+        raise ValueError(f"{path}: its lines are not pairs of its points")
+    ends = points[connectivity].reshape(-1, 6)
+    frame = pd.DataFrame(ends, columns=columns)
+    for array in piece.findall("CellData/DataArray"):
+        values = _decode(array, order, path)
+        if len(values) != len(frame):
+            raise ValueError(f"{path}: cell array {array.get('Name')} has {len(values)} values "
+                             f"for {len(frame)} lines")
+        if values.ndim == 2:
+            for k in range(values.shape[1]):
+                frame[f"{array.get('Name')}_{k}"] = values[:, k]
+        else:
+            frame[array.get("Name")] = values
     return frame
 
 

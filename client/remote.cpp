@@ -9,8 +9,10 @@
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -144,6 +146,21 @@ int Report(const Remote& remote, const grpc::Status& status) {
 
 bool Ended(v1::JobState s) {
   return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+}
+
+// ", about 1:23 left" from when a job started (UTC, ISO 8601 as the server writes it) and the
+// fraction it has done; "" while too little is done to tell, or for a time that does not parse.
+std::string TimeLeft(const std::string& started_at, double fraction) {
+  std::tm tm{};
+  std::istringstream in(started_at);
+  in >> std::get_time(&tm, "%Y-%m-%dT%H:%M:%S");
+  if (in.fail() || !(fraction > 0.02 && fraction < 1.0)) return "";
+  const double elapsed = std::difftime(std::time(nullptr), timegm(&tm));
+  if (elapsed <= 0.0) return "";
+  const long left = std::lround(elapsed * (1.0 - fraction) / fraction);
+  char text[48];
+  std::snprintf(text, sizeof text, ", about %ld:%02ld left", left / 60, left % 60);
+  return text;
 }
 
 // One exit code per job state for status, watch and fetch: 0 done (or still going), 3 failed,
@@ -538,10 +555,12 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   std::printf("created %s, started %s, finished %s\n", j.created_at().c_str(),
               j.started_at().empty() ? "-" : j.started_at().c_str(),
               j.finished_at().empty() ? "-" : j.finished_at().c_str());
-  // Progress while the job lives; an ended job shows its summary (or reason) below instead.
+  // Progress while the job lives (one fraction over its bed stages and impact, and the time
+  // left it implies); an ended job shows its summary (or reason) below instead.
   if (!Ended(j.state()))
-    std::printf("progress: %s %s, t = %.4f ms, peak plate force so far %.5g N\n",
+    std::printf("progress: %s %s%s, t = %.4f ms, peak plate force so far %.5g N\n",
                 Shown(j.progress().stage()).c_str(), Percent(j.progress().fraction()).c_str(),
+                TimeLeft(j.started_at(), j.progress().fraction()).c_str(),
                 j.progress().sim_time_s() * 1e3, j.progress().peak_plate_force_n());
   std::printf("scene %s, bed %s\n", j.scene_hash().c_str(),
               j.bed_hash().empty() ? "(none)" : j.bed_hash().c_str());

@@ -7,6 +7,7 @@
 #include "dembuf/core/threads.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
+#include "dembuf/study/run/job_progress.h"
 #include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/study/run/run_job.h"
 #include "dembuf/study/scene/errors.h"
@@ -215,8 +216,14 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     control.context = {job->command_line, m_options.host, started_at, "", 0};
     control.cancel = &live->cancel;
     control.threads = &live->threads;
+    // One fraction over the whole job: the bed stages and the impact by their predicted time.
+    std::vector<std::string> cached;
+    const ResourceEstimate estimate = EstimateResources(scene);
+    for (const StageEstimate& stage : estimate.stages)
+      if (m_beds.Contains(stage.hash)) cached.push_back(stage.hash);
+    WholeJobProgress whole(estimate, cached);
     control.on_bed_progress = [&](const BedProgress& p) {
-      live->SetProgress("bed: " + p.stage, p.t_max_s > 0 ? p.t_s / p.t_max_s : 0.0, p.t_s, 0);
+      live->SetProgress("bed: " + p.stage, whole.WhileBed(p), p.t_s, 0);
     };
     control.on_bed_ready = [&](const World&) {
       if (first_state == JobState::kRunning) return;
@@ -224,8 +231,7 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
       live->SetState(JobState::kRunning);
     };
     control.on_progress = [&](const ImpactProgress& p) {
-      live->SetProgress("impact", p.t_end_estimate_s > 0 ? p.t_s / p.t_end_estimate_s : 0.0, p.t_s,
-                        p.steps);
+      live->SetProgress("impact", whole.WhileImpact(p), p.t_s, p.steps);
     };
     control.progress_every_steps = kProgressEverySteps;
     const ImpactSummary summary = RunJob(scene, m_beds, control, recorder);

@@ -10,6 +10,7 @@ const t = [], plate = [], pa = [], pb = [];  // t in ms, forces in N; pa, pb: nu
 let plot = null;
 let redraw = 0;
 let liveSamples = 0;  // those that came while the job was still running (not replayed)
+let stage = "";  // what the job is doing, from its progress (the bed stage before any force)
 
 const isFinal = (state) => state === "done" || state === "failed" || state === "cancelled";
 
@@ -30,8 +31,10 @@ function draw() {
     plot.setData([t, plate, pa, pb]);
   }
   document.body.dataset.samples = t.length;
-  document.getElementById("chart-note").textContent =
-    `${t.length.toLocaleString()} samples` + (t.length ? `, up to t = ${sig(t[t.length - 1], 5)} ms` : "");
+  // Before the impact there is no force to draw: the note says what the job is doing.
+  document.getElementById("chart-note").textContent = t.length
+    ? `${t.length.toLocaleString()} samples, up to t = ${sig(t[t.length - 1], 5)} ms`
+    : stage ? `no force yet: ${stage}` : "0 samples";
 }
 
 function drawSoon() {
@@ -121,6 +124,11 @@ function follow() {
   events.addEventListener("progress", (e) => {
     const { state, progress } = JSON.parse(e.data);
     bar.update(state, progress);
+    const now = state === "queued" ? "queued" : progress.stage;
+    if (now !== stage) {
+      stage = now;
+      if (!t.length) drawSoon();
+    }
     document.body.dataset.state = state;
     status.textContent = "";
   });

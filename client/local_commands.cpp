@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "compare.h"
+#include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "exit_codes.h"
 #include "plots.h"
@@ -133,6 +134,35 @@ void AddSweep(CLI::App& app, RunOptions& opt, CommandTable& commands) {
   });
 }
 
+// `dembuf scene --list WHAT`: what --set, --preset, --accuracy and --format take, for people,
+// the shell's completion and the manual page. A field's line: its name, then its unit, range
+// and meaning, tab-separated.
+int ListValues(const std::string& what) {
+  if (what == "presets")
+    for (const Preset& p : Presets()) std::printf("%.*s\n", int(p.name.size()), p.name.data());
+  if (what == "accuracies")
+    for (const AccuracyPreset& a : AccuracyPresets())
+      std::printf("%.*s\t%.*s\n", int(a.name.size()), a.name.data(), int(a.description.size()),
+                  a.description.data());
+  if (what == "formats") std::printf("text\nlammps\nvtp\n");
+  if (what != "fields") return 0;
+  for (const SceneField& f : SceneFields()) {
+    std::string range;
+    if (!f.choices.empty()) {
+      for (const std::string_view c : f.choices)
+        range += (range.empty() ? "" : "|") + std::string(c);
+    } else if (f.max > f.min) {
+      char text[96];
+      std::snprintf(text, sizeof text, "%s%g to %g%s", f.min_open ? "(" : "[", f.min, f.max,
+                    f.max_open ? ")" : "]");
+      range = text;
+    }
+    std::printf("%.*s\t%.*s\t%s\t%.*s\n", int(f.name.size()), f.name.data(), int(f.unit.size()),
+                f.unit.data(), range.c_str(), int(f.help.size()), f.help.data());
+  }
+  return 0;
+}
+
 // The commands that read folders and scenes: plot, compare and scene.
 void AddReaders(CLI::App& app, RunOptions& opt, CommandTable& commands) {
   CLI::App* plot = app.add_subcommand("plot", "draw PNG plots of a run or sweep folder (gnuplot)");
@@ -162,7 +192,14 @@ void AddReaders(CLI::App& app, RunOptions& opt, CommandTable& commands) {
   AddSceneArguments(scene, opt);
   static bool print_flag = false;  // the default; the flag says it aloud
   scene->add_flag("--print", print_flag, "print the complete scene as TOML (the default)");
+  static std::string list;
+  scene
+      ->add_option("--list", list,
+                   "list the values an option takes, one a line: fields (every scene field, "
+                   "with its unit, range and meaning), presets, accuracies or formats")
+      ->check(CLI::IsMember({"fields", "presets", "accuracies", "formats"}));
   commands.Add(scene, [&opt] {
+    if (!list.empty()) return ListValues(list);
     const Scene resolved = ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
     PrintWarnings(SceneWarnings(resolved));
     PrintScene(resolved, std::cout);

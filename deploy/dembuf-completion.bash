@@ -1,5 +1,6 @@
 # Bash completion for dembuf and dembufd: commands and options are read from the programs'
-# own --help when Tab is pressed, so they follow the binaries installed. Install with
+# own --help when Tab is pressed, and the values of --preset, --accuracy, --format, --set and
+# --vary from `dembuf scene --list`, so they follow the binaries installed. Install with
 #   cp deploy/dembuf-completion.bash /usr/share/bash-completion/completions/dembuf
 #   ln -s dembuf /usr/share/bash-completion/completions/dembufd
 # or source it from ~/.bashrc.
@@ -35,6 +36,29 @@ _dembuf() {
     previous=$word
   done
   local words
+  # The values an option takes, from the program itself (dembuf scene --list).
+  local last=${COMP_WORDS[COMP_CWORD-1]}
+  case "$last" in
+    --preset | --accuracy | --format | --list)
+      local what=${last#--}
+      case "$what" in preset) what=presets ;; accuracy) what=accuracies ;; format) what=formats ;;
+                      list) what="" ;; esac
+      if [ -z "$what" ]; then
+        words="fields presets accuracies formats"
+      else
+        words=$("$program" scene --list "$what" 2>/dev/null | cut -f1)
+      fi
+      mapfile -t COMPREPLY < <(compgen -W "$words" -- "$current")
+      return 0
+      ;;
+    --set | --vary)
+      # A field's dotted name, then its value after "=": no space after the name.
+      words=$("$program" scene --list fields 2>/dev/null | cut -f1 | sed 's/$/=/')
+      compopt -o nospace 2> /dev/null
+      mapfile -t COMPREPLY < <(compgen -W "$words" -- "$current")
+      return 0
+      ;;
+  esac
   if [[ $current == -* ]]; then
     if [ -n "$command" ]; then
       words=$("$program" "$command" --help 2>/dev/null | _dembuf_options)

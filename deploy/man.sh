@@ -26,7 +26,7 @@ commands_of() {
 }
 
 describe() {
-  local program=$1 name=$2 summary=$3 environment=$4
+  local program=$1 name=$2 summary=$3 environment=$4 extra=${5:-}
   {
     echo "[COMMANDS]"
     for command in $(commands_of "$program"); do
@@ -34,6 +34,7 @@ describe() {
       # (Usage lines name the program as it was called: by its name here, not its path.)
       "$program" "$command" --help | tail -n +2 | sed "s|$program |$name |" | as_troff
     done
+    [ -z "$extra" ] || "$extra" "$program"
     echo "[ENVIRONMENT]"
     echo "$environment"
     echo "[SEE ALSO]"
@@ -41,6 +42,41 @@ describe() {
   } > "$work/$name.h2m"
   help2man --no-info --name "$summary" --include "$work/$name.h2m" --output "$out/$name.1" \
     "$program"
+}
+
+# dembuf's examples, and its scene fields with units and ranges (from `dembuf scene --list`).
+dembuf_sections() {
+  local program=$1
+  echo "[EXAMPLES]"
+  as_troff <<'EXAMPLES'
+dembuf run --preset e2 --set bed.thickness_m=0.02 --out runs/first
+    the paper's E2 impact on a 2 cm bed; the bed is cached for the next run
+dembuf run --preset e2 --set bed.thickness_m=0.02 --dry-run
+    what the run would cost: beads, steps, files, memory, predicted time
+dembuf sweep --preset e2 --vary bed.thickness_m=0:0.08:0.005 --seeds 3 --out runs/e2
+    the paper's thickness sweep with three bed seeds; --dry-run prints its plan
+dembuf compare runs/e2
+    the sweep beside every number the paper gives for E2
+dembuf run --set bed.import=bed.data --set bed.import_units=mm
+    an impact on a bed from LAMMPS (data or dump file), written in millimetres
+dembuf submit --preset e2 --set bed.thickness_m=0.04; dembuf watch 1; dembuf fetch 1
+    the same on a dembufd: queue, follow live, fetch the files
+EXAMPLES
+  echo "[SCENE FIELDS]"
+  echo "Every field of a scene file, by its dotted name as --set and --vary take it, with its"
+  echo "unit, its allowed range (or values) and its meaning."
+  # (awk, not read: a field without a unit or a range has empty columns between its tabs.)
+  "$program" scene --list fields | awk -F'\t' '{
+    text = ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4
+    gsub(/\\/, "\\e", text)
+    if (text ~ /^[.\x27]/) text = "\\&" text
+    print ".TP"; print ".B " $1; print text }'
+  echo ".PP"
+  echo "Presets (--preset): $("$program" scene --list presets | tr '\n' ' ')"
+  echo ".br"
+  echo "Accuracies (--accuracy): $("$program" scene --list accuracies | cut -f1 | tr '\n' ' ')"
+  echo ".br"
+  echo "Bed formats (bed export --format): $("$program" scene --list formats | tr '\n' ' ')"
 }
 
 describe "$dembuf" dembuf "DEM simulation of impacts on granular buffer layers" '.TP
@@ -60,7 +96,7 @@ the folder of prepared beds (default ~/.cache/dembuf/beds)
 seconds between progress lines when stderr is not a terminal (default 5; 1 with -v)
 .TP
 .B OMP_NUM_THREADS
-threads of a local run (default: every core)'
+threads of a local run (default: every core)' dembuf_sections
 describe "$dembufd" dembufd "the dembuf daemon: gRPC API, job queue, SQLite store, web pages" \
   'None: dembufd is set by its flags and its configuration file (--config; deploy/dembufd.toml
 of the sources describes every setting).'

@@ -31,6 +31,15 @@ complete_words "$dembuf" --server run list --st | grep -qx -- --state ||
 if complete_words "$dembuf" list --st | grep -qx -- --out; then fail "list offers run's --out"; fi
 complete_words "$dembufd" --ht | grep -qx -- --http || fail "dembufd --ht<Tab> lacks --http"
 complete_words "$dembufd" token | grep -qx token-create || fail "dembufd token<Tab>"
+# The values: presets, accuracies, formats and scene fields (they completed nothing).
+[ "$(complete_words "$dembuf" run --preset e | tr '\n' ' ')" = "e1 e2 e3 e4 e5 " ] ||
+  fail "dembuf run --preset e<Tab>: $(complete_words "$dembuf" run --preset e)"
+complete_words "$dembuf" run --accuracy "" | grep -qx draft || fail "--accuracy <Tab> lacks draft"
+complete_words "$dembuf" bed export --format "" | grep -qx lammps || fail "--format <Tab> lacks lammps"
+complete_words "$dembuf" run --set bed.th | grep -qx "bed.thickness_m=" ||
+  fail "dembuf run --set bed.th<Tab>: $(complete_words "$dembuf" run --set bed.th)"
+complete_words "$dembuf" sweep --vary projectile.sp | grep -qx "projectile.speed_m_s=" ||
+  fail "dembuf sweep --vary projectile.sp<Tab>"
 
 # The manual pages: one per program, every command's options in dembuf's.
 bash "$src/deploy/man.sh" "$dembuf" "$dembufd" "$work/man" > /dev/null
@@ -39,7 +48,8 @@ for page in dembuf dembufd; do
   MANWIDTH=100 man -l "$work/man/$page.1" > "$work/$page.txt" 2> "$work/$page.err" ||
     fail "$page.1 does not render: $(cat "$work/$page.err")"
 done
-for text in "--find-hc" "--json" "DEMBUF_PROGRESS_S" "SIGTERM" "Usage: dembuf run"; do
+for text in "--find-hc" "--json" "DEMBUF_PROGRESS_S" "SIGTERM" "Usage: dembuf run" "EXAMPLES" \
+  "SCENE FIELDS" "bed.thickness_m" "[m] [0 to 10]: settled bed thickness H" "Presets (--preset): e1"; do
   grep -qF -- "$text" "$work/dembuf.txt" || fail "dembuf.1 lacks $text"
 done
 grep -qF -- "token-create" "$work/dembufd.txt" || fail "dembufd.1 lacks token-create"

@@ -36,7 +36,7 @@ stop_daemon
 
 # What a run folder holds, plots apart (a client draws them from these files), and a fetched
 # job's record of itself (job.json: its owner, state and times) apart.
-files_of() { (cd "$1" && find . -type f ! -name '*.png' ! -name '*.gp' ! -path ./job.json | sort); }
+files_of() { (cd "$1" && find . -type f ! -name '*.png' ! -name '*.svg' ! -name '*.gp' ! -path ./job.json | sort); }
 [ -f "$work/fetched/job.json" ] || fail "the fetched folder has no job.json"
 files_of "$work/run" > "$work/run.files"
 for required in ./plate_force.csv ./plate_force_bare.csv ./summary.json ./scene.toml \

@@ -51,7 +51,7 @@ def read_vtp(path):
     check(len(out["points"]) == out["n_points"], f"{path}: points")
     for group in ("PointData", "CellData"):
         out[group] = {a.get("Name"): decode(a) for a in piece.findall(f"{group}/DataArray")}
-    for cells in ("Verts", "Lines"):
+    for cells in ("Verts", "Lines", "Polys"):
         node = piece.find(cells)
         if node is not None:
             arrays = {a.get("Name"): decode(a) for a in node.findall("DataArray")}
@@ -86,10 +86,20 @@ def check_run(run, interval):
     run = pathlib.Path(run)
     summary = json.loads((run / "summary.json").read_text())
     beads = summary["beads"]
-    # Snapshots: each listed twice (beads, contacts) at its time.
+    # The container: the plate (one polygon at z = 0) and the wall (quads up to the rim).
+    scene = summary["scene"]["cylinder"]
+    box = read_vtp(run / "container.vtp")
+    check(box["CellData"]["part"].count(0) == 1 and box["CellData"]["part"].count(1) > 8,
+          "container: a plate and a wall")
+    check(all(close(math.hypot(p[0], p[1]), scene["radius_m"], 1e-9) for p in box["points"]),
+          "container: its points on the cylinder")
+    check(sorted({p[2] for p in box["points"]}) == [0.0, scene["height_m"]], "container: height")
+    # Snapshots: each listed three times (beads, contacts, the container) at its time.
     entries = read_pvd(run / "snapshots.pvd")
     snapshots = sorted(p for p in (run / "snapshots").iterdir())
-    check(len(entries) == 2 * len(snapshots) and len(snapshots) == 2, "snapshots.pvd entries")
+    check(len(entries) == 3 * len(snapshots) and len(snapshots) == 2, "snapshots.pvd entries")
+    check(sum(e[2] == "container.vtp" and e[1] == 2 for e in entries) == len(snapshots),
+          "snapshots.pvd: the container as part 2")
     for folder in snapshots:
         meta = json.loads((folder / "snapshot.json").read_text())
         mine = [e for e in entries if e[2].startswith(f"snapshots/{folder.name}/")]
@@ -121,6 +131,8 @@ def check_run(run, interval):
                       f"{folder.name}: bead {row['a']}: position")
     # Frames: every interval from the start of the impact, each with every body.
     frames = read_pvd(run / "frames.pvd")
+    check(sum(f[2] == "container.vtp" for f in frames) * 2 == len(frames), "frames: the container")
+    frames = [f for f in frames if f[2] != "container.vtp"]
     times = [t for t, _, _ in frames]
     dt = summary["dt_s"]
     check(len(frames) >= 5, f"{len(frames)} frames")

@@ -40,7 +40,7 @@ declare -A extra=(
 # The files compared: every output but the plots; summary.json without the fields that
 # differ from run to run.
 comparable() {
-  (cd "$1" && find . -type f ! -name '*.png' ! -name '*.gp' | LC_ALL=C sort)
+  (cd "$1" && find . -type f ! -name '*.png' ! -name '*.svg' ! -name '*.gp' | LC_ALL=C sort)  # plots aside
 }
 normalise_summary() {
   python3 -c '

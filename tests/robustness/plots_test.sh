@@ -69,7 +69,7 @@ code=0
   --out "$work/run" > /dev/null 2> "$work/err" || code=$?
 [ "$code" = 3 ] || fail "a bed that cannot settle exited $code: $(cat "$work/err")"
 [ -e "$work/run/failure.json" ] || fail "no failure.json"
-for f in summary.json plate_force.csv plate_force.png snapshots; do
+for f in summary.json plate_force.csv plate_force.png plate_force.svg snapshots; do
   [ ! -e "$work/run/$f" ] || fail "the failed run left $f of the run before"
 done
 

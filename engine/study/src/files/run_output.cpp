@@ -214,12 +214,14 @@ const std::vector<std::string>& RunOutputNames() {
                                                  "plate_force.csv",
                                                  "plate_force.csv.partial",
                                                  "plate_force.png",
+                                                 "plate_force.svg",
                                                  "plate_force_bare.csv",
                                                  "plate_force.gp",
                                                  "snapshots",
                                                  "snapshots.pvd",
                                                  "frames",
                                                  "frames.pvd",
+                                                 "container.vtp",
                                                  "scene.toml",
                                                  "job.json"};
   return names;

@@ -161,19 +161,32 @@ std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinde
       {folder + "force_pdf.csv", ForcePdf(snap)}};
 }
 
+void ParaViewFiles::AddContainerOnce(std::vector<ResultFile>& files) {
+  if (m_container_written) return;
+  m_container_written = true;
+  files.push_back({"container.vtp", ContainerVtp(m_cylinder_radius_m, m_cylinder_height_m)});
+}
+
 std::vector<ResultFile> ParaViewFiles::AddSnapshot(const ImpactSnapshot& snap) {
   std::vector<ResultFile> files = SnapshotFiles(snap, m_cylinder_radius_m, m_bead_diameter_m);
+  AddContainerOnce(files);
   const std::string folder = "snapshots/" + SafeLabel(snap.label) + "/";
   m_snapshots.push_back({snap.t_s, 0, folder + "beads.vtp"});
   m_snapshots.push_back({snap.t_s, 1, folder + "contacts.vtp"});
+  m_snapshots.push_back({snap.t_s, 2, "container.vtp"});
   files.push_back({"snapshots.pvd", Pvd(m_snapshots)});
   return files;
 }
 
 std::vector<ResultFile> ParaViewFiles::AddFrame(const ImpactSnapshot& frame) {
+  std::vector<ResultFile> files;
+  AddContainerOnce(files);
   const std::string path = "frames/" + SafeLabel(frame.label) + ".vtp";
   m_frames.push_back({frame.t_s, 0, path});
-  return {{path, BeadsVtp(frame)}, {"frames.pvd", Pvd(m_frames)}};
+  m_frames.push_back({frame.t_s, 1, "container.vtp"});
+  files.push_back({path, BeadsVtp(frame)});
+  files.push_back({"frames.pvd", Pvd(m_frames)});
+  return files;
 }
 
 bool IsSafeResultPath(std::string_view path) {
@@ -192,7 +205,8 @@ bool IsSafeResultPath(std::string_view path) {
 }
 
 bool IsResultFileName(std::string_view path) {
-  if (path == "plate_force_bare.csv" || path == "snapshots.pvd" || path == "frames.pvd")
+  if (path == "plate_force_bare.csv" || path == "snapshots.pvd" || path == "frames.pvd" ||
+      path == "container.vtp")
     return true;
   constexpr std::string_view kSnapshots = "snapshots/", kFrames = "frames/", kVtp = ".vtp";
   if (path.substr(0, kFrames.size()) == kFrames) {

@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <numbers>
 #include <sstream>
 
 namespace dembuf::report {
@@ -138,6 +140,42 @@ std::string ContactsVtp(const ImpactSnapshot& snap) {
     normal_force.push_back(c.normal_N);
   }
   return PolyData(bodies, false, "Lines", connectivity, offsets, normal_force);
+}
+
+std::string ContainerVtp(double radius_m, double height_m) {
+  // The plate a polygon of kSides corners at z = 0, the wall kSides quads up to its rim; a
+  // cell array says which (0 plate, 1 wall), for colouring them apart.
+  constexpr int kSides = 72;
+  std::vector<double> points;
+  for (const double z : {0.0, height_m})
+    for (int k = 0; k < kSides; ++k) {
+      const double angle = 2.0 * std::numbers::pi * k / kSides;
+      points.insert(points.end(), {radius_m * std::cos(angle), radius_m * std::sin(angle), z});
+    }
+  std::vector<std::int32_t> connectivity, offsets, part;
+  for (int k = 0; k < kSides; ++k) connectivity.push_back(k);
+  offsets.push_back(kSides);
+  part.push_back(0);
+  for (int k = 0; k < kSides; ++k) {
+    const int next = (k + 1) % kSides;
+    connectivity.insert(connectivity.end(), {k, next, kSides + next, kSides + k});
+    offsets.push_back(static_cast<std::int32_t>(connectivity.size()));
+    part.push_back(1);
+  }
+  std::ostringstream out;
+  out << "<?xml version=\"1.0\"?>\n"
+      << "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"" << ByteOrder()
+      << "\" header_type=\"UInt32\">\n  <PolyData>\n"
+      << "    <Piece NumberOfPoints=\"" << 2 * kSides << "\" NumberOfPolys=\"" << offsets.size()
+      << "\">\n      <Points>\n";
+  Array(out, "position_m", 3, points);
+  out << "      </Points>\n      <CellData Scalars=\"part\">\n";
+  Array(out, "part", 1, part);
+  out << "      </CellData>\n      <Polys>\n";
+  Array(out, "connectivity", 1, connectivity);
+  Array(out, "offsets", 1, offsets);
+  out << "      </Polys>\n    </Piece>\n  </PolyData>\n</VTKFile>\n";
+  return out.str();
 }
 
 std::string BedVtp(const dem::ParticleState& beads) {

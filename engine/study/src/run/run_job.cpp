@@ -19,7 +19,8 @@ ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& contr
   RunControl impact;
   impact.on_sample = [&](const ImpactSample& s) { recorder.Sample(s); };
   impact.on_reference_sample = [&](const ImpactSample& s) { recorder.ReferenceSample(s); };
-  report::ParaViewFiles paraview(scene.cylinder.radius_m, scene.beads.diameter_max_m);
+  report::ParaViewFiles paraview(scene.cylinder.radius_m, scene.cylinder.height_m,
+                                 scene.beads.diameter_max_m);
   impact.on_snapshot = [&](const ImpactSnapshot& snap) {
     recorder.Files(paraview.AddSnapshot(snap));
   };

@@ -37,15 +37,21 @@ std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinde
 /// collection updated to hold it, so that the folder opens in ParaView at any moment.
 class ParaViewFiles {
  public:
-  ParaViewFiles(double cylinder_radius_m, double bead_diameter_m)
-      : m_cylinder_radius_m(cylinder_radius_m), m_bead_diameter_m(bead_diameter_m) {}
-  /// SnapshotFiles and snapshots.pvd.
+  ParaViewFiles(double cylinder_radius_m, double cylinder_height_m, double bead_diameter_m)
+      : m_cylinder_radius_m(cylinder_radius_m),
+        m_cylinder_height_m(cylinder_height_m),
+        m_bead_diameter_m(bead_diameter_m) {}
+  /// SnapshotFiles and snapshots.pvd (and container.vtp with the first snapshot or frame).
   std::vector<ResultFile> AddSnapshot(const ImpactSnapshot& snap);
-  /// frames/<label>.vtp and frames.pvd.
+  /// frames/<label>.vtp and frames.pvd (and container.vtp with the first).
   std::vector<ResultFile> AddFrame(const ImpactSnapshot& frame);
 
  private:
-  double m_cylinder_radius_m, m_bead_diameter_m;
+  // container.vtp, the first time a snapshot or frame is written.
+  void AddContainerOnce(std::vector<ResultFile>& files);
+
+  double m_cylinder_radius_m, m_cylinder_height_m, m_bead_diameter_m;
+  bool m_container_written = false;
   std::vector<PvdEntry> m_snapshots, m_frames;
 };
 
@@ -58,8 +64,8 @@ inline constexpr std::size_t kMaxResultPathLength = 200;
 inline constexpr int kMaxResultPathDepth = 3;
 
 /// Whether `path` is the name of a result file a run writes besides its series and summary:
-/// plate_force_bare.csv, snapshots.pvd, frames.pvd, snapshots/LABEL/ one of the files of
-/// SnapshotFiles, or frames/LABEL.vtp, LABEL as SafeLabel makes it (never starting with a
+/// plate_force_bare.csv, snapshots.pvd, frames.pvd, container.vtp, snapshots/LABEL/ one of the
+/// files of SnapshotFiles, or frames/LABEL.vtp, LABEL as SafeLabel makes it (never starting with a
 /// dot). An allow-list, not a rule about characters: what a server or a cluster's folder
 /// sends under any other name (.git/config, .envrc, a/b where a is a file) is refused.
 bool IsResultFileName(std::string_view path);

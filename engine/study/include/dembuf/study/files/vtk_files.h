@@ -25,6 +25,11 @@ std::string BeadsVtp(const ImpactSnapshot& snap);
 /// contact of two bodies (contacts with the plate or the wall have no second centre).
 std::string ContactsVtp(const ImpactSnapshot& snap);
 
+/// The container as a .vtp file: the bottom plate (a polygon at z = 0) and the side wall
+/// (quads up to its rim), with a cell array `part` (0 plate, 1 wall). Written once a run, as
+/// container.vtp, and a part of snapshots.pvd and frames.pvd.
+std::string ContainerVtp(double radius_m, double height_m);
+
 /// A bed's beads as a .vtp file (ids in the bed's order, no forces).
 std::string BedVtp(const dem::ParticleState& beads);
 

@@ -518,9 +518,8 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
   } else if (fs::exists(out / "summary.json")) {
     try {
       summary = ReadRunJson(out / "summary.json").dump(2) + "\n";
-      files = report::ReadResultFiles(
-          out, {"plate_force_bare.csv", "snapshots", "snapshots.pvd", "frames", "frames.pvd"},
-          m_options.max_result_bytes, kMaxResultFiles);
+      files = report::ReadResultFiles(out, report::ResultFileRoots(), m_options.max_result_bytes,
+                                      kMaxResultFiles);
       state = JobState::kDone;
     } catch (const std::exception& e) {
       error = std::string("the run ended, but its results cannot be read: ") + e.what();

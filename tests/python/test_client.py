@@ -149,6 +149,10 @@ class ClientTest(unittest.TestCase):
         cli("fetch", "--sweep", str(sweep), "--out", str(folder), "--no-plots")
         local = dembuf.read_sweep(folder)
         self.assertEqual(list(local.columns), list(frame.columns))
+        # The swept values with the same types both ways (bed.seed 2, not 2.0).
+        for axis in ("bed.thickness_m", "bed.seed"):
+            self.assertEqual(list(local[axis]), list(frame[axis]), axis)
+            self.assertEqual(local[axis].dtype, frame[axis].dtype, axis)
         metrics = dembuf.frames.sweep_metric_names()
         np.testing.assert_allclose(local[metrics].to_numpy(dtype=float),
                                    frame[metrics].to_numpy(dtype=float), rtol=1e-6,

@@ -101,10 +101,12 @@ assert len(slurm) == 3 and slurm.keys() == threads.keys(), (slurm.keys(), thread
 for job in slurm:
     assert slurm[job][0] == threads[job][0], f"job {job}: summaries differ"
     assert slurm[job][1] == threads[job][1] and slurm[job][1], f"job {job}: series differ"
-    # The snapshot's seven files, its snapshots.pvd and the bare-plate series run for lambda.
+    # The snapshot's seven files, its snapshots.pvd, the container and the bare-plate series
+    # run for lambda.
     paths = [path for path, _ in slurm[job][2]]
-    assert slurm[job][2] == threads[job][2] and len(paths) == 9 and \
-        "plate_force_bare.csv" in paths, f"job {job}: result files {paths}"
+    assert slurm[job][2] == threads[job][2] and len(paths) == 10 and \
+        "plate_force_bare.csv" in paths and "container.vtp" in paths, \
+        f"job {job}: result files {paths}"
 print("3 jobs: summaries, series, snapshot and bare-plate files identical;",
       sum(len(v[1]) for v in slurm.values()) // 48, "samples compared")
 PY

@@ -102,6 +102,17 @@ def _flat_fields(scene: Mapping, prefix: str = "") -> Iterator[tuple[str, str]]:
             yield name, repr(value) if isinstance(value, float) else str(value)
 
 
+def _typed(value: str):
+    """A swept value as read_sweep's CSV reader types it: an int, a float, else the text
+    (bed.seed 2, not 2.0; bed.cut "tops", which float() refused)."""
+    for kind in (int, float):
+        try:
+            return kind(value)
+        except ValueError:
+            pass
+    return value
+
+
 def _job_json(j) -> dict:
     """A job as `dembuf status --json` writes it (client/remote_json.cpp)."""
     summary = frames.parse_summary(j.summary_json, f"job {j.id} summary_json") or None
@@ -345,7 +356,7 @@ class Client:
                 summary = frames.parse_summary(full.summary_json, f"job {j.id} summary_json")
             status = {pb.JOB_STATE_DONE: "ok", pb.JOB_STATE_FAILED: "failed",
                       pb.JOB_STATE_CANCELLED: "failed"}.get(j.state, state_name(j.state))
-            rows.append({"job": j.id, **dict(zip(axes, (float(v) for v in j.sweep_values))),
+            rows.append({"job": j.id, **dict(zip(axes, (_typed(v) for v in j.sweep_values))),
                          "status": status, **frames.metrics_of(summary), "error": j.error})
         return pd.DataFrame(rows, columns=["job", *axes, "status", *frames.sweep_metric_names(),
                                            "error"])

@@ -27,19 +27,23 @@ def _decode(array: ET.Element, order: str, path) -> np.ndarray:
     return values.reshape(-1, components) if components > 1 else values
 
 
+def _piece(path: pathlib.Path) -> tuple[ET.Element, str]:
+    """The PolyData piece of a .vtp file (bounded in size) and its byte order for numpy."""
+    if path.stat().st_size > _MAX_FILE_BYTES:
+        raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
+    root = ET.parse(path).getroot()
+    if root.get("type") != "PolyData":
+        raise ValueError(f"{path}: not VTK PolyData")
+    return root.find("PolyData/Piece"), "<" if root.get("byte_order") == "LittleEndian" else ">"
+
+
 def read_vtp(path: str | os.PathLike) -> pd.DataFrame:
     """The points of a dembuf .vtp (beads.vtp, frames/frame_NNNNN.vtp, an exported bed): one
     row per body with x_m, y_m, z_m and the point arrays (radius_m, velocity_m_s as vx, vy,
     vz, id, force_N as fx, fy, fz); the projectile is the row with id -1. A contacts.vtp's
     contacts are its lines: read_contacts_vtp."""
     path = pathlib.Path(path)
-    if path.stat().st_size > _MAX_FILE_BYTES:
-        raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
-    root = ET.parse(path).getroot()
-    if root.get("type") != "PolyData":
-        raise ValueError(f"{path}: not VTK PolyData")
-    order = "<" if root.get("byte_order") == "LittleEndian" else ">"
-    piece = root.find("PolyData/Piece")
+    piece, order = _piece(path)
     points = _decode(piece.find("Points/DataArray"), order, path)
     frame = pd.DataFrame(points, columns=["x_m", "y_m", "z_m"])
     names = {"velocity_m_s": ["vx_m_s", "vy_m_s", "vz_m_s"], "force_N": ["fx_N", "fy_N", "fz_N"]}
@@ -59,13 +63,7 @@ def read_contacts_vtp(path: str | os.PathLike) -> pd.DataFrame:
     two ends (x1_m, y1_m, z1_m, x2_m, y2_m, z2_m) and its cell arrays (normal_force_N, ...).
     A file without lines gives no rows."""
     path = pathlib.Path(path)
-    if path.stat().st_size > _MAX_FILE_BYTES:
-        raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
-    root = ET.parse(path).getroot()
-    if root.get("type") != "PolyData":
-        raise ValueError(f"{path}: not VTK PolyData")
-    order = "<" if root.get("byte_order") == "LittleEndian" else ">"
-    piece = root.find("PolyData/Piece")
+    piece, order = _piece(path)
     columns = ["x1_m", "y1_m", "z1_m", "x2_m", "y2_m", "z2_m"]
     lines = piece.find("Lines")
     if lines is None or int(piece.get("NumberOfLines", "0")) == 0:

@@ -204,6 +204,13 @@ bool IsSafeResultPath(std::string_view path) {
   return true;
 }
 
+const std::vector<std::string>& ResultFileRoots() {
+  static const std::vector<std::string> roots = {"plate_force_bare.csv", "snapshots",
+                                                 "snapshots.pvd",        "frames",
+                                                 "frames.pvd",           "container.vtp"};
+  return roots;
+}
+
 bool IsResultFileName(std::string_view path) {
   if (path == "plate_force_bare.csv" || path == "snapshots.pvd" || path == "frames.pvd" ||
       path == "container.vtp")

@@ -63,6 +63,10 @@ bool IsSafeResultPath(std::string_view path);
 inline constexpr std::size_t kMaxResultPathLength = 200;
 inline constexpr int kMaxResultPathDepth = 3;
 
+/// The files and folders of a run's folder that hold its result files (IsResultFileName),
+/// for reading them back from a cluster's shared folder.
+const std::vector<std::string>& ResultFileRoots();
+
 /// Whether `path` is the name of a result file a run writes besides its series and summary:
 /// plate_force_bare.csv, snapshots.pvd, frames.pvd, container.vtp, snapshots/LABEL/ one of the
 /// files of SnapshotFiles, or frames/LABEL.vtp, LABEL as SafeLabel makes it (never starting with a

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <numeric>
 
+#include "dembuf/core/threads.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/sweep/schedule.h"
 
@@ -37,10 +38,10 @@ TEST(ShareCores, EvenlyAmongRunsNobodyWaitsFor) {
 }
 
 TEST(ThreadsFed, AThousandBeadsAThread) {
-  EXPECT_EQ(ThreadsFed(0), 1);
-  EXPECT_EQ(ThreadsFed(999), 1);
-  EXPECT_EQ(ThreadsFed(7910), 7);
-  EXPECT_EQ(ThreadsFed(36805), 36);
+  EXPECT_EQ(dem::ThreadsFedBy(0), 1);
+  EXPECT_EQ(dem::ThreadsFedBy(999), 1);
+  EXPECT_EQ(dem::ThreadsFedBy(7910), 7);
+  EXPECT_EQ(dem::ThreadsFedBy(36805), 36);
   RunLoad load;  // not known: every core
   EXPECT_EQ(ThreadsMax(load, false, 16), 16);
   load = {true, "s", 36805, 100, 7910, 10};
@@ -117,7 +118,7 @@ TEST(PlanSchedule, TheE2SweepOn2And16And64Cores) {
     for (std::size_t k = 2; k < plan.runs.size(); ++k) {
       EXPECT_FALSE(plan.runs[k].prepares_source);
       EXPECT_GE(plan.runs[k].start_s, 0.999 * bed_ready) << runs[plan.runs[k].run].name;
-      EXPECT_LE(plan.runs[k].threads_at_start, ThreadsFed(loads[plan.runs[k].run].beads));
+      EXPECT_LE(plan.runs[k].threads_at_start, dem::ThreadsFedBy(loads[plan.runs[k].run].beads));
     }
     // On 16 cores the 16 runs cut from the bed start together as soon as it is ready.
     if (cores == 16) {

@@ -82,9 +82,8 @@ int UsableCpus() {
 
 int EffectiveThreads(int requested, std::size_t beads, int cpus) {
   const int asked = requested > 0 ? requested : omp_get_max_threads();
-  const std::size_t fed = beads / kMinBeadsPerThread;  // threads the beads can feed
-  const int allowed = std::min(asked, std::max(cpus, 1));
-  return std::max(1, fed < static_cast<std::size_t>(allowed) ? static_cast<int>(fed) : allowed);
+  return std::max(1,
+                  std::min({asked, std::max(cpus, 1), ThreadsFedBy(static_cast<double>(beads))}));
 }
 
 }  // namespace dembuf::dem

@@ -9,11 +9,6 @@
 
 namespace dembuf {
 
-int ThreadsFed(double beads) {
-  const double fed = beads / static_cast<double>(dem::kMinBeadsPerThread);
-  return fed >= 1.0 ? static_cast<int>(std::min(fed, 1e6)) : 1;
-}
-
 std::vector<int> ShareCores(int cores, const std::vector<CoreClaim>& running) {
   std::vector<int> threads(running.size(), 1);
   int free = std::max(cores, 1) - static_cast<int>(running.size());
@@ -83,7 +78,7 @@ std::vector<RunLoad> LoadsOf(const std::vector<SweepRun>& runs, BedCache* beds) 
 int ThreadsMax(const RunLoad& load, bool preparing_source, int cores) {
   if (!load.known) return std::max(cores, 1);
   return std::min(std::max(cores, 1),
-                  ThreadsFed(preparing_source ? load.source_beads : load.beads));
+                  dem::ThreadsFedBy(preparing_source ? load.source_beads : load.beads));
 }
 
 std::vector<std::size_t> StartOrder(const std::vector<RunLoad>& runs) {

@@ -15,6 +15,12 @@ namespace dembuf::dem {
 /// 3.00 times; the 30,000-bead bed still gained up to 16 threads (1,875 each).
 inline constexpr std::size_t kMinBeadsPerThread = 1000;
 
+/// The threads `beads` beads can feed: one per kMinBeadsPerThread, at least 1.
+inline int ThreadsFedBy(double beads) {
+  const double fed = beads / static_cast<double>(kMinBeadsPerThread);
+  return fed >= 1.0 ? static_cast<int>(fed < 1e6 ? fed : 1e6) : 1;
+}
+
 /// The CPUs this process may run on: its affinity mask (taskset, a Slurm allocation's cores),
 /// and its control group's CPU quota where one is set (a container's or a Slurm job's share),
 /// rounded up; never the host's count when it may use fewer. At least 1; read once.

@@ -15,11 +15,8 @@
 
 namespace dembuf {
 
-/// Threads `beads` beads can feed (dem::kMinBeadsPerThread each), at least 1.
-int ThreadsFed(double beads);
-
-/// A running run's claim on the cores: the threads its present bed can feed, and how many
-/// runs wait for the bed it is preparing (0: none).
+/// A running run's claim on the cores: the threads its present bed can feed (dem::ThreadsFedBy),
+/// and how many runs wait for the bed it is preparing (0: none).
 struct CoreClaim {
   int threads_max = 1;
   int waiting = 0;

@@ -76,7 +76,8 @@ void AddBedCommands(CLI::App& app, RunOptions& opt, CommandTable& commands) {
                         "only the settled source bed that the bed is cut from");
   commands.Add(prepare_bed, [&opt] { return PrepareBedCommand(opt); });
 
-  CLI::App* bed = app.add_subcommand("bed", "beds for other programs");
+  CLI::App* bed = app.add_subcommand("bed", "beds for other programs and for a server");
+  bed->alias("beds");
   bed->require_subcommand(1);
   CLI::App* bed_export = bed->add_subcommand(
       "export",

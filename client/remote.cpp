@@ -19,6 +19,8 @@
 #include <sstream>
 #include <thread>
 
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/bed/bed_formats.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
 #include "dembuf/study/scene/errors.h"
@@ -30,6 +32,7 @@
 #include "plots.h"
 #include "progress.h"
 #include "remote_json.h"
+#include "scene_input.h"
 
 namespace dembuf::cli {
 
@@ -184,8 +187,74 @@ __attribute__((format(printf, 1, 2))) void Note(const char* format, ...) {
   va_end(args);
 }
 
-v1::SceneSpec MakeSceneSpec(const RemoteScene& scene) {
-  v1::SceneSpec spec;
+// Sends a bed to the server in pieces (PushBed); the first piece says what it is.
+grpc::Status PushBed(const Remote& remote, const std::string& kind, const std::string& name,
+                     const std::string& scene_toml, const std::string& data,
+                     v1::PushBedResponse* response) {
+  constexpr std::size_t kPieceBytes = 256 << 10;  // as the server takes them (bed_push.h)
+  const auto stub = Connect(remote);
+  grpc::ClientContext context;
+  Prepare(context, remote, 600);
+  std::unique_ptr<grpc::ClientWriter<v1::BedPiece>> writer = stub->PushBed(&context, response);
+  v1::BedPiece piece;
+  piece.set_kind(kind);
+  piece.set_name(name);
+  piece.set_size(static_cast<std::int64_t>(data.size()));
+  piece.set_scene_toml(scene_toml);
+  if (kind == "file") piece.set_owner(remote.owner);
+  std::size_t offset = 0;
+  do {
+    piece.set_data(data.substr(offset, kPieceBytes));
+    offset += piece.data().size();
+    if (!writer->Write(piece)) break;  // the server ended the call: Finish says why
+    piece.Clear();
+  } while (offset < data.size());
+  writer->WritesDone();
+  return writer->Finish();
+}
+
+// A file's name as the server keeps it: letters, digits, '.', '_' and '-' (others become '_').
+std::string PlainFileName(const std::filesystem::path& path) {
+  std::string name = path.filename().string().substr(0, 100);
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
+  if (name.empty() || name.front() == '.') name.insert(0, "bed");
+  return name;
+}
+
+// The file a scene imports (bed.import), sent to the server: the request names its SHA-256
+// (SceneSpec.bed_file) instead of a path on this machine; none when the scene imports none.
+// Throws SceneError for a file this client cannot read.
+grpc::Status SendBedFile(const Remote& remote, const RemoteScene& remote_scene,
+                         std::string* sha256) {
+  Scene scene;
+  try {
+    scene = ResolveScene(remote_scene.scene_file, remote_scene.preset, remote_scene.overrides,
+                         remote_scene.accuracy);
+  } catch (const SceneError& e) {
+    if (e.field() == "bed.import") throw;
+    return grpc::Status::OK;  // the server resolves the scene and names what is wrong with it
+  }
+  if (scene.bed.import.empty()) return grpc::Status::OK;
+  std::string data;
+  try {
+    data = ReadBoundedFile(scene.bed.import, kMaxBedFileBytes, "bed file");
+  } catch (const InputLimitError& e) {
+    throw SceneError("bed.import", e.what());
+  }
+  v1::PushBedResponse response;
+  const grpc::Status status =
+      PushBed(remote, "file", PlainFileName(scene.bed.import), "", data, &response);
+  if (!status.ok()) return status;
+  Note("sent %s (%zu bytes) with the request\n", scene.bed.import.c_str(), data.size());
+  *sha256 = response.hash();
+  return status;
+}
+
+// The request's scene; a bed file it imports is sent first.
+grpc::Status MakeSceneSpec(const Remote& remote, const RemoteScene& scene, v1::SceneSpec* out) {
+  v1::SceneSpec& spec = *out;
+  if (grpc::Status s = SendBedFile(remote, scene, spec.mutable_bed_file()); !s.ok()) return s;
   spec.set_preset(scene.preset);
   spec.set_accuracy(scene.accuracy);
   if (!scene.scene_file.empty()) {
@@ -196,7 +265,7 @@ v1::SceneSpec MakeSceneSpec(const RemoteScene& scene) {
     spec.set_scene_toml(text.str());
   }
   for (const auto& s : scene.overrides) spec.add_set(s);
-  return spec;
+  return grpc::Status::OK;
 }
 
 ImpactSample FromProto(const v1::ForceSample& s) {
@@ -379,7 +448,8 @@ grpc::Status SubmitWithRetries(const Remote& remote, Call&& call) {
 
 int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name) {
   v1::SubmitJobRequest request;
-  *request.mutable_scene() = MakeSceneSpec(scene);
+  if (grpc::Status s = MakeSceneSpec(remote, scene, request.mutable_scene()); !s.ok())
+    return Report(remote, s);
   request.set_name(name);
   request.set_owner(remote.owner);
   request.set_command_line(remote.command_line.substr(0, kMaxCommandLineBytes));
@@ -402,7 +472,8 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
                 const std::vector<std::string>& vary, int seeds, const std::string& name,
                 bool json) {
   v1::SubmitSweepRequest request;
-  *request.mutable_base() = MakeSceneSpec(scene);
+  if (grpc::Status s = MakeSceneSpec(remote, scene, request.mutable_base()); !s.ok())
+    return Report(remote, s);
   for (const std::string& spec : vary) {
     const SweepSpec parts = SplitSweepSpec(spec);  // checked by the daemon
     auto* axis = request.add_axes();
@@ -865,6 +936,43 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
               summary["failed"].get<int>() - pending, pending);
   if (plots) PlotIfPossible(dir);
   return pending == 0 && summary["failed"].get<int>() == 0 ? 0 : kExitFailed;
+}
+
+int RemotePushBeds(const Remote& remote, const RemoteScene& remote_scene,
+                   const std::string& bed_cache) {
+  const Scene scene = ResolveScene(remote_scene.scene_file, remote_scene.preset,
+                                   remote_scene.overrides, remote_scene.accuracy);
+  if (!scene.bed.import.empty())
+    throw SceneError("bed.import",
+                     "an imported bed is not pushed: submit the job, which sends its file");
+  const std::vector<BedStage> stages = BedStagesOf(scene);
+  if (stages.empty()) throw SceneError("bed.thickness_m", "0: this scene has no bed to push");
+  const std::string scene_toml = report::SceneText(scene);
+  int pushed = 0;
+  for (const BedStage& stage : stages) {
+    const std::filesystem::path path = std::filesystem::path(bed_cache) / (stage.hash + ".bed");
+    if (!std::filesystem::exists(path)) {
+      Note("%s bed %s: not in %s\n", stage.stage.c_str(), stage.hash.c_str(), bed_cache.c_str());
+      continue;
+    }
+    const std::string data = ReadBoundedFile(path.string(), kMaxBedFileBytes, "bed");
+    CheckPreparedBed(ParseBed(data, path.string()), scene);  // as the server will
+    v1::PushBedResponse response;
+    const grpc::Status status = PushBed(remote, "prepared", "", scene_toml, data, &response);
+    if (!status.ok()) return Report(remote, status);
+    std::printf("%s bed %s (%lld beads): %s\n", Shown(response.stage()).c_str(),
+                Shown(response.hash()).c_str(), static_cast<long long>(response.beads()),
+                response.had_it() ? "the server had it" : "pushed");
+    ++pushed;
+  }
+  if (pushed == 0) {
+    std::fprintf(stderr,
+                 "dembuf: none of this scene's beds is in %s; prepare them first (dembuf "
+                 "prepare-bed with the same scene)\n",
+                 bed_cache.c_str());
+    return kExitBadInput;
+  }
+  return 0;
 }
 
 int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {

@@ -116,6 +116,18 @@ void AddResultCommands(CLI::App& app, RemoteArgs& a, CommandTable& commands) {
   commands.Add(info, [&] { return RemoteServerInfo(a.remote, a.json); });
 }
 
+// Under `dembuf bed` (local_commands.cpp), beside export.
+void AddBedPush(CLI::App& app, RunOptions& opt, RemoteArgs& a, CommandTable& commands) {
+  CLI::App* push = app.get_subcommand("bed")->add_subcommand(
+      "push",
+      "put a scene's prepared beds from the local bed cache into the server's (admins), so "
+      "that its jobs do not prepare them again");
+  AddSceneArguments(push, opt);
+  push->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds (default: the user's)");
+  commands.Add(push,
+               [&] { return RemotePushBeds(a.remote, SceneOf(opt), BedCacheDir(opt).string()); });
+}
+
 }  // namespace
 
 void AddRemoteCommands(CLI::App& app, RunOptions& opt, CommandTable& commands) {
@@ -130,6 +142,7 @@ void AddRemoteCommands(CLI::App& app, RunOptions& opt, CommandTable& commands) {
                  "speak TLS, trusting this PEM certificate (default: $DEMBUF_TLS_CA)");
   AddJobCommands(app, opt, *args, commands);
   AddResultCommands(app, *args, commands);
+  AddBedPush(app, opt, *args, commands);
   // After the parse, before any command runs.
   app.parse_complete_callback([args, &opt] { CompleteFromEnvironment(*args, opt.command_line); });
   commands.sweep_elsewhere = [args](const RunOptions& o) -> std::optional<int> {

@@ -26,12 +26,13 @@ const char* AccessModeName(AccessMode mode);
 
 /// What a request does with something a user owns (a job, a sweep, their list).
 enum class Action {
-  kList,    ///< list the owner's jobs and sweeps
-  kRead,    ///< a job's or sweep's state, details and summary
-  kWatch,   ///< a live stream of a job's samples
-  kFetch,   ///< an ended job's results and files
-  kCancel,  ///< cancel a job or sweep
-  kSubmit,  ///< file new work under the owner's name
+  kList,      ///< list the owner's jobs and sweeps
+  kRead,      ///< a job's or sweep's state, details and summary
+  kWatch,     ///< a live stream of a job's samples
+  kFetch,     ///< an ended job's results and files
+  kCancel,    ///< cancel a job or sweep
+  kSubmit,    ///< file new work under the owner's name
+  kShareBed,  ///< put a prepared bed in the cache every user's jobs read (no owner: admins)
 };
 
 /// A request refused by the policy: `unauthenticated` when it did not say who it is (or said

@@ -80,6 +80,7 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"max_fetch_streams", &config.max_fetch_streams},
       {"stream_write_timeout_s", &config.stream_write_timeout_s},
       {"max_request_kb", &config.max_request_kb},
+      {"max_bed_push_mb", &config.max_bed_push_mb},
       {"http", &config.http},
       {"http_max_streams_per_user", &config.http_max_streams_per_user},
       {"http_max_streams", &config.http_max_streams},
@@ -225,6 +226,8 @@ void ValidateConfig(ServerConfig& config) {
               std::to_string(config.stream_write_timeout_s));
   require(config.max_request_kb >= 16 && config.max_request_kb <= 1 << 20,
           "max_request_kb: must be 16 to 1048576");
+  require(config.max_bed_push_mb >= 1 && config.max_bed_push_mb <= 4096,
+          "max_bed_push_mb: must be 1 to 4096, not " + std::to_string(config.max_bed_push_mb));
   if (!config.http.empty()) config.http = HttpAddress(config.http);
   require(config.access == "tokens" || config.access == "local",
           "access: \"" + config.access + "\" must be \"tokens\" or \"local\"");

@@ -42,6 +42,9 @@ struct ServerConfig {
   /// stopped reading holds no place and no buffers).
   int stream_write_timeout_s = 30;
   int max_request_kb = 1024;  ///< the largest request read (a scene file is a few kB)
+  /// The largest bed one PushBed may send (held in memory until checked and stored); at most
+  /// kMaxBedPushes pushes at once, one a user.
+  int max_bed_push_mb = 64;
   /// The web pages and their JSON API (read-only), "HOST:PORT" or a port alone (on
   /// loopback); "" for none. Beyond loopback they need a user's token, as gRPC does.
   std::string http;

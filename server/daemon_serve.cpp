@@ -115,6 +115,7 @@ ServiceInfo MakeServiceInfo(const ServerConfig& config) {
   info.max_fetch_streams_per_user = config.max_fetch_streams_per_user;
   info.max_fetch_streams = config.max_fetch_streams;
   info.stream_write_timeout = std::chrono::seconds(config.stream_write_timeout_s);
+  info.max_bed_push_bytes = std::int64_t{config.max_bed_push_mb} << 20;
   return info;
 }
 

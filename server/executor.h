@@ -54,6 +54,9 @@ class Executor {
   virtual int queued() const = 0;
   virtual int running() const = 0;
   virtual ExecutorInfo info() const = 0;
+  /// A prepared bed pushed to the daemon, already in the store: an executor that reads beds
+  /// from elsewhere (a cluster's folder) puts it there too.
+  virtual void AddBed(const PreparedBed&) {}
   /// Stops taking jobs and waits up to `grace` for what runs here.
   virtual void Shutdown(std::chrono::seconds grace) = 0;
 };

@@ -1,6 +1,8 @@
 #include "scene_request.h"
 
+#include <cctype>
 #include <charconv>
+#include <memory>
 #include <string>
 
 #include "dembuf/study/scene/errors.h"
@@ -68,7 +70,7 @@ void ApplyProtoScene(const v1::Scene& fields, Scene& scene) {
   ApplyMessage(fields, "", scene);
 }
 
-Scene ResolveSceneSpec(const v1::SceneSpec& spec) {
+Scene ResolveSceneSpec(const v1::SceneSpec& spec, const std::optional<BedFile>& bed_file) {
   if (spec.set_size() > kMaxAssignments)
     throw SceneError("set", std::to_string(spec.set_size()) + " assignments; at most " +
                                 std::to_string(kMaxAssignments));
@@ -78,8 +80,34 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec) {
   if (!spec.accuracy().empty()) ApplyAccuracy(scene, spec.accuracy());
   ApplyProtoScene(spec.scene(), scene);
   for (const std::string& assignment : spec.set()) ApplyOverride(scene, assignment);
+  // Before validation, which would look for the file on this machine's disk.
+  if (spec.bed_file().empty()) CheckServerScene(scene);
+  if (!spec.bed_file().empty()) {
+    if (!bed_file) throw SceneError("bed_file", "no bed file " + spec.bed_file());
+    scene.bed.import = bed_file->name;
+    scene.bed.import_bytes = std::make_shared<const std::string>(bed_file->data);
+  }
   ValidateScene(scene);
   return scene;
+}
+
+Scene SceneOfJob(Store& store, const JobRecord& job) {
+  const std::string what = "job " + std::to_string(job.id);
+  if (job.bed_file.empty()) return LoadSceneText(job.scene_toml, what);
+  const std::optional<BedFile> file = store.GetBedFile(job.owner, job.bed_file);
+  if (!file) throw SceneError("bed_file", what + ": its bed file " + job.bed_file + " is gone");
+  // The bytes first: the file is not on this machine's disk, and the scene is validated.
+  Scene with_bytes;
+  with_bytes.bed.import_bytes = std::make_shared<const std::string>(file->data);
+  return LoadSceneText(job.scene_toml, what, with_bytes);
+}
+
+bool IsPlainBedFileName(const std::string& name) {
+  if (name.empty() || name.size() > kMaxBedFileNameBytes || name.front() == '.') return false;
+  for (const char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-')
+      return false;
+  return true;
 }
 
 void CheckSweepAxes(const v1::SubmitSweepRequest& request) {
@@ -94,10 +122,10 @@ void CheckSweepAxes(const v1::SubmitSweepRequest& request) {
 }
 
 void CheckServerScene(const Scene& scene) {
-  if (!scene.bed.import.empty())
+  if (!scene.bed.import.empty() && !scene.bed.import_bytes)
     throw SceneError("bed.import",
-                     "the server prepares its beds and does not read files on its disk; import "
-                     "the bed in a local run (dembuf run) instead");
+                     "the server does not read files on its disk; send the bed file with the "
+                     "request (dembuf submit and sweep send the file bed.import names)");
   // Their bytes are bounded by the cost check (quota_output_mb); their number here, so that
   // many tiny snapshots cannot flood the store with rows.
   const std::size_t snapshots = scene.output.snapshot_times_s.size() +

@@ -2,9 +2,12 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
+#include <string>
 
 #include "dembuf/study/scene/scene.h"
 #include "dembuf/v1/dembuf.pb.h"
+#include "store.h"
 
 namespace dembuf::server {
 
@@ -17,8 +20,20 @@ inline constexpr std::size_t kMaxServerSnapshots = 100;
 
 /// The default scene, then the preset, the scene file text, the accuracy level, the typed
 /// fields, and each `set` assignment, in that order; validated. Throws SceneError naming the field
-/// at fault.
-Scene ResolveSceneSpec(const v1::SceneSpec& spec);
+/// at fault. `bed_file` is the bed file the spec names (SceneSpec.bed_file), found by the
+/// caller: the scene imports it, under its name, from its bytes.
+Scene ResolveSceneSpec(const v1::SceneSpec& spec,
+                       const std::optional<BedFile>& bed_file = std::nullopt);
+
+/// A stored job's scene, with the bytes of the bed file it imports. Throws SceneError, or
+/// DamagedData for a bed file that no longer matches its checksum.
+Scene SceneOfJob(Store& store, const JobRecord& job);
+
+/// The longest name a bed file sent to the daemon may have.
+inline constexpr std::size_t kMaxBedFileNameBytes = 100;
+/// Whether `name` may name a bed file sent to the daemon: 1 to kMaxBedFileNameBytes of
+/// [A-Za-z0-9._-], not starting with a dot (it becomes a file name on a cluster's nodes).
+bool IsPlainBedFileName(const std::string& name);
 
 /// Applies the fields present in a proto Scene to `scene` (no validation).
 void ApplyProtoScene(const v1::Scene& fields, Scene& scene);
@@ -27,9 +42,9 @@ void ApplyProtoScene(const v1::Scene& fields, Scene& scene);
 /// Throws SceneError naming the axis.
 void CheckSweepAxes(const v1::SubmitSweepRequest& request);
 
-/// Refuses what a shared daemon does not run: beds read from files on the server and
-/// more than kMaxServerSnapshots snapshots. What a job costs is checked against the server's
-/// limits separately (ServiceInfo::job_limits). Throws SceneError.
+/// Refuses what a shared daemon does not run: beds read from files on the server (a bed file
+/// comes with the request instead) and more than kMaxServerSnapshots snapshots. What a job costs is
+/// checked against the server's limits separately (ServiceInfo::job_limits). Throws SceneError.
 void CheckServerScene(const Scene& scene);
 
 }  // namespace dembuf::server

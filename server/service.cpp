@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "auth.h"
+#include "bed_push.h"
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/files/provenance.h"
 #include "dembuf/study/impact/impact.h"
@@ -226,7 +227,8 @@ DembufService::DembufService(Store& store, Executor& executor, const AccessPolic
       m_watch_streams(m_info.max_watch_streams_per_user, m_info.max_watch_streams, "watch streams",
                       "max_watch_streams"),
       m_fetch_streams(m_info.max_fetch_streams_per_user, m_info.max_fetch_streams,
-                      "result streams (fetch)", "max_fetch_streams") {}
+                      "result streams (fetch)", "max_fetch_streams"),
+      m_bed_pushes(kMaxBedPushesPerUser, kMaxBedPushes, "bed pushes", "the daemon's limit") {}
 
 bool DembufService::AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
                                 v1::SubmitJobResponse* job_answer,
@@ -339,7 +341,7 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     JobRecord job;
     std::vector<std::string> warnings;
     try {
-      const Scene scene = ResolveSceneSpec(request->scene());
+      const Scene scene = ResolveSceneSpec(request->scene(), BedFileOf(request->scene(), owner));
       warnings = SceneWarnings(scene);
       CheckServerScene(scene);
       if (Status s = CheckJobQuota(scene); !s.ok()) return s;
@@ -347,6 +349,7 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
       if (name.empty())
         name = request->scene().preset().empty() ? "job" : request->scene().preset();
       job = MakeJobRecord(scene, owner, name);
+      job.bed_file = request->scene().bed_file();
       job.command_line = KeptCommandLine(context, request->command_line());
     } catch (const SceneError& e) {
       return FromSceneError(e);
@@ -398,7 +401,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     std::vector<std::string> warnings;
     try {
       CheckSweepAxes(*request);
-      const Scene base = ResolveSceneSpec(request->base());
+      const Scene base = ResolveSceneSpec(request->base(), BedFileOf(request->base(), owner));
       std::vector<SweepAxis> axes;
       for (const auto& axis : request->axes()) {
         std::vector<std::string> values(axis.values().begin(), axis.values().end());
@@ -417,6 +420,7 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
         CheckServerScene(runs[k].scene);
         if (Status s = CheckJobQuota(runs[k].scene); !s.ok()) return s;
         JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
+        job.bed_file = request->base().bed_file();
         job.sweep_index = static_cast<int>(runs[k].index);
         job.sweep_values = runs[k].values;
         job.command_line = command_line;
@@ -758,6 +762,93 @@ Status DembufService::ServerInfo(grpc::ServerContext* context, const v1::ServerI
     response->set_started_at(m_info.started_at);
     return Status::OK;
   });
+}
+
+std::optional<BedFile> DembufService::BedFileOf(const v1::SceneSpec& spec,
+                                                const std::string& owner) {
+  const std::string& sha256 = spec.bed_file();
+  if (sha256.empty()) return std::nullopt;
+  const bool hex = sha256.size() == 64 && std::all_of(sha256.begin(), sha256.end(), [](char c) {
+                     return std::isdigit(static_cast<unsigned char>(c)) || (c >= 'a' && c <= 'f');
+                   });
+  if (!hex) throw SceneError("bed_file", "must be a SHA-256 in 64 lowercase hex digits");
+  std::optional<BedFile> file = m_store.GetBedFile(owner, sha256);
+  if (!file)
+    throw SceneError("bed_file", owner + " sent no bed file " + sha256 +
+                                     " to this server: send it first (PushBed, kind \"file\")");
+  // Checked as a local import checks it (lines, units, container, overlaps) when a scene
+  // first names it, below, so that a bad file is refused at once, not when its job runs.
+  return file;
+}
+
+grpc::ServerReadReactor<v1::BedPiece>* DembufService::PushBed(grpc::CallbackServerContext* context,
+                                                              v1::PushBedResponse* response) {
+  std::optional<StreamLimits::Place> place;
+  Caller caller;
+  std::string why;
+  try {
+    caller = Identify(context);
+    if (std::optional<StreamLimits::Place> taken = m_bed_pushes.Take(caller, &why))
+      place.emplace(std::move(*taken));
+  } catch (...) {
+    return BedPushReactor::Refuse(FailureStatus("PushBed"));
+  }
+  if (!place)
+    return BedPushReactor::Refuse(
+        Status(StatusCode::RESOURCE_EXHAUSTED, "bed pushes: " + why + "; send one at a time"));
+  return BedPushReactor::Start(
+      context, m_clock, m_info.stream_write_timeout, m_info.max_bed_push_bytes, std::move(place),
+      [this, caller, response](const v1::BedPiece& first, std::string data) {
+        return Guard("PushBed",
+                     [&] { return ReceiveBed(caller, first, std::move(data), response); });
+      });
+}
+
+Status DembufService::ReceiveBed(const Caller& caller, const v1::BedPiece& first, std::string data,
+                                 v1::PushBedResponse* response) {
+  if (first.kind() == "file") {
+    if (Status s = CheckOwner(first.owner()); !s.ok()) return s;
+    const std::string owner = AccessPolicy::OwnerFor(caller, first.owner());
+    AccessPolicy::Require(caller, Action::kSubmit, owner, "bed files of " + owner);
+    if (!IsPlainBedFileName(first.name()))
+      return Invalid("name", "\"" + PrintableText(first.name().substr(0, 120)) +
+                                 "\" must be 1 to " + std::to_string(kMaxBedFileNameBytes) +
+                                 " letters, digits, '.', '_' or '-', not starting with '.'");
+    const std::string sha256 = report::Sha256Hex(data);
+    const bool added = m_store.PutBedFile({owner, sha256, first.name(), std::move(data)});
+    m_log->info("bed file {} ({}) {} by {}", sha256, first.name(), added ? "sent" : "sent again",
+                owner);
+    response->set_hash(sha256);
+    response->set_had_it(!added);
+    return Status::OK;
+  }
+  if (first.kind() != "prepared")
+    return Invalid("kind", "\"" + PrintableText(first.kind().substr(0, 40)) +
+                               "\" must be \"prepared\" or \"file\"");
+  AccessPolicy::Require(caller, Action::kShareBed, "", "put prepared beds in the shared bed cache");
+  PreparedBed bed;
+  try {
+    const Scene scene = LoadSceneText(first.scene_toml(), "scene_toml");
+    if (Status s = CheckJobQuota(scene); !s.ok()) return s;
+    bed = ParseBed(data, "the pushed bed");
+    CheckPreparedBed(bed, scene);
+  } catch (const SceneError& e) {
+    return FromSceneError(e);
+  } catch (const std::runtime_error& e) {  // ParseBed: damaged or foreign bytes
+    return Invalid("data", e.what());
+  }
+  response->set_hash(bed.hash);
+  response->set_stage(bed.stage);
+  response->set_beads(static_cast<std::int64_t>(bed.beads.size()));
+  if (m_store.beds().Contains(bed.hash)) {
+    response->set_had_it(true);
+    return Status::OK;
+  }
+  m_store.beds().Save(bed);
+  m_executor.AddBed(bed);
+  m_log->info("{} bed {} ({} beads) pushed by {}", bed.stage, bed.hash, bed.beads.size(),
+              caller.name);
+  return Status::OK;
 }
 
 }  // namespace dembuf::server

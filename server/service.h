@@ -32,13 +32,19 @@ struct ServiceInfo {
   int max_fetch_streams_per_user = 4;
   int max_fetch_streams = 64;
   std::chrono::seconds stream_write_timeout{30};
+  std::int64_t max_bed_push_bytes = std::int64_t{64} << 20;
 };
 
-/// The unary calls are served by gRPC's thread pool; the three server streams by its callback
-/// API (StreamReactor), so that an open stream holds no thread.
-using DembufServiceBase =
-    v1::Dembuf::WithCallbackMethod_WatchJob<v1::Dembuf::WithCallbackMethod_FetchSeries<
-        v1::Dembuf::WithCallbackMethod_FetchFiles<v1::Dembuf::Service>>>;
+/// Pushes of beds at once, per user and in all: each holds its bed in memory until it is
+/// checked (max_bed_push_mb).
+inline constexpr int kMaxBedPushesPerUser = 1;
+inline constexpr int kMaxBedPushes = 4;
+
+/// The unary calls are served by gRPC's thread pool; the streams by its callback API
+/// (StreamReactor, BedPushReactor), so that an open stream holds no thread.
+using DembufServiceBase = v1::Dembuf::WithCallbackMethod_WatchJob<
+    v1::Dembuf::WithCallbackMethod_FetchSeries<v1::Dembuf::WithCallbackMethod_FetchFiles<
+        v1::Dembuf::WithCallbackMethod_PushBed<v1::Dembuf::Service>>>>;
 
 class DembufService final : public DembufServiceBase {
  public:
@@ -66,6 +72,8 @@ class DembufService final : public DembufServiceBase {
                                                       const v1::FetchFilesRequest*) override;
   grpc::Status ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,
                           v1::ServerInfoResponse*) override;
+  grpc::ServerReadReactor<v1::BedPiece>* PushBed(grpc::CallbackServerContext*,
+                                                 v1::PushBedResponse*) override;
 
  private:
   /// The caller, by the access policy, from the request's "authorization" metadata. Throws
@@ -100,6 +108,12 @@ class DembufService final : public DembufServiceBase {
   void FillJob(const JobRecord& record, bool with_details, v1::Job* out,
                bool damaged_summary_fails = false);
   void FillSweep(const SweepRecord& record, v1::Sweep* out);
+  /// The caller's bed file a scene spec names (SceneSpec.bed_file), or none when it names
+  /// none. Throws SceneError naming bed_file when the owner sent no such file.
+  std::optional<BedFile> BedFileOf(const v1::SceneSpec& spec, const std::string& owner);
+  /// A whole pushed bed: checked, then kept (PushBed).
+  grpc::Status ReceiveBed(const Caller& caller, const v1::BedPiece& first, std::string data,
+                          v1::PushBedResponse* response);
 
   Store& m_store;
   Executor& m_executor;
@@ -108,6 +122,7 @@ class DembufService final : public DembufServiceBase {
   std::shared_ptr<spdlog::logger> m_log;
   StreamLimits m_watch_streams;
   StreamLimits m_fetch_streams;
+  StreamLimits m_bed_pushes;
   StreamClock m_clock;  ///< the streams' timed work
   /// Held from the look-up of a request id to the filing of its work, so that two copies of
   /// one request arriving together file it once.

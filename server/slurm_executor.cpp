@@ -307,6 +307,9 @@ slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const fs
                                                const std::vector<std::string>& dembuf_args) const {
   fs::create_directories(folder);
   report::WriteFileAtomically(folder / "scene.toml", scene_toml);
+  // A bed file sent with the job goes beside its scene, which names it (a plain name).
+  if (scene.bed.import_bytes)
+    report::WriteFileAtomically(folder / scene.bed.import, *scene.bed.import_bytes);
   const slurm::Settings& settings = m_options.slurm;
   slurm::Submission submission;
   submission.name = name;
@@ -352,8 +355,13 @@ std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& s
   return slurm_id;
 }
 
+void SlurmExecutor::AddBed(const PreparedBed& bed) {
+  // The nodes read their beds from the shared folder's bed cache, a FolderBedStore.
+  FolderBedStore(m_work / "beds").Save(bed);
+}
+
 void SlurmExecutor::Submit(const JobRecord& job) {
-  const Scene scene = LoadSceneText(job.scene_toml, "job " + std::to_string(job.id));
+  const Scene scene = SceneOfJob(m_store, job);
   // Only the source when the bed is cut from one: the source is shared by many beds.
   std::int64_t bed_after = 0;
   if (!job.bed_hash.empty() && !fs::exists(m_work / "beds" / (job.bed_hash + ".bed"))) {
@@ -462,7 +470,7 @@ SlurmExecutor::Followed& SlurmExecutor::StartFollowing(const JobRecord& job) {
   followed.live = std::make_shared<LiveJob>(job.id, m_store.SeriesLength(job.id));
   followed.live->SetState(JobState::kRunning);
   try {
-    const ResourceEstimate cost = EstimateResources(LoadSceneText(job.scene_toml, "scene"));
+    const ResourceEstimate cost = EstimateResources(SceneOfJob(m_store, job));
     followed.expected_end_s = cost.flight_time_s + cost.impact_steps_max * cost.dt_s;
   } catch (const std::exception&) {
     followed.expected_end_s = 0.0;  // progress unknown; the samples still come

@@ -51,6 +51,7 @@ class SlurmExecutor final : public Executor {
     return {"slurm", 0, m_options.slurm.cpus_per_job, m_options.queue_limit};
   }
   /// Stops following the cluster; its jobs go on, and the next start takes them up.
+  void AddBed(const PreparedBed& bed) override;
   void Shutdown(std::chrono::seconds grace) override;
 
  private:

@@ -155,6 +155,19 @@ ALTER TABLE results ADD COLUMN summary_sha256 TEXT NOT NULL DEFAULT '';
 ALTER TABLE results ADD COLUMN series_sha256 TEXT NOT NULL DEFAULT '';
 ALTER TABLE job_files ADD COLUMN sha256 TEXT NOT NULL DEFAULT '';
 )sql",
+    R"sql(
+-- Bed files users sent (PushBed, kind "file"), by owner and SHA-256 of their bytes, and the
+-- one a job imports ('' for none).
+CREATE TABLE bed_files (
+  owner       TEXT NOT NULL,
+  sha256      TEXT NOT NULL,
+  name        TEXT NOT NULL,
+  data        BLOB NOT NULL,
+  created_at  TEXT NOT NULL,
+  PRIMARY KEY (owner, sha256)
+);
+ALTER TABLE jobs ADD COLUMN bed_file TEXT NOT NULL DEFAULT '';
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 // The version that added the checksums of summaries, whole series and result files.
@@ -185,9 +198,9 @@ constexpr std::int64_t kHashPieceBytes = 1 << 20;
 const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
-    "finished_at, host, code_version, slurm_id, cancel_requested, command_line";
+    "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, command_line";
 // How many kJobColumns names: a column selected after them has this index.
-constexpr int kJobColumnCount = 21;
+constexpr int kJobColumnCount = 22;
 
 }  // namespace
 
@@ -293,6 +306,7 @@ JobRecord Store::ReadJob(Statement& s) {
   j.code_version = s.Text(17);
   j.slurm_id = s.Int(18);
   j.cancel_requested = s.Int(19) != 0;
+  j.bed_file = s.Text(20);
   j.command_line = s.Text(kJobColumnCount - 1);
   return j;
 }
@@ -301,16 +315,16 @@ void Store::InsertJobLocked(JobRecord& job) {
   job.created_at = report::UtcNow();
   Statement& s = m_db->Prepare(
       "INSERT INTO jobs (sweep_id, sweep_index, sweep_values_json, owner, name, state, "
-      "scene_toml, scene_hash, bed_hash, source_hash, created_at, command_line) "
-      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      "scene_toml, scene_hash, bed_hash, source_hash, created_at, command_line, bed_file) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (job.sweep_id != 0) {
     s.Bind(job.sweep_id, job.sweep_index, nlohmann::json(job.sweep_values).dump(), job.owner,
            job.name, StateName(job.state), job.scene_toml, job.scene_hash, job.bed_hash,
-           job.source_hash, job.created_at, job.command_line);
+           job.source_hash, job.created_at, job.command_line, job.bed_file);
   } else {
     s.Bind(std::nullopt, job.sweep_index, nlohmann::json(job.sweep_values).dump(), job.owner,
            job.name, StateName(job.state), job.scene_toml, job.scene_hash, job.bed_hash,
-           job.source_hash, job.created_at, job.command_line);
+           job.source_hash, job.created_at, job.command_line, job.bed_file);
   }
   s.Run();
   job.id = m_db->LastInsertId();
@@ -1061,6 +1075,28 @@ void Store::Beds::Save(const PreparedBed& bed) {
       .Bind(bed.hash, bed.stage, static_cast<std::int64_t>(bed.beads.size()),
             Statement::Bytes{bytes}, report::UtcNow())
       .Run();
+}
+
+bool Store::PutBedFile(const BedFile& file) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare(
+      "INSERT OR IGNORE INTO bed_files (owner, sha256, name, data, created_at) "
+      "VALUES (?, ?, ?, ?, ?)");
+  s.Bind(file.owner, file.sha256, file.name, Statement::Bytes{file.data}, report::UtcNow());
+  s.Run();
+  return m_db->Changes() > 0;
+}
+
+std::optional<BedFile> Store::GetBedFile(const std::string& owner, const std::string& sha256) {
+  std::lock_guard lock(m_mutex);
+  Statement& s = m_db->Prepare("SELECT name, data FROM bed_files WHERE owner = ? AND sha256 = ?");
+  s.Bind(owner, sha256);
+  if (!s.Step()) return std::nullopt;
+  BedFile file{owner, sha256, s.Text(0), s.Blob(1)};
+  s.Run();
+  if (report::Sha256Hex(file.data) != sha256)
+    throw DamagedData("bed file " + sha256 + " is damaged: it does not match its checksum");
+  return file;
 }
 
 bool Store::Beds::Contains(const std::string& hash) {

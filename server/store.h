@@ -50,6 +50,15 @@ struct JobRecord {
   std::int64_t slurm_id = 0;  ///< the cluster job running it (the Slurm executor); 0: none
   bool cancel_requested = false;
   std::string command_line;  ///< what asked for it, as the client sent it ("" if it did not)
+  std::string bed_file;      ///< SHA-256 of the owner's bed file it imports ("" for none)
+};
+
+/// A bed file a user sent to import (PushBed), kept by its owner and the SHA-256 of its bytes.
+struct BedFile {
+  std::string owner;
+  std::string sha256;
+  std::string name;  ///< as its user named it (plain)
+  std::string data;
 };
 
 /// A cluster job preparing a bed (the Slurm executor): one per bed hash, shared by every job
@@ -242,6 +251,12 @@ class Store {
   std::optional<SlurmBedJob> GetSlurmBed(const std::string& hash);
   std::vector<SlurmBedJob> SlurmBedsInState(const std::string& state);
   void PutSlurmBed(const SlurmBedJob& bed);
+
+  /// Keeps a user's bed file; false when they had sent the same bytes before (kept as then).
+  bool PutBedFile(const BedFile& file);
+  /// The owner's bed file of that SHA-256, or nothing. Throws DamagedData when its bytes no
+  /// longer match it.
+  std::optional<BedFile> GetBedFile(const std::string& owner, const std::string& sha256);
 
   /// Appends to the provenance log.
   void LogEvent(std::int64_t job_id, const std::string& message);

@@ -14,6 +14,7 @@
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/version.h"
 #include "fault_injection.h"
+#include "scene_request.h"
 #include "store_recorder.h"
 
 namespace dembuf::server {
@@ -30,10 +31,10 @@ constexpr std::int64_t kProgressEverySteps = 64;
 
 // What the queue needs to know of a job: its beds, and how many threads they can feed. A
 // scene the estimate cannot take (a bed file gone) fails when it runs, and may take any core.
-RunQueue::Needs QueueNeeds(const JobRecord& job) {
+RunQueue::Needs QueueNeeds(Store& store, const JobRecord& job) {
   RunQueue::Needs needs{{job.source_hash, job.bed_hash}, {}};
   try {
-    const Scene scene = LoadSceneText(job.scene_toml, "job " + std::to_string(job.id));
+    const Scene scene = SceneOfJob(store, job);
     needs.load = LoadOf(EstimateResources(scene), job.source_hash);
   } catch (const std::exception&) {
     needs.load.source_hash = job.source_hash;
@@ -74,7 +75,7 @@ void ThreadExecutor::Start() {
         "job {} was {} when the daemon stopped, for the second time: failed as a poison job, "
         "not run again",
         job.id, StateName(job.state));
-  for (const JobRecord& job : m_store.QueuedJobs()) m_queue.Push(job.id, QueueNeeds(job));
+  for (const JobRecord& job : m_store.QueuedJobs()) m_queue.Push(job.id, QueueNeeds(m_store, job));
   m_log->info("{} jobs queued; starting {} workers with {} threads each", m_queue.queued(),
               m_options.workers, m_options.threads_per_job);
   for (int w = 0; w < m_options.workers; ++w) m_workers.emplace_back([this, w] { WorkerLoop(w); });
@@ -87,7 +88,7 @@ void ThreadExecutor::Admit(std::size_t count, const std::function<std::vector<Jo
     if (m_stopping) throw QueueFull("the daemon is shutting down");
   }
   CheckQueueRoom(m_queue.queued(), count, m_options.queue_limit);
-  for (const JobRecord& job : add()) m_queue.Push(job.id, QueueNeeds(job));
+  for (const JobRecord& job : add()) m_queue.Push(job.id, QueueNeeds(m_store, job));
 }
 
 bool ThreadExecutor::Cancel(std::int64_t id) {
@@ -211,7 +212,7 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
   StoreRecorder recorder(m_store, id, *live,
                          static_cast<std::size_t>(m_store.options().chunk_samples));
   try {
-    const Scene scene = LoadSceneText(job->scene_toml, "job " + std::to_string(id));
+    const Scene scene = SceneOfJob(m_store, *job);
     JobControl control;
     control.context = {job->command_line, m_options.host, started_at, "", 0};
     control.cancel = &live->cancel;

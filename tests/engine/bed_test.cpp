@@ -10,8 +10,10 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <random>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "dembuf/study/bed/bed.h"
@@ -119,6 +121,71 @@ TEST(BedPreparation, ContactOfABeadTheFileDoesNotHoldIsRefused) {
       EXPECT_NE(std::string(e.what()).find("contact"), std::string::npos) << e.what();
     }
   }
+}
+
+// A bed pushed to a daemon is checked against the scene it comes with: the bed itself
+// passes, and each way a foreign or tampered bed differs is named.
+TEST(BedPreparation, APreparedBedIsCheckedAgainstItsScene) {
+  const PreparedBed& bed = SmallBed();
+  const Scene scene = SmallBedScene();
+  EXPECT_NO_THROW(CheckPreparedBed(bed, scene));
+  auto refusal = [&](PreparedBed changed, const Scene& against) {
+    try {
+      CheckPreparedBed(changed, against);
+    } catch (const SceneError& e) {
+      EXPECT_EQ(e.field(), "bed");
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  Scene other_seed = scene;
+  other_seed.bed.seed = 2;
+  EXPECT_NE(refusal(bed, other_seed).find("none of the scene's beds"), std::string::npos);
+  PreparedBed moved = bed;
+  moved.beads.position[3].x() += scene.cylinder.radius_m;
+  EXPECT_NE(refusal(moved, scene).find("bead 4 at"), std::string::npos);
+  PreparedBed heavy = bed;
+  heavy.beads.mass[0] *= 4.0;
+  EXPECT_NE(refusal(heavy, scene).find("bead 1 weighs"), std::string::npos);
+  PreparedBed moving = bed;
+  moving.beads.velocity[5] = dem::Vec3(0.0, 0.0, 0.1);
+  EXPECT_NE(refusal(moving, scene).find("bead 6 moves"), std::string::npos);
+  PreparedBed lower = bed;
+  for (dem::Vec3& x : lower.beads.position) x.z() -= 1e-4;  // every bead into the plate
+  EXPECT_NE(refusal(lower, scene).find("outside the container"), std::string::npos);
+}
+
+// A bed file's bytes that came with a request give the bed the file itself gives.
+TEST(BedPreparation, ImportBytesAreTheFilesBed) {
+  const std::string path = test::TempPath("import-bytes.txt");
+  {
+    std::ofstream out(path);
+    for (std::size_t i = 0; i < SmallBed().beads.size(); ++i) {
+      const dem::Vec3& x = SmallBed().beads.position[i];
+      char line[160];
+      std::snprintf(line, sizeof line, "%.17g %.17g %.17g %.17g\n", x.x(), x.y(), x.z(),
+                    SmallBed().beads.radius[i]);
+      out << line;
+    }
+  }
+  Scene from_file = SmallBedScene();
+  from_file.bed.import = path;
+  std::ifstream in(path);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  Scene from_bytes = SmallBedScene();
+  from_bytes.bed.import = "sent.txt";  // a name only: no such file here
+  from_bytes.bed.import_bytes = std::make_shared<const std::string>(bytes.str());
+  EXPECT_NO_THROW(ValidateScene(from_bytes));
+  EXPECT_EQ(BedHash(from_bytes), BedHash(from_file));
+  BedCache cache;
+  const PreparedBed a = GetBed(from_file, cache);
+  BedCache other;
+  const PreparedBed b = GetBed(from_bytes, other);
+  ASSERT_EQ(a.beads.size(), b.beads.size());
+  EXPECT_EQ(0, std::memcmp(a.beads.position.data(), b.beads.position.data(),
+                           a.beads.size() * sizeof(dem::Vec3)));
+  std::remove(path.c_str());
 }
 
 TEST(BedPreparation, CachedBedIsReusedNotSettledAgain) {

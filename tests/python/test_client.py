@@ -171,6 +171,24 @@ class ClientTest(unittest.TestCase):
                            capture_output=True)
             self.assertEqual(png.read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
 
+    def test_a_bed_file_sent_with_the_job(self):
+        # The job's own bed, exported as LAMMPS data, imported by a job of the package: the
+        # same bed hash as the CLI's local import of that file.
+        bed = WORK / "python bed.data"
+        cli("bed", "export", SCENE, "--format", "lammps", "--out", str(bed), "--force",
+            "--bed-cache", str(WORK / "py-beds"))
+        local = cli("prepare-bed", SCENE, "--set", f"bed.import={bed}",
+                    "--bed-cache", str(WORK / "py-import"))
+        job = self.daemon.submit(toml=SCENE, bed_file=bed, set={"time.end_s": 0.001})
+        self.assertEqual(self.daemon.wait(job, timeout_s=300), "done")
+        record = self.daemon.job(job)
+        self.assertIn(f"import bed {record['bed_hash']}:", local)
+        self.assertIn('import = "python_bed.data"', record["scene_toml"])
+        with self.assertRaisesRegex(dembuf.DembufError, "INVALID_ARGUMENT.*bed.import"):
+            bad = WORK / "bad.txt"
+            bad.write_text("0 0 0.01 0.5\n")  # a bead wider than the cylinder
+            self.daemon.submit(toml=SCENE, bed_file=bad)
+
     def test_errors_name_the_reason(self):
         with self.assertRaises(dembuf.DembufError) as caught:
             self.daemon.fetch(999999)

@@ -125,6 +125,12 @@ for who in "${callers[@]}"; do
 done
 # Only an admin lists another user's jobs by name.
 allowed_grpc admin "alice" list --owner alice
+# Only an admin puts a prepared bed in the cache everyone's jobs read (its owner is no one).
+bed=(--set cylinder.radius_m=0.02 --set bed.thickness_m=0.01 --set bed.source_thickness_m=0.015
+  --set projectile.diameter_m=0.012)
+"$dembuf" prepare-bed "${bed[@]}" --bed-cache "$work/beds" > /dev/null 2>&1 || fail "prepare-bed"
+refused_grpc owner "only an admin may put prepared beds" bed push "${bed[@]}" --bed-cache "$work/beds"
+allowed_grpc admin "cut bed [0-9a-f]*.*pushed" bed push "${bed[@]}" --bed-cache "$work/beds"
 grpc admin cancel --sweep "$sweep" > /dev/null 2>&1 || true
 stop_daemon
 

@@ -308,7 +308,8 @@ TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAndLoseTheirTokensAtTheUpgr
     Database db(path.string());
     db.Execute(
         "ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
-        "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; PRAGMA user_version = 7");
+        "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
+        "ALTER TABLE jobs DROP COLUMN bed_file; PRAGMA user_version = 7");
     db.Execute("UPDATE jobs SET command_line = 'dembuf --token 0123abcd submit'");
     db.Execute(
         "UPDATE results SET summary_json = "

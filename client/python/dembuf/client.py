@@ -228,17 +228,39 @@ class Client:
             spec.set.extend(f"{field}={value}" for field, value in items)
         return spec
 
+    def send_bed_file(self, path: str | os.PathLike) -> str:
+        """Sends a bed file (text, LAMMPS data or dump) to the daemon, which keeps it for
+        this user's jobs; returns its SHA-256, which a scene names as its bed file. The
+        daemon checks it as an import when a job names it."""
+        data = pathlib.Path(path).read_bytes()
+        name = re.sub(r"[^A-Za-z0-9._-]", "_", pathlib.Path(path).name)[:100]
+        if not name or name.startswith("."):
+            name = "bed" + name
+        piece = 256 << 10  # as the daemon takes them
+        pieces = [pb.BedPiece(kind="file", name=name, size=len(data), owner=self.owner,
+                              data=data[:piece])]
+        pieces += [pb.BedPiece(data=data[i:i + piece]) for i in range(piece, len(data), piece)]
+        try:
+            answer = self._stub.PushBed(iter(pieces), metadata=self._metadata(),
+                                        timeout=max(self.timeout_s, 600))
+        except grpc.RpcError as e:
+            raise DembufError(e.code().name, e.details()) from None
+        return answer.hash
+
     def submit(self, preset: str = "", scene: Mapping | None = None,
                toml: str | os.PathLike | None = None,
                set: Sequence[str] | Mapping[str, object] | None = None, accuracy: str = "",
-               name: str = "") -> int:
+               name: str = "", bed_file: str | os.PathLike | None = None) -> int:
         """Submits one impact; returns its job id. The scene is built as the CLI builds it:
         the preset, the scene file (`toml`: a path or its text), the accuracy, the fields of
         `scene` (nested as a scene file: {"bed": {"thickness_m": 0.02}}), then `set`
-        ({"time.end_s": 0.1} or ["time.end_s=0.1"]). Physically odd input comes back as
+        ({"time.end_s": 0.1} or ["time.end_s=0.1"]). `bed_file`: a bed file on this machine
+        to import (sent with the job, as bed.import). Physically odd input comes back as
         warnings (UserWarning)."""
         request = pb.SubmitJobRequest(scene=self._scene_spec(preset, scene, toml, set, accuracy),
                                       name=name, owner=self.owner, command_line=command_line())
+        if bed_file is not None:
+            request.scene.bed_file = self.send_bed_file(bed_file)
         answer = self._submit(self._stub.SubmitJob, request)
         for warning in answer.warnings:
             warnings.warn(f"job {answer.job.id}: {warning}", stacklevel=2)
@@ -248,13 +270,17 @@ class Client:
                      preset: str = "", scene: Mapping | None = None,
                      toml: str | os.PathLike | None = None,
                      set: Sequence[str] | Mapping[str, object] | None = None,
-                     accuracy: str = "", name: str = "") -> int:
+                     accuracy: str = "", name: str = "",
+                     bed_file: str | os.PathLike | None = None) -> int:
         """Submits a sweep; returns its id. `axes` maps a scene field to its values, a list
         or a "START:STOP:STEP" range (inclusive): {"bed.thickness_m": "0:0.08:0.005"}. Each
-        point runs on bed seeds 1..seeds, its jobs sharing their beds."""
+        point runs on bed seeds 1..seeds, its jobs sharing their beds; with `bed_file`, every
+        point imports that file (as submit)."""
         request = pb.SubmitSweepRequest(
             base=self._scene_spec(preset, scene, toml, set, accuracy), seeds=seeds, name=name,
             owner=self.owner, command_line=command_line())
+        if bed_file is not None:
+            request.base.bed_file = self.send_bed_file(bed_file)
         for field, values in axes.items():
             if isinstance(values, str):
                 request.axes.add(field=field, range=values)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <numbers>
@@ -639,9 +640,13 @@ PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const Bed
 }
 
 std::string ImportHash(const Scene& scene) {
-  std::ifstream in(scene.bed.import, std::ios::binary);
   std::ostringstream content;
-  content << in.rdbuf();
+  if (scene.bed.import_bytes) {
+    content << *scene.bed.import_bytes;
+  } else {
+    std::ifstream in(scene.bed.import, std::ios::binary);
+    content << in.rdbuf();
+  }
   // Named only when set, so that beds imported as they were keep their hashes.
   const std::string relax = scene.bed.import_overlaps == "relax"
                                 ? FieldText(scene, "bed.import_overlaps")
@@ -721,6 +726,67 @@ PreparedBed GetSourceBed(const Scene& scene, BedCache& cache, const BedRequest& 
   const StageKeys k = Keys(scene);
   return FindOrMake(cache, k.source, "source",
                     [&] { return PrepareSource(scene, k.source, request); });
+}
+
+void CheckPreparedBed(const PreparedBed& bed, const Scene& scene) {
+  auto FormatNumber = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.6g", v);
+    return std::string(text);
+  };
+  auto fail = [&](const std::string& why) {
+    throw SceneError("bed", bed.stage + " bed " + bed.hash + ": " + why);
+  };
+  const std::vector<BedStage> stages = BedStagesOf(scene);
+  if (!scene.bed.import.empty())
+    fail("its scene imports a bed file; send the file with the job instead");
+  const auto stage = std::find_if(stages.begin(), stages.end(), [&](const BedStage& s) {
+    return s.hash == bed.hash && s.stage == bed.stage;
+  });
+  if (stage == stages.end()) {
+    std::string names;
+    for (const BedStage& s : stages) names += (names.empty() ? "" : ", ") + s.stage + " " + s.hash;
+    fail("it is none of the scene's beds (" + (names.empty() ? "none" : names) +
+         "): prepared for another scene, or by another version of dembuf");
+  }
+  const dem::ParticleState& b = bed.beads;
+  if (b.size() == 0) fail("it holds no beads");
+  const double R = scene.cylinder.radius_m;
+  const double r_min = 0.5 * scene.beads.diameter_min_m, r_max = 0.5 * scene.beads.diameter_max_m;
+  constexpr double kRounding = 1e-9;  // relative: the doubles of another machine's sums
+  double weight = 0.0;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const double r = b.radius[i];
+    const dem::Vec3& x = b.position[i];
+    const std::string bead = "bead " + std::to_string(i + 1);
+    if (!x.allFinite() || !std::isfinite(r) || r < r_min * (1 - kRounding) ||
+        r > r_max * (1 + kRounding))
+      fail(bead + " has radius " + FormatNumber(r) + " m, outside the scene's " +
+           FormatNumber(r_min) + " to " + FormatNumber(r_max) + " m (or a position not a number)");
+    const double mass = scene.material.density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    if (std::abs(b.mass[i] - mass) > kRounding * mass)
+      fail(bead + " weighs " + FormatNumber(b.mass[i]) + " kg, not the scene's density's " +
+           FormatNumber(mass) + " kg");
+    // A resting contact overlaps by at most kMaxRestingOverlap of a radius (bed_io.h).
+    const double slack = kMaxRestingOverlap * r;
+    if (x.z() < r - slack || std::hypot(x.x(), x.y()) > R - r + slack)
+      fail(bead + " at (" + FormatNumber(x.x()) + ", " + FormatNumber(x.y()) + ", " +
+           FormatNumber(x.z()) + ") m lies outside the container");
+    if (b.velocity[i] != dem::Vec3::Zero() || b.angular_velocity[i] != dem::Vec3::Zero())
+      fail(bead + " moves: a prepared bed is stored at rest");
+    weight += b.mass[i] * scene.gravity_m_s2;
+  }
+  const double surface = MeasureSurface(b, R);
+  if (std::abs(surface - bed.surface_m) > kRounding * surface)
+    fail("its beads' surface is at " + FormatNumber(surface) + " m, not the " +
+         FormatNumber(bed.surface_m) + " m it states");
+  if (std::abs(weight - bed.weight_N) > kRounding * weight)
+    fail("its beads weigh " + FormatNumber(weight) + " N, not the " + FormatNumber(bed.weight_N) +
+         " N it states");
+  const double H = scene.bed.thickness_m;
+  if (bed.stage == "source" ? surface < H : std::abs(surface - H) > 2.0 * r_max)
+    fail("its surface is at " + FormatNumber(surface) +
+         " m, where the scene's bed.thickness_m is " + FormatNumber(H) + " m");
 }
 
 double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m) {

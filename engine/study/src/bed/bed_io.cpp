@@ -267,6 +267,10 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
 }
 
 ImportedBed ReadTextBed(const std::string& path, const Scene& scene) {
+  if (scene.bed.import_bytes) {
+    std::istringstream in(*scene.bed.import_bytes);
+    return ParseTextBed(in, path, scene);
+  }
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error))
     throw SceneError("bed.import", "\"" + path + "\" does not exist or is not a file");

@@ -634,7 +634,7 @@ void ValidateScene(const Scene& scene) {
                FormatShort(kMaxAnimationFrames) + " (at least " +
                FormatShort(impact_s / (kMaxAnimationFrames - 1)) + " s)");
   }
-  if (!scene.bed.import.empty() && !IsRegularFile(scene.bed.import))
+  if (!scene.bed.import.empty() && !scene.bed.import_bytes && !IsRegularFile(scene.bed.import))
     fail("bed.import", "file \"" + scene.bed.import + "\" does not exist or is not a file");
 }
 

@@ -179,6 +179,14 @@ PreparedBed GetSourceBed(const Scene& scene, BedCache& cache, const BedRequest& 
 /// scenes that share it share the expensive settling.
 std::string BedSourceHash(const Scene& scene);
 
+/// Checks a bed prepared elsewhere (pushed to a daemon) against the scene it is said to be
+/// for: its hash and stage are one of the scene's bed stages, and its beads are what that
+/// stage makes (the scene's sizes and density, inside the container, at rest, the surface and
+/// weight it states, a cut bed's surface at H). The hash covers the procedure, not the
+/// positions: this cannot tell a bed from one another build settled, only a bed from a
+/// foreign or damaged one. Throws SceneError (field "bed") naming the first fault.
+void CheckPreparedBed(const PreparedBed& bed, const Scene& scene);
+
 /// The content hash of the bed a scene asks for (16 hex digits, FNV-1a 64 of a canonical text).
 std::string BedHash(const Scene& scene);
 

@@ -54,6 +54,7 @@ inline constexpr double kMinBeadRadius_m = 1e-6;
 
 /// Reads and checks a text bed (see above). Throws SceneError (field "bed.import") naming the
 /// line of a malformed, non-finite or out-of-container bead, or the worst overlap.
+/// The scene's bed.import_bytes, when set, are read instead of the file at `path`.
 ImportedBed ReadTextBed(const std::string& path, const Scene& scene);
 /// The same for a stream; `name` names it in messages.
 ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene& scene);

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -56,6 +57,10 @@ struct BedSpec {
   double prep_friction = 0.50;  ///< bead friction while settling; controls the packing C0
   std::int64_t seed = 1;        ///< random seed of the bead insertion
   std::string import;           ///< bed file (text, LAMMPS data or dump); empty: prepare a bed
+  /// The bytes of bed.import when they came with a request rather than from this machine's
+  /// disk (a bed file sent to the daemon): read instead of the file. Not a scene field: the
+  /// scene text names the file, and the bed's hash covers these bytes.
+  std::shared_ptr<const std::string> import_bytes;
   /// What to do with an imported bed whose beads overlap by more than a settled bed's resting
   /// contacts (1% of a radius): "refuse" it, naming the worst bead, or "relax": separate them.
   std::string import_overlaps = "refuse";

@@ -7,6 +7,7 @@ find_package(nlohmann_json 3.10 REQUIRED CONFIG)
 find_package(toml11 3.7 REQUIRED CONFIG)
 find_package(CLI11 2.1 REQUIRED CONFIG)
 find_package(OpenSSL REQUIRED)  # SHA-256: results' provenance, API tokens, stored series
+find_package(ZLIB REQUIRED)     # VTK files' compressed arrays (vtkZLibDataCompressor)
 # The service: gRPC and Protobuf for the API, SQLite for the store, spdlog for logs.
 if(DEMBUF_SERVICE)
   find_package(Protobuf 3.12 REQUIRED)

@@ -13,7 +13,7 @@ packages=("$@")
   libcpp-httplib-dev
   openssl
   # engine and tools
-  libeigen3-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev
+  libeigen3-dev zlib1g-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev
   # tests, fuzzers (clang's libFuzzer and OpenMP) and plots
   libgtest-dev libgmock-dev clang libclang-rt-dev libomp-dev gnuplot-nox python3
   # gRPC from Python (the tests' health check); the manual pages

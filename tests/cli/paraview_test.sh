@@ -28,7 +28,7 @@ import numpy as np
 import dembuf
 for path in glob.glob(f"{sys.argv[1]}/snapshots/*/contacts.vtp"):
     contacts = dembuf.read_contacts_vtp(path)
-    lines = int(re.search(r'NumberOfLines="(\d+)"', open(path).read(2000)).group(1))
+    lines = int(re.search(rb'NumberOfLines="(\d+)"', open(path, "rb").read(2000)).group(1))
     assert len(contacts) == lines > 0, (path, len(contacts), lines)
     points = dembuf.read_vtp(path)[["x_m", "y_m", "z_m"]].to_numpy()
     assert np.isin(contacts[["x1_m", "x2_m"]].to_numpy(), points[:, 0]).all(), path

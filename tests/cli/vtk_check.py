@@ -6,7 +6,6 @@ installed, each .vtp is also read by VTK itself.
     vtk_check.py bed BED.vtp BED.txt BED.data
 """
 
-import base64
 import csv
 import json
 import math
@@ -14,6 +13,7 @@ import pathlib
 import struct
 import sys
 import xml.etree.ElementTree as ET
+import zlib
 
 try:
     import vtk  # python3-vtk9
@@ -29,19 +29,35 @@ def check(condition, what):
 
 
 def read_vtp(path):
-    """The piece's counts and arrays: {"points": [...], "PointData": {name: [...]}, ...}."""
-    root = ET.parse(path).getroot()
+    """The piece's counts and arrays: {"points": [...], "PointData": {name: [...]}, ...}.
+    dembuf writes its arrays zlib-compressed in an appended raw block; read here by hand,
+    block by block, as the VTK file format describes it."""
+    data = pathlib.Path(path).read_bytes()
+    start = data.find(b"<AppendedData")
+    check(start > 0, f"{path}: no appended data")
+    underscore = data.index(b"_", data.index(b">", start))
+    appended = data[underscore + 1:data.rfind(b"</AppendedData>")]
+    root = ET.fromstring(data[:start] + b"</VTKFile>")
     check(root.get("type") == "PolyData" and root.get("header_type") == "UInt32", f"{path}: header")
+    check(root.get("compressor") == "vtkZLibDataCompressor", f"{path}: compressor")
     order = "<" if root.get("byte_order") == "LittleEndian" else ">"
     piece = root.find("PolyData/Piece")
-    out = {"n_points": int(piece.get("NumberOfPoints"))}
+    out = {"n_points": int(piece.get("NumberOfPoints")), "bytes": len(data)}
 
     def decode(array):
-        raw = base64.b64decode(array.text)
-        (size,) = struct.unpack(order + "I", raw[:4])
-        check(size == len(raw) - 4, f"{path}: {array.get('Name')}: header says {size} bytes")
+        check(array.get("format") == "appended", f"{path}: {array.get('Name')}: format")
+        at = int(array.get("offset"))
+        blocks, block, last = struct.unpack(order + "3I", appended[at:at + 12])
+        sizes = struct.unpack(f"{order}{blocks}I", appended[at + 12:at + 12 + 4 * blocks])
+        raw, at = b"", at + 12 + 4 * blocks
+        for k, size in enumerate(sizes):
+            piece_bytes = zlib.decompress(appended[at:at + size])
+            expected = last if k == blocks - 1 and last else block
+            check(len(piece_bytes) == expected, f"{path}: {array.get('Name')}: block {k} size")
+            raw += piece_bytes
+            at += size
         code = TYPES[array.get("type")]
-        values = struct.unpack(f"{order}{size // struct.calcsize(code)}{code}", raw[4:])
+        values = struct.unpack(f"{order}{len(raw) // struct.calcsize(code)}{code}", raw)
         components = int(array.get("NumberOfComponents", "1"))
         check(len(values) % components == 0, f"{path}: {array.get('Name')}: components")
         return [values[i:i + components] for i in range(0, len(values), components)] \

@@ -8,6 +8,7 @@ import base64
 import os
 import pathlib
 import xml.etree.ElementTree as ET
+import zlib
 
 import numpy as np
 import pandas as pd
@@ -16,25 +17,72 @@ _TYPES = {"Float64": "f8", "Float32": "f4", "Int32": "i4", "Int64": "i8", "UInt3
 _MAX_FILE_BYTES = 1 << 30  # a frame of a million beads is about 125 MB
 
 
-def _decode(array: ET.Element, order: str, path) -> np.ndarray:
-    raw = base64.b64decode(array.text or "")
-    size = int(np.frombuffer(raw[:4], dtype=order + "u4")[0])
-    if size != len(raw) - 4:
-        raise ValueError(f"{path}: array {array.get('Name')}: {len(raw) - 4} bytes, "
-                         f"its header says {size}")
-    values = np.frombuffer(raw[4:], dtype=order + _TYPES[array.get("type")])
-    components = int(array.get("NumberOfComponents", "1"))
-    return values.reshape(-1, components) if components > 1 else values
+class _File:
+    """A VTK XML file's tree and the bytes of its arrays: inline base64, or appended raw
+    (what dembuf writes), zlib-compressed or not."""
+
+    def __init__(self, path: pathlib.Path):
+        if path.stat().st_size > _MAX_FILE_BYTES:
+            raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
+        data = path.read_bytes()
+        self.path = path
+        self.appended = b""
+        start = data.find(b"<AppendedData")
+        if start >= 0:
+            # The block after '_' is raw bytes, not XML: the tree is read without it.
+            underscore = data.index(b"_", data.index(b">", start))
+            end = data.rfind(b"</AppendedData>")
+            if end < underscore:
+                raise ValueError(f"{path}: its appended data does not end")
+            self.appended = data[underscore + 1:end]  # arrays lie at their offsets in it
+            data = data[:start] + b"</VTKFile>"
+        self.root = ET.fromstring(data)
+        self.order = "<" if self.root.get("byte_order") == "LittleEndian" else ">"
+        self.header = self.order + ("u8" if self.root.get("header_type") == "UInt64" else "u4")
+        self.compressed = self.root.get("compressor") == "vtkZLibDataCompressor"
+        if self.root.get("compressor") not in (None, "vtkZLibDataCompressor"):
+            raise ValueError(f"{path}: compressor {self.root.get('compressor')} is not zlib")
+
+    def _take(self, raw: bytes, name: str) -> bytes:
+        """An array's bytes from its header onwards (raw may run past its end)."""
+        width = np.dtype(self.header).itemsize
+        if not self.compressed:
+            size = int(np.frombuffer(raw[:width], dtype=self.header)[0])
+            if size > len(raw) - width:
+                raise ValueError(f"{self.path}: array {name}: {len(raw) - width} bytes, "
+                                 f"its header says {size}")
+            return raw[width:width + size]
+        blocks, block, last = (int(v) for v in np.frombuffer(raw[:3 * width], dtype=self.header))
+        sizes = np.frombuffer(raw[3 * width:(3 + blocks) * width], dtype=self.header)
+        out, at = [], (3 + blocks) * width
+        for k, size in enumerate(sizes):
+            piece = zlib.decompress(raw[at:at + int(size)])
+            expected = last if k == blocks - 1 and last else block
+            if len(piece) != expected:
+                raise ValueError(f"{self.path}: array {name}: block {k} holds {len(piece)} "
+                                 f"bytes, its header says {expected}")
+            out.append(piece)
+            at += int(size)
+        return b"".join(out)
+
+    def array(self, array: ET.Element) -> np.ndarray:
+        name = array.get("Name")
+        if array.get("format") == "appended":
+            raw = self._take(self.appended[int(array.get("offset")):], name)
+        else:
+            raw = self._take(base64.b64decode(array.text or ""), name)
+        values = np.frombuffer(raw, dtype=self.order + _TYPES[array.get("type")])
+        components = int(array.get("NumberOfComponents", "1"))
+        return values.reshape(-1, components) if components > 1 else values
 
 
-def _piece(path: pathlib.Path) -> tuple[ET.Element, str]:
-    """The PolyData piece of a .vtp file (bounded in size) and its byte order for numpy."""
-    if path.stat().st_size > _MAX_FILE_BYTES:
-        raise ValueError(f"{path}: larger than {_MAX_FILE_BYTES} bytes")
-    root = ET.parse(path).getroot()
-    if root.get("type") != "PolyData":
+def _piece(path: pathlib.Path) -> tuple[ET.Element, _File]:
+    """The PolyData piece of a .vtp file (bounded in size) and the file, which decodes its
+    arrays."""
+    file = _File(path)
+    if file.root.get("type") != "PolyData":
         raise ValueError(f"{path}: not VTK PolyData")
-    return root.find("PolyData/Piece"), "<" if root.get("byte_order") == "LittleEndian" else ">"
+    return file.root.find("PolyData/Piece"), file
 
 
 def read_vtp(path: str | os.PathLike) -> pd.DataFrame:
@@ -43,12 +91,12 @@ def read_vtp(path: str | os.PathLike) -> pd.DataFrame:
     vz, id, force_N as fx, fy, fz); the projectile is the row with id -1. A contacts.vtp's
     contacts are its lines: read_contacts_vtp."""
     path = pathlib.Path(path)
-    piece, order = _piece(path)
-    points = _decode(piece.find("Points/DataArray"), order, path)
+    piece, file = _piece(path)
+    points = file.array(piece.find("Points/DataArray"))
     frame = pd.DataFrame(points, columns=["x_m", "y_m", "z_m"])
     names = {"velocity_m_s": ["vx_m_s", "vy_m_s", "vz_m_s"], "force_N": ["fx_N", "fy_N", "fz_N"]}
     for array in piece.findall("PointData/DataArray"):
-        values = _decode(array, order, path)
+        values = file.array(array)
         name = array.get("Name")
         if values.ndim == 2:
             for k, column in enumerate(names.get(name, [f"{name}_{i}" for i in range(3)])):
@@ -63,15 +111,15 @@ def read_contacts_vtp(path: str | os.PathLike) -> pd.DataFrame:
     two ends (x1_m, y1_m, z1_m, x2_m, y2_m, z2_m) and its cell arrays (normal_force_N, ...).
     A file without lines gives no rows."""
     path = pathlib.Path(path)
-    piece, order = _piece(path)
+    piece, file = _piece(path)
     columns = ["x1_m", "y1_m", "z1_m", "x2_m", "y2_m", "z2_m"]
     lines = piece.find("Lines")
     if lines is None or int(piece.get("NumberOfLines", "0")) == 0:
         return pd.DataFrame(columns=columns)
-    points = _decode(piece.find("Points/DataArray"), order, path).reshape(-1, 3)
+    points = file.array(piece.find("Points/DataArray")).reshape(-1, 3)
     arrays = {a.get("Name"): a for a in lines.findall("DataArray")}
-    connectivity = _decode(arrays["connectivity"], order, path).astype(np.int64)
-    offsets = _decode(arrays["offsets"], order, path).astype(np.int64)
+    connectivity = file.array(arrays["connectivity"]).astype(np.int64)
+    offsets = file.array(arrays["offsets"]).astype(np.int64)
     starts = np.concatenate(([0], offsets[:-1]))
     if np.any(offsets - starts != 2) or offsets[-1] != len(connectivity) or \
             connectivity.size and (connectivity.min() < 0 or connectivity.max() >= len(points)):
@@ -79,7 +127,7 @@ def read_contacts_vtp(path: str | os.PathLike) -> pd.DataFrame:
     ends = points[connectivity].reshape(-1, 6)
     frame = pd.DataFrame(ends, columns=columns)
     for array in piece.findall("CellData/DataArray"):
-        values = _decode(array, order, path)
+        values = file.array(array)
         if len(values) != len(frame):
             raise ValueError(f"{path}: cell array {array.get('Name')} has {len(values)} values "
                              f"for {len(frame)} lines")

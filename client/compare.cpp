@@ -87,7 +87,9 @@ double WritePoints(const std::vector<nlohmann::json>& summaries, const fs::path&
     by_h[std::round(s["scene"]["bed"]["thickness_m"].get<double>() * 1e7) / 1e7].push_back(&s);
   std::ofstream out(path);
   out.precision(10);
-  out << "H_m,P_N,P_N_sd,lambda,lambda_sd,n\n";
+  // What the paper gives as curves over H: P and lambda, and between the two peaks the
+  // projectile's travel dS and the time dt (its fits), with the strike peak Pb.
+  out << "H_m,P_N,P_N_sd,lambda,lambda_sd,dS_m,dS_m_sd,dt_peaks_s,dt_peaks_s_sd,Pb_N,Pb_N_sd,n\n";
   for (const auto& point : by_h) {
     const std::vector<const nlohmann::json*>& runs = point.second;
     auto stats = [&](const char* key) {
@@ -98,10 +100,10 @@ double WritePoints(const std::vector<nlohmann::json>& summaries, const fs::path&
       for (double x : v) mean += x / v.size();
       for (double x : v) var += (x - mean) * (x - mean);
       std::string sd = v.size() > 1 ? std::to_string(std::sqrt(var / (v.size() - 1))) : "";
-      return std::to_string(mean) + "," + sd;
+      return (v.empty() ? "" : std::to_string(mean)) + "," + sd;  // "": none has it
     };
-    out << point.first << "," << stats("P_N") << "," << stats("lambda") << "," << runs.size()
-        << "\n";
+    out << point.first << "," << stats("P_N") << "," << stats("lambda") << "," << stats("dS_m")
+        << "," << stats("dt_peaks_s") << "," << stats("Pb_N") << "," << runs.size() << "\n";
   }
   return by_h.empty() ? 0.0 : by_h.rbegin()->first;
 }

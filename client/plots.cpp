@@ -150,6 +150,21 @@ std::string Rounded(double v, int digits = 3) {
   return buf;
 }
 
+// The numbers of a run's titles as its report prints them (run_command.cpp), so that a figure
+// and the report never disagree in the last digit: H to 0.01 cm, forces to 4 significant
+// digits, lambda to 0.1%.
+std::string Fixed(double v, int decimals) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+std::string ReportedCm(double metres) {
+  return Fixed(100 * metres, 2);
+}
+std::string ReportedKn(double newtons) {
+  return Rounded(newtons / 1e3, 4);
+}
+
 // When a snapshot was taken, for its pictures' titles, from its snapshot.json: "0.5 ms after
 // the first contact", "at the peak plate force, 1.41 ms after the first contact", "at t = 57.2
 // ms"; else its folder's name.
@@ -313,15 +328,17 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
   const fs::path bare = dir / "plate_force_bare.csv";
   const bool with_bare = H > 0.0 && HasRows(bare);
   std::string title = H > 0.0
-                          ? "impact on a " + Rounded(100 * H) + " cm bed: P = " + Rounded(P / 1e3) +
-                                " kN, bare plate " + Rounded(P0 / 1e3) +
-                                " kN, lambda = " + Rounded(100 * Number(s, "lambda", 0.0), 2) + "%"
-                          : "impact on the bare plate: P = " + Rounded(P / 1e3) + " kN";
+                          ? "impact on a " + ReportedCm(H) + " cm bed: P = " + ReportedKn(P) +
+                                " kN, bare plate " + ReportedKn(P0) +
+                                " kN, lambda = " + Fixed(100 * Number(s, "lambda", 0.0), 1) + "%"
+                          : "impact on the bare plate: P = " + ReportedKn(P) + " kN";
   std::ostringstream gp;
   gp << kTerminal << "set output " << Q(dir / "plate_force.png") << "\n"
      << "set xlabel 'time after first contact [ms]'\nset ylabel 'bottom-plate force [kN]'\n"
-     << "set title " << Literal(title) << "\n"
-     << "set xrange [-0.5:" << (end - contact) * 1e3 << "]\n";
+     << "set title " << Literal(title)
+     << "\n"
+     // Room on the right for the label of a peak at the end.
+     << "set xrange [-0.5:" << (end - contact) * 1.12e3 << "]\n";
   // Every peak is marked; the largest Pa and the largest Pb (the summary's) are labelled.
   const nlohmann::json peaks = s.value("peaks", nlohmann::json::array());
   for (const auto& p : peaks.is_array() ? peaks : nlohmann::json::array()) {
@@ -329,8 +346,8 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
     const std::string kind = p["kind"].get<std::string>();
     const double force = Number(p, "force_N", 0.0);
     const bool main_peak = force == Number(s, (kind + "_N").c_str(), -1.0);
-    gp << "set label " << Literal(main_peak ? kind + " " + Rounded(force / 1e3) + " kN" : "")
-       << " at " << (Number(p, "time_s", 0.0) - contact) * 1e3 << "," << force / 1e3
+    gp << "set label " << Literal(main_peak ? kind + " " + ReportedKn(force) + " kN" : "") << " at "
+       << (Number(p, "time_s", 0.0) - contact) * 1e3 << "," << force / 1e3
        << " offset 0.6,0.6 point pt 7 ps " << (main_peak ? 1.2 : 0.7) << "\n";
   }
   // A bed that takes most of the force: the bare plate's spike would flatten its curve, so the
@@ -344,7 +361,7 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
     gp << ", " << Q(bare) << " every ::1 using (($1-"
        << Number(s, "reference_first_contact_time_s", contact)
        << ")*1e3):($2/1e3) with lines lw 1.5 dt 2 lc rgb '#808080' title "
-       << Literal(bare_off_scale ? "bare plate (peak " + Rounded(P0 / 1e3) + " kN, off the scale)"
+       << Literal(bare_off_scale ? "bare plate (peak " + ReportedKn(P0) + " kN, off the scale)"
                                  : "bare plate");
   gp << "\n";
   RunGnuplot(gp.str(), dir / "plate_force.gp");
@@ -461,6 +478,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   gp << kTerminal << "set offsets graph 0.03, graph 0.03, graph 0.06, graph 0.06\nset bars 2\n"
      << "set xlabel " << Literal(xlabel) << "\n"
      << "set output " << Q(dir / "sweep_peaks.png") << "\nset ylabel 'force [kN]'\n"
+     << "set yrange [0:*]\n"  // a force: the offsets' room below zero shows nothing
      << "set title 'peak plate force (mean +- sd over seeds)'\nplot ";
   // Pa and Pb first, dashed with filled markers; P (the larger of them) on top, open and
   // larger, so that it shows where it is Pa.
@@ -469,6 +487,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
     if (has_data(std::string(peak) + "_N"))
       gp << series(std::string(peak) + "_N", 1e-3, peak, style) << ", ";
   gp << series("P_N", 1e-3, "P", "pt 6 ps 1.8 lc rgb 'black'") << "\n"
+     << "set autoscale y\n"
      << "set output " << Q(dir / "sweep_lambda.png") << "\nset ylabel 'buffer ratio lambda [%]'\n"
      << "set title 'buffer ratio'\nplot " << series("lambda", 100, "lambda") << "\n"
      << "set output " << Q(dir / "sweep_crater.png") << "\nset ylabel 'crater depth [cm]'\n"
@@ -536,10 +555,10 @@ std::filesystem::path PlotComparison(const fs::path& dir, double hertz_peak_N, d
   // from Hc ~ 2 cm (MODEL.md section 5).
   const double plateau_kN = 13.46 * (1 - 0.84);
   std::ostringstream gp;
-  gp << kTerminal << "set terminal pngcairo size 1200,520 font 'DejaVu Sans,11'\n"
+  gp << kTerminal << "set terminal pngcairo size 1200,1000 font 'DejaVu Sans,11'\n"
      << "set output " << Q(dir / "compare.png") << "\n"
      << "$paper << EOD\n0,13.46,0\n0.8,6.73,50\nEOD\n"
-     << "set multiplot layout 1,2 title 'dembuf (mean +- sd over seeds) beside the paper (E2)'\n"
+     << "set multiplot layout 2,2 title 'dembuf (mean +- sd over seeds) beside the paper (E2)'\n"
      << "set xlabel 'bed thickness H [cm]'\nset ylabel 'peak plate force P [kN]'\n"
      << "set xrange [-0.2:" << std::max(100 * h_max_m, 2.5) + 0.3 << "]\nset yrange [0:*]\n"
      << "plot " << Q(data) << " every ::1 using ($1*100):($2/1e3):" << ErrorBar("3", 1e-3)
@@ -554,6 +573,18 @@ std::filesystem::path PlotComparison(const fs::path& dir, double hertz_peak_N, d
      << " with yerrorlines pt 7 lw 1.5 title 'dembuf', $paper using 1:3 with points pt 5 ps 1.6 "
         "lc rgb '#d02000' title 'paper', [2:*] 84 with lines dt 2 lw 1.5 lc rgb '#d02000' "
         "title 'paper: plateau'\n"
+     // Between the peaks: the paper's fits (H in cm), where they are positive.
+     << "set key top left\nset yrange [0:*]\nset xrange [0:" << std::max(100 * h_max_m, 2.5) + 0.3
+     << "]\nset ylabel 'projectile travel dS between Pb and Pa [cm]'\n"
+     << "plot " << Q(data) << " every ::1 using ($1*100):($6*100):" << ErrorBar("7", 100)
+     << " with yerrorlines pt 7 lw 1.5 title 'dembuf', [0.36:*] 0.91*x - 0.32 with lines dt 2 "
+        "lw 1.5 lc rgb '#d02000' title 'paper: fit 0.91 H - 0.32'\n"
+     << "set ylabel 'time dt between Pb and Pa [ms]'\n"
+     << "plot " << Q(data) << " every ::1 using ($1*100):($8*1e3):" << ErrorBar("9", 1e3)
+     << " with yerrorlines pt 7 lw 1.5 title 'dembuf', [0.86:3.5] 5.43*x - 4.65 with lines dt 2 "
+        "lw 1.5 lc rgb '#d02000' title 'paper: fit 5.43 H - 4.65 (H < 3.5 cm)', [3.5:*] "
+        "10.36*x - 21.61 with lines dt 4 lw 1.5 lc rgb '#d02000' title 'paper: fit 10.36 H - "
+        "21.61'\n"
      << "unset multiplot\n";
   RunGnuplot(gp.str(), dir / "compare.gp");
   return dir / "compare.png";

@@ -116,6 +116,12 @@ fi
 awk -F, '$1 == "P_N" && $2 == 0 { found = 1; dev = $10 < 0 ? -$10 : $10 }
          END { exit !(found && dev < 0.02) }' "$work/e2-bare/compare.csv" \
   || fail "bare-plate Pa0 against the paper: $(cat "$work/e2-bare/compare.csv")"
+# The points compare.png draws carry what lies between the peaks (dS, dt, Pb), for the panels
+# beside the paper's fits; a bare plate has none of them (empty, not 0).
+head -1 "$work/e2-bare/compare_points.csv" | grep -q "^H_m,P_N,P_N_sd,lambda,lambda_sd,dS_m,dS_m_sd,dt_peaks_s,dt_peaks_s_sd,Pb_N,Pb_N_sd,n$" ||
+  fail "compare_points.csv: $(head -1 "$work/e2-bare/compare_points.csv")"
+grep -q "^0,[0-9.]*,,0.000000,,,,,,,,1$" "$work/e2-bare/compare_points.csv" ||
+  fail "a bare plate's points: $(tail -1 "$work/e2-bare/compare_points.csv")"
 # The same run in two folders (given twice here) counts once, and says so.
 "$dembuf" compare "$work/e2-bare" "$work/e2-bare" --no-plots --out "$work/twice" \
   > "$work/compare.log" || fail "compare twice"

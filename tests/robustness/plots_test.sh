@@ -20,6 +20,13 @@ pwned() { [ ! -e "$work/PWNED" ] || fail "a command in $1 ran"; }
 small_scene "$work/small.toml"
 "$dembuf" run "$work/small.toml" --set output.snapshot_at_peak=true --no-bed-cache --out "$work/run" \
   > "$work/run.log" 2>&1 || fail "the run with a snapshot: $(tail -3 "$work/run.log")"
+# F(t)'s title says the bed and P as the report rounds them (it said "0.999 cm" where the
+# report said 1.00 cm).
+reported_h=$(sed -n 's/^bed H = \([0-9.]*\) cm.*/\1/p' "$work/run.log")
+reported_p=$(sed -n 's/^P = \([0-9.e+]*\) N.*/\1/p' "$work/run.log")
+title_p=$(awk -v p="$reported_p" 'BEGIN { printf "%.4g", p / 1000 }')
+grep -q "^set title 'impact on a $reported_h cm bed: P = $title_p kN" "$work/run/plate_force.gp" ||
+  fail "F(t)'s title (H $reported_h cm, P $title_p kN in the report): $(grep '^set title' "$work/run/plate_force.gp")"
 mv "$work/run/snapshots/peak" "$work/run/snapshots/$hostile"
 "$dembuf" plot "$work/run" > "$work/plot.txt" 2>&1 || fail "plot: $(cat "$work/plot.txt")"
 pwned "a snapshot folder's name"

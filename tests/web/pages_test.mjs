@@ -118,6 +118,12 @@ async function jobPages() {
   const summary = await summaryFile(args.summary);
   const pixels = await drawnPixels(page, "#chart");
   check(pixels > 2000, "the force chart is drawn", `${pixels} pixels`);
+  // Its time axis starts at the first contact, as the PNG plots' does.
+  const contact = await page.$eval("body", (b) => Number(b.dataset.contactMs));
+  check(Math.abs(contact - summary.first_contact_time_s * 1e3) < 1e-6,
+    "the chart's time is after the first contact", `${contact} ms against ${summary.first_contact_time_s * 1e3}`);
+  const axis = await page.$eval("#chart", (c) => c.textContent);
+  check(axis.includes("time after first contact [ms]"), "the time axis says from what", axis.slice(0, 200));
   const figure = (name) => page.$eval(`.figure[data-name="${name}"]`, (f) => f.dataset.value);
   const peak = await figure("peak plate force");
   check(Number(peak) === summary.peak_plate_force_N, "the peak on the page is summary.json's",

@@ -6,7 +6,10 @@ import { api, chart, compactTicks, drawHeader, el, fill, force, header, percent,
 const id = Number(location.pathname.split("/").pop());
 const status = document.getElementById("status");
 const bar = progressBar();
-const t = [], plate = [], pa = [], pb = [];  // t in ms, forces in N; pa, pb: null but at the peaks
+// t: the axis, in ms after the first contact once it is known (as the PNG plots draw it),
+// else from the release; tRun: from the release. Forces in N; pa, pb: null but at the peaks.
+const t = [], tRun = [], plate = [], pa = [], pb = [];
+let contactMs = null;  // the projectile's first contact (the first sample it feels a force)
 let plot = null;
 let redraw = 0;
 let liveSamples = 0;  // those that came while the job was still running (not replayed)
@@ -17,11 +20,12 @@ const isFinal = (state) => state === "done" || state === "failed" || state === "
 function draw() {
   redraw = 0;
   if (!plot) {
+    const axis = contactMs === null ? "t [ms]" : "time after first contact [ms]";
     plot = chart(document.getElementById("chart"), {
       scales: { x: { time: false } },
-      axes: [{ label: "t [ms]" }, { label: "plate force [N]", values: compactTicks, size: 60 }],
+      axes: [{ label: axis }, { label: "plate force [N]", values: compactTicks, size: 60 }],
       series: [
-        { label: "t [ms]", value: (u, v) => (v === null ? "–" : sig(v, 5)) },
+        { label: axis, value: (u, v) => (v === null ? "–" : sig(v, 5)) },
         { label: "plate force", stroke: "#1f5fbf", width: 1.5, value: (u, v) => force(v) },
         { label: "Pa", stroke: "#c53030", width: 0, points: { show: true, size: 9, fill: "#c53030" }, value: (u, v) => force(v) },
         { label: "Pb", stroke: "#b7791f", width: 0, points: { show: true, size: 9, fill: "#b7791f" }, value: (u, v) => force(v) },
@@ -31,9 +35,11 @@ function draw() {
     plot.setData([t, plate, pa, pb]);
   }
   document.body.dataset.samples = t.length;
+  document.body.dataset.contactMs = contactMs ?? "";
   // Before the impact there is no force to draw: the note says what the job is doing.
   document.getElementById("chart-note").textContent = t.length
-    ? `${t.length.toLocaleString()} samples, up to t = ${sig(t[t.length - 1], 5)} ms`
+    ? `${t.length.toLocaleString()} samples, up to ${sig(t[t.length - 1], 5)} ms` +
+      (contactMs === null ? "" : ` after the first contact (at t = ${sig(contactMs, 5)} ms)`)
     : stage ? `no force yet: ${stage}` : "0 samples";
 }
 
@@ -41,10 +47,26 @@ function drawSoon() {
   if (!redraw) redraw = requestAnimationFrame(draw);
 }
 
+/** The axis from the first contact on: every time so far moves, and the chart is drawn
+ * again with its new label. */
+function startAxisAt(ms) {
+  if (contactMs === ms) return;
+  contactMs = ms;
+  for (let k = 0; k < t.length; k++) t[k] = tRun[k] - ms;
+  if (plot) {
+    plot.destroy();
+    plot = null;
+  }
+  drawSoon();
+}
+
 function addSamples(batch) {
   if (batch.first !== t.length) return;  // (a batch seen before a reconnect)
   for (let k = 0; k < batch.t_s.length; k++) {
-    t.push(batch.t_s[k] * 1e3);
+    const ms = batch.t_s[k] * 1e3;
+    if (contactMs === null && batch.proj_force_z_N && batch.proj_force_z_N[k]) startAxisAt(ms);
+    tRun.push(ms);
+    t.push(contactMs === null ? ms : ms - contactMs);
     plate.push(batch.plate_force_N[k]);
     pa.push(null);
     pb.push(null);
@@ -59,7 +81,7 @@ function markPeak(series, time_s) {
   if (time_s === null || time_s === undefined || t.length === 0) return;
   const target = time_s * 1e3;
   let best = 0;
-  for (let k = 1; k < t.length; k++) if (Math.abs(t[k] - target) < Math.abs(t[best] - target)) best = k;
+  for (let k = 1; k < tRun.length; k++) if (Math.abs(tRun[k] - target) < Math.abs(tRun[best] - target)) best = k;
   series[best] = plate[best];
 }
 
@@ -92,6 +114,8 @@ function figure(name, value, raw) {
 function showResults(job) {
   const s = job.summary;
   if (s) {
+    // The summary's first contact is the run's own: the axis starts there.
+    if (typeof s.first_contact_time_s === "number") startAxisAt(s.first_contact_time_s * 1e3);
     markPeak(pa, s.Pa_time_s);
     markPeak(pb, s.Pb_time_s);
     drawSoon();

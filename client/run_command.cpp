@@ -159,6 +159,14 @@ int RunCommand(const RunOptions& opt) {
   // prepared or written.
   const Scene scene = ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   PrintWarnings(SceneWarnings(scene));
+  // The base scene is the paper's Table 1 with no bed (what every scene file and --set builds
+  // on): a run of it alone is rarely what a new user wants, so say where the beds are.
+  if (opt.scene_file.empty() && opt.preset.empty() && opt.overrides.empty() &&
+      GetVerbosity() != Verbosity::kQuiet)
+    std::fprintf(stderr,
+                 "dembuf: no scene given: the paper's Table 1 impact on the bare plate. An impact "
+                 "on a bed: dembuf run --preset e2 --set bed.thickness_m=0.02 (dembuf scene "
+                 "--list presets)\n");
   if (GetVerbosity() == Verbosity::kVerbose) {
     std::cerr << "# the resolved scene\n";
     PrintScene(scene, std::cerr);

@@ -32,6 +32,8 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
   for (double r : world.beads.radius) min_radius = std::min(min_radius, r);
   ContactSetup setup = MakeContactSetup(scene, min_radius);
   world.params = setup.params;
+  // The impact's own: the bed was prepared (and is shared) without it.
+  world.params.bead_damping = {scene.damping.local_alpha, scene.damping.viscous_rate_per_s};
   world.damping = setup.damping;
   world.critical_dt_s = setup.critical_dt_s;
 

@@ -177,6 +177,15 @@ std::vector<SceneField> ImpactFields() {
        "horizontal distance of the drop line from the axis (radius - diameter/2 grazes the wall)",
        DEMBUF_FIELD(projectile.offset_m), 0.0, 100.0},
 
+      {"damping.local_alpha", "",
+       "local damping of every bead's motion in the impact: a force -alpha |F| sign(v) per degree "
+       "of freedom (as PFC's); 0 = none, as the paper states its model",
+       DEMBUF_FIELD(damping.local_alpha), 0.0, 1.0, false, true},
+      {"damping.viscous_rate_per_s", "1/s",
+       "viscous background damping of every bead's motion in the impact: -rate m v and -rate I w; "
+       "0 = none",
+       DEMBUF_FIELD(damping.viscous_rate_per_s), 0.0, 1e5},
+
       {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
        DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
       {"time.end_s", "s", "end time; 0 = stop when the impact is over", DEMBUF_FIELD(time.end_s),

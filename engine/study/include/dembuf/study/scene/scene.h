@@ -148,6 +148,14 @@ struct OutputSpec {
 /// The most animation frames a run writes (output.animation_interval_s).
 inline constexpr double kMaxAnimationFrames = 1000;
 
+/// Damping of the beads' own motion during the impact, besides their contacts' (dem::BeadDamping,
+/// docs/model.md "Particle damping"): not in the paper's model, off by default. Bed preparation
+/// is not damped: a bed is the same with or without it.
+struct DampingSpec {
+  double local_alpha = 0.0;         ///< local (non-viscous) damping coefficient, 0 <= alpha < 1
+  double viscous_rate_per_s = 0.0;  ///< viscous background damping rate
+};
+
 struct Scene {
   CylinderSpec cylinder;
   MaterialSpec material;
@@ -155,6 +163,7 @@ struct Scene {
   BeadSpec beads;
   BedSpec bed;
   ProjectileSpec projectile;
+  DampingSpec damping;
   TimeSpec time;
   OutputSpec output;
   double gravity_m_s2 = 9.81;

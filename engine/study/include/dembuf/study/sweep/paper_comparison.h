@@ -31,8 +31,12 @@ struct ComparisonRow {
 };
 
 struct Comparison {
-  bool is_paper_e2 = false;          ///< the runs are the paper's E2 impact (or the bare plate)
+  bool is_paper_e2 =
+      false;  ///< the runs are the paper's E2 impact (or the bare plate, or a variant)
   std::vector<std::string> differs;  ///< fields by which a run's scene differs from E2
+  /// Mechanisms the paper does not state that the runs add to E2 ("damping.local_alpha = 0.5",
+  /// "material.density_kg_m3 = 10600"): they are compared with the paper as a variant of E2.
+  std::vector<std::string> variant;
   std::vector<ComparisonRow> rows;
   /// The Hertz peak of the projectile on the bare plate, elastic (no damping), at the impact
   /// speed of the runs; 0 without runs.

@@ -562,10 +562,12 @@ std::filesystem::path PlotComparison(const fs::path& dir, double hertz_peak_N, d
      << "set xlabel 'bed thickness H [cm]'\nset ylabel 'peak plate force P [kN]'\n"
      << "set xrange [-0.2:" << std::max(100 * h_max_m, 2.5) + 0.3 << "]\nset yrange [0:*]\n"
      << "plot " << Q(data) << " every ::1 using ($1*100):($2/1e3):" << ErrorBar("3", 1e-3)
-     << " with yerrorlines pt 7 lw 1.5 title 'dembuf', $paper using 1:2 with points pt 5 ps 1.6 "
-        "lc rgb '#d02000' title 'paper', "
+     << " with yerrorlines pt 7 lw 1.5 title 'dembuf P', " << Q(data) << " every ::1 using "
+     << "($1*100):($10/1e3):" << ErrorBar("11", 1e-3)
+     << " with yerrorlines pt 9 dt 3 lw 1.2 lc rgb '#2a9d8f' title 'dembuf Pb (strike)', "
+     << "$paper using 1:2 with points pt 5 ps 1.6 lc rgb '#d02000' title 'paper', "
      << "[2:*] " << plateau_kN
-     << " with lines dt 2 lw 1.5 lc rgb '#d02000' title 'paper: plateau from Hc ~ 2 cm', "
+     << " with lines dt 2 lw 1.5 lc rgb '#d02000' title 'paper: plateau (P = Pb) from Hc ~ 2 cm', "
      << "'+' using (0):(" << hertz_peak_N / 1e3
      << ") every ::0::0 with points pt 4 ps 1.6 lc rgb '#606060' title 'Hertz, no damping'\n"
      << "set ylabel 'buffer ratio lambda [%]'\nset yrange [0:100]\nset key bottom right\n"

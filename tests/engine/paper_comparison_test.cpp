@@ -96,6 +96,33 @@ TEST(PaperComparison, AnotherSceneGetsNoPaperNumbers) {
   EXPECT_TRUE(report::CompareWithPaper({E2Run(0.008, 6500, 0.5, knobs)}).is_paper_e2);
 }
 
+// A variant of E2 (a mechanism the paper's model does not state) is compared with the paper,
+// and the table says which: the strike peak Pb against the plateau it carries in the paper.
+TEST(PaperComparison, AVariantOfE2IsComparedAndNamed) {
+  Scene damped = PresetScene("e2");
+  damped.damping.local_alpha = 0.5;
+  nlohmann::json run = E2Run(0.04, 2000, 0.85, damped);
+  run["Pb_N"] = 1800.0;
+  run["dt_peaks_s"] = 0.018;
+  const auto c = report::CompareWithPaper({run});
+  ASSERT_TRUE(c.is_paper_e2);
+  EXPECT_TRUE(c.differs.empty());
+  ASSERT_EQ(c.variant.size(), 1u);
+  EXPECT_EQ(c.variant[0], "damping.local_alpha = 0.5");
+  const auto* pb = Find(c, "Pb_N", 0.04);
+  ASSERT_NE(pb, nullptr);
+  EXPECT_NEAR(pb->paper, 13460 * 0.16, 1e-9);
+  EXPECT_NEAR(pb->deviation, 1800 / (13460 * 0.16) - 1, 1e-12);
+  EXPECT_NE(report::ComparisonTable(c).find("does not state: damping.local_alpha = 0.5"),
+            std::string::npos);
+  EXPECT_NE(report::ComparisonCsv(c).find("variant,,,\"damping.local_alpha = 0.5\""),
+            std::string::npos);
+  // Beads four times as dense: the control of the study, a variant too.
+  Scene heavy = PresetScene("e2");
+  heavy.material.density_kg_m3 *= 4;
+  EXPECT_TRUE(report::CompareWithPaper({E2Run(0.04, 2000, 0.85, heavy)}).is_paper_e2);
+}
+
 // E2 runs at a thickness the paper gives no number for: the table says which thicknesses do.
 TEST(PaperComparison, AnEmptyTableSaysWhichThicknessesTheFiguresAreAt) {
   const auto c = report::CompareWithPaper({E2Run(0.003, 9000, 0.3)});

@@ -367,6 +367,36 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
   RunGnuplot(gp.str(), dir / "plate_force.gp");
   out.push_back(dir / "plate_force.png");
 
+  // The projectile in the bed: its speed and how deep its lowest point is below the surface,
+  // with the times of Pb and Pa, which are where dS and dt are measured.
+  const nlohmann::json scene = s.value("scene", nlohmann::json::object());
+  const double radius =
+      0.5 * Number(scene.value("projectile", nlohmann::json::object()), "diameter_m", 0.0);
+  if (H > 0.0 && radius > 0.0) {
+    std::ostringstream pj;
+    pj << kTerminal << "set output " << Q(dir / "projectile.png") << "\n"
+       << "set xlabel 'time after first contact [ms]'\nset ylabel 'projectile speed [m/s]'\n"
+       << "set y2label 'depth of its lowest point below the surface [cm]'\nset y2tics\n"
+       << "set ytics nomirror\nset yrange [0:*]\nset y2range [*:*] reverse\nset key top center\n"
+       << "set title " << Literal("the projectile in a " + ReportedCm(H) + " cm bed") << "\n"
+       << "set xrange [-0.5:" << (end - contact) * 1.12e3 << "]\n";
+    for (const char* peak : {"Pb", "Pa"}) {
+      const std::string key = std::string(peak) + "_time_s";
+      if (!s.contains(key) || !s[key].is_number()) continue;
+      const double t = (s[key].get<double>() - contact) * 1e3;
+      pj << "set arrow from " << t << ", graph 0 to " << t << ", graph 1 nohead dt 3 lc rgb "
+         << "'#808080'\nset label " << Literal(peak) << " at " << t
+         << ", graph 0.95 offset 0.4,0\n";
+    }
+    pj << "plot " << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact
+       << ")*1e3):(abs($5)) with lines lw 2 lc rgb '#1f4e9c' title 'speed', "
+       << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact << ")*1e3):((" << H
+       << "-($4-" << radius << "))*100) axes x1y2 with lines lw 1.5 dt 2 lc rgb '#c05000' "
+       << "title 'depth'\n";
+    RunGnuplot(pj.str(), dir / "projectile.gp");
+    out.push_back(dir / "projectile.png");
+  }
+
   // Snapshots: force chains (a vertical slice through the axis and a top view), the
   // contact-force PDF and the radial plate load.
   if (fs::is_directory(dir / "snapshots")) {

@@ -27,6 +27,9 @@ reported_p=$(sed -n 's/^P = \([0-9.e+]*\) N.*/\1/p' "$work/run.log")
 title_p=$(awk -v p="$reported_p" 'BEGIN { printf "%.4g", p / 1000 }')
 grep -q "^set title 'impact on a $reported_h cm bed: P = $title_p kN" "$work/run/plate_force.gp" ||
   fail "F(t)'s title (H $reported_h cm, P $title_p kN in the report): $(grep '^set title' "$work/run/plate_force.gp")"
+# The projectile in the bed: its speed and depth, the peaks' times marked.
+[ -s "$work/run/projectile.png" ] && grep -q "set label 'Pa'" "$work/run/projectile.gp" ||
+  fail "no projectile plot with the peaks: $(ls "$work/run")"
 mv "$work/run/snapshots/peak" "$work/run/snapshots/$hostile"
 "$dembuf" plot "$work/run" > "$work/plot.txt" 2>&1 || fail "plot: $(cat "$work/plot.txt")"
 pwned "a snapshot folder's name"

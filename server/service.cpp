@@ -815,7 +815,13 @@ Status DembufService::ReceiveBed(const Caller& caller, const v1::BedPiece& first
                                  "\" must be 1 to " + std::to_string(kMaxBedFileNameBytes) +
                                  " letters, digits, '.', '_' or '-', not starting with '.'");
     const std::string sha256 = report::Sha256Hex(data);
-    const bool added = m_store.PutBedFile({owner, sha256, first.name(), std::move(data)});
+    bool added = false;
+    try {
+      added = m_store.PutBedFile({owner, sha256, first.name(), std::move(data)},
+                                 kBedFileRoomPerPush * m_info.max_bed_push_bytes);
+    } catch (const BedFilesFull& e) {
+      return Status(StatusCode::RESOURCE_EXHAUSTED, std::string("owner: ") + e.what());
+    }
     m_log->info("bed file {} ({}) {} by {}", sha256, first.name(), added ? "sent" : "sent again",
                 owner);
     response->set_hash(sha256);

@@ -39,6 +39,9 @@ struct ServiceInfo {
 /// checked (max_bed_push_mb).
 inline constexpr int kMaxBedPushesPerUser = 1;
 inline constexpr int kMaxBedPushes = 4;
+/// A user's stored bed files hold at most this many pushes' worth (4 x max_bed_push_mb); the
+/// oldest no unfinished job imports make way for new ones.
+inline constexpr int kBedFileRoomPerPush = 4;
 
 /// The unary calls are served by gRPC's thread pool; the streams by its callback API
 /// (StreamReactor, BedPushReactor), so that an open stream holds no thread.

@@ -1077,14 +1077,48 @@ void Store::Beds::Save(const PreparedBed& bed) {
       .Run();
 }
 
-bool Store::PutBedFile(const BedFile& file) {
+bool Store::PutBedFile(const BedFile& file, std::int64_t max_bytes_per_owner) {
   std::lock_guard lock(m_mutex);
+  Statement& known = m_db->Prepare("SELECT 1 FROM bed_files WHERE owner = ? AND sha256 = ?");
+  known.Bind(file.owner, file.sha256);
+  const bool had_it = known.Step();
+  known.Run();
+  if (had_it) return false;
+  // Room for it: the owner's oldest files that no unfinished job imports make way, unless even
+  // all of them would not make enough (then nothing is removed).
+  Statement& files = m_db->Prepare(
+      "SELECT sha256, LENGTH(data), sha256 IN (SELECT bed_file FROM jobs WHERE owner = ? AND "
+      "state IN ('queued', 'preparing_bed', 'running')) FROM bed_files WHERE owner = ? "
+      "ORDER BY created_at, rowid");  // (rowid: the order of one second's files)
+  files.Bind(file.owner, file.owner);
+  std::int64_t stored = 0, waited_for = 0;
+  std::vector<std::pair<std::string, std::int64_t>> removable;  // oldest first
+  while (files.Step()) {
+    stored += files.Int(1);
+    if (files.Int(2) != 0)
+      waited_for += files.Int(1);
+    else
+      removable.emplace_back(files.Text(0), files.Int(1));
+  }
+  files.Run();
+  const auto size = static_cast<std::int64_t>(file.data.size());
+  if (waited_for + size > max_bytes_per_owner)
+    throw BedFilesFull(file.owner + "'s bed files waiting for their jobs hold " +
+                       std::to_string(waited_for) + " bytes; with these " + std::to_string(size) +
+                       " they would pass " + std::to_string(max_bytes_per_owner) +
+                       " (4 x max_bed_push_mb): wait for those jobs to end");
+  for (const auto& [sha256, bytes] : removable) {
+    if (stored + size <= max_bytes_per_owner) break;
+    m_db->Prepare("DELETE FROM bed_files WHERE owner = ? AND sha256 = ?")
+        .Bind(file.owner, sha256)
+        .Run();
+    stored -= bytes;
+  }
   Statement& s = m_db->Prepare(
-      "INSERT OR IGNORE INTO bed_files (owner, sha256, name, data, created_at) "
-      "VALUES (?, ?, ?, ?, ?)");
+      "INSERT INTO bed_files (owner, sha256, name, data, created_at) VALUES (?, ?, ?, ?, ?)");
   s.Bind(file.owner, file.sha256, file.name, Statement::Bytes{file.data}, report::UtcNow());
   s.Run();
-  return m_db->Changes() > 0;
+  return true;
 }
 
 std::optional<BedFile> Store::GetBedFile(const std::string& owner, const std::string& sha256) {

@@ -151,6 +151,12 @@ class DamagedData : public StoreError {
   using StoreError::StoreError;
 };
 
+/// A user's bed files would pass their room (Store::PutBedFile): the request is refused.
+class BedFilesFull : public StoreError {
+ public:
+  using StoreError::StoreError;
+};
+
 /// What Store::Check found: the problems, one line each (none: intact), and what it checked.
 struct CheckReport {
   std::vector<std::string> problems;
@@ -253,7 +259,9 @@ class Store {
   void PutSlurmBed(const SlurmBedJob& bed);
 
   /// Keeps a user's bed file; false when they had sent the same bytes before (kept as then).
-  bool PutBedFile(const BedFile& file);
+  /// A user's files hold at most `max_bytes_per_owner`: their oldest that no unfinished job
+  /// imports are removed to make room, and BedFilesFull is thrown when that is not enough.
+  bool PutBedFile(const BedFile& file, std::int64_t max_bytes_per_owner);
   /// The owner's bed file of that SHA-256, or nothing. Throws DamagedData when its bytes no
   /// longer match it.
   std::optional<BedFile> GetBedFile(const std::string& owner, const std::string& sha256);

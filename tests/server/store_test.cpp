@@ -6,11 +6,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/text/sha256.h"
 #include "scene_request.h"
 #include "store.h"
 
@@ -398,6 +400,38 @@ TEST_F(StoreTest, RefusesANewerSchema) {
   } catch (const StoreError& e) {
     EXPECT_NE(std::string(e.what()).find("newer"), std::string::npos) << e.what();
   }
+}
+
+// A user's bed files have a room: the oldest whose jobs have ended make way; those a queued
+// job imports do not, and a file that still does not fit is refused.
+TEST_F(StoreTest, BedFilesMakeRoomButKeepThoseAQueuedJobImports) {
+  Store store(path.string());
+  // A kilobyte named by its SHA-256, as the daemon keeps it.
+  std::map<std::string, std::string> sha;
+  auto file = [&](const std::string& name) {
+    const std::string data = std::string(999, 'x') + name;
+    sha[name] = report::Sha256Hex(data);
+    return BedFile{"alice", sha[name], "bed.txt", data};
+  };
+  EXPECT_TRUE(store.PutBedFile(file("a"), 2500));
+  EXPECT_TRUE(store.PutBedFile(file("b"), 2500));
+  EXPECT_FALSE(store.PutBedFile(file("b"), 2500));  // the same bytes again: kept as they were
+  JobRecord waiting;
+  waiting.owner = "alice";
+  waiting.scene_toml = "x";
+  waiting.bed_file = sha["b"];
+  store.AddJob(waiting);
+  EXPECT_TRUE(store.PutBedFile(file("c"), 2500));  // "a" made way, "b" is waited for
+  EXPECT_FALSE(store.GetBedFile("alice", sha["a"]));
+  EXPECT_TRUE(store.GetBedFile("alice", sha["b"]));
+  store.SetState(waiting.id, JobState::kRunning);
+  EXPECT_THROW(store.PutBedFile(file("d"), 1500), BedFilesFull);  // "b" still waited for
+  EXPECT_TRUE(store.GetBedFile("alice", sha["c"]));  // (and nothing removed for nothing)
+  store.SetState(waiting.id, JobState::kDone);
+  EXPECT_TRUE(store.PutBedFile(file("d"), 2500));  // "b", the oldest, made way
+  EXPECT_FALSE(store.GetBedFile("alice", sha["b"]));
+  EXPECT_TRUE(store.GetBedFile("alice", sha["c"]));
+  EXPECT_TRUE(store.GetBedFile("bob", sha["d"]) == std::nullopt);  // by owner
 }
 
 TEST_F(StoreTest, BedsRoundTripExactly) {

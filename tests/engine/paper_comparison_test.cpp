@@ -123,6 +123,20 @@ TEST(PaperComparison, AVariantOfE2IsComparedAndNamed) {
   EXPECT_TRUE(report::CompareWithPaper({E2Run(0.04, 2000, 0.85, heavy)}).is_paper_e2);
 }
 
+// A run made before a scene field existed lacks it in its summary: it had the field's default.
+TEST(PaperComparison, ARunWithoutALaterFieldHadItsDefault) {
+  nlohmann::json older = E2Run(0.008, 6500, 0.5);
+  older["scene"].erase("damping");
+  EXPECT_TRUE(report::CompareWithPaper({older}).is_paper_e2);
+  // A field whose default is not E2's still differs when it is missing.
+  nlohmann::json no_projectile = E2Run(0.008, 6500, 0.5);
+  no_projectile["scene"]["projectile"].erase("height_m");
+  const auto c = report::CompareWithPaper({no_projectile});
+  EXPECT_FALSE(c.is_paper_e2);
+  ASSERT_EQ(c.differs.size(), 1u);
+  EXPECT_EQ(c.differs[0], "projectile.height_m");
+}
+
 // E2 runs at a thickness the paper gives no number for: the table says which thicknesses do.
 TEST(PaperComparison, AnEmptyTableSaysWhichThicknessesTheFiguresAreAt) {
   const auto c = report::CompareWithPaper({E2Run(0.003, 9000, 0.3)});

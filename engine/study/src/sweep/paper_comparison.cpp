@@ -31,16 +31,21 @@ bool VariantField(const std::string& name) {
   return name.rfind("damping.", 0) == 0 || name == "material.density_kg_m3";
 }
 
-// The dotted names of the fields where `scene` differs from `reference` (nested JSON).
+// The dotted names of the fields where `scene` differs from `reference` (nested JSON). A field
+// the scene lacks (a run of a dembuf before the field existed) had its default value there,
+// as it has in `defaults` (the default scene's JSON).
 void DifferingFields(const nlohmann::json& scene, const nlohmann::json& reference,
-                     const std::string& prefix, std::set<std::string>& out) {
+                     const nlohmann::json& defaults, const std::string& prefix,
+                     std::set<std::string>& out) {
   for (auto it = reference.begin(); it != reference.end(); ++it) {
     const std::string name = prefix.empty() ? it.key() : prefix + "." + it.key();
     if (IgnoredField(name)) continue;
+    const bool has_default = defaults.is_object() && defaults.contains(it.key());
     if (!scene.is_object() || !scene.contains(it.key())) {
-      out.insert(name);
+      if (!has_default || defaults[it.key()] != *it) out.insert(name);
     } else if (it->is_object()) {
-      DifferingFields(scene[it.key()], *it, name, out);
+      DifferingFields(scene[it.key()], *it,
+                      has_default ? defaults[it.key()] : nlohmann::json::object(), name, out);
     } else if (it->is_number() && scene[it.key()].is_number()) {
       const double a = it->get<double>(), b = scene[it.key()].get<double>();
       if (std::abs(a - b) > 1e-12 * std::max(std::abs(a), std::abs(b))) out.insert(name);
@@ -133,6 +138,7 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
                             std::optional<double> hc_m, double hc_sd_m) {
   Comparison c;
   const nlohmann::json e2 = SceneToJson(PresetScene("e2"));
+  const nlohmann::json defaults = SceneToJson(Scene{});
   std::set<std::string> differs;
   std::map<double, std::vector<const nlohmann::json*>> by_thickness;
   double speed = 0.0;
@@ -140,7 +146,7 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
     if (!s.is_object() || !s.contains("scene") || !s["scene"].is_object())
       throw std::runtime_error("not a run's summary.json: no scene");
     const nlohmann::json& scene = s["scene"];
-    DifferingFields(scene, e2, "", differs);
+    DifferingFields(scene, e2, defaults, "", differs);
     const double h = Number(scene.value("bed", nlohmann::json::object()), "thickness_m");
     by_thickness[std::round(h * 1e7) / 1e7].push_back(&s);
     speed += Number(s, "impact_speed_m_s") / summaries.size();

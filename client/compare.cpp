@@ -128,7 +128,7 @@ int CompareCommand(const std::vector<fs::path>& folders, const fs::path& out_dir
   const double h_max = WritePoints(runs.summaries, out / "compare_points.csv");
   std::printf("wrote %s\n", (out / "compare.csv").c_str());
   if (plots && c.is_paper_e2 && GnuplotAvailable())
-    std::printf("wrote %s\n", PlotComparison(out, c.hertz_peak_N, h_max).c_str());
+    std::printf("wrote %s\n", PlotComparison(out, c.hertz_peak_N, h_max, c.variant).c_str());
   return 0;
 }
 

@@ -579,7 +579,14 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
 
 }  // namespace
 
-std::filesystem::path PlotComparison(const fs::path& dir, double hertz_peak_N, double h_max_m) {
+std::filesystem::path PlotComparison(const fs::path& dir, double hertz_peak_N, double h_max_m,
+                                     const std::vector<std::string>& variant) {
+  std::string title = "dembuf (mean +- sd over seeds) beside the paper (E2)";
+  if (!variant.empty()) {
+    title = "dembuf, E2 with";
+    for (const std::string& v : variant) title += " " + v;
+    title += " (not the paper's stated model), beside the paper";
+  }
   const fs::path data = dir / "compare_points.csv";
   // The paper's E2: Pa0 13.46 kN, P 6.73 kN and lambda 50% at 0.8 cm, lambda 84% (P levels off)
   // from Hc ~ 2 cm (MODEL.md section 5).
@@ -588,7 +595,7 @@ std::filesystem::path PlotComparison(const fs::path& dir, double hertz_peak_N, d
   gp << kTerminal << "set terminal pngcairo size 1200,1000 font 'DejaVu Sans,11'\n"
      << "set output " << Q(dir / "compare.png") << "\n"
      << "$paper << EOD\n0,13.46,0\n0.8,6.73,50\nEOD\n"
-     << "set multiplot layout 2,2 title 'dembuf (mean +- sd over seeds) beside the paper (E2)'\n"
+     << "set multiplot layout 2,2 title " << Literal(title) << "\n"
      << "set xlabel 'bed thickness H [cm]'\nset ylabel 'peak plate force P [kN]'\n"
      << "set xrange [-0.2:" << std::max(100 * h_max_m, 2.5) + 0.3 << "]\nset yrange [0:*]\n"
      << "plot " << Q(data) << " every ::1 using ($1*100):($2/1e3):" << ErrorBar("3", 1e-3)

@@ -776,8 +776,8 @@ std::optional<BedFile> DembufService::BedFileOf(const v1::SceneSpec& spec,
   if (!file)
     throw SceneError("bed_file", owner + " sent no bed file " + sha256 +
                                      " to this server: send it first (PushBed, kind \"file\")");
-  // Checked as a local import checks it (lines, units, container, overlaps) when a scene
-  // first names it, below, so that a bad file is refused at once, not when its job runs.
+  // The submission then checks it as a local import is checked (lines, units, container,
+  // overlaps): the job's resource estimate reads it so, and a bad file is refused at once.
   return file;
 }
 

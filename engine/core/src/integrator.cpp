@@ -35,12 +35,6 @@ struct Velocity {
   double x, y, z;
 };
 
-// The damping of the beads' own motion (BeadDamping), as the kicks use it.
-struct Damping {
-  double alpha;  // local
-  double rate;   // viscous, per second
-};
-
 // The sign of a velocity component: 0 for a bead at rest in it (PFC's convention), so that local
 // damping neither pushes a resting bead nor needs a branch.
 DEMBUF_ALWAYS_INLINE double Sign(double v) {
@@ -50,8 +44,8 @@ DEMBUF_ALWAYS_INLINE double Sign(double v) {
 // One component's acceleration with damping: the unbalanced force `f` (gravity in it), the
 // velocity `v` before the kick, the inverse mass and the mass.
 DEMBUF_ALWAYS_INLINE double DampedAcceleration(double f, double v, double inv_m, double m,
-                                               const Damping& d) {
-  return inv_m * (f - d.alpha * std::abs(f) * Sign(v) - d.rate * m * v);
+                                               const BeadDamping& d) {
+  return inv_m * (f - d.local_alpha * std::abs(f) * Sign(v) - d.viscous_rate_per_s * m * v);
 }
 
 // Half kicks of bead i with its current forces: v += dt/2 a (and w += dt/2 alpha when it
@@ -66,7 +60,7 @@ DEMBUF_ALWAYS_INLINE double DampedAcceleration(double f, double v, double inv_m,
 // halves of a fused kick are then PFC's leapfrog step v(t + dt/2) = v(t - dt/2) + dt (F + F_d)/m.
 template <bool kRotate, int kHalves, bool kClear, bool kDamp = false>
 DEMBUF_ALWAYS_INLINE Velocity KickBead(const Kinematics& k, long i, double half, const Vec3& g,
-                                       const Damping& damping = {}) {
+                                       const BeadDamping& damping = {}) {
   const double inv_m = k.inv_mass[i];
   const bool held = inv_m == 0.0;
   double* f = k.force + 3 * i;
@@ -123,7 +117,7 @@ DEMBUF_ALWAYS_INLINE Velocity KickBead(const Kinematics& k, long i, double half,
 // the beads between steps (CompleteKick), not one of the step's hot loops.
 template <bool kRotate, bool kDamp>
 void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g,
-          const Damping& damping) {
+          const BeadDamping& damping) {
 #pragma omp simd
   for (long i = first; i < last; ++i) KickBead<kRotate, 1, false, kDamp>(k, i, half, g, damping);
 }
@@ -142,7 +136,7 @@ struct DriftInputs {
   Vec3 g;
   const float* reference;  // positions at the last list build
   Container box;
-  Damping damping;
+  BeadDamping damping;
 };
 
 // The opening half kick (after the last step's closing one: kHalves = 2) and the drift of beads
@@ -202,10 +196,6 @@ DEMBUF_VECTOR_COPIES(DriftWatch, DampedKickTwiceAndDriftNotRotating,
                      (const Kinematics k, long first, long last, const DriftInputs& in),
                      (KickAndDrift<false, 2, true>(k, first, last, in)))
 
-Damping DampingOf(const WorldParams& params) {
-  return {params.bead_damping.local_alpha, params.bead_damping.viscous_rate_per_s};
-}
-
 Vec3 Gravity(const WorldParams& params) {
   return Vec3(0.0, 0.0, -params.gravity_m_s2);
 }
@@ -217,7 +207,7 @@ DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleS
   const double dt = params.dt_s;
   const DriftInputs in{0.5 * dt,         dt,
                        Gravity(params),  s.lists.reference_position.data(),
-                       params.container, DampingOf(params)};
+                       params.container, params.bead_damping};
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
   const bool rotate = s.Rotating();
@@ -269,8 +259,8 @@ void HalfKickBeads(const WorldParams& params, ParticleState& b, const Simulation
   {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
     const auto [first, last] = s.blocks.shares.Part(n, thread, team);
-    const Damping damping = DampingOf(params);
-    if (params.bead_damping.Any()) {
+    const BeadDamping& damping = params.bead_damping;
+    if (damping.Any()) {
       if (rotate)
         Kick<true, true>(k, first, last, half, g, damping);
       else

@@ -157,13 +157,11 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
       continue;
     }
     // As the first run has it (a sweep of one variant has one value).
-    const nlohmann::json* value = &summaries.front()["scene"];
-    for (std::size_t from = 0, dot = 0; dot != std::string::npos; from = dot + 1) {
-      dot = name.find('.', from);
-      const std::string key = name.substr(from, dot == std::string::npos ? dot : dot - from);
-      value = value->is_object() && value->contains(key) ? &(*value)[key] : nullptr;
-      if (!value) break;
-    }
+    std::string path = "/" + name;
+    std::replace(path.begin(), path.end(), '.', '/');
+    const nlohmann::json& scene = summaries.front()["scene"];
+    const nlohmann::json::json_pointer pointer(path);
+    const nlohmann::json* value = scene.contains(pointer) ? &scene[pointer] : nullptr;
     c.variant.push_back(name + " = " + (value ? value->dump() : std::string("?")));
   }
   c.is_paper_e2 = !summaries.empty() && c.differs.empty();

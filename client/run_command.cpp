@@ -2,6 +2,7 @@
 // progress on stderr, the report on stdout and a failure or interruption written beside the
 // results.
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -10,6 +11,7 @@
 #include "cost_check.h"
 #include "dembuf/core/threads.h"
 #include "dembuf/study/files/provenance.h"
+#include "dembuf/study/files/run_output.h"
 #include "dembuf/study/run/folder_recorder.h"
 #include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/study/scene/errors.h"
@@ -92,13 +94,22 @@ struct RunPhase {
   }
 };
 
+// The nonce of the daemon that started this run on a cluster ("" for any other run): its
+// results carry it, so that the daemon takes them as this run's.
+std::string ResultNonce() {
+  const char* nonce = std::getenv(report::kResultNonceVariable);
+  return nonce ? nonce : "";
+}
+
 int ReportFailure(const dem::SimulationError& e, const RunPhase& phase, const Scene& scene,
                   const fs::path& dir) {
-  const nlohmann::json failure = {{"error", e.what()},
-                                  {"phase", phase.name},
-                                  {"step", e.step()},
-                                  {"time_s", e.time_s()},
-                                  {"scene", report::SceneToJson(scene)}};
+  nlohmann::json failure = {{"error", e.what()},
+                            {"phase", phase.name},
+                            {"step", e.step()},
+                            {"time_s", e.time_s()},
+                            {"scene", report::SceneToJson(scene)}};
+  if (const std::string nonce = ResultNonce(); !nonce.empty())
+    failure[report::kResultNonceKey] = nonce;
   report::WriteFileAtomically(dir / "failure.json", failure.dump(2) + "\n");
   std::fprintf(stderr, "dembuf: run failed in the %s: %s\n  samples up to the failure: %s\n",
                phase.name.c_str(), e.what(), phase.partial().c_str());
@@ -189,7 +200,7 @@ int RunCommand(const RunOptions& opt) {
   RunPhase phase;
   std::optional<FolderRecorder> recorder;  // outlives the run: its reports name the samples
   try {
-    recorder.emplace(dir, scene, opt.samples_out);
+    recorder.emplace(dir, scene, opt.samples_out, ResultNonce());
     phase.recorder = &*recorder;
     const ImpactSummary summary = RunIntoFolder(opt, scene, beds, *recorder, phase);
     PrintSummary(summary, dir);

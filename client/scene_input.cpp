@@ -12,6 +12,7 @@ Scene ResolveScene(const std::string& scene_file, const std::string& preset,
   if (!accuracy.empty()) ApplyAccuracy(scene, accuracy);
   for (const auto& assignment : overrides) ApplyOverride(scene, assignment);
   ValidateScene(scene);
+  CheckSceneFiles(scene);
   return scene;
 }
 

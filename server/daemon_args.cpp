@@ -79,7 +79,8 @@ ServerConfig ResolveConfig(const DaemonArgs& args) {
 
 int TokenCommand(const ServerConfig& config, const DaemonArgs& args) {
   try {
-    MakeDatabasePrivate(config.db);
+    // The daemon's database, in its folder: run as its account (sudo -u dembuf ...).
+    CheckDatabaseFiles(config.db);
     Store store(config.db);
     if (args.token_create->parsed()) {
       if (const std::string problem = UserNameProblem(args.user); !problem.empty()) {

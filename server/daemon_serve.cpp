@@ -3,7 +3,7 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/resource_quota.h>
-#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/base_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
@@ -19,6 +19,7 @@
 #include "dembuf/study/files/provenance.h"
 #include "dembuf/study/version.h"
 #include "instance.h"
+#include "owned_files.h"
 #include "reflection_v1.h"
 #include "service.h"
 #include "slurm_executor.h"
@@ -34,11 +35,36 @@ namespace {
 // A part of the start-up failed; the reason is in the log already.
 struct StartFailed {};
 
+// The log file, appended to through a descriptor the daemon opened itself in a folder of its
+// own: spdlog's file sink opens a name, and would follow a link planted there (log lines with
+// a job's name appended to the daemon's account's .bashrc).
+class OwnedLogSink final : public spdlog::sinks::base_sink<std::mutex> {
+ public:
+  explicit OwnedLogSink(const std::string& path) {
+    const std::filesystem::path file = std::filesystem::absolute(path);
+    const OwnedFolder folder = OwnedFolder::Open(file.parent_path(), "the log folder", false);
+    m_fd = folder.OpenToAppend(file.filename().string());
+  }
+  ~OwnedLogSink() override { close(m_fd); }
+
+ private:
+  void sink_it_(const spdlog::details::log_msg& message) override {
+    spdlog::memory_buf_t line;
+    formatter_->format(message, line);
+    // One write a line (O_APPEND): lines of two writers never interleave within a line.
+    if (write(m_fd, line.data(), line.size()) < 0) {
+      // a full disk loses log lines, not the daemon
+    }
+  }
+  void flush_() override {}
+
+  int m_fd = -1;
+};
+
 std::shared_ptr<spdlog::logger> MakeLogger(const ServerConfig& config) {
   std::vector<spdlog::sink_ptr> sinks;
   sinks.push_back(std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
-  if (!config.log_file.empty())
-    sinks.push_back(std::make_shared<spdlog::sinks::basic_file_sink_mt>(config.log_file));
+  if (!config.log_file.empty()) sinks.push_back(std::make_shared<OwnedLogSink>(config.log_file));
   auto log = std::make_shared<spdlog::logger>("dembufd", sinks.begin(), sinks.end());
   log->set_level(spdlog::level::from_str(config.log_level));
   log->flush_on(spdlog::level::info);
@@ -225,14 +251,22 @@ int Serve(const ServerConfig& config) {
   std::unique_ptr<Store> store;
   try {
     lock = std::make_unique<DatabaseLock>(config.db);
-    if (const std::string opened = MakeDatabasePrivate(config.db); !opened.empty())
+    lock->Describe("process " + std::to_string(getpid()) + ", starting");
+    if (const std::string opened = lock->MakePrivate(); !opened.empty())
       log->warn("{} could be read by other accounts; made readable by this one only", opened);
     store = std::make_unique<Store>(config.db);
   } catch (const std::exception& e) {
     log->critical("{}", e.what());
     return kDaemonRuntime;
   }
-  const std::unique_ptr<Executor> executor = MakeExecutor(config, *store, log);
+  // Before the port is bound: an executor whose folders cannot be used stops the start.
+  std::unique_ptr<Executor> executor;
+  try {
+    executor = MakeExecutor(config, *store, log);
+  } catch (const std::exception& e) {
+    log->critical("{}", e.what());
+    return kDaemonRuntime;
+  }
   const ServiceInfo info = MakeServiceInfo(config);
   // One access policy for gRPC, the web pages and their files.
   const AccessPolicy policy(*store,

@@ -39,20 +39,50 @@ std::string FlockHolder(dev_t device, ino_t inode) {
   return "";
 }
 
+// The SQLite files beside a database: its journal in WAL mode, the shared memory index, and the
+// rollback journal.
+constexpr const char* kSideFiles[] = {"-wal", "-shm", "-journal"};
+
+// The database's folder, checked, with the database's name in it; its side files checked too
+// (each must be the daemon's regular file, or absent).
+std::pair<OwnedFolder, std::string> DatabaseFolder(const std::string& db_path) {
+  const fs::path path = fs::absolute(db_path);
+  if (!IsPlainName(path.filename().string()))
+    throw OwnershipError("database " + db_path + ": not a file name");
+  OwnedFolder folder = OwnedFolder::Open(path.parent_path(), "the database folder", false);
+  const std::string name = path.filename().string();
+  for (const char* suffix : kSideFiles)
+    if (folder.Contains(name + suffix)) close(folder.OpenToUpdate(name + suffix));
+  return {std::move(folder), name};
+}
+
 }  // namespace
 
-DatabaseLock::DatabaseLock(const std::string& db_path) {
-  m_fd = open(db_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
-  if (m_fd < 0)
-    throw std::runtime_error("database " + db_path + " cannot be used: it cannot be written (" +
-                             std::strerror(errno) + ")");
-  std::error_code error;
-  const fs::path resolved = fs::canonical(db_path, error);
-  m_note_path = (error ? fs::path(db_path) : resolved).string() + ".lock";
+void CheckDatabaseFiles(const std::string& db_path) {
+  auto [folder, name] = DatabaseFolder(db_path);
+  if (folder.Contains(name)) close(folder.OpenToUpdate(name));
+}
+
+DatabaseLock::DatabaseLock(const std::string& db_path, bool create)
+    : m_folder(DatabaseFolder(db_path).first), m_name(fs::path(db_path).filename().string()) {
+  if (!create && !m_folder.Contains(m_name))
+    throw std::runtime_error("database " + db_path + " does not exist");
+  try {
+    m_fd = m_folder.OpenToUpdate(m_name);
+  } catch (const OwnershipError& e) {
+    if (e.system_error() == EROFS || e.system_error() == EACCES)
+      throw std::runtime_error("database " + db_path + " cannot be used: it cannot be written (" +
+                               std::strerror(e.system_error()) + ")");
+    throw;
+  }
   if (flock(m_fd, LOCK_EX | LOCK_NB) != 0) {
-    std::ifstream in(m_note_path);
     std::string holder;
-    std::getline(in, holder);
+    try {
+      const std::string note = m_folder.Read(m_name + ".lock", 4096).value_or("");
+      holder = note.substr(0, note.find('\n'));
+    } catch (const std::exception&) {
+      // an unreadable note names nobody
+    }
     struct stat file {};
     if (fstat(m_fd, &file) == 0 && holder.empty()) holder = FlockHolder(file.st_dev, file.st_ino);
     close(m_fd);
@@ -61,7 +91,6 @@ DatabaseLock::DatabaseLock(const std::string& db_path) {
                              (holder.empty() ? std::string("one that is starting") : holder) +
                              "; stop it first, or give this one another --db");
   }
-  Describe("process " + std::to_string(getpid()) + ", starting");
 }
 
 DatabaseLock::~DatabaseLock() {
@@ -70,22 +99,23 @@ DatabaseLock::~DatabaseLock() {
 
 void DatabaseLock::Describe(const std::string& holder) {
   // Written whole and renamed into place: a second daemon reads either line, never half.
-  const std::string temporary = m_note_path + ".new";
-  std::ofstream out(temporary, std::ios::trunc);
-  out << holder << "\n";
-  out.close();
-  std::error_code error;
-  if (out) fs::rename(temporary, m_note_path, error);
+  try {
+    m_folder.Write(m_name + ".lock", holder + "\n");
+  } catch (const std::exception&) {
+    // the note only helps a second daemon's message
+  }
 }
 
-std::string MakeDatabasePrivate(const std::string& db_path) {
+std::string DatabaseLock::MakePrivate() {
   std::string opened;
-  for (const char* suffix : {"", "-wal", "-shm", "-journal", ".lock"}) {
-    const std::string path = db_path + suffix;
+  for (const std::string suffix : {"", "-wal", "-shm", "-journal", ".lock"}) {
+    const std::string name = m_name + suffix;
+    if (!m_folder.Contains(name)) continue;
+    const int fd = suffix.empty() ? m_fd : m_folder.OpenToUpdate(name);
     struct stat file {};
-    if (stat(path.c_str(), &file) != 0 || (file.st_mode & 077) == 0) continue;
-    if (chmod(path.c_str(), file.st_mode & 0700) == 0)
-      opened += (opened.empty() ? "" : ", ") + path;
+    if (fstat(fd, &file) == 0 && (file.st_mode & 077) != 0 && fchmod(fd, 0600) == 0)
+      opened += (opened.empty() ? "" : ", ") + (m_folder.path() / name).string();
+    if (fd != m_fd) close(fd);
   }
   return opened;
 }

@@ -80,8 +80,6 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec, const std::optional<BedFile>& 
   if (!spec.accuracy().empty()) ApplyAccuracy(scene, spec.accuracy());
   ApplyProtoScene(spec.scene(), scene);
   for (const std::string& assignment : spec.set()) ApplyOverride(scene, assignment);
-  // Before validation, which would look for the file on this machine's disk.
-  if (spec.bed_file().empty()) CheckServerScene(scene);
   if (!spec.bed_file().empty()) {
     if (!bed_file) throw SceneError("bed_file", "no bed file " + spec.bed_file());
     scene.bed.import = bed_file->name;
@@ -93,13 +91,21 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec, const std::optional<BedFile>& 
 
 Scene SceneOfJob(Store& store, const JobRecord& job) {
   const std::string what = "job " + std::to_string(job.id);
-  if (job.bed_file.empty()) return LoadSceneText(job.scene_toml, what);
+  if (job.bed_file.empty()) {
+    Scene scene = LoadSceneText(job.scene_toml, what);
+    if (!scene.bed.import.empty())
+      throw SceneError("bed.import", what + " names a bed file that was not sent with it");
+    return scene;
+  }
   const std::optional<BedFile> file = store.GetBedFile(job.owner, job.bed_file);
   if (!file) throw SceneError("bed_file", what + ": its bed file " + job.bed_file + " is gone");
   // The bytes first: the file is not on this machine's disk, and the scene is validated.
   Scene with_bytes;
   with_bytes.bed.import_bytes = std::make_shared<const std::string>(file->data);
-  return LoadSceneText(job.scene_toml, what, with_bytes);
+  Scene scene = LoadSceneText(job.scene_toml, what, with_bytes);
+  if (scene.bed.import != file->name || !IsPlainBedFileName(scene.bed.import))
+    throw SceneError("bed.import", what + " names a bed file other than the one sent with it");
+  return scene;
 }
 
 bool IsPlainBedFileName(const std::string& name) {
@@ -119,25 +125,6 @@ void CheckSweepAxes(const v1::SubmitSweepRequest& request) {
       throw SceneError(axis.field(), std::to_string(axis.values_size()) +
                                          " values in the sweep axis; at most " +
                                          std::to_string(kMaxAxisValues));
-}
-
-void CheckServerScene(const Scene& scene) {
-  if (!scene.bed.import.empty() && !scene.bed.import_bytes)
-    throw SceneError("bed.import",
-                     "the server does not read files on its disk; send the bed file with the "
-                     "request (dembuf submit and sweep send the file bed.import names)");
-  // Their bytes are bounded by the cost check (quota_output_mb); their number here, so that
-  // many tiny snapshots cannot flood the store with rows.
-  const std::size_t snapshots = scene.output.snapshot_times_s.size() +
-                                scene.output.snapshot_after_contact_s.size() +
-                                (scene.output.snapshot_at_peak ? 1 : 0);
-  if (snapshots > kMaxServerSnapshots)
-    throw SceneError(
-        scene.output.snapshot_times_s.size() > scene.output.snapshot_after_contact_s.size()
-            ? "output.snapshot_times_s"
-            : "output.snapshot_after_contact_s",
-        std::to_string(snapshots) + " snapshots; a server job takes at most " +
-            std::to_string(kMaxServerSnapshots));
 }
 
 }  // namespace dembuf::server

@@ -15,18 +15,17 @@ namespace dembuf::server {
 inline constexpr int kMaxAssignments = 1000;
 inline constexpr int kMaxAxes = 16;
 inline constexpr int kMaxAxisValues = 10000;
-/// The most snapshots (output.snapshot_*) one job on the server may take.
-inline constexpr std::size_t kMaxServerSnapshots = 100;
-
 /// The default scene, then the preset, the scene file text, the accuracy level, the typed
 /// fields, and each `set` assignment, in that order; validated. Throws SceneError naming the field
 /// at fault. `bed_file` is the bed file the spec names (SceneSpec.bed_file), found by the
-/// caller: the scene imports it, under its name, from its bytes.
+/// caller: the scene imports it, under its name, from its bytes. What the daemon accepts is
+/// decided later, by AdmitScene (admission.h), on the scene as it will run.
 Scene ResolveSceneSpec(const v1::SceneSpec& spec,
                        const std::optional<BedFile>& bed_file = std::nullopt);
 
 /// A stored job's scene, with the bytes of the bed file it imports. Throws SceneError, or
-/// DamagedData for a bed file that no longer matches its checksum.
+/// DamagedData for a bed file that no longer matches its checksum. A scene that names a file
+/// it did not come with is refused here too: no executor looks a path up.
 Scene SceneOfJob(Store& store, const JobRecord& job);
 
 /// The longest name a bed file sent to the daemon may have.
@@ -41,10 +40,5 @@ void ApplyProtoScene(const v1::Scene& fields, Scene& scene);
 /// Refuses a sweep with more axes, or an axis with more values, than the limits above.
 /// Throws SceneError naming the axis.
 void CheckSweepAxes(const v1::SubmitSweepRequest& request);
-
-/// Refuses what a shared daemon does not run: beds read from files on the server (a bed file
-/// comes with the request instead) and more than kMaxServerSnapshots snapshots. What a job costs is
-/// checked against the server's limits separately (ServiceInfo::job_limits). Throws SceneError.
-void CheckServerScene(const Scene& scene);
 
 }  // namespace dembuf::server

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <thread>
 
+#include "admission.h"
 #include "auth.h"
 #include "bed_push.h"
 #include "dembuf/study/bed/bed.h"
@@ -40,6 +41,12 @@ Status Invalid(const std::string& field, const std::string& message) {
 
 Status FromSceneError(const SceneError& e) {
   return Status(StatusCode::INVALID_ARGUMENT, e.what());
+}
+
+// A job past the server's limits: the details name the field, so that the client knows the
+// request must change (it is not worth retrying).
+Status OverLimits(const ResourceError& e) {
+  return Status(StatusCode::RESOURCE_EXHAUSTED, e.what(), "field=" + e.field());
 }
 
 Status DiskFull() {
@@ -181,8 +188,7 @@ Status DembufService::CheckJobQuota(const Scene& scene) {
   try {
     CheckResources(EstimateResources(scene), m_info.job_limits, scene, "this server's");
   } catch (const ResourceError& e) {
-    // The details name the field: the request must change, it is not worth retrying.
-    return Status(StatusCode::RESOURCE_EXHAUSTED, e.what(), "field=" + e.field());
+    return OverLimits(e);
   }
   return Status::OK;
 }
@@ -341,10 +347,9 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
     JobRecord job;
     std::vector<std::string> warnings;
     try {
-      const Scene scene = ResolveSceneSpec(request->scene(), BedFileOf(request->scene(), owner));
+      const Scene scene =
+          AdmitJob(request->scene(), BedFileOf(request->scene(), owner), m_info.job_limits);
       warnings = SceneWarnings(scene);
-      CheckServerScene(scene);
-      if (Status s = CheckJobQuota(scene); !s.ok()) return s;
       std::string name = request->name();
       if (name.empty())
         name = request->scene().preset().empty() ? "job" : request->scene().preset();
@@ -353,6 +358,8 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
       job.command_line = KeptCommandLine(context, request->command_line());
     } catch (const SceneError& e) {
       return FromSceneError(e);
+    } catch (const ResourceError& e) {
+      return OverLimits(e);
     }
     if (Status s = CheckQueuedQuota(owner, 1); !s.ok()) return s;
     try {
@@ -400,25 +407,17 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
     const std::string command_line = KeptCommandLine(context, request->command_line());
     std::vector<std::string> warnings;
     try {
-      CheckSweepAxes(*request);
-      const Scene base = ResolveSceneSpec(request->base(), BedFileOf(request->base(), owner));
-      std::vector<SweepAxis> axes;
-      for (const auto& axis : request->axes()) {
-        std::vector<std::string> values(axis.values().begin(), axis.values().end());
-        axes.push_back(MakeSweepAxis(axis.field(), values, axis.range()));
-      }
-      axes = WithSeedAxis(axes, std::max(1, request->seeds()), base.bed.seed);
-      const std::vector<SweepRun> runs =
-          ExpandSweep(base, axes, static_cast<std::size_t>(m_info.max_sweep_jobs));
+      const AdmittedSweep admitted =
+          AdmitSweep(*request, BedFileOf(request->base(), owner), m_info.job_limits,
+                     static_cast<std::size_t>(m_info.max_sweep_jobs));
+      const std::vector<SweepRun>& runs = admitted.runs;
       sweep.owner = owner;
       sweep.name = request->name().empty() ? "sweep" : request->name();
-      sweep.axes = axes;
+      sweep.axes = admitted.axes;
       for (std::size_t k : StartOrder(LoadsOf(runs))) {
         for (const std::string& w : SceneWarnings(runs[k].scene))
           if (std::find(warnings.begin(), warnings.end(), w) == warnings.end())
             warnings.push_back(w);
-        CheckServerScene(runs[k].scene);
-        if (Status s = CheckJobQuota(runs[k].scene); !s.ok()) return s;
         JobRecord job = MakeJobRecord(runs[k].scene, sweep.owner, runs[k].name);
         job.bed_file = request->base().bed_file();
         job.sweep_index = static_cast<int>(runs[k].index);
@@ -428,6 +427,8 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
       }
     } catch (const SceneError& e) {
       return FromSceneError(e);
+    } catch (const ResourceError& e) {
+      return OverLimits(e);
     }
     if (Status s = CheckQueuedQuota(owner, jobs.size()); !s.ok()) return s;
     try {

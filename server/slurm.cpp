@@ -165,7 +165,13 @@ std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& 
     args.push_back("--kill-on-invalid-dep=yes");
   }
   args.insert(args.end(), settings.extra_args.begin(), settings.extra_args.end());
-  std::string line = "exec";
+  std::string line;
+  for (const auto& [name, value] : job.environment) {
+    if (name.empty() || name.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZ_") != std::string::npos)
+      throw SlurmError("not an environment variable's name: " + name.substr(0, 40));
+    line += "export " + name + "=" + ShellQuote(value) + "; ";
+  }
+  line += "exec";
   for (const std::string& word : job.command) {
     line += ' ';
     line += ShellQuote(word);

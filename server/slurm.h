@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace dembuf::server::slurm {
@@ -77,6 +78,9 @@ struct Submission {
   int time_s = 0;                      ///< 0: the partition's default
   std::vector<std::int64_t> after_ok;  ///< jobs that must end well first
   std::vector<std::string> command;    ///< the program and its arguments
+  /// Variables the job's script exports before the command (names of [A-Z_], made by the
+  /// daemon): in the script, which Slurm shows its owner only, not on a command line.
+  std::vector<std::pair<std::string, std::string>> environment;
 };
 
 /// The sbatch arguments of a submission: every value one argument, and the command a single

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
+#include "admission.h"
+#include "auth.h"
 #include "dembuf/study/bed/bed.h"
+#include "dembuf/study/files/provenance.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
 #include "dembuf/study/run/resource_estimate.h"
@@ -26,12 +28,27 @@ namespace {
 // The start of a queued job's note while Slurm cannot be reached (cleared once submitted).
 const std::string kWaitingForSlurm = "waiting: cannot reach Slurm (";
 
-// A run's summary.json or failure.json, from a folder others may write too: bounded (a
-// summary is a few kB) and a JSON object, or a std::runtime_error saying what is wrong.
-nlohmann::json ReadRunJson(const fs::path& path) {
-  const std::string text = ReadBoundedFile(path.string(), 4 << 20, "run file");
-  nlohmann::json json = nlohmann::json::parse(text);
-  if (!json.is_object()) throw std::runtime_error(path.string() + " is not a JSON object");
+// The name a bed file sent with a job has in its folder on the nodes: one the daemon makes,
+// whatever its user called it (the format is told from the file itself).
+constexpr const char* kNodeBedFile = "bed-file";
+
+// A run's summary.json or failure.json, as a node left it: a regular file of the daemon's
+// (no link followed), bounded (a summary is a few kB), no deeper than kMaxJsonDepth, a JSON
+// object, and written by the run this daemon started: it carries the nonce of the job's
+// script, which is taken out. Nothing when the file is absent; a std::runtime_error saying
+// what is wrong otherwise.
+std::optional<nlohmann::json> ReadRunJson(const OwnedFolder& out, const std::string& name,
+                                          const std::string& nonce) {
+  const std::optional<std::string> text = out.Read(name, 4 << 20);
+  if (!text) return std::nullopt;
+  nlohmann::json json = ParseBoundedJson(*text, name);
+  if (!json.is_object()) throw std::runtime_error(name + " is not a JSON object");
+  const auto proof = json.find(report::kResultNonceKey);
+  if (nonce.empty() || proof == json.end() || !proof->is_string() || *proof != nonce)
+    throw std::runtime_error(name +
+                             " was not written by the run this daemon started (it lacks "
+                             "the nonce of the job's script)");
+  json.erase(proof);
   return json;
 }
 
@@ -44,6 +61,16 @@ constexpr std::uint64_t kMaxSamplesPerRead = 1 << 20;
 // kMaxAnimationFrames frames and theirs, and the bare-plate series.
 constexpr std::size_t kMaxResultFiles =
     7 * kMaxServerSnapshots + 1 + static_cast<std::size_t>(kMaxAnimationFrames) + 1 + 1;
+
+// The whole samples of a job's samples.bin from sample `from` on, at most `most` of them (a
+// sample written half is left for the next look).
+std::vector<ImpactSample> ReadSamples(const OwnedFolder& folder, std::uint64_t from,
+                                      std::uint64_t most) {
+  std::string bytes = folder.ReadFrom("samples.bin", from * report::kPackedSampleBytes,
+                                      most * report::kPackedSampleBytes);
+  bytes.resize(bytes.size() - bytes.size() % report::kPackedSampleBytes);
+  return report::UnpackSamples(bytes);
+}
 
 // Why Slurm ended a job that left no result, in words, with Slurm's state name in them.
 std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int64_t slurm_id) {
@@ -77,7 +104,10 @@ SlurmExecutor::SlurmExecutor(Store& store, SlurmExecutorOptions options,
       m_options(std::move(options)),
       m_log(std::move(log)),
       m_slurm(m_options.slurm),
-      m_work(fs::absolute(m_options.slurm.work_dir)) {}
+      m_work(OwnedFolder::Open(fs::absolute(m_options.slurm.work_dir), "slurm.work_dir", true)),
+      m_beds(m_work.Folder("beds", true)),
+      m_jobs(m_work.Folder("jobs", true)),
+      m_bed_jobs(m_work.Folder("bed-jobs", true)) {}
 
 SlurmExecutor::~SlurmExecutor() {
   Shutdown(std::chrono::seconds(0));
@@ -85,10 +115,9 @@ SlurmExecutor::~SlurmExecutor() {
 
 void SlurmExecutor::Start() {
   m_daemon_id = m_store.DaemonId();
-  for (const char* folder : {"beds", "jobs", "bed-jobs"}) fs::create_directories(m_work / folder);
   Adopt();
   m_log->info("jobs run on Slurm as dembuf-{}-<job id>, {} CPUs each, in {}; nodes run {}",
-              m_daemon_id, m_options.slurm.cpus_per_job, m_work.string(), m_options.dembuf);
+              m_daemon_id, m_options.slurm.cpus_per_job, m_work.path().string(), m_options.dembuf);
   m_loop = std::jthread([this] { Loop(); });
 }
 
@@ -257,8 +286,12 @@ std::string SlurmExecutor::BedJobName(const std::string& hash) const {
   return "dembuf-" + m_daemon_id + "-bed-" + hash;
 }
 
-fs::path SlurmExecutor::JobFolder(std::int64_t id) const {
-  return m_work / "jobs" / (m_daemon_id + "-" + std::to_string(id));
+OwnedFolder SlurmExecutor::JobFolder(std::int64_t id, bool make) const {
+  return m_jobs.Folder(m_daemon_id + "-" + std::to_string(id), make);
+}
+
+bool SlurmExecutor::BedReady(const std::string& hash) const {
+  return m_beds.Contains(hash + ".bed");
 }
 
 void SlurmExecutor::SubmitQueued() {
@@ -301,20 +334,27 @@ bool SlurmExecutor::NoteWaitingForSlurm(std::string what) {
   return changed;
 }
 
-slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const fs::path& folder,
+slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const OwnedFolder& folder,
                                                const std::string& scene_toml, const Scene& scene,
                                                bool bed_only, std::int64_t after,
-                                               const std::vector<std::string>& dembuf_args) const {
-  fs::create_directories(folder);
-  report::WriteFileAtomically(folder / "scene.toml", scene_toml);
-  // A bed file sent with the job goes beside its scene, which names it (a plain name).
-  if (scene.bed.import_bytes)
-    report::WriteFileAtomically(folder / scene.bed.import, *scene.bed.import_bytes);
+                                               const std::vector<std::string>& dembuf_args,
+                                               const std::string& nonce) const {
+  // A bed file sent with the job goes beside its scene under the name the daemon gives it,
+  // and the node's scene names that (the bed's hash is its bytes', whatever the name).
+  if (scene.bed.import_bytes) {
+    folder.Write(kNodeBedFile, *scene.bed.import_bytes);
+    Scene on_node = scene;
+    on_node.bed.import = kNodeBedFile;
+    folder.Write("scene.toml", report::SceneText(on_node));
+  } else {
+    folder.Write("scene.toml", scene_toml);
+  }
   const slurm::Settings& settings = m_options.slurm;
   slurm::Submission submission;
   submission.name = name;
-  submission.folder = folder.string();
-  submission.log = (folder / "slurm.log").string();
+  submission.folder = folder.path().string();
+  submission.log = (folder.path() / "slurm.log").string();
+  if (!nonce.empty()) submission.environment.emplace_back(report::kResultNonceVariable, nonce);
   submission.cpus = settings.cpus_per_job;
   const ResourceEstimate cost = EstimateResources(scene);
   submission.mem_mb = settings.mem_per_job_mb > 0
@@ -341,12 +381,12 @@ slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const fs
 
 std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& stage,
                                    const JobRecord& job, const Scene& scene, std::int64_t after) {
-  if (hash.empty() || fs::exists(m_work / "beds" / (hash + ".bed"))) return 0;
+  if (hash.empty() || BedReady(hash)) return 0;
   if (const auto bed = m_store.GetSlurmBed(hash); bed && bed->state == "submitted")
     return bed->slurm_id;  // another job's, shared
-  const fs::path folder = m_work / "bed-jobs" / hash;
-  std::vector<std::string> args = {"prepare-bed", (folder / "scene.toml").string(), "--bed-cache",
-                                   (m_work / "beds").string()};
+  const OwnedFolder folder = m_bed_jobs.Folder(hash, true);
+  std::vector<std::string> args = {"prepare-bed", (folder.path() / "scene.toml").string(),
+                                   "--bed-cache", m_beds.path().string()};
   if (stage == "source") args.push_back("--source-only");
   const std::int64_t slurm_id = m_slurm.Submit(
       NewSubmission(BedJobName(hash), folder, job.scene_toml, scene, true, after, args));
@@ -357,26 +397,32 @@ std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& s
 
 void SlurmExecutor::AddBed(const PreparedBed& bed) {
   // The nodes read their beds from the shared folder's bed cache, a FolderBedStore.
-  FolderBedStore(m_work / "beds").Save(bed);
+  FolderBedStore(m_beds.path()).Save(bed);
 }
 
 void SlurmExecutor::Submit(const JobRecord& job) {
   const Scene scene = SceneOfJob(m_store, job);
   // Only the source when the bed is cut from one: the source is shared by many beds.
   std::int64_t bed_after = 0;
-  if (!job.bed_hash.empty() && !fs::exists(m_work / "beds" / (job.bed_hash + ".bed"))) {
+  if (!job.bed_hash.empty() && !BedReady(job.bed_hash)) {
     const std::int64_t source = BedJob(job.source_hash, "source", job, scene, 0);
     const std::vector<BedStage> stages = BedStagesOf(scene);
     bed_after =
         BedJob(job.bed_hash, stages.empty() ? "cut" : stages.back().stage, job, scene, source);
   }
-  const fs::path folder = JobFolder(job.id);
+  const OwnedFolder folder = JobFolder(job.id, true);
+  const fs::path& path = folder.path();
   const std::string name = JobName(job.id);
+  // The run's proof that its result is its own, kept before the job exists in Slurm: a
+  // daemon that dies meanwhile still knows it when it takes the job up.
+  const std::string nonce = NewToken();
+  m_store.SetResultNonce(job.id, nonce);
   const std::int64_t slurm_id = m_slurm.Submit(
       NewSubmission(name, folder, job.scene_toml, scene, false, bed_after,
-                    {"run", (folder / "scene.toml").string(), "--out", (folder / "out").string(),
-                     "--force", "--yes", "--no-plots", "--bed-cache", (m_work / "beds").string(),
-                     "--samples-out", (folder / "samples.bin").string()}));
+                    {"run", (path / "scene.toml").string(), "--out", (path / "out").string(),
+                     "--force", "--yes", "--no-plots", "--bed-cache", m_beds.path().string(),
+                     "--samples-out", (path / "samples.bin").string()},
+                    nonce));
   m_store.SetSlurmId(job.id, slurm_id);
   m_store.LogEvent(job.id,
                    "submitted to Slurm as job " + std::to_string(slurm_id) + " (" + name + ")");
@@ -389,7 +435,7 @@ void SlurmExecutor::PollBeds(const std::map<std::int64_t, slurm::JobStatus>& sta
     const auto it = status.find(bed.slurm_id);
     std::optional<slurm::JobStatus> s;
     if (it != status.end() && it->second.name == BedJobName(bed.hash)) s = it->second;
-    if (fs::exists(m_work / "beds" / (bed.hash + ".bed"))) {
+    if (BedReady(bed.hash)) {
       bed.state = "done";
       m_store.PutSlurmBed(bed);
       m_store.RecordBedPreparation(bed.hash, bed.stage, bed.job_id);
@@ -397,7 +443,12 @@ void SlurmExecutor::PollBeds(const std::map<std::int64_t, slurm::JobStatus>& sta
       continue;
     }
     if (s && !slurm::IsFinalState(s->state)) continue;
-    const std::string last = LastError(m_work / "bed-jobs" / bed.hash / "slurm.log");
+    std::string last;
+    try {
+      last = LastError(m_bed_jobs.Folder(bed.hash, false));
+    } catch (const std::exception& e) {
+      last = e.what();
+    }
     bed.state = "failed";
     bed.error = SlurmReason(s, bed.slurm_id) + (last.empty() ? "" : "; it said: " + last);
     m_store.PutSlurmBed(bed);
@@ -432,12 +483,20 @@ void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& sta
     if (const auto it = status.find(job.slurm_id);
         it != status.end() && it->second.name == JobName(job.id))
       s = it->second;
-    const fs::path out = JobFolder(job.id) / "out";
-    const bool ended = fs::exists(out / "summary.json") || fs::exists(out / "failure.json") || !s ||
-                       slurm::IsFinalState(s->state);
-    if (ended) {
+    bool began = false, wrote_end = false;
+    try {
+      const OwnedFolder folder = JobFolder(job.id, false);
+      began = folder.Contains("out");
+      if (began) {
+        const OwnedFolder out = folder.Folder("out", false);
+        wrote_end = out.Contains("summary.json") || out.Contains("failure.json");
+      }
+    } catch (const OwnershipError&) {
+      wrote_end = true;  // Finish reads it, and fails the job saying what is wrong
+    }
+    if (wrote_end || !s || slurm::IsFinalState(s->state)) {
       // A run that began and ended between two looks: it ran all the same.
-      if (job.state == JobState::kQueued && fs::exists(out))
+      if (job.state == JobState::kQueued && began)
         m_store.MarkStarted(job.id, JobState::kRunning, s ? s->node : "", kVersion);
       Finish(job, s);
       continue;
@@ -483,9 +542,8 @@ void SlurmExecutor::Follow(std::int64_t id, Followed& followed) {
   LiveJob& live = *followed.live;
   auto [first, held] = live.UnstoredSamples();
   const std::int64_t read = first + static_cast<std::int64_t>(held.size());
-  const std::vector<ImpactSample> fresh = report::ReadSampleStream(
-      JobFolder(id) / "samples.bin", static_cast<std::uint64_t>(read) * report::kPackedSampleBytes,
-      kMaxSamplesPerRead);
+  const std::vector<ImpactSample> fresh =
+      ReadSamples(JobFolder(id, false), static_cast<std::uint64_t>(read), kMaxSamplesPerRead);
   for (const ImpactSample& sample : fresh) live.Append(sample);
   if (!fresh.empty()) {
     const double t = fresh.back().t_s;
@@ -500,53 +558,51 @@ void SlurmExecutor::Follow(std::int64_t id, Followed& followed) {
 }
 
 void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobStatus>& status) {
-  const fs::path folder = JobFolder(job.id);
   // The samples not yet stored: what the live job holds, then the rest of the file.
   std::shared_ptr<LiveJob> live = Live(job.id);
   std::int64_t first = m_store.SeriesLength(job.id);
   std::vector<ImpactSample> rest;
   if (live) std::tie(first, rest) = live->UnstoredSamples();
-  const std::vector<ImpactSample> tail = report::ReadSampleStream(
-      folder / "samples.bin",
-      static_cast<std::uint64_t>(first + static_cast<std::int64_t>(rest.size())) *
-          report::kPackedSampleBytes,
-      8 * kMaxSamplesPerRead);
-  rest.insert(rest.end(), tail.begin(), tail.end());
 
   JobState state = JobState::kFailed;
   std::string error;
   std::string summary;
   std::vector<report::ResultFile> files;
-  const fs::path out = folder / "out";
-  if (tail.size() == 8 * kMaxSamplesPerRead) {
+  try {
+    const OwnedFolder folder = JobFolder(job.id, false);
+    const std::vector<ImpactSample> tail = ReadSamples(
+        folder, static_cast<std::uint64_t>(first) + rest.size(), 8 * kMaxSamplesPerRead);
     // More than a run of dembuf's writes after its last look: not taken.
-    error = "its samples.bin holds more samples than the daemon reads at a job's end (" +
-            std::to_string(8 * kMaxSamplesPerRead) + ")";
-    rest.clear();
-  } else if (fs::exists(out / "summary.json")) {
-    try {
-      summary = ReadRunJson(out / "summary.json").dump(2) + "\n";
-      files = report::ReadResultFiles(out, report::ResultFileRoots(), m_options.max_result_bytes,
-                                      kMaxResultFiles);
+    if (tail.size() == 8 * kMaxSamplesPerRead)
+      throw std::runtime_error(
+          "its samples.bin holds more samples than the daemon reads at a job's end (" +
+          std::to_string(8 * kMaxSamplesPerRead) + ")");
+    rest.insert(rest.end(), tail.begin(), tail.end());
+    std::optional<OwnedFolder> out;
+    if (folder.Contains("out")) out = folder.Folder("out", false);
+    if (out && out->Contains("summary.json")) {
+      summary = ReadRunJson(*out, "summary.json", job.result_nonce)->dump(2) + "\n";
+      for (auto& [path, data] : out->ReadTree(report::ResultFileRoots(), report::IsSafeResultPath,
+                                              m_options.max_result_bytes, kMaxResultFiles))
+        files.push_back({path, std::move(data)});
       state = JobState::kDone;
-    } catch (const std::exception& e) {
-      error = std::string("the run ended, but its results cannot be read: ") + e.what();
-      summary.clear();
-    }
-  } else if (fs::exists(out / "failure.json")) {
-    try {
-      const nlohmann::json failure = ReadRunJson(out / "failure.json");
+    } else if (out && out->Contains("failure.json")) {
+      const nlohmann::json failure = *ReadRunJson(*out, "failure.json", job.result_nonce);
       error = failure.at("error").get<std::string>().substr(0, 2000) + " (in the " +
               failure.at("phase").get<std::string>().substr(0, 100) + ")";
-    } catch (const std::exception&) {
-      error = "the run failed, and its failure.json cannot be read";
+    } else if (job.cancel_requested) {
+      state = JobState::kCancelled;
+      error = job.state == JobState::kQueued ? "cancelled while queued" : "cancelled while running";
+    } else {
+      const std::string last = LastError(folder);
+      error = SlurmReason(status, job.slurm_id) + (last.empty() ? "" : "; it said: " + last);
     }
-  } else if (job.cancel_requested) {
-    state = JobState::kCancelled;
-    error = job.state == JobState::kQueued ? "cancelled while queued" : "cancelled while running";
-  } else {
-    const std::string last = LastError(folder / "slurm.log");
-    error = SlurmReason(status, job.slurm_id) + (last.empty() ? "" : "; it said: " + last);
+  } catch (const std::exception& e) {
+    // What a node left is not taken on trust: the job fails saying what is wrong with it.
+    state = JobState::kFailed;
+    error = std::string("the run ended, but what it left cannot be taken: ") + e.what();
+    summary.clear();
+    files.clear();
   }
   m_store.FinishJob(job.id, state, error, {summary, std::move(rest), first, std::move(files)});
   if (live) live->End(state);
@@ -560,13 +616,14 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
     m_log->warn("job {}: {}: {}", job.id, StateName(state), error);
 }
 
-std::string SlurmExecutor::LastError(const fs::path& log) {
-  std::ifstream in(log);
+std::string SlurmExecutor::LastError(const OwnedFolder& folder) {
+  // The log's end: the run's last words are there, however much it printed before.
+  std::istringstream in(folder.ReadTail("slurm.log", 64 << 10));
   std::string line, last;
   while (std::getline(in, line))
     if (line.rfind("dembuf:", 0) == 0 || line.rfind("slurmstepd:", 0) == 0) last = line;
   if (last.size() > 500) last = last.substr(0, 500) + "...";
-  return last;
+  return PrintableText(last);
 }
 
 }  // namespace dembuf::server

@@ -3,9 +3,16 @@
 // submits, follows and records; Slurm places, queues and accounts.
 //
 //   work_dir/beds/                      the bed cache every job reads and fills
-//   work_dir/jobs/<daemon>-<job>/       scene.toml, out/ (the run's files), samples.bin
-//                                       (the force samples as they come), slurm.log
-//   work_dir/bed-jobs/<hash>/           a bed preparation's scene.toml and slurm.log
+//   work_dir/jobs/<daemon>-<job>/       scene.toml, bed-file (a bed file sent with the job),
+//                                       out/ (the run's files), samples.bin (the force
+//                                       samples as they come), slurm.log
+//   work_dir/bed-jobs/<hash>/           a bed preparation's scene.toml, bed-file, slurm.log
+//
+// The daemon owns work_dir (owned_files.h): it must be the daemon's account's and closed to
+// others, every name in it is one the daemon makes, and what a node leaves is read without
+// following links and within bounds. A run's result is taken only with the random nonce the
+// daemon wrote into that job's script (DEMBUF_RESULT_NONCE, which `dembuf run` writes into
+// summary.json and failure.json): a file another account or an earlier daemon left is not.
 //
 // A bed is prepared once, by a job of its own (the source bed first when it has one), and the
 // jobs that need it wait for it with --dependency=afterok. The run's own files are the truth
@@ -25,6 +32,7 @@
 
 #include "dembuf/study/scene/scene.h"
 #include "executor.h"
+#include "owned_files.h"
 #include "slurm.h"
 
 namespace dembuf::server {
@@ -38,6 +46,8 @@ struct SlurmExecutorOptions {
 
 class SlurmExecutor final : public Executor {
  public:
+  /// Opens (or makes, 0700) work_dir and its folders; throws OwnershipError when they are not
+  /// the daemon's alone (before the daemon serves anything).
   SlurmExecutor(Store& store, SlurmExecutorOptions options, std::shared_ptr<spdlog::logger> log);
   ~SlurmExecutor() override;
 
@@ -84,24 +94,30 @@ class SlurmExecutor final : public Executor {
   void Follow(std::int64_t id, Followed& followed);
   Followed& StartFollowing(const JobRecord& job);
 
-  std::filesystem::path JobFolder(std::int64_t id) const;
+  /// A job's folder, made when `make` is set (else OwnershipError when it is not there).
+  OwnedFolder JobFolder(std::int64_t id, bool make) const;
   std::string JobName(std::int64_t id) const;
   std::string BedJobName(const std::string& hash) const;
+  bool BedReady(const std::string& hash) const;
   /// The last line the run printed that says what went wrong, from its Slurm log.
-  static std::string LastError(const std::filesystem::path& log);
-  /// A Slurm job of `dembuf dembuf_args...` in `folder` (made, with the scene.toml), after job
-  /// `after` (0: none): its memory and time from the settings, else from the scene's estimate
-  /// (`bed_only`: the estimate of preparing its bed; else of its impact alone).
-  slurm::Submission NewSubmission(const std::string& name, const std::filesystem::path& folder,
+  static std::string LastError(const OwnedFolder& folder);
+  /// A Slurm job of `dembuf dembuf_args...` in `folder`, where it writes the scene (and its
+  /// bed file), after job `after` (0: none): its memory and time from the settings, else from
+  /// the scene's estimate (`bed_only`: the estimate of preparing its bed; else of its impact
+  /// alone). `nonce`, when given, goes into the job's script as DEMBUF_RESULT_NONCE.
+  slurm::Submission NewSubmission(const std::string& name, const OwnedFolder& folder,
                                   const std::string& scene_toml, const Scene& scene, bool bed_only,
-                                  std::int64_t after,
-                                  const std::vector<std::string>& dembuf_args) const;
+                                  std::int64_t after, const std::vector<std::string>& dembuf_args,
+                                  const std::string& nonce = "") const;
 
   Store& m_store;
   SlurmExecutorOptions m_options;
   std::shared_ptr<spdlog::logger> m_log;
   slurm::Client m_slurm;
-  std::filesystem::path m_work;
+  OwnedFolder m_work;      ///< work_dir
+  OwnedFolder m_beds;      ///< work_dir/beds
+  OwnedFolder m_jobs;      ///< work_dir/jobs
+  OwnedFolder m_bed_jobs;  ///< work_dir/bed-jobs
   std::string m_daemon_id;
 
   // m_work_mutex: one of the loop's passes, or a cancel, at a time. m_mutex: the followed

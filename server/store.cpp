@@ -168,6 +168,11 @@ CREATE TABLE bed_files (
 );
 ALTER TABLE jobs ADD COLUMN bed_file TEXT NOT NULL DEFAULT '';
 )sql",
+    R"sql(
+-- The Slurm executor's proof that a run's result is the run's it started: a random nonce put
+-- into the job's script, which the run writes into its summary.json and failure.json.
+ALTER TABLE jobs ADD COLUMN result_nonce TEXT NOT NULL DEFAULT '';
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 // The version that added the checksums of summaries, whole series and result files.
@@ -198,9 +203,10 @@ constexpr std::int64_t kHashPieceBytes = 1 << 20;
 const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
-    "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, command_line";
+    "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
+    "command_line";
 // How many kJobColumns names: a column selected after them has this index.
-constexpr int kJobColumnCount = 22;
+constexpr int kJobColumnCount = 23;
 
 }  // namespace
 
@@ -307,6 +313,7 @@ JobRecord Store::ReadJob(Statement& s) {
   j.slurm_id = s.Int(18);
   j.cancel_requested = s.Int(19) != 0;
   j.bed_file = s.Text(20);
+  j.result_nonce = s.Text(21);
   j.command_line = s.Text(kJobColumnCount - 1);
   return j;
 }
@@ -945,6 +952,11 @@ std::vector<JobRecord> Store::UnfinishedJobs() {
 void Store::SetSlurmId(std::int64_t id, std::int64_t slurm_id) {
   std::lock_guard lock(m_mutex);
   m_db->Prepare("UPDATE jobs SET slurm_id = ? WHERE id = ?").Bind(slurm_id, id).Run();
+}
+
+void Store::SetResultNonce(std::int64_t id, const std::string& nonce) {
+  std::lock_guard lock(m_mutex);
+  m_db->Prepare("UPDATE jobs SET result_nonce = ? WHERE id = ?").Bind(nonce, id).Run();
 }
 
 void Store::RequestCancel(std::int64_t id) {

@@ -51,6 +51,7 @@ struct JobRecord {
   bool cancel_requested = false;
   std::string command_line;  ///< what asked for it, as the client sent it ("" if it did not)
   std::string bed_file;      ///< SHA-256 of the owner's bed file it imports ("" for none)
+  std::string result_nonce;  ///< put into its Slurm job's script; its result must carry it
 };
 
 /// A bed file a user sent to import (PushBed), kept by its owner and the SHA-256 of its bytes.
@@ -250,6 +251,8 @@ class Store {
   /// Jobs queued, preparing or running, oldest first.
   std::vector<JobRecord> UnfinishedJobs();
   void SetSlurmId(std::int64_t id, std::int64_t slurm_id);
+  /// Keeps the nonce put into the job's script (the Slurm executor), before it is submitted.
+  void SetResultNonce(std::int64_t id, const std::string& nonce);
   /// Notes that the job's user asked to cancel it.
   void RequestCancel(std::int64_t id);
   /// How many samples of a running job are stored.

@@ -88,7 +88,7 @@ try:
                    timeout=30)
     raise AssertionError("a path on the daemon's disk was taken")
 except grpc.RpcError as e:
-    assert "does not read files on its disk" in e.details(), e.details()
+    assert "the server reads no files of its own" in e.details(), e.details()
 # Another user's (or no) file by its hash: none sent by this caller.
 try:
     stub.SubmitJob(pb.SubmitJobRequest(scene=pb.SceneSpec(bed_file="0" * 64)), timeout=30)

@@ -148,65 +148,6 @@ TEST(Slurm, ACommandThatHangsIsKilledAtItsTimeout) {
   EXPECT_EQ(RunProgram({"no-such-program-here"}).exit_code, 127);
 }
 
-TEST(SampleStream, AFollowerReadsWholeSamplesExactlyAsTheyCome) {
-  const std::filesystem::path path = test::TempPath("samples.bin");
-  report::SampleStreamWriter writer(path, std::chrono::milliseconds(0));
-  const ImpactSample a{0.1, 1.0 / 3.0, -2.5e-300, std::nan(""), 4.0, 5.0};
-  const ImpactSample b{0.2, 7.0, 8.0, 9.0, 10.0, 11.0};
-  writer.Write(a);
-  std::vector<ImpactSample> read = report::ReadSampleStream(path, 0);
-  ASSERT_EQ(read.size(), 1u);
-  EXPECT_EQ(read[0].plate_force_N, a.plate_force_N);
-  EXPECT_EQ(read[0].wall_force_z_N, a.wall_force_z_N);
-  EXPECT_TRUE(std::isnan(read[0].projectile_z_m));
-  writer.Write(b);
-  writer.Close();
-  read = report::ReadSampleStream(path, report::kPackedSampleBytes);
-  ASSERT_EQ(read.size(), 1u);
-  EXPECT_EQ(read[0].t_s, 0.2);
-  // A sample half written is not read.
-  std::filesystem::resize_file(path, report::kPackedSampleBytes * 2 - 3);
-  EXPECT_EQ(report::ReadSampleStream(path, 0).size(), 1u);
-  EXPECT_TRUE(report::ReadSampleStream(test::TempPath("absent.bin"), 0).empty());
-}
-
-TEST(ResultFiles, OnlyPlainRelativePathsAreAccepted) {
-  for (const char* good :
-       {"snapshots/peak/contacts.csv", "snapshots/after_contact_0.5ms/x.vtk", "a", "a.b-c_d"})
-    EXPECT_TRUE(report::IsSafeResultPath(good)) << good;
-  for (const char* bad : {"", "/etc/passwd", "../x", "snapshots/../../x", "a//b", "a/", "./a",
-                          "a/./b", "a b", "a\\b", "a;b", "a/b/c/d", "snapshots/$(id)/x"})
-    EXPECT_FALSE(report::IsSafeResultPath(bad)) << bad;
-  EXPECT_FALSE(report::IsSafeResultPath(std::string(201, 'a')));
-}
-
-// A cluster job's snapshots are read back from a shared folder: a link, a name not allowed,
-// too many files or bytes are refused, not followed or read.
-TEST(ResultFiles, AFolderOnASharedDiskIsReadBackWithinItsBounds) {
-  namespace fs = std::filesystem;
-  const fs::path dir = test::TempPath("result-files");
-  fs::remove_all(dir);
-  fs::create_directories(dir / "snapshots" / "peak");
-  report::WriteFileAtomically(dir / "snapshots" / "peak" / "a.csv", "12345");
-  report::WriteFileAtomically(dir / "snapshots" / "peak" / "b.csv", "");
-  auto files = report::ReadResultFiles(dir, {"snapshots"}, 100, 10);
-  ASSERT_EQ(files.size(), 2u);
-  EXPECT_EQ(files[0].path, "snapshots/peak/a.csv");
-  EXPECT_EQ(files[0].data, "12345");
-  EXPECT_TRUE(report::ReadResultFiles(dir, {"absent"}, 100, 10).empty());
-  report::WriteFileAtomically(dir / "plate_force_bare.csv", "t_s\n");
-  files = report::ReadResultFiles(dir, {"snapshots", "plate_force_bare.csv"}, 100, 10);
-  ASSERT_EQ(files.size(), 3u);
-  EXPECT_EQ(files[0].path, "plate_force_bare.csv");
-  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 4, 10), std::runtime_error);
-  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 100, 1), std::runtime_error);
-  fs::create_symlink("/etc/passwd", dir / "snapshots" / "peak" / "c.csv");
-  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 1 << 20, 10), std::runtime_error);
-  fs::remove(dir / "snapshots" / "peak" / "c.csv");
-  report::WriteFileAtomically(dir / "snapshots" / "peak" / "x y.csv", "");
-  EXPECT_THROW(report::ReadResultFiles(dir, {"snapshots"}, 1 << 20, 10), std::runtime_error);
-}
-
 TEST(SlurmConfig, TheSlurmTableIsReadAndChecked) {
   ServerConfig config;
   LoadConfigText(

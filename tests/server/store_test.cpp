@@ -9,6 +9,7 @@
 #include <map>
 #include <sstream>
 
+#include "admission.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
@@ -78,7 +79,7 @@ TEST(SceneRequest, ValuesArriveExactlyAndInOrder) {
 TEST(SceneRequest, BadValuesNameTheirField) {
   auto message = [](const v1::SceneSpec& spec) {
     try {
-      CheckServerScene(ResolveSceneSpec(spec));
+      AdmitJob(spec, std::nullopt, ResourceLimits{});
     } catch (const SceneError& e) {
       return std::string(e.what());
     }
@@ -311,7 +312,8 @@ TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAndLoseTheirTokensAtTheUpgr
     db.Execute(
         "ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
         "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
-        "ALTER TABLE jobs DROP COLUMN bed_file; PRAGMA user_version = 7");
+        "ALTER TABLE jobs DROP COLUMN bed_file; ALTER TABLE jobs DROP COLUMN result_nonce; "
+        "PRAGMA user_version = 7");
     db.Execute("UPDATE jobs SET command_line = 'dembuf --token 0123abcd submit'");
     db.Execute(
         "UPDATE results SET summary_json = "

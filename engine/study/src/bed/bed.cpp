@@ -644,7 +644,10 @@ std::string ImportHash(const Scene& scene) {
   if (scene.bed.import_bytes) {
     content << *scene.bed.import_bytes;
   } else {
+    // (A file that cannot be read would hash as an empty one.)
+    CheckSceneFiles(scene);
     std::ifstream in(scene.bed.import, std::ios::binary);
+    if (!in) throw SceneError("bed.import", "cannot read \"" + scene.bed.import + "\"");
     content << in.rdbuf();
   }
   // Named only when set, so that beds imported as they were keep their hashes.

@@ -192,21 +192,6 @@ void SampleStreamWriter::Close() {
   if (!m_out) throw std::runtime_error("error writing " + m_path.string());
 }
 
-std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path, std::uint64_t offset,
-                                           std::uint64_t max_samples) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return {};
-  in.seekg(0, std::ios::end);
-  const auto size = static_cast<std::uint64_t>(std::max<std::streamoff>(in.tellg(), 0));
-  if (size <= offset) return {};
-  const std::uint64_t whole = (size - offset) / kPackedSampleBytes;
-  std::string bytes(std::min(whole, max_samples) * kPackedSampleBytes, '\0');
-  in.seekg(static_cast<std::streamoff>(offset));
-  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  bytes.resize(static_cast<std::size_t>(in.gcount()));
-  return UnpackSamples(bytes);
-}
-
 const std::vector<std::string>& RunOutputNames() {
   static const std::vector<std::string> names = {"summary.json",
                                                  "failure.json",

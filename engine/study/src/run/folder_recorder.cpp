@@ -1,12 +1,15 @@
 #include "dembuf/study/run/folder_recorder.h"
 
 #include "dembuf/study/files/provenance.h"
+#include "dembuf/study/files/run_output.h"
 
 namespace dembuf {
 
 FolderRecorder::FolderRecorder(std::filesystem::path dir, const Scene& scene,
-                               std::filesystem::path samples_stream)
-    : m_dir(std::move(dir)), m_stream_path(std::move(samples_stream)) {
+                               std::filesystem::path samples_stream, std::string result_nonce)
+    : m_dir(std::move(dir)),
+      m_stream_path(std::move(samples_stream)),
+      m_result_nonce(std::move(result_nonce)) {
   std::filesystem::create_directories(m_dir);
   // What ran, in a file that runs it again.
   report::WriteFileAtomically(m_dir / "scene.toml", report::SceneText(scene));
@@ -35,7 +38,13 @@ void FolderRecorder::Finished(const ImpactSummary&, const nlohmann::json& summar
   if (!m_bare.empty())
     report::WriteFileAtomically(m_dir / "plate_force_bare.csv", report::SamplesToCsv(m_bare));
   if (m_stream) m_stream->Close();
-  report::WriteFileAtomically(m_dir / "summary.json", summary_json.dump(2) + "\n");
+  if (m_result_nonce.empty()) {
+    report::WriteFileAtomically(m_dir / "summary.json", summary_json.dump(2) + "\n");
+  } else {
+    nlohmann::json proven = summary_json;
+    proven[report::kResultNonceKey] = m_result_nonce;
+    report::WriteFileAtomically(m_dir / "summary.json", proven.dump(2) + "\n");
+  }
   m_summary = summary_json;
 }
 

@@ -536,7 +536,9 @@ Scene LoadSceneFile(const std::string& path, const Scene& base) {
   } catch (const InputLimitError& e) {
     throw SceneError("", e.what());
   }
-  return LoadScene(text, "scene file \"" + path + "\"", path, base);
+  Scene scene = LoadScene(text, "scene file \"" + path + "\"", path, base);
+  CheckSceneFiles(scene);  // a scene file is read on the machine whose files it names
+  return scene;
 }
 
 Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base) {
@@ -643,8 +645,12 @@ void ValidateScene(const Scene& scene) {
                FormatShort(kMaxAnimationFrames) + " (at least " +
                FormatShort(impact_s / (kMaxAnimationFrames - 1)) + " s)");
   }
+}
+
+void CheckSceneFiles(const Scene& scene) {
   if (!scene.bed.import.empty() && !scene.bed.import_bytes && !IsRegularFile(scene.bed.import))
-    fail("bed.import", "file \"" + scene.bed.import + "\" does not exist or is not a file");
+    throw SceneError("bed.import",
+                     "file \"" + scene.bed.import + "\" does not exist or is not a file");
 }
 
 std::vector<std::string> SceneWarnings(const Scene& scene) {

@@ -127,7 +127,7 @@ std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
 }
 
 std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
-                                  std::size_t max_runs) {
+                                  std::size_t max_runs, const RunAdmission& admit) {
   // One axis per field: a field varied twice would label one axis's results with the other's
   // values.
   for (std::size_t a = 0; a < axes.size(); ++a)
@@ -154,6 +154,7 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
       run.name.append("_").append(axes[a].field.substr(axes[a].field.rfind('.') + 1));
       run.name.append("=").append(run.values.back());
     }
+    if (admit) admit(run.scene);
     ValidateScene(run.scene);
     run.beds = BedNeedsOf(run.scene);
     runs.push_back(std::move(run));

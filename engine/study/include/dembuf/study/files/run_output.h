@@ -67,10 +67,11 @@ class SampleStreamWriter {
   std::chrono::steady_clock::time_point m_last_flush;
 };
 
-/// The whole samples of a stream file from byte `offset` on (a multiple of kPackedSampleBytes),
-/// at most `max_samples` of them; none when the file does not exist yet.
-std::vector<ImpactSample> ReadSampleStream(const std::filesystem::path& path, std::uint64_t offset,
-                                           std::uint64_t max_samples = UINT64_MAX);
+/// A daemon's proof that a run's result is the run's it started on a cluster: the daemon puts a
+/// random nonce into the job's script as this variable, and `dembuf run` writes it into its
+/// summary.json and failure.json under kResultNonceKey. A result without it is not taken.
+inline constexpr const char* kResultNonceVariable = "DEMBUF_RESULT_NONCE";
+inline constexpr const char* kResultNonceKey = "result_nonce";
 
 /// The files and folders a run writes into its folder (results, failure or interruption
 /// reports, plots, snapshots), so that replacing a run removes all of the run before and

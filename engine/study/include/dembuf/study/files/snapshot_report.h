@@ -78,13 +78,4 @@ bool IsResultFileName(std::string_view path);
 /// std::runtime_error for a path IsSafeResultPath refuses, before writing anything.
 void WriteResultFiles(const std::vector<ResultFile>& files, const std::filesystem::path& dir);
 
-/// The files `names` name in `dir` (files, or folders read whole; absent ones are skipped),
-/// read back for storing, in path order: only regular files with paths IsSafeResultPath
-/// accepts, at most `max_files` of them and `max_bytes` in all. Throws std::runtime_error
-/// naming what broke a rule (a link, a name, a size): the folder is another program's output
-/// on a shared disk.
-std::vector<ResultFile> ReadResultFiles(const std::filesystem::path& dir,
-                                        const std::vector<std::string>& names,
-                                        std::uint64_t max_bytes, std::size_t max_files);
-
 }  // namespace dembuf::report

@@ -21,9 +21,10 @@ namespace dembuf {
 class FolderRecorder final : public RunRecorder {
  public:
   /// Records into `dir` (made when missing); with `samples_stream` also streams the samples,
-  /// packed, to that file as they come (a daemon following a cluster job reads it).
+  /// packed, to that file as they come (a daemon following a cluster job reads it), and with
+  /// `result_nonce` writes that daemon's nonce into summary.json (report::kResultNonceKey).
   FolderRecorder(std::filesystem::path dir, const Scene& scene,
-                 std::filesystem::path samples_stream = {});
+                 std::filesystem::path samples_stream = {}, std::string result_nonce = {});
 
   void Sample(const ImpactSample& sample) override;
   void ReferenceSample(const ImpactSample& sample) override;
@@ -39,6 +40,7 @@ class FolderRecorder final : public RunRecorder {
  private:
   std::filesystem::path m_dir;
   std::filesystem::path m_stream_path;
+  std::string m_result_nonce;
   std::optional<report::SampleCsvWriter> m_csv;  ///< opened at the first sample
   std::optional<report::SampleStreamWriter> m_stream;
   std::vector<ImpactSample> m_bare;  ///< a few hundred samples, written at the end

@@ -48,14 +48,21 @@ void SetSceneField(Scene& scene, std::string_view name, std::string_view value);
 void ApplyOverride(Scene& scene, std::string_view assignment);
 
 /// Reads a TOML scene file on top of `base` (fields absent from the file keep their value).
-/// Unknown tables or keys, wrong types and out-of-range values throw SceneError.
+/// Unknown tables or keys, wrong types, out-of-range values and a bed file that is not there
+/// (CheckSceneFiles) throw SceneError.
 Scene LoadSceneFile(const std::string& path, const Scene& base = Scene{});
 
-/// The same for TOML text; `name` is used in messages (e.g. "preset e2").
+/// The same for TOML text; `name` is used in messages (e.g. "preset e2"). It looks up no file.
 Scene LoadSceneText(const std::string& text, const std::string& name, const Scene& base = Scene{});
 
-/// Checks every field's range and the relations between fields. Throws SceneError.
+/// Checks every field's range and the relations between fields. Throws SceneError. Reads
+/// nothing from the disk: a scene that names a file is checked for it by CheckSceneFiles.
 void ValidateScene(const Scene& scene);
+
+/// Checks that the files a scene names are there: its bed file (bed.import), unless its bytes
+/// came with it. Throws SceneError naming the field. The local commands ask this; the daemon,
+/// which reads no file a request names, never does.
+void CheckSceneFiles(const Scene& scene);
 
 /// Legal values that are physically absurd, or beyond what has been tested to give sound
 /// results, as "field: what is absurd and why" (empty for an ordinary scene). Such a scene

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -52,10 +53,15 @@ struct SweepRun {
   std::string name;  ///< e.g. "003_thickness_m=0.01_seed=2"
 };
 
-/// The product of the axes on top of `base`, every scene validated. Throws SceneError naming
-/// the field (a field varied twice among them), or when the product has more than max_runs
-/// runs.
+/// What a caller checks of each run's scene as soon as the axes are set on it, before
+/// anything else reads it (the daemon's admission, which must see a path before it is looked
+/// up). Throws SceneError to refuse the sweep.
+using RunAdmission = std::function<void(const Scene&)>;
+
+/// The product of the axes on top of `base`, every scene admitted (when `admit` is given) and
+/// validated. Throws SceneError naming the field (a field varied twice among them), or when
+/// the product has more than max_runs runs.
 std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
-                                  std::size_t max_runs = 100000);
+                                  std::size_t max_runs = 100000, const RunAdmission& admit = {});
 
 }  // namespace dembuf

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -51,5 +52,17 @@ inline constexpr std::size_t kMaxCommandLineBytes = 4096;
 /// or a huge file is refused, not read). Throws InputLimitError naming `what` and the path.
 std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes,
                             const std::string& what);
+
+/// The deepest JSON a summary, a failure note or an answer of a server may nest: dembuf's own
+/// nest four deep. Deeper text is refused while it is parsed (a document 10,000 deep made the
+/// recursive destructor and printer overflow the stack, and its re-indented copy grew as the
+/// square of its depth).
+inline constexpr int kMaxJsonDepth = 64;
+
+/// Parses JSON text that came from outside (a cluster node's files, a server's answer): at most
+/// `max_bytes` long and kMaxJsonDepth deep. Throws InputLimitError naming `what` for text past
+/// either, or that is not JSON.
+nlohmann::json ParseBoundedJson(std::string_view text, const std::string& what,
+                                std::size_t max_bytes = std::size_t{16} << 20);
 
 }  // namespace dembuf

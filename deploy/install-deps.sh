@@ -16,8 +16,11 @@ packages=("$@")
   libeigen3-dev zlib1g-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libtoml11-dev
   # tests, fuzzers (clang's libFuzzer and OpenMP) and plots
   libgtest-dev libgmock-dev clang libclang-rt-dev libomp-dev gnuplot-nox python3
-  # gRPC from Python (the tests' health check); the manual pages
-  python3-grpcio help2man
+  # gRPC from Python (the tests' health check), HTTP/2 by hand (the flood tests); the manual
+  # pages
+  python3-grpcio python3-h2 help2man
+  # the front proxy that holds against HTTP/2 rapid reset (deploy/haproxy/)
+  haproxy
   # the Python package: data frames, the worked example's plots, VTK to read files back
   python3-pandas python3-matplotlib python3-vtk9
   # LAMMPS: the peer of the speed benchmark, and the reader of exported beds

@@ -3,15 +3,19 @@
 // in docs/service.md ("Access"); tests/server/access_test.sh checks it row by row on both doors.
 #pragma once
 
+#include <chrono>
+#include <condition_variable>
+#include <map>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "auth.h"
+#include "store.h"
 
 namespace dembuf::server {
-
-class Store;
 
 /// How callers are identified. There is one mode for the whole daemon: a daemon that asks
 /// for tokens on one address asks for them on every address.
@@ -47,9 +51,19 @@ class AccessDenied : public std::runtime_error {
   bool m_unauthenticated;
 };
 
+/// How soon a token made, revoked or replaced (by `dembufd token-create` or `token-revoke`,
+/// another process) is seen: the users are read again this often.
+inline constexpr std::chrono::milliseconds kUsersRefresh{250};
+
 class AccessPolicy {
  public:
-  AccessPolicy(Store& store, AccessMode mode) : m_store(store), m_mode(mode) {}
+  /// Reads the users and their token hashes from `store` now, and again every kUsersRefresh
+  /// on a thread of its own: a caller is identified from memory, before any other work and
+  /// without waiting for the store.
+  AccessPolicy(Store& store, AccessMode mode);
+  ~AccessPolicy();
+  AccessPolicy(const AccessPolicy&) = delete;
+  AccessPolicy& operator=(const AccessPolicy&) = delete;
 
   AccessMode mode() const { return m_mode; }
   bool tokens_required() const { return m_mode == AccessMode::kTokens; }
@@ -58,6 +72,13 @@ class AccessPolicy {
   /// none) or else the token hash of a web session. Throws AccessDenied (unauthenticated).
   Caller Identify(const std::optional<std::string>& authorization,
                   const std::optional<std::string>& session_token_hash = std::nullopt) const;
+  /// The holder of `token`, or nothing for a token not known (the web pages' login form).
+  std::optional<Caller> HolderOf(const std::string& token) const;
+  /// Whether `caller` still is who it was identified as: its token neither revoked nor
+  /// replaced, its admin right not taken away. A long-lived stream asks this as it goes and
+  /// ends when the answer turns false (within a second of the change). Always true for a
+  /// caller without a token (access "local").
+  bool StillValid(const Caller& caller) const;
 
   /// Whether `caller` may do `action` to what `owner` owns: the owner, or an admin.
   static bool Allows(const Caller& caller, Action action, const std::string& owner);
@@ -74,8 +95,17 @@ class AccessPolicy {
                               const std::string& field = "owner");
 
  private:
+  /// The users as the store has them now, by token hash.
+  void ReadUsers();
+  std::optional<Caller> CallerOfHash(const std::string& token_hash) const;
+
   Store& m_store;
   AccessMode m_mode;
+  mutable std::mutex m_users_mutex;
+  std::map<std::string, User> m_users;  ///< by token hash
+  std::mutex m_stop_mutex;
+  std::condition_variable_any m_stop;
+  std::jthread m_reader;  ///< last: stopped and joined before the members above go
 };
 
 }  // namespace dembuf::server

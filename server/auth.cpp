@@ -6,7 +6,6 @@
 #include <stdexcept>
 
 #include "dembuf/study/files/provenance.h"
-#include "store.h"
 
 namespace dembuf::server {
 
@@ -38,12 +37,6 @@ std::string UserNameProblem(const std::string& name) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-'))
       return "\"" + name + "\" may hold only letters, digits, '.', '_' and '-'";
   return "";
-}
-
-std::optional<Caller> CallerOfToken(Store& store, const std::string& token) {
-  const std::optional<User> user = store.FindUserByTokenHash(HashToken(token));
-  if (!user) return std::nullopt;
-  return Caller{user->name, user->admin, true};
 }
 
 bool IsLoopback(const std::string& listen) {

@@ -6,18 +6,14 @@
 
 namespace dembuf::server {
 
-class Store;
-
 /// Who is asking: a token's holder, or the machine's trusted user where the daemon's access
 /// policy allows requests without a token (access_policy.h).
 struct Caller {
   std::string name;
   bool admin = false;
-  bool token = false;  ///< identified by a token (not a name the request gave)
+  bool token = false;      ///< identified by a token (not a name the request gave)
+  std::string token_hash;  ///< its token's hash: a long-lived stream checks it still holds
 };
-
-/// The holder of `token` (by its hash in the store), or nothing for a token not known.
-std::optional<Caller> CallerOfToken(Store& store, const std::string& token);
 
 /// 32 random bytes from the system's generator, as 64 hex digits.
 std::string NewToken();

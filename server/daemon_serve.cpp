@@ -35,6 +35,9 @@ namespace {
 // A part of the start-up failed; the reason is in the log already.
 struct StartFailed {};
 
+// Unary calls one connection may have open at once, beside its long streams.
+constexpr int kUnaryCallsPerConnection = 100;
+
 // The log file, appended to through a descriptor the daemon opened itself in a folder of its
 // own: spdlog's file sink opens a name, and would follow a link planted there (log lines with
 // a job's name appended to the daemon's account's .bashrc).
@@ -147,6 +150,12 @@ ServiceInfo MakeServiceInfo(const ServerConfig& config) {
 
 std::shared_ptr<grpc::ServerCredentials> Credentials(const ServerConfig& config,
                                                      spdlog::logger& log) {
+  if (!IsLoopback(config.listen))
+    log.warn(
+        "listening on {} for other machines: this gRPC does not withstand an HTTP/2 rapid "
+        "reset flood (CVE-2023-44487); put haproxy in front and listen on loopback "
+        "(deploy/haproxy/, docs/service.md)",
+        config.listen);
   if (config.tls_cert.empty()) {
     if (!IsLoopback(config.listen))
       log.warn(
@@ -175,13 +184,31 @@ std::unique_ptr<grpc::Server> StartGrpc(const ServerConfig& config, DembufServic
   builder.AddListeningPort(config.listen, Credentials(config, log), &port);
   // One daemon per port: gRPC would share it (SO_REUSEPORT) with a daemon already there.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  // Requests larger than a page of scene text are not read. The pool serves the unary calls and
-  // the reflection streams (each holding a thread); the job and result streams hold none
-  // (gRPC's callback API), so it need not grow with them.
+  // Requests larger than a page of scene text are not read, and none is decompressed: this
+  // gRPC inflates a compressed message whole before it compares it with the limit (a 382 KB
+  // gzip request became 384 MB), so compressed requests are refused unread.
   builder.SetMaxReceiveMessageSize(config.max_request_kb * 1024);
-  grpc::ResourceQuota thread_pool("dembufd");
-  thread_pool.SetMaxThreads(64 + kReflectionStreams);
-  builder.SetResourceQuota(thread_pool);
+  builder.SetCompressionAlgorithmSupportStatus(GRPC_COMPRESS_DEFLATE, false);
+  builder.SetCompressionAlgorithmSupportStatus(GRPC_COMPRESS_GZIP, false);
+  // What one connection may hold: streams at once (a flood of streams from one connection
+  // meets this; a client's channels share one connection, so it is as wide as the daemon's
+  // own caps on long streams, with room for the unary calls), and how often it may ping
+  // (gRPC's defaults, said here).
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS,
+                             config.max_watch_streams + config.max_fetch_streams + kMaxBedPushes +
+                                 kUnaryCallsPerConnection);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PING_STRIKES, 2);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 300000);
+  // A connection left idle is closed after a while; one held long is asked to go (its
+  // streams finish first), so that no connection holds the daemon's memory for ever.
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_IDLE_MS, 15 * 60 * 1000);
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS, 4 * 3600 * 1000);
+  // gRPC's own memory for connections and calls, bounded; its sync threads serve only the
+  // reflection streams (each holding one). Every other call is on the callback API.
+  grpc::ResourceQuota quota("dembufd");
+  quota.SetMaxThreads(kReflectionStreams + 4);
+  quota.Resize(std::size_t{1} << 30);
+  builder.SetResourceQuota(quota);
   builder.RegisterService(&service);
   builder.RegisterService(&reflection);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();

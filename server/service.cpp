@@ -49,6 +49,12 @@ Status OverLimits(const ResourceError& e) {
   return Status(StatusCode::RESOURCE_EXHAUSTED, e.what(), "field=" + e.field());
 }
 
+// A stream's caller whose token was revoked or replaced while it streamed.
+Status TokenWithdrawn() {
+  return Status(StatusCode::UNAUTHENTICATED,
+                "token: revoked or replaced since the stream began; it is closed");
+}
+
 Status DiskFull() {
   return Status(StatusCode::RESOURCE_EXHAUSTED,
                 "the server's disk is full; nothing was changed (the administrator must free "
@@ -202,6 +208,34 @@ Status DembufService::Guard(const char* rpc, Handler&& handler) {
   }
 }
 
+template <class Work>
+grpc::ServerUnaryReactor* DembufService::Serve(const char* rpc,
+                                               grpc::CallbackServerContext* context, Work work) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  Caller caller;
+  try {
+    caller = Identify(context);  // from memory: a call without a token costs no more
+  } catch (...) {
+    reactor->Finish(FailureStatus(rpc));
+    return reactor;
+  }
+  const bool queued =
+      m_calls.Queue(caller.name, [this, rpc, context, reactor, caller, work = std::move(work)] {
+        // A caller that left while its call waited: no work for nobody.
+        if (context->IsCancelled()) {
+          reactor->Finish(Status(StatusCode::CANCELLED, "the caller left"));
+          return;
+        }
+        reactor->Finish(Guard(rpc, [&] { return work(caller); }));
+      });
+  if (!queued)
+    reactor->Finish(
+        Status(StatusCode::RESOURCE_EXHAUSTED,
+               caller.name + " has " + std::to_string(m_calls.max_waiting_per_user()) +
+                   " calls waiting for the server; send the next when one is answered"));
+  return reactor;
+}
+
 Status DembufService::FailureStatus(const char* rpc) {
   try {
     throw;
@@ -234,7 +268,8 @@ DembufService::DembufService(Store& store, Executor& executor, const AccessPolic
                       "max_watch_streams"),
       m_fetch_streams(m_info.max_fetch_streams_per_user, m_info.max_fetch_streams,
                       "result streams (fetch)", "max_fetch_streams"),
-      m_bed_pushes(kMaxBedPushesPerUser, kMaxBedPushes, "bed pushes", "the daemon's limit") {}
+      m_bed_pushes(kMaxBedPushesPerUser, kMaxBedPushes, "bed pushes", "the daemon's limit"),
+      m_calls(kCallThreads, kCallsWaitingPerUser) {}
 
 bool DembufService::AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
                                 v1::SubmitJobResponse* job_answer,
@@ -327,11 +362,11 @@ void DembufService::FillSweep(const SweepRecord& r, v1::Sweep* out) {
   out->set_beds_prepared(m_store.SweepBedsPrepared(r.id));
 }
 
-Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
-                                v1::SubmitJobResponse* response) {
-  return Guard("SubmitJob", [&]() -> Status {
+grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* context,
+                                                   const v1::SubmitJobRequest* request,
+                                                   v1::SubmitJobResponse* response) {
+  return Serve("SubmitJob", context, [=, this](const Caller& caller) -> Status {
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-    const Caller caller = Identify(context);
     const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
     if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLineBytes);
@@ -380,12 +415,11 @@ Status DembufService::SubmitJob(grpc::ServerContext* context, const v1::SubmitJo
   });
 }
 
-Status DembufService::SubmitSweep(grpc::ServerContext* context,
-                                  const v1::SubmitSweepRequest* request,
-                                  v1::SubmitSweepResponse* response) {
-  return Guard("SubmitSweep", [&]() -> Status {
+grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext* context,
+                                                     const v1::SubmitSweepRequest* request,
+                                                     v1::SubmitSweepResponse* response) {
+  return Serve("SubmitSweep", context, [=, this](const Caller& caller) -> Status {
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-    const Caller caller = Identify(context);
     const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
     if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
     if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLineBytes);
@@ -450,10 +484,10 @@ Status DembufService::SubmitSweep(grpc::ServerContext* context,
   });
 }
 
-Status DembufService::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
-                             v1::Job* response) {
-  return Guard("GetJob", [&]() -> Status {
-    const Caller caller = Identify(context);
+grpc::ServerUnaryReactor* DembufService::GetJob(grpc::CallbackServerContext* context,
+                                                const v1::GetJobRequest* request,
+                                                v1::Job* response) {
+  return Serve("GetJob", context, [=, this](const Caller& caller) -> Status {
     const auto job = m_store.GetJob(request->id());
     if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
     AccessPolicy::Require(caller, Action::kRead, job->owner, "id: job " + std::to_string(job->id));
@@ -462,10 +496,10 @@ Status DembufService::GetJob(grpc::ServerContext* context, const v1::GetJobReque
   });
 }
 
-Status DembufService::GetSweep(grpc::ServerContext* context, const v1::GetSweepRequest* request,
-                               v1::Sweep* response) {
-  return Guard("GetSweep", [&]() -> Status {
-    const Caller caller = Identify(context);
+grpc::ServerUnaryReactor* DembufService::GetSweep(grpc::CallbackServerContext* context,
+                                                  const v1::GetSweepRequest* request,
+                                                  v1::Sweep* response) {
+  return Serve("GetSweep", context, [=, this](const Caller& caller) -> Status {
     const auto sweep = m_store.GetSweep(request->id());
     if (!sweep)
       return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
@@ -476,10 +510,10 @@ Status DembufService::GetSweep(grpc::ServerContext* context, const v1::GetSweepR
   });
 }
 
-Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
-                               v1::ListJobsResponse* response) {
-  return Guard("ListJobs", [&]() -> Status {
-    const Caller caller = Identify(context);
+grpc::ServerUnaryReactor* DembufService::ListJobs(grpc::CallbackServerContext* context,
+                                                  const v1::ListJobsRequest* request,
+                                                  v1::ListJobsResponse* response) {
+  return Serve("ListJobs", context, [=, this](const Caller& caller) -> Status {
     JobFilter filter;
     if (request->state() != v1::JOB_STATE_UNSPECIFIED) {
       filter.state = FromProto(request->state());
@@ -498,10 +532,10 @@ Status DembufService::ListJobs(grpc::ServerContext* context, const v1::ListJobsR
   });
 }
 
-Status DembufService::ListSweeps(grpc::ServerContext* context, const v1::ListSweepsRequest* request,
-                                 v1::ListSweepsResponse* response) {
-  return Guard("ListSweeps", [&]() -> Status {
-    const Caller caller = Identify(context);
+grpc::ServerUnaryReactor* DembufService::ListSweeps(grpc::CallbackServerContext* context,
+                                                    const v1::ListSweepsRequest* request,
+                                                    v1::ListSweepsResponse* response) {
+  return Serve("ListSweeps", context, [=, this](const Caller& caller) -> Status {
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
     if (request->limit() < 0 || request->limit() > 100000)
       return Invalid("limit", "must be 0 (100) to 100000");
@@ -514,10 +548,10 @@ Status DembufService::ListSweeps(grpc::ServerContext* context, const v1::ListSwe
   });
 }
 
-Status DembufService::Cancel(grpc::ServerContext* context, const v1::CancelRequest* request,
-                             v1::CancelResponse* response) {
-  return Guard("Cancel", [&]() -> Status {
-    const Caller caller = Identify(context);
+grpc::ServerUnaryReactor* DembufService::Cancel(grpc::CallbackServerContext* context,
+                                                const v1::CancelRequest* request,
+                                                v1::CancelResponse* response) {
+  return Serve("Cancel", context, [=, this](const Caller& caller) -> Status {
     if ((request->job_id() != 0) == (request->sweep_id() != 0))
       return Invalid("job_id", "give either job_id or sweep_id");
     std::vector<JobRecord> targets;
@@ -562,8 +596,9 @@ grpc::ServerWriteReactor<v1::WatchJobResponse>* DembufService::WatchJob(
   using Reactor = StreamReactor<v1::WatchJobResponse>;
   std::optional<StreamLimits::Place> place;
   const std::int64_t id = request->id();
+  Caller caller;
   const Status opened = Guard("WatchJob", [&]() -> Status {
-    const Caller caller = Identify(context);
+    caller = Identify(context);
     if (request->from_index() < 0) return Invalid("from_index", "must be >= 0");
     const auto job = m_store.GetJob(id);
     if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id));
@@ -590,9 +625,10 @@ grpc::ServerWriteReactor<v1::WatchJobResponse>* DembufService::WatchJob(
   auto watch = std::make_shared<Watch>(JobFeed(m_store, m_executor, id), request->from_index());
   return Reactor::Start(
       context, m_clock, m_info.stream_write_timeout, std::move(place),
-      [this, watch, id](v1::WatchJobResponse* message) -> StreamStep {
+      [this, watch, id, caller](v1::WatchJobResponse* message) -> StreamStep {
         try {
           if (watch->ended) return StreamStep::Finish(Status::OK);
+          if (!m_policy.StillValid(caller)) return StreamStep::Finish(TokenWithdrawn());
           const FeedRead read =
               watch->feed.Read(watch->next, kSamplesPerMessage, std::chrono::milliseconds(0));
           if (!read.found)
@@ -620,9 +656,8 @@ grpc::ServerWriteReactor<v1::WatchJobResponse>* DembufService::WatchJob(
       });
 }
 
-Status DembufService::FinishedJobOfCaller(const grpc::ServerContextBase* context, std::int64_t id,
+Status DembufService::FinishedJobOfCaller(const Caller& caller, std::int64_t id,
                                           std::optional<JobRecord>* job) {
-  const Caller caller = Identify(context);
   *job = m_store.GetJob(id);
   if (!*job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(id));
   AccessPolicy::Require(caller, Action::kFetch, (*job)->owner, "id: job " + std::to_string(id));
@@ -634,12 +669,14 @@ Status DembufService::FinishedJobOfCaller(const grpc::ServerContextBase* context
 }
 
 Status DembufService::OpenFetchStream(const char* rpc, const grpc::ServerContextBase* context,
-                                      std::int64_t id, std::optional<JobRecord>* job,
+                                      std::int64_t id, Caller* caller,
+                                      std::optional<JobRecord>* job,
                                       std::optional<StreamLimits::Place>* place) {
   return Guard(rpc, [&]() -> Status {
-    if (Status s = FinishedJobOfCaller(context, id, job); !s.ok()) return s;
+    *caller = Identify(context);
+    if (Status s = FinishedJobOfCaller(*caller, id, job); !s.ok()) return s;
     std::string why;
-    std::optional<StreamLimits::Place> taken = m_fetch_streams.Take(Identify(context), &why);
+    std::optional<StreamLimits::Place> taken = m_fetch_streams.Take(*caller, &why);
     if (!taken)
       return Status(StatusCode::RESOURCE_EXHAUSTED,
                     "result streams: " + why + "; wait for your other fetches to end");
@@ -648,12 +685,12 @@ Status DembufService::OpenFetchStream(const char* rpc, const grpc::ServerContext
   });
 }
 
-Status DembufService::FetchResults(grpc::ServerContext* context,
-                                   const v1::FetchResultsRequest* request,
-                                   v1::FetchResultsResponse* response) {
-  return Guard("FetchResults", [&]() -> Status {
+grpc::ServerUnaryReactor* DembufService::FetchResults(grpc::CallbackServerContext* context,
+                                                      const v1::FetchResultsRequest* request,
+                                                      v1::FetchResultsResponse* response) {
+  return Serve("FetchResults", context, [=, this](const Caller& caller) -> Status {
     std::optional<JobRecord> job;
-    if (Status s = FinishedJobOfCaller(context, request->id(), &job); !s.ok()) return s;
+    if (Status s = FinishedJobOfCaller(caller, request->id(), &job); !s.ok()) return s;
     // A damaged summary fails the fetch (DATA_LOSS) rather than coming back empty.
     FillJob(*job, true, response->mutable_job(), /*damaged_summary_fails=*/true);
     const std::int64_t length = m_store.ResultSeriesLength(job->id);
@@ -671,9 +708,11 @@ grpc::ServerWriteReactor<v1::SeriesChunk>* DembufService::FetchSeries(
   using Reactor = StreamReactor<v1::SeriesChunk>;
   if (request->from_index() < 0)
     return Reactor::Refuse(context, m_clock, Invalid("from_index", "must be >= 0"));
+  Caller caller;
   std::optional<JobRecord> job;
   std::optional<StreamLimits::Place> place;
-  if (Status s = OpenFetchStream("FetchSeries", context, request->id(), &job, &place); !s.ok())
+  if (Status s = OpenFetchStream("FetchSeries", context, request->id(), &caller, &job, &place);
+      !s.ok())
     return Reactor::Refuse(context, m_clock, s);
   // Piece by piece from the store, the store's lock held for one piece at a time: a series of
   // any length is sent without holding it, or the store, whole.
@@ -686,9 +725,11 @@ grpc::ServerWriteReactor<v1::SeriesChunk>* DembufService::FetchSeries(
   auto series =
       std::make_shared<Series>(Series{job->id, total, std::min(request->from_index(), total)});
   return Reactor::Start(context, m_clock, m_info.stream_write_timeout, std::move(place),
-                        [this, series](v1::SeriesChunk* chunk) -> StreamStep {
+                        [this, series, caller](v1::SeriesChunk* chunk) -> StreamStep {
                           try {
                             if (series->done) return StreamStep::Finish(Status::OK);
+                            if (!m_policy.StillValid(caller))
+                              return StreamStep::Finish(TokenWithdrawn());
                             chunk->Clear();
                             chunk->set_first_index(series->next);
                             chunk->set_total(series->total);
@@ -709,9 +750,11 @@ grpc::ServerWriteReactor<v1::SeriesChunk>* DembufService::FetchSeries(
 grpc::ServerWriteReactor<v1::FileChunk>* DembufService::FetchFiles(
     grpc::CallbackServerContext* context, const v1::FetchFilesRequest* request) {
   using Reactor = StreamReactor<v1::FileChunk>;
+  Caller caller;
   std::optional<JobRecord> job;
   std::optional<StreamLimits::Place> place;
-  if (Status s = OpenFetchStream("FetchFiles", context, request->id(), &job, &place); !s.ok())
+  if (Status s = OpenFetchStream("FetchFiles", context, request->id(), &caller, &job, &place);
+      !s.ok())
     return Reactor::Refuse(context, m_clock, s);
   // Piece by piece from the store: a file of any size is sent without holding it whole.
   constexpr std::int64_t kChunkBytes = 1 << 20;
@@ -724,9 +767,10 @@ grpc::ServerWriteReactor<v1::FileChunk>* DembufService::FetchFiles(
   auto files = std::make_shared<Files>(Files{job->id, m_store.JobFiles(job->id)});
   return Reactor::Start(
       context, m_clock, m_info.stream_write_timeout, std::move(place),
-      [this, files](v1::FileChunk* chunk) -> StreamStep {
+      [this, files, caller](v1::FileChunk* chunk) -> StreamStep {
         try {
           if (files->file >= files->files.size()) return StreamStep::Finish(Status::OK);
+          if (!m_policy.StillValid(caller)) return StreamStep::Finish(TokenWithdrawn());
           const JobFileInfo& file = files->files[files->file];
           chunk->Clear();
           chunk->set_path(file.path);
@@ -746,10 +790,11 @@ grpc::ServerWriteReactor<v1::FileChunk>* DembufService::FetchFiles(
       });
 }
 
-Status DembufService::ServerInfo(grpc::ServerContext* context, const v1::ServerInfoRequest*,
-                                 v1::ServerInfoResponse* response) {
-  return Guard("ServerInfo", [&]() -> Status {
-    Identify(context);  // anyone known to the server may ask
+grpc::ServerUnaryReactor* DembufService::ServerInfo(grpc::CallbackServerContext* context,
+                                                    const v1::ServerInfoRequest*,
+                                                    v1::ServerInfoResponse* response) {
+  // Anyone known to the server may ask.
+  return Serve("ServerInfo", context, [=, this](const Caller&) -> Status {
     response->set_version(kVersion);
     const ExecutorInfo executor = m_executor.info();
     response->set_executor(executor.kind);

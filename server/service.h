@@ -11,6 +11,7 @@
 
 #include "access_policy.h"
 #include "auth.h"
+#include "call_pool.h"
 #include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/v1/dembuf.grpc.pb.h"
 #include "executor.h"
@@ -43,38 +44,45 @@ inline constexpr int kMaxBedPushes = 4;
 /// oldest no unfinished job imports make way for new ones.
 inline constexpr int kBedFileRoomPerPush = 4;
 
-/// The unary calls are served by gRPC's thread pool; the streams by its callback API
-/// (StreamReactor, BedPushReactor), so that an open stream holds no thread.
-using DembufServiceBase = v1::Dembuf::WithCallbackMethod_WatchJob<
-    v1::Dembuf::WithCallbackMethod_FetchSeries<v1::Dembuf::WithCallbackMethod_FetchFiles<
-        v1::Dembuf::WithCallbackMethod_PushBed<v1::Dembuf::Service>>>>;
+/// Every call is served on gRPC's callback API. A unary call is identified on gRPC's thread
+/// (from memory: AccessPolicy) and its work done by the CallPool, users in turn; a stream
+/// (StreamReactor, BedPushReactor) holds no thread while it waits.
+using DembufServiceBase = v1::Dembuf::CallbackService;
+
+/// The CallPool's threads, and the calls of one user that may wait for them at once.
+inline constexpr int kCallThreads = 8;
+inline constexpr std::size_t kCallsWaitingPerUser = 64;
 
 class DembufService final : public DembufServiceBase {
  public:
   DembufService(Store& store, Executor& executor, const AccessPolicy& policy, ServiceInfo info,
                 std::shared_ptr<spdlog::logger> log);
 
-  grpc::Status SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest*,
-                         v1::SubmitJobResponse*) override;
-  grpc::Status SubmitSweep(grpc::ServerContext*, const v1::SubmitSweepRequest*,
-                           v1::SubmitSweepResponse*) override;
-  grpc::Status GetJob(grpc::ServerContext*, const v1::GetJobRequest*, v1::Job*) override;
-  grpc::Status GetSweep(grpc::ServerContext*, const v1::GetSweepRequest*, v1::Sweep*) override;
-  grpc::Status ListJobs(grpc::ServerContext*, const v1::ListJobsRequest*,
-                        v1::ListJobsResponse*) override;
-  grpc::Status ListSweeps(grpc::ServerContext*, const v1::ListSweepsRequest*,
-                          v1::ListSweepsResponse*) override;
-  grpc::Status Cancel(grpc::ServerContext*, const v1::CancelRequest*, v1::CancelResponse*) override;
+  grpc::ServerUnaryReactor* SubmitJob(grpc::CallbackServerContext*, const v1::SubmitJobRequest*,
+                                      v1::SubmitJobResponse*) override;
+  grpc::ServerUnaryReactor* SubmitSweep(grpc::CallbackServerContext*, const v1::SubmitSweepRequest*,
+                                        v1::SubmitSweepResponse*) override;
+  grpc::ServerUnaryReactor* GetJob(grpc::CallbackServerContext*, const v1::GetJobRequest*,
+                                   v1::Job*) override;
+  grpc::ServerUnaryReactor* GetSweep(grpc::CallbackServerContext*, const v1::GetSweepRequest*,
+                                     v1::Sweep*) override;
+  grpc::ServerUnaryReactor* ListJobs(grpc::CallbackServerContext*, const v1::ListJobsRequest*,
+                                     v1::ListJobsResponse*) override;
+  grpc::ServerUnaryReactor* ListSweeps(grpc::CallbackServerContext*, const v1::ListSweepsRequest*,
+                                       v1::ListSweepsResponse*) override;
+  grpc::ServerUnaryReactor* Cancel(grpc::CallbackServerContext*, const v1::CancelRequest*,
+                                   v1::CancelResponse*) override;
   grpc::ServerWriteReactor<v1::WatchJobResponse>* WatchJob(grpc::CallbackServerContext*,
                                                            const v1::WatchJobRequest*) override;
-  grpc::Status FetchResults(grpc::ServerContext*, const v1::FetchResultsRequest*,
-                            v1::FetchResultsResponse*) override;
+  grpc::ServerUnaryReactor* FetchResults(grpc::CallbackServerContext*,
+                                         const v1::FetchResultsRequest*,
+                                         v1::FetchResultsResponse*) override;
   grpc::ServerWriteReactor<v1::SeriesChunk>* FetchSeries(grpc::CallbackServerContext*,
                                                          const v1::FetchSeriesRequest*) override;
   grpc::ServerWriteReactor<v1::FileChunk>* FetchFiles(grpc::CallbackServerContext*,
                                                       const v1::FetchFilesRequest*) override;
-  grpc::Status ServerInfo(grpc::ServerContext*, const v1::ServerInfoRequest*,
-                          v1::ServerInfoResponse*) override;
+  grpc::ServerUnaryReactor* ServerInfo(grpc::CallbackServerContext*, const v1::ServerInfoRequest*,
+                                       v1::ServerInfoResponse*) override;
   grpc::ServerReadReactor<v1::BedPiece>* PushBed(grpc::CallbackServerContext*,
                                                  v1::PushBedResponse*) override;
 
@@ -82,13 +90,17 @@ class DembufService final : public DembufServiceBase {
   /// The caller, by the access policy, from the request's "authorization" metadata. Throws
   /// AccessDenied, which Guard answers.
   Caller Identify(const grpc::ServerContextBase* context) const;
+  /// A unary call: its caller identified here, on gRPC's thread, and `work(caller)` queued
+  /// on the CallPool under the caller's name; its status answers the call (Guard's).
+  template <class Work>
+  grpc::ServerUnaryReactor* Serve(const char* rpc, grpc::CallbackServerContext* context, Work work);
   /// Job `id`, when it exists, the caller may see it, and it has ended (its results are
   /// there): NOT_FOUND, PERMISSION_DENIED or FAILED_PRECONDITION otherwise.
-  grpc::Status FinishedJobOfCaller(const grpc::ServerContextBase* context, std::int64_t id,
+  grpc::Status FinishedJobOfCaller(const Caller& caller, std::int64_t id,
                                    std::optional<JobRecord>* job);
   /// For a result stream: the caller's finished job `id` and a place under the fetch caps.
   grpc::Status OpenFetchStream(const char* rpc, const grpc::ServerContextBase* context,
-                               std::int64_t id, std::optional<JobRecord>* job,
+                               std::int64_t id, Caller* caller, std::optional<JobRecord>* job,
                                std::optional<StreamLimits::Place>* place);
   /// The per-user quota of queued jobs.
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
@@ -130,6 +142,7 @@ class DembufService final : public DembufServiceBase {
   /// Held from the look-up of a request id to the filing of its work, so that two copies of
   /// one request arriving together file it once.
   std::mutex m_submissions;
+  CallPool m_calls;  ///< last: its workers end (answering what waits) before the rest goes
 };
 
 }  // namespace dembuf::server

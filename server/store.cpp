@@ -1024,22 +1024,12 @@ void Store::SetUser(const std::string& name, const std::string& token_hash, bool
       .Run();
 }
 
-std::optional<User> Store::FindUserByTokenHash(const std::string& token_hash) {
-  std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare("SELECT name, admin FROM users WHERE token_hash = ?");
-  s.Bind(token_hash);
-  if (!s.Step()) return std::nullopt;
-  User user{s.Text(0), s.Int(1) != 0};
-  s.Run();
-  return user;
-}
-
 std::vector<User> Store::ListUsers() {
   std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare("SELECT name, admin FROM users ORDER BY name");
+  Statement& s = m_db->Prepare("SELECT name, admin, token_hash FROM users ORDER BY name");
   s.Bind();
   std::vector<User> users;
-  while (s.Step()) users.push_back({s.Text(0), s.Int(1) != 0});
+  while (s.Step()) users.push_back({s.Text(0), s.Int(1) != 0, s.Text(2)});
   return users;
 }
 

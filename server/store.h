@@ -132,6 +132,7 @@ struct StoreOptions {
 struct User {
   std::string name;
   bool admin = false;
+  std::string token_hash;
 };
 
 /// What a request id filed: a job or a sweep (the other id is 0).
@@ -240,7 +241,6 @@ class Store {
 
   /// Users: a token's hash names its user. SetUser adds one or replaces its token.
   void SetUser(const std::string& name, const std::string& token_hash, bool admin);
-  std::optional<User> FindUserByTokenHash(const std::string& token_hash);
   std::vector<User> ListUsers();
   bool RemoveUser(const std::string& name);
   bool AnyUsers();

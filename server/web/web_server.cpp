@@ -260,8 +260,7 @@ class WebServer::Routes {
     if (!SameOrigin(req)) return SendRefusal(res, {403, "Origin: not this site"});
     const std::string token = req.get_param_value("token");
     const std::string next = LocalPath(req.get_param_value("next"));
-    const std::optional<Caller> caller =
-        token.empty() ? std::nullopt : CallerOfToken(m_store, token);
+    const std::optional<Caller> caller = token.empty() ? std::nullopt : m_policy.HolderOf(token);
     if (!caller) {
       m_log->warn("web: a login from {} with an unknown token", req.remote_addr);
       res.set_redirect("/login?failed=1&next=" + httplib::detail::encode_query_param(next), 303);
@@ -447,50 +446,60 @@ class WebServer::Routes {
       Clock::time_point last_progress{};
       std::string last_state;
       bool first = true;
+      Caller caller;  ///< who opened it: the stream ends when their token is withdrawn
     };
     auto stream =
         std::make_shared<Stream>(JobFeed(m_store, m_executor, job.id), std::move(*place), from);
+    stream->caller = caller;
     res.set_header("Cache-Control", "no-store");
     res.set_header("X-Accel-Buffering", "no");  // a proxy in front must not hold events back
-    res.set_chunked_content_provider(
-        "text/event-stream", [this, stream](std::size_t, httplib::DataSink& sink) {
-          Stream& s = *stream;
-          if (m_stopping) {
-            sink.done();
-            return true;
-          }
-          std::this_thread::sleep_until(s.next_read);
-          const FeedRead read = s.feed.Read(s.next, kSamplesPerEvent, std::chrono::seconds(1));
-          // A full batch: more are waiting (a late page catching up), read again at once.
-          s.next_read =
-              read.samples.size() == kSamplesPerEvent ? Clock::now() : Clock::now() + kStreamPace;
-          std::string text = s.first ? "retry: 2000\n\n" : "";
-          if (!read.found) {
-            text += Event("gone", {{"error", "the job is gone"}});
-            sink.write(text.data(), text.size());
-            sink.done();
-            return true;
-          }
-          if (!read.samples.empty()) {
-            text += Event("samples", SamplesJson(s.next, read.samples),
-                          s.next + static_cast<std::int64_t>(read.samples.size()));
-            s.next += static_cast<std::int64_t>(read.samples.size());
-          }
-          const std::string state = StateName(read.state);
-          const auto now = Clock::now();
-          if (s.first || read.ended || state != s.last_state ||
-              now - s.last_progress >= std::chrono::seconds(1)) {
-            text += Event("progress", ProgressJson(read.state, read.progress));
-            s.last_progress = now;
-            s.last_state = state;
-          }
-          if (read.ended) text += Event("end", {{"state", state}, {"samples", s.next}});
-          s.first = false;
-          if (text.empty()) text = ":\n\n";  // a comment: tells whether the page is still there
-          if (!sink.write(text.data(), text.size())) return false;
-          if (read.ended) sink.done();
-          return true;
-        });
+    res.set_chunked_content_provider("text/event-stream", [this, stream](std::size_t,
+                                                                         httplib::DataSink& sink) {
+      Stream& s = *stream;
+      if (m_stopping) {
+        sink.done();
+        return true;
+      }
+      std::this_thread::sleep_until(s.next_read);
+      if (!m_policy.StillValid(s.caller)) {
+        const std::string text =
+            Event("revoked", {{"error", "your token was revoked or replaced: log in again"}});
+        sink.write(text.data(), text.size());
+        sink.done();
+        return true;
+      }
+      // (Half a second at most: a withdrawn token ends the stream within a second.)
+      const FeedRead read = s.feed.Read(s.next, kSamplesPerEvent, std::chrono::milliseconds(500));
+      // A full batch: more are waiting (a late page catching up), read again at once.
+      s.next_read =
+          read.samples.size() == kSamplesPerEvent ? Clock::now() : Clock::now() + kStreamPace;
+      std::string text = s.first ? "retry: 2000\n\n" : "";
+      if (!read.found) {
+        text += Event("gone", {{"error", "the job is gone"}});
+        sink.write(text.data(), text.size());
+        sink.done();
+        return true;
+      }
+      if (!read.samples.empty()) {
+        text += Event("samples", SamplesJson(s.next, read.samples),
+                      s.next + static_cast<std::int64_t>(read.samples.size()));
+        s.next += static_cast<std::int64_t>(read.samples.size());
+      }
+      const std::string state = StateName(read.state);
+      const auto now = Clock::now();
+      if (s.first || read.ended || state != s.last_state ||
+          now - s.last_progress >= std::chrono::seconds(1)) {
+        text += Event("progress", ProgressJson(read.state, read.progress));
+        s.last_progress = now;
+        s.last_state = state;
+      }
+      if (read.ended) text += Event("end", {{"state", state}, {"samples", s.next}});
+      s.first = false;
+      if (text.empty()) text = ":\n\n";  // a comment: tells whether the page is still there
+      if (!sink.write(text.data(), text.size())) return false;
+      if (read.ended) sink.done();
+      return true;
+    });
   }
 
   Store& m_store;

@@ -256,7 +256,7 @@ TEST(WebSessions, OneUsersLoginsPushOutOnlyTheirOwnSessions) {
 
 TEST(StreamLimits, PerUserAndInAllAndGivenBack) {
   StreamLimits limits(2, 3, "event streams", "http_max_streams");
-  const Caller ada{"ada", false, true}, local{"local", true, false};
+  const Caller ada{"ada", false, true, "hash-ada"}, local{"local", true, false, ""};
   std::string why;
   auto first = limits.Take(ada, &why);
   auto second = limits.Take(ada, &why);

@@ -171,6 +171,10 @@ function follow() {
     }
   });
   events.addEventListener("gone", () => { events.close(); status.textContent = "this job is gone"; });
+  events.addEventListener("revoked", (e) => {
+    events.close();
+    status.textContent = JSON.parse(e.data).error;
+  });
   events.onerror = () => { if (events.readyState !== EventSource.CLOSED) status.textContent = "connection lost; reconnecting…"; };
 }
 

@@ -48,11 +48,21 @@ std::string Shown(const std::string& text) {
 
 constexpr const char* kDefaultServer = "127.0.0.1:50051";
 
+// The largest answer taken from a server: a list of 100,000 jobs is about 50 MB; a series
+// longer than FetchResults carries (65,536 samples, 3.5 MB) comes in FetchSeries' pieces.
+constexpr int kMaxAnswerBytes = 128 << 20;
+// The longest series a client takes from a server: a job's series is at most the daemon's
+// quota_samples (a million by default); this is a thousand times that.
+constexpr std::int64_t kMaxSeriesSamples = 1'000'000'000;
+
 std::unique_ptr<v1::Dembuf::Stub> Connect(const Remote& remote) {
   grpc::ChannelArguments args;
-  // The largest answer taken from a server: a list of 100,000 jobs is about 50 MB; a series
-  // longer than FetchResults carries (65,536 samples, 3.5 MB) comes in FetchSeries' pieces.
-  args.SetMaxReceiveMessageSize(128 << 20);
+  args.SetMaxReceiveMessageSize(kMaxAnswerBytes);
+  // No compressed answers: this gRPC inflates a message whole before it compares it with the
+  // limit above, so a server could send 300 KB that becomes 300 MB. Identity only; and as
+  // gRPC refuses a compressed answer only by its header, it is told to inflate none at all.
+  args.SetInt(GRPC_COMPRESSION_CHANNEL_ENABLED_ALGORITHMS_BITSET, 1);
+  args.SetInt(GRPC_ARG_ENABLE_PER_MESSAGE_DECOMPRESSION, 0);
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
   if (!remote.tls_ca.empty()) {
     std::ifstream in(remote.tls_ca);
@@ -92,6 +102,14 @@ const char* StatusName(grpc::StatusCode code) {
 
 // One line per failure, with the server's message (which names the field at fault).
 int Report(const Remote& remote, const grpc::Status& status) {
+  // This client's refusal of a compressed answer (dembuf's own servers send none).
+  if (status.error_message().rfind("Compression algorithm", 0) == 0) {
+    std::fprintf(stderr,
+                 "dembuf: the server at %s sent a compressed answer, which dembuf does not take "
+                 "(%s)\n",
+                 remote.address.c_str(), status.error_message().c_str());
+    return kExitRuntime;
+  }
   switch (status.error_code()) {
     case grpc::StatusCode::INVALID_ARGUMENT:
       std::fprintf(stderr, "dembuf: the server refused the request: %s\n",
@@ -110,6 +128,14 @@ int Report(const Remote& remote, const grpc::Status& status) {
       std::fprintf(stderr, "dembuf: not yours: %s\n", status.error_message().c_str());
       return kExitRuntime;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      // This client's refusal of an answer larger than it takes ("... vs. its limit").
+      if (status.error_message().find("larger than max") != std::string::npos &&
+          status.error_message().find("vs. " + std::to_string(kMaxAnswerBytes)) !=
+              std::string::npos) {
+        std::fprintf(stderr, "dembuf: the server at %s sent an answer larger than %d MB: %s\n",
+                     remote.address.c_str(), kMaxAnswerBytes >> 20, status.error_message().c_str());
+        return kExitRuntime;
+      }
       // gRPC's own refusal of a request larger than the server reads.
       if (status.error_message().find("larger than max") != std::string::npos) {
         std::fprintf(stderr,
@@ -144,6 +170,25 @@ int Report(const Remote& remote, const grpc::Status& status) {
       std::fprintf(stderr, "dembuf: dembufd answered %s: %s\n", StatusName(status.error_code()),
                    status.error_message().c_str());
       return kExitRuntime;
+  }
+}
+
+// JSON a server sent, within the bounds of JSON from outside (text_limits.h); `what` names it.
+// Throws std::runtime_error naming the server.
+nlohmann::json ServerJson(const Remote& remote, const std::string& text, const std::string& what) {
+  try {
+    return ParseBoundedJson(text, what);
+  } catch (const InputLimitError& e) {
+    throw std::runtime_error("the server at " + remote.address + " sent " + e.what());
+  }
+}
+
+// JobJson of a job a server sent (its summary within the bounds of JSON from outside).
+nlohmann::json ServerJobJson(const Remote& remote, const v1::Job& job, bool details) {
+  try {
+    return JobJson(job, details);
+  } catch (const InputLimitError& e) {
+    throw std::runtime_error("the server at " + remote.address + " sent " + e.what());
   }
 }
 
@@ -300,6 +345,37 @@ std::string Sparkline(const std::vector<double>& values, std::size_t width) {
   return line;
 }
 
+// The plate force of a watched job, for its chart, in bounded memory however long the job or
+// however many samples a server sends: at most 2 x kColumns values, each the largest of
+// `stride` samples; when they are all taken, neighbours merge and the stride doubles.
+class ForceTrace {
+ public:
+  static constexpr std::size_t kColumns = 1024;
+
+  void Add(double force) {
+    m_last = force;
+    if (m_taken == 0)
+      m_values.push_back(force);
+    else
+      m_values.back() = std::max(m_values.back(), force);
+    if (++m_taken < m_stride) return;
+    m_taken = 0;
+    if (m_values.size() < 2 * kColumns) return;
+    for (std::size_t k = 0; k < kColumns; ++k)
+      m_values[k] = std::max(m_values[2 * k], m_values[2 * k + 1]);
+    m_values.resize(kColumns);
+    m_stride *= 2;
+  }
+  const std::vector<double>& values() const { return m_values; }
+  double last() const { return m_last; }
+
+ private:
+  std::vector<double> m_values;
+  std::uint64_t m_stride = 1;
+  std::uint64_t m_taken = 0;  ///< samples in the last value so far
+  double m_last = 0.0;
+};
+
 // A job's name as one safe folder name: whatever the server sends, the files stay inside the
 // folder the user chose (no separators, no "..", no leading dot, printable).
 std::string SafeFolderName(const std::string& name, std::int64_t id) {
@@ -354,8 +430,16 @@ grpc::Status StreamSeries(v1::Dembuf::Stub& stub, const Remote& remote, std::int
 
 grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
                            const v1::FetchResultsResponse& result, const fs::path& dir) {
-  fs::create_directories(dir);
   const v1::Job& job = result.job();
+  // What the server announces is checked before anything is sized or written by it.
+  if (result.series_length() < result.samples_size() || result.series_length() > kMaxSeriesSamples)
+    return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                        "the server at " + remote.address + " announced " +
+                            std::to_string(result.series_length()) + " samples for job " +
+                            std::to_string(job.id()) + "; a client takes at most " +
+                            std::to_string(kMaxSeriesSamples) + " (and " +
+                            std::to_string(result.samples_size()) + " came with the answer)");
+  fs::create_directories(dir);
   report::SampleCsvWriter csv(dir / "plate_force.csv");
   if (result.series_length() > result.samples_size()) {
     if (grpc::Status s = StreamSeries(stub, remote, job.id(), result.series_length(), csv); !s.ok())
@@ -570,7 +654,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
   if (!status.ok()) return Report(remote, status);
   if (options.json) {
     nlohmann::json jobs = nlohmann::json::array();
-    for (const auto& j : response.jobs()) jobs.push_back(JobJson(j, false));
+    for (const auto& j : response.jobs()) jobs.push_back(ServerJobJson(remote, j, false));
     std::printf("%s\n", nlohmann::json{{"jobs", jobs}}.dump(2).c_str());
     return 0;
   }
@@ -616,7 +700,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   const grpc::Status status = stub->GetJob(&context, request, &j);
   if (!status.ok()) return Report(remote, status);
   if (json) {
-    std::printf("%s\n", JobJson(j, true).dump(2).c_str());
+    std::printf("%s\n", ServerJobJson(remote, j, true).dump(2).c_str());
     return ExitOfJob(j.state());
   }
   std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), Shown(j.name()).c_str(),
@@ -647,7 +731,8 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   }
   if (!j.error().empty()) std::printf("note: %s\n", Shown(j.error()).c_str());
   if (!j.summary_json().empty()) {
-    const nlohmann::json s = nlohmann::json::parse(j.summary_json());
+    const nlohmann::json s =
+        ServerJson(remote, j.summary_json(), "job " + std::to_string(j.id()) + "'s summary_json");
     auto force = [&](const char* key) {
       char text[32] = "-";
       if (s.contains(key) && s[key].is_number())
@@ -673,7 +758,12 @@ void PrintFinalNumbers(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_
   request.set_id(id);
   v1::Job job;
   if (!stub.GetJob(&context, request, &job).ok() || job.summary_json().empty()) return;
-  const nlohmann::json s = nlohmann::json::parse(job.summary_json(), nullptr, false);
+  nlohmann::json s;
+  try {
+    s = ParseBoundedJson(job.summary_json(), "the summary");
+  } catch (const InputLimitError&) {
+    return;  // the numbers are a courtesy; fetch and status say what is wrong with them
+  }
   if (!s.is_object()) return;
   auto number = [&](const char* key) {
     return s.contains(key) && s[key].is_number() ? s[key].get<double>() : std::nan("");
@@ -696,7 +786,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
     std::printf(
         "index,t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N,"
         "state\n");
-  std::vector<double> forces;
+  ForceTrace forces;
   v1::WatchJobResponse message;
   v1::JobState state = v1::JOB_STATE_UNSPECIFIED;
   std::int64_t received = 0;
@@ -705,9 +795,20 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   auto last_print = std::chrono::steady_clock::time_point{};
   while (reader->Read(&message)) {
     state = message.state();
+    // The samples in order, each once: a server's answer is checked, not believed.
+    if (message.first_index() != from_index + received) {
+      context.TryCancel();
+      std::fprintf(stderr,
+                   "dembuf: the server at %s sent job %lld's samples from %lld where %lld were "
+                   "due\n",
+                   remote.address.c_str(), static_cast<long long>(id),
+                   static_cast<long long>(message.first_index()),
+                   static_cast<long long>(from_index + received));
+      return kExitRuntime;
+    }
     for (int k = 0; k < message.samples_size(); ++k) {
       const auto& s = message.samples(k);
-      forces.push_back(s.plate_force_n());
+      forces.Add(s.plate_force_n());
       last_t = s.t_s();
       if (csv)
         std::printf("%lld,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s\n",
@@ -716,7 +817,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
                     StateText(state).c_str());
     }
     received += message.samples_size();
-    const double force = forces.empty() ? 0.0 : forces.back();
+    const double force = forces.last();
     // The stage only where it says more than the state; an ended job's time is its last
     // sample's.
     const std::string stage =
@@ -729,7 +830,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
         message.progress().peak_plate_force_n(), Percent(message.progress().fraction()).c_str());
     if (tty) {
       // Two lines, redrawn in place: the numbers and a chart of F(t) so far.
-      std::printf("\r\033[K%s\n\033[K%s\033[1A\r", line, Sparkline(forces, 72).c_str());
+      std::printf("\r\033[K%s\n\033[K%s\033[1A\r", line, Sparkline(forces.values(), 72).c_str());
       std::fflush(stdout);
     } else if (!csv && line != last_printed &&
                std::chrono::steady_clock::now() - last_print > std::chrono::seconds(1)) {
@@ -759,6 +860,9 @@ grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, c
                                  const fs::path& dir) {
   if (job.files_size() == 0) return grpc::Status::OK;
   constexpr std::int64_t kMaxFileBytes = std::int64_t{1} << 34;  // 16 GiB
+  // The files the job lists, with their sizes: what comes must be exactly that.
+  std::map<std::string, std::int64_t> listed;
+  for (const v1::ResultFileInfo& file : job.files()) listed[file.path()] = file.size();
   grpc::ClientContext context;
   Prepare(context, remote, 3600);
   v1::FetchFilesRequest request;
@@ -794,6 +898,9 @@ grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, c
         if (chunk.size() < 0 || chunk.size() > kMaxFileBytes)
           return bad(chunk.path(),
                      "a size of " + std::to_string(chunk.size()) + " bytes (at most 16 GiB)");
+        if (const auto it = listed.find(chunk.path());
+            it == listed.end() || it->second != chunk.size())
+          return bad(chunk.path(), "not the size the job lists, or a file it does not list");
         path = chunk.path();
         size = chunk.size();
         written = 0;
@@ -924,7 +1031,9 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
       return Report(remote, files);
     run.ok = result.job().state() == v1::JOB_STATE_DONE;
     run.error = result.job().error();
-    if (run.ok) run.summary = nlohmann::json::parse(result.job().summary_json());
+    if (run.ok)
+      run.summary = ServerJson(remote, result.job().summary_json(),
+                               "job " + std::to_string(job.id()) + "'s summary_json");
   }
   const nlohmann::json extra = {{"sweep", s.id()},
                                 {"server", remote.address},

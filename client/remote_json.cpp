@@ -4,6 +4,8 @@
 #include <map>
 #include <vector>
 
+#include "dembuf/study/text/text_limits.h"
+
 namespace dembuf::cli {
 
 std::string StateText(v1::JobState state) {
@@ -17,10 +19,12 @@ std::string StateText(v1::JobState state) {
 
 namespace {
 
-// A summary.json text as an object (null when there is none or it does not parse).
-nlohmann::json ParsedSummary(const std::string& text) {
-  if (text.empty()) return nullptr;
-  nlohmann::json summary = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+// A summary.json text as an object (null when there is none or it is not an object). A text
+// past the bounds of JSON from outside throws InputLimitError naming the job's summary.
+nlohmann::json ParsedSummary(const v1::Job& job) {
+  if (job.summary_json().empty()) return nullptr;
+  nlohmann::json summary =
+      ParseBoundedJson(job.summary_json(), "job " + std::to_string(job.id()) + "'s summary_json");
   return summary.is_object() ? summary : nlohmann::json();
 }
 
@@ -36,7 +40,7 @@ nlohmann::json Time(const std::string& iso) {
 }  // namespace
 
 nlohmann::json JobJson(const v1::Job& job, bool details) {
-  const nlohmann::json summary = ParsedSummary(job.summary_json());
+  const nlohmann::json summary = ParsedSummary(job);
   const v1::Progress& p = job.progress();
   nlohmann::json out = {
       {"id", job.id()},

@@ -13,7 +13,8 @@ namespace dembuf::cli {
 /// "queued", "preparing_bed", "running", "done", "failed", "cancelled".
 std::string StateText(v1::JobState state);
 
-/// A job; `details` adds its scene, hashes, summary, result files and prepared beds.
+/// A job; `details` adds its scene, hashes, summary, result files and prepared beds. Throws
+/// InputLimitError for a summary past the bounds of JSON taken from outside.
 nlohmann::json JobJson(const v1::Job& job, bool details);
 nlohmann::json SweepJson(const v1::Sweep& sweep);
 nlohmann::json ServerInfoJson(const v1::ServerInfoResponse& info, const std::string& address);

@@ -1,7 +1,10 @@
 // PushBed's receiving end: a bed sent in pieces, gathered on gRPC's callback API so that a
 // slow sender holds no thread. What it may cost is bounded before it is read: the first piece
 // states the size, which must be within the daemon's limit, and no more bytes than stated are
-// taken; a sender that sends nothing for the stream timeout is cut off.
+// taken; a sender that sends nothing for the stream timeout, or less than kMinPushBytesPerSecond
+// once that long has passed, is cut off (one byte now and then held a place for good). The
+// place under the push caps is given back as soon as the last piece is in, before the bed is
+// checked and the call answered: the sender's next push is never refused for this one.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -24,21 +27,25 @@ namespace dembuf::server {
 /// The largest piece of a bed: a piece and its first piece's scene fit gRPC's default
 /// message limit (max_request_kb = 1024) with room to spare.
 inline constexpr std::int64_t kBedPieceBytes = 256 << 10;
+/// The slowest a push may come, on average, once the stream timeout has passed: a 64 MB bed in
+/// 17 minutes (a link of half a megabit).
+inline constexpr std::int64_t kMinPushBytesPerSecond = 64 << 10;
 
 class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
  public:
   /// Checks and keeps the whole bed: the first piece (its kind, name, size and scene) and
-  /// all the bytes. Its status ends the call.
-  using Receiver = std::function<grpc::Status(const v1::BedPiece& first, std::string data)>;
+  /// all the bytes; then calls `answer` (on any thread) with the status that ends the call.
+  using Answer = std::function<void(grpc::Status)>;
+  using Receiver = std::function<void(const v1::BedPiece& first, std::string data, Answer answer)>;
 
   /// Reads the pieces, at most `max_bytes` in all, then hands them to `receive`; `place`
-  /// is its place under the push caps, given back when the call is done.
+  /// is its place under the push caps, given back when the last piece is in.
   static BedPushReactor* Start(grpc::CallbackServerContext* context, StreamClock& clock,
                                std::chrono::seconds idle_timeout, std::int64_t max_bytes,
                                std::optional<StreamLimits::Place> place, Receiver receive) {
     auto* reactor = new BedPushReactor(context, clock, idle_timeout, max_bytes, std::move(place),
                                        std::move(receive));
-    reactor->m_last_piece = StreamClock::Clock::now();
+    reactor->m_started = reactor->m_last_piece = StreamClock::Clock::now();
     reactor->ArmIdleCheck();
     reactor->StartRead(&reactor->m_piece);
     return reactor;
@@ -55,6 +62,7 @@ class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
     grpc::Status status;
     {
       std::lock_guard lock(m_mutex);
+      if (m_finishing) return;  // the clock cut the push off
       m_last_piece = StreamClock::Clock::now();
       if (ok) {
         status = Take();
@@ -72,9 +80,15 @@ class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
                                   std::to_string(m_data.size()) + " sent");
       }
       m_reading_done = true;
+      m_place.reset();  // the last piece is in: the sender may push again at once
+      if (!status.ok()) m_finishing = true;
     }
-    if (status.ok() && m_first) status = m_receive(*m_first, std::move(m_data));
-    Finish(status);
+    if (!status.ok()) return Finish(status);
+    Hold();  // until the answer, which may come from another thread
+    m_receive(*m_first, std::move(m_data), [this](grpc::Status answer) {
+      Finish(std::move(answer));
+      Release();
+    });
   }
 
   void OnCancel() override {
@@ -131,21 +145,46 @@ class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
     return grpc::Status::OK;
   }
 
-  // Cancels the call when no piece came for the idle timeout; looks again until reading ends.
+  // Ends the call when no piece came for the idle timeout, or when, that long after its start,
+  // less than kMinPushBytesPerSecond came on average since; looks every second until reading
+  // ends.
   void ArmIdleCheck() {
     Hold();
-    m_clock->At(m_last_piece + m_idle_timeout, [this] {
-      {
-        std::lock_guard lock(m_mutex);
-        if (!m_done && !m_reading_done) {
-          if (StreamClock::Clock::now() - m_last_piece >= m_idle_timeout)
-            m_context->TryCancel();  // OnReadDone(false) then ends it
-          else
-            ArmIdleCheck();
-        }
-      }
-      Release();
-    });
+    m_clock->At(std::min(m_last_piece + m_idle_timeout,
+                         StreamClock::Clock::now() + std::chrono::seconds(1)),
+                [this] {
+                  std::optional<grpc::Status> cut;
+                  {
+                    std::lock_guard lock(m_mutex);
+                    if (!m_done && !m_reading_done && !m_finishing) {
+                      cut = TooSlow();
+                      if (cut) {
+                        m_finishing = m_reading_done = true;
+                        m_place.reset();
+                      } else {
+                        ArmIdleCheck();
+                      }
+                    }
+                  }
+                  if (cut) Finish(*cut);  // the read outstanding then ends, not taken
+                  Release();
+                });
+  }
+
+  // Under the lock: why the push is to be cut off now, if it is.
+  std::optional<grpc::Status> TooSlow() const {
+    const auto now = StreamClock::Clock::now();
+    if (now - m_last_piece >= m_idle_timeout)
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                          "nothing came for " + std::to_string(m_idle_timeout.count()) +
+                              " s (stream_write_timeout_s); the push was cut off");
+    const double seconds = std::chrono::duration<double>(now - m_started - m_idle_timeout).count();
+    if (seconds > 0 && static_cast<double>(m_data.size()) < kMinPushBytesPerSecond * seconds)
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                          "the bed came slower than " +
+                              std::to_string(kMinPushBytesPerSecond >> 10) +
+                              " kB/s; the push was cut off");
+    return std::nullopt;
   }
 
   // gRPC holds one reference until OnDone, each clock entry one until it has run.
@@ -166,8 +205,10 @@ class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
   v1::BedPiece m_piece;                 ///< the piece being read
   std::optional<v1::BedPiece> m_first;  ///< the first piece, without its data
   std::string m_data;
+  StreamClock::Clock::time_point m_started;
   StreamClock::Clock::time_point m_last_piece;
   bool m_cancelled = false;
+  bool m_finishing = false;  ///< Finish was called (by the clock, or a refusal while reading)
   bool m_reading_done = false;
   bool m_done = false;
   std::atomic<int> m_references{1};

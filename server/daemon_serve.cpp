@@ -190,6 +190,9 @@ std::unique_ptr<grpc::Server> StartGrpc(const ServerConfig& config, DembufServic
   builder.SetMaxReceiveMessageSize(config.max_request_kb * 1024);
   builder.SetCompressionAlgorithmSupportStatus(GRPC_COMPRESS_DEFLATE, false);
   builder.SetCompressionAlgorithmSupportStatus(GRPC_COMPRESS_GZIP, false);
+  // gRPC refuses a compressed request by its header only: it is told to inflate none at all
+  // (a compressed message that passed would then not parse, and be refused as such).
+  builder.AddChannelArgument(GRPC_ARG_ENABLE_PER_MESSAGE_DECOMPRESSION, 0);
   // What one connection may hold: streams at once (a flood of streams from one connection
   // meets this; a client's channels share one connection, so it is as wide as the daemon's
   // own caps on long streams, with room for the unary calls), and how often it may ping

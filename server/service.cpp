@@ -842,11 +842,22 @@ grpc::ServerReadReactor<v1::BedPiece>* DembufService::PushBed(grpc::CallbackServ
   if (!place)
     return BedPushReactor::Refuse(
         Status(StatusCode::RESOURCE_EXHAUSTED, "bed pushes: " + why + "; send one at a time"));
+  // The bed is checked and kept by the CallPool, in the caller's turn, not on gRPC's thread.
   return BedPushReactor::Start(
       context, m_clock, m_info.stream_write_timeout, m_info.max_bed_push_bytes, std::move(place),
-      [this, caller, response](const v1::BedPiece& first, std::string data) {
-        return Guard("PushBed",
-                     [&] { return ReceiveBed(caller, first, std::move(data), response); });
+      [this, caller, response](const v1::BedPiece& first, std::string data,
+                               BedPushReactor::Answer answer) {
+        auto bed = std::make_shared<std::pair<v1::BedPiece, std::string>>(first, std::move(data));
+        const bool queued = m_calls.Queue(caller.name, [this, caller, response, bed, answer] {
+          answer(Guard("PushBed", [&] {
+            if (!m_policy.StillValid(caller)) return TokenWithdrawn();
+            return ReceiveBed(caller, bed->first, std::move(bed->second), response);
+          }));
+        });
+        if (!queued)
+          answer(Status(StatusCode::RESOURCE_EXHAUSTED,
+                        caller.name + " has " + std::to_string(m_calls.max_waiting_per_user()) +
+                            " calls waiting for the server; push again when one is answered"));
       });
 }
 

@@ -181,5 +181,33 @@ TEST(BedImport, LargerOverlapsAreSeparatedOnRequestWithAReport) {
   EXPECT_NEAR(world.bed.rest_plate_force_N / world.bed.weight_N, 1.0, 0.01);
 }
 
+// A file of one bead repeated 60,000 times: every pair of the one cell was tried (8 to 10 s
+// of the daemon's CPU for each submission). Refused as a pile, before any pair is tried.
+TEST(BedImport, OneBeadRepeatedIsRefusedAsAPileBeforeItsPairsAreTried) {
+  std::string text;
+  for (int k = 0; k < 60000; ++k) text += "0 0 0.005 0.002\n";
+  const std::string why = Refusal(ImportScene(text, "pile.txt"));
+  EXPECT_NE(why.find("pile.txt: 60000 beads lie in one place (lines 1, 2, 3, 4, 5, ...)"),
+            std::string::npos)
+      << why;
+  Scene relax = ImportScene(text, "pile-relax.txt");
+  relax.bed.import_overlaps = "relax";
+  EXPECT_NE(Refusal(relax).find("beads lie in one place"), std::string::npos);
+}
+
+// The pairs are sought by size class: a small bead touching a large one of another class is
+// met, as are pairs within a class; beads of every size class far apart are not.
+TEST(BedImport, PairsOfBeadsOfVerySizesAreFound) {
+  // A 10 mm bead resting on the plate, and a 0.1 mm bead sunk 5% of its radius into its side.
+  const double big = 0.005, small = 0.0001;
+  std::ostringstream text;
+  text.precision(17);
+  text << "0 0 " << big << " " << big << "\n";
+  text << big + small * 0.95 << " 0 " << big << " " << small << "\n";
+  text << "0.015 0 0.01 " << small << "\n";  // alone
+  const std::string why = Refusal(ImportScene(text.str(), "sizes.txt"));
+  EXPECT_NE(why.find("the beads of lines 1 and 2 overlap by 5%"), std::string::npos) << why;
+}
+
 }  // namespace
 }  // namespace dembuf

@@ -63,7 +63,7 @@ python3 -c "import sys; n=10000; sys.stdout.write('{\"result_nonce\": \"$(nonce_
 mv "$folder/summary.json.new" "$folder/out/summary.json"  # whole, as a run writes it
 ends "$job"
 [ "$(job_state "$job")" = failed ] || fail "a summary 10,000 deep was taken"
-note "$job" | grep -q "nests deeper than 64 levels" || fail "deep summary: $(note "$job")"
+note "$job" | grep -q "nested deeper than 64 levels" || fail "deep summary: $(note "$job")"
 [ "$(stat -c %s "$work/dembuf.db")" -lt 20000000 ] || fail "the store grew: $(stat -c %s "$work/dembuf.db")"
 
 # 3. samples.bin as a link to the database.

@@ -23,6 +23,12 @@ FILES = {
 }
 # Sweep id -> its jobs_total.
 JOBS_TOTAL = {1: -1, 2: 2_000_000_000}
+# Job 7's summary: JSON nested 100,000 deep (the client's JSON library recursed on it).
+DEEP_SUMMARY = "{\"a\": " * 100_000 + "1" + "}" * 100_000
+# Job 8 is watched: 20 million samples, as fast as they go (a client kept every one).
+WATCH_MESSAGES, WATCH_SAMPLES_PER_MESSAGE = 200, 100_000
+# Job 9 announces a series of 2^62 samples and streams without end.
+ENDLESS = 2**62
 
 
 class Hostile(pb_grpc.DembufServicer):
@@ -31,7 +37,35 @@ class Hostile(pb_grpc.DembufServicer):
                      summary_json="{}\n")
         for path, data in FILES.get(request.id, []):
             job.files.add(path=path, size=len(data))
-        return pb.FetchResultsResponse(job=job)
+        return pb.FetchResultsResponse(job=job, series_length=ENDLESS if request.id == 9 else 0)
+
+    def FetchSeries(self, request, context):
+        chunk = pb.SeriesChunk(total=ENDLESS)
+        chunk.samples.extend([pb.ForceSample(t_s=1.0)] * 10_000)
+        first = 0
+        while context.is_active():
+            chunk.first_index = first
+            yield chunk
+            first += 10_000
+
+    def GetJob(self, request, context):
+        return pb.Job(id=request.id, state=pb.JOB_STATE_DONE, owner="eve", name="job",
+                      summary_json=DEEP_SUMMARY if request.id == 7 else "{}")
+
+    def WatchJob(self, request, context):
+        message = pb.WatchJobResponse(state=pb.JOB_STATE_RUNNING)
+        message.samples.extend([pb.ForceSample(t_s=1e-3, plate_force_N=1.0)] *
+                               WATCH_SAMPLES_PER_MESSAGE)
+        for k in range(WATCH_MESSAGES):
+            message.first_index = k * WATCH_SAMPLES_PER_MESSAGE
+            yield message
+        yield pb.WatchJobResponse(first_index=WATCH_MESSAGES * WATCH_SAMPLES_PER_MESSAGE,
+                                  state=pb.JOB_STATE_DONE)
+
+    def ServerInfo(self, request, context):
+        # An answer that inflates to 300 MB (a client blamed it on its own request).
+        context.set_compression(grpc.Compression.Gzip)
+        return pb.ServerInfoResponse(version="0" * (300 << 20))
 
     def FetchFiles(self, request, context):
         for path, data in FILES.get(request.id, []):

@@ -46,4 +46,43 @@ expect_exit 1 "the server at $DEMBUF_SERVER sent a bad sweep 1: jobs_total = -1,
 expect_exit 1 "the server at $DEMBUF_SERVER sent a bad sweep 2: jobs_total = 2000000000" \
   "$dembuf" fetch --sweep 2 --out "$work/sweep2" --no-plots
 if grep -q "max_size\|bad_alloc" "$work/err"; then fail "a raw C++ message: $(cat "$work/err")"; fi
+
+# A summary nested 100,000 deep: status --json died with SIGSEGV (the JSON library recursed).
+expect_exit 1 "the server at $DEMBUF_SERVER sent job 7's summary_json: nested deeper than 64 levels" \
+  "$dembuf" status 7 --json
+expect_exit 1 "job 7's summary_json: nested deeper than 64 levels" "$dembuf" status 7
+# A watch of 20 million samples: the client kept every one (1.2 GB in 15 s from a fast server).
+"$dembuf" watch 8 > /dev/null 2> "$work/err" &
+watcher=$!
+peak=0
+while kill -0 "$watcher" 2> /dev/null; do
+  rss=$(sed -n 's/^VmHWM:[[:space:]]*\([0-9]*\).*/\1/p' "/proc/$watcher/status" 2> /dev/null || echo 0)
+  [ "${rss:-0}" -gt "$peak" ] && peak=$rss
+  sleep 0.2
+done
+wait "$watcher" || fail "watch of a long stream: $(cat "$work/err")"
+echo "watch of 20 million samples: the client's peak memory was $((peak / 1024)) MB"
+[ "$peak" -lt $((100 * 1024)) ] || fail "watch kept the samples: $((peak / 1024)) MB"
+# A series announced as 2^62 samples, streamed without end: fetch wrote until the disk was full.
+expect_exit 1 "the server at $DEMBUF_SERVER announced 4611686018427387904 samples for job 9; a client takes at most" \
+  timeout 60 "$dembuf" fetch 9 --out "$work/job9" --no-plots
+# An answer in gzip that inflates to 300 MB: blamed on the request ("larger than this server
+# accepts"). Compressed answers are not taken.
+expect_exit 1 "the server at $DEMBUF_SERVER sent a compressed answer" "$dembuf" server-info
+if grep -q "max_request_kb" "$work/err"; then fail "blamed on the request: $(cat "$work/err")"; fi
+# The Python package likewise.
+/usr/bin/python3 - "$python_package" "$DEMBUF_SERVER" <<'PY' || fail "the Python package trusted the server"
+import sys
+sys.path.insert(0, sys.argv[1])
+import dembuf
+client = dembuf.Client(sys.argv[2], owner="me")
+for call, words in [(lambda: client.job(7), "nested deeper than 64 levels"),
+                    (lambda: client.series(9), "announced 4611686018427387904 samples"),
+                    (lambda: client.server_info(), "compressed answer")]:
+    try:
+        call()
+        raise AssertionError(f"taken: {words}")
+    except dembuf.DembufError as e:
+        assert words in str(e), str(e)
+PY
 echo "hostile server test passed"

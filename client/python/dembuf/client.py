@@ -22,6 +22,16 @@ from .v1 import dembuf_pb2_grpc as pb_grpc
 
 _FINAL_STATES = {pb.JOB_STATE_DONE, pb.JOB_STATE_FAILED, pb.JOB_STATE_CANCELLED}
 
+# What a server's answers may be: identity only, and at most as large as the CLI takes. gRPC
+# inflates a compressed message whole before it looks at its size, and it refuses a compressed
+# answer only by its header: it is also told not to inflate any message at all.
+_CHANNEL_OPTIONS = [("grpc.compression_enabled_algorithms_bitset", 1),
+                    ("grpc.per_message_decompression", 0),
+                    ("grpc.max_receive_message_length", 128 << 20)]
+# The longest series series() keeps in memory (a job's is at most the daemon's quota_samples,
+# a million by default); `dembuf fetch` streams longer ones to a file.
+MAX_SERIES_SAMPLES = 20_000_000
+
 
 class DembufError(Exception):
     """A refused or failed call: `code` is the gRPC status name ("NOT_FOUND", ...), the
@@ -115,7 +125,10 @@ def _typed(value: str):
 
 def _job_json(j) -> dict:
     """A job as `dembuf status --json` writes it (client/remote_json.cpp)."""
-    summary = frames.parse_summary(j.summary_json, f"job {j.id} summary_json") or None
+    try:
+        summary = frames.parse_summary(j.summary_json, f"job {j.id}'s summary_json") or None
+    except ValueError as e:
+        raise DembufError("DATA_LOSS", f"the server sent {e}") from None
     p = j.progress
     peak = (summary["peak_plate_force_N"] if summary and "peak_plate_force_N" in summary
             else p.peak_plate_force_N if p.peak_plate_force_N > 0 else None)
@@ -158,9 +171,10 @@ class Client:
         self.timeout_s = timeout_s
         if tls_ca:
             pem = pathlib.Path(tls_ca).read_bytes()
-            self._channel = grpc.secure_channel(self.address, grpc.ssl_channel_credentials(pem))
+            self._channel = grpc.secure_channel(self.address, grpc.ssl_channel_credentials(pem),
+                                                options=_CHANNEL_OPTIONS)
         else:
-            self._channel = grpc.insecure_channel(self.address)
+            self._channel = grpc.insecure_channel(self.address, options=_CHANNEL_OPTIONS)
         self._stub = pb_grpc.DembufStub(self._channel)
 
     # -- plumbing ------------------------------------------------------------------------------
@@ -177,6 +191,13 @@ class Client:
     def _metadata(self):
         return [("authorization", "Bearer " + self._token)] if self._token else None
 
+    def _error(self, e: grpc.RpcError) -> DembufError:
+        details = e.details() or ""
+        if "ompress" in details or "deserializing response" in details:
+            details = (f"the server at {self.address} sent a compressed answer, which this "
+                       f"client does not take ({details})")
+        return DembufError(e.code().name, details)
+
     def _call(self, method, request, streaming: bool = False):
         # Streams have no deadline: a watch lasts as long as its job.
         try:
@@ -184,7 +205,7 @@ class Client:
                 return method(request, metadata=self._metadata())
             return method(request, metadata=self._metadata(), timeout=self.timeout_s)
         except grpc.RpcError as e:
-            raise DembufError(e.code().name, e.details()) from None
+            raise self._error(e) from None
 
     def _submit(self, method, request):
         """Sends a submission with a request id of its own, and sends it again (twice at
@@ -199,13 +220,13 @@ class Client:
             except grpc.RpcError as e:
                 retry = e.code() in (grpc.StatusCode.UNAVAILABLE, grpc.StatusCode.DEADLINE_EXCEEDED)
                 if not retry or attempt == 2:
-                    raise DembufError(e.code().name, e.details()) from None
+                    raise self._error(e) from None
 
     def _stream(self, method, request):
         try:
             yield from method(request, metadata=self._metadata())
         except grpc.RpcError as e:
-            raise DembufError(e.code().name, e.details()) from None
+            raise self._error(e) from None
 
     # -- submitting ----------------------------------------------------------------------------
 
@@ -244,7 +265,7 @@ class Client:
             answer = self._stub.PushBed(iter(pieces), metadata=self._metadata(),
                                         timeout=max(self.timeout_s, 600))
         except grpc.RpcError as e:
-            raise DembufError(e.code().name, e.details()) from None
+            raise self._error(e) from None
         return answer.hash
 
     def submit(self, preset: str = "", scene: Mapping | None = None,
@@ -340,21 +361,33 @@ class Client:
 
     def series(self, job: int) -> pd.DataFrame:
         """A finished job's F(t): the columns of plate_force.csv, fetched in pieces (a series
-        of any length stays under gRPC's message limit)."""
-        columns: list[list[float]] = [[] for _ in frames.SERIES_COLUMNS]
+        of any length stays under gRPC's message limit). What the server announces is checked
+        before anything is kept: at most MAX_SERIES_SAMPLES samples, each once, in order."""
+        import numpy as np
+        values = None
         next_index = total = 0
         for chunk in self._stream(self._stub.FetchSeries, pb.FetchSeriesRequest(id=job)):
-            if chunk.first_index != next_index:
-                raise DembufError("DATA_LOSS", f"job {job}: samples from {chunk.first_index} "
-                                  f"came where {next_index} was due")
-            for s in chunk.samples:
-                for column, value in zip(columns, _sample(s)):
-                    column.append(value)
+            if values is None:
+                total = chunk.total
+                if not 0 <= total <= MAX_SERIES_SAMPLES:
+                    raise DembufError("DATA_LOSS", f"the server at {self.address} announced "
+                                      f"{total} samples for job {job}; series() keeps at most "
+                                      f"{MAX_SERIES_SAMPLES} (dembuf fetch writes longer ones "
+                                      f"to a file)")
+                values = np.empty((total, len(frames.SERIES_COLUMNS)))
+            if chunk.total != total or chunk.first_index != next_index or \
+                    len(chunk.samples) > total - next_index:
+                raise DembufError("DATA_LOSS", f"the server at {self.address} sent job {job}'s "
+                                  f"samples out of order, or more than its {total}")
+            for k, s in enumerate(chunk.samples):
+                values[next_index + k] = _sample(s)
             next_index += len(chunk.samples)
-            total = chunk.total
         if next_index != total:
             raise DembufError("DATA_LOSS", f"job {job}: {next_index} of {total} samples came")
-        return frames.series_frame(dict(zip(frames.SERIES_COLUMNS, columns)))
+        if values is None:
+            values = np.empty((0, len(frames.SERIES_COLUMNS)))
+        return frames.series_frame({name: values[:, k]
+                                    for k, name in enumerate(frames.SERIES_COLUMNS)})
 
     def fetch(self, job: int) -> frames.Run:
         """A finished job: its series (DataFrame), its summary.json (dict; empty for a job that
@@ -379,7 +412,11 @@ class Client:
             summary = {}
             if j.state == pb.JOB_STATE_DONE:
                 full = self._call(self._stub.GetJob, pb.GetJobRequest(id=j.id))
-                summary = frames.parse_summary(full.summary_json, f"job {j.id} summary_json")
+                try:
+                    summary = frames.parse_summary(full.summary_json,
+                                                   f"job {j.id}'s summary_json")
+                except ValueError as e:
+                    raise DembufError("DATA_LOSS", f"the server sent {e}") from None
             status = {pb.JOB_STATE_DONE: "ok", pb.JOB_STATE_FAILED: "failed",
                       pb.JOB_STATE_CANCELLED: "failed"}.get(j.state, state_name(j.state))
             rows.append({"job": j.id, **dict(zip(axes, (_typed(v) for v in j.sweep_values))),

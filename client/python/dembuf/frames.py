@@ -22,8 +22,10 @@ _SWEEP_METRICS = ["P_N", "Pa_N", "Pb_N", "lambda", "crater_depth_m", "bed_thickn
                   "peak_plate_force_time_s", "reference_peak_N", "first_contact_time_s",
                   "max_overlap_ratio", "beads", "steps", "wall_time_s"]
 
-# Bounds on what is read from a folder or an answer: a result is data, not trusted.
+# Bounds on what is read from a folder or an answer: a result is data, not trusted. A summary
+# nests four levels; JSON deeper than the C++ side's bound (kMaxJsonDepth) is refused.
 _MAX_SUMMARY_BYTES = 16 << 20
+MAX_JSON_DEPTH = 64
 
 
 def sweep_metric_names() -> list[str]:
@@ -47,11 +49,36 @@ def series_frame(columns: dict) -> pd.DataFrame:
                          for name in SERIES_COLUMNS})
 
 
+def json_depth(text: str) -> int:
+    """How deep JSON text nests, in one pass (json.loads recurses, and a document 100,000
+    deep ends in RecursionError or worse): brackets outside strings."""
+    depth = deepest = 0
+    in_string = escaped = False
+    for c in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif c == "\\":
+                escaped = True
+            elif c == '"':
+                in_string = False
+        elif c == '"':
+            in_string = True
+        elif c in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "]}":
+            depth -= 1
+    return deepest
+
+
 def parse_summary(text: str, what: str) -> dict:
     if not text:
         return {}
     if len(text) > _MAX_SUMMARY_BYTES:
         raise ValueError(f"{what}: {len(text)} bytes, more than {_MAX_SUMMARY_BYTES}")
+    if json_depth(text) > MAX_JSON_DEPTH:
+        raise ValueError(f"{what}: nested deeper than {MAX_JSON_DEPTH} levels")
     summary = json.loads(text)
     if not isinstance(summary, dict):
         raise ValueError(f"{what}: not a JSON object")

@@ -28,55 +28,95 @@ std::string Percent(double ratio) {
   return text;
 }
 
-// The beads in cells one largest diameter wide, for finding overlapping pairs.
+// The most beads one cell of the grid below may hold: a cell of a size class is twice the
+// class's largest diameter wide, and beads of that class (radii within a factor two) that do not
+// overlap fit about 90 to a cell; this allows for overlapping ones.
+constexpr std::size_t kMaxBeadsPerCell = 256;
+
+// The beads in grids by size class, for finding the overlapping pairs in time linear in the
+// beads (a bed file of one bead repeated 60,000 times took seconds in a single grid: every pair
+// of a cell was tried). A class holds the beads whose radii lie within a factor two, in cells
+// as wide as its largest diameter; a bead meets the beads of its own class and of every larger
+// one in the 27 cells about it, where any bead it touches lies. A cell holding more than
+// kMaxBeadsPerCell beads is crowded: more beads than fit there without overlapping.
 class BeadGrid {
  public:
   explicit BeadGrid(const dem::ParticleState& beads) : m_beads(beads) {
-    double r_max = 0.0;
-    for (double r : beads.radius) r_max = std::max(r_max, r);
-    m_cell = 2.0 * r_max;
-    for (std::size_t i = 0; i < beads.size(); ++i) m_cells[Key(beads.position[i])].push_back(i);
+    double r_min = INFINITY;
+    for (double r : beads.radius) r_min = std::min(r_min, r);
+    m_class.resize(beads.size());
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      const double ratio = beads.radius[i] / r_min;
+      m_class[i] = std::isfinite(ratio) ? std::clamp(static_cast<int>(std::log2(ratio)), 0, 62) : 0;
+      if (m_class[i] >= static_cast<int>(m_grids.size())) m_grids.resize(m_class[i] + 1);
+      Grid& grid = m_grids[m_class[i]];
+      grid.cell = std::max(grid.cell, 2.0 * beads.radius[i]);
+    }
+    const std::vector<std::size_t>* crowded = nullptr;
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      Grid& grid = m_grids[m_class[i]];
+      std::vector<std::size_t>& cell = grid.cells[grid.Key(beads.position[i])];
+      cell.push_back(i);
+      if (cell.size() > kMaxBeadsPerCell && !crowded) crowded = &cell;
+    }
+    if (crowded) m_crowded = *crowded;
   }
 
-  // Calls visit(i, j, overlap) for every overlapping pair i < j.
+  /// The beads of a crowded cell (empty when there is none): their pairs are not tried.
+  const std::vector<std::size_t>& crowded() const { return m_crowded; }
+
+  // Calls visit(i, j, overlap) for every overlapping pair, i < j (none when crowded).
   template <class Visit>
   void ForEachOverlap(Visit&& visit) const {
+    if (!m_crowded.empty()) return;
     for (std::size_t i = 0; i < m_beads.size(); ++i) {
       const dem::Vec3& x = m_beads.position[i];
-      const long cx = Index(x.x()), cy = Index(x.y()), cz = Index(x.z());
-      for (long dx = -1; dx <= 1; ++dx)
-        for (long dy = -1; dy <= 1; ++dy)
-          for (long dz = -1; dz <= 1; ++dz) {
-            const auto it = m_cells.find(Hash(cx + dx, cy + dy, cz + dz));
-            if (it == m_cells.end()) continue;
-            for (std::size_t j : it->second) {
-              if (j <= i) continue;
-              const double overlap = m_beads.radius[i] + m_beads.radius[j] -
-                                     (m_beads.position[j] - m_beads.position[i]).norm();
-              if (overlap > 0.0) visit(i, j, overlap);
+      for (std::size_t c = static_cast<std::size_t>(m_class[i]); c < m_grids.size(); ++c) {
+        const Grid& grid = m_grids[c];
+        if (grid.cells.empty()) continue;
+        const long cx = grid.Index(x.x()), cy = grid.Index(x.y()), cz = grid.Index(x.z());
+        for (long dx = -1; dx <= 1; ++dx)
+          for (long dy = -1; dy <= 1; ++dy)
+            for (long dz = -1; dz <= 1; ++dz) {
+              const auto it = grid.cells.find(Hash(cx + dx, cy + dy, cz + dz));
+              if (it == grid.cells.end()) continue;
+              for (std::size_t j : it->second) {
+                // Within its own class a pair is met from both beads: once is enough.
+                if (static_cast<int>(c) == m_class[i] && j <= i) continue;
+                const double overlap = m_beads.radius[i] + m_beads.radius[j] -
+                                       (m_beads.position[j] - m_beads.position[i]).norm();
+                if (overlap > 0.0) visit(std::min(i, j), std::max(i, j), overlap);
+              }
             }
-          }
+      }
     }
   }
 
  private:
-  // A cell index, clamped: beads far away in cells of tiny beads would not fit in a long
-  // (a bed file is checked for its beads' sizes and places after its overlaps are measured).
-  long Index(double v) const {
-    double cell = std::floor(v / m_cell);
-    if (!(std::abs(cell) < 1e15)) cell = cell > 0.0 ? 1e15 : -1e15;  // NaN too
-    return static_cast<long>(cell);
-  }
+  struct Grid {
+    double cell = 0.0;  ///< twice the largest radius of the class
+    std::unordered_map<long, std::vector<std::size_t>> cells;
+
+    // A cell index, clamped: beads far away in cells of tiny beads would not fit in a long (a
+    // bed file is checked for its beads' sizes and places after its overlaps are measured).
+    long Index(double v) const {
+      double index = std::floor(v / cell);
+      if (!(std::abs(index) < 1e15)) index = index > 0.0 ? 1e15 : -1e15;  // NaN too
+      return static_cast<long>(index);
+    }
+    long Key(const dem::Vec3& x) const { return Hash(Index(x.x()), Index(x.y()), Index(x.z())); }
+  };
+
   // In unsigned arithmetic, whose products wrap where a long's would overflow.
   static long Hash(long ix, long iy, long iz) {
     const auto u = [](long v) { return static_cast<unsigned long>(v); };
     return static_cast<long>((u(ix) * 73856093UL) ^ (u(iy) * 19349663UL) ^ (u(iz) * 83492791UL));
   }
-  long Key(const dem::Vec3& x) const { return Hash(Index(x.x()), Index(x.y()), Index(x.z())); }
 
   const dem::ParticleState& m_beads;
-  double m_cell = 1.0;
-  std::unordered_map<long, std::vector<std::size_t>> m_cells;
+  std::vector<int> m_class;   ///< each bead's size class: floor(log2(radius / smallest radius))
+  std::vector<Grid> m_grids;  ///< by class
+  std::vector<std::size_t> m_crowded;
 };
 
 // How far bead i sinks into the plate and into the side wall.
@@ -91,6 +131,7 @@ struct Measured {
   OverlapStats pairs, plate, wall;
   std::size_t worst_i = 0, worst_j = 0;  // the worst pair
   std::size_t worst_plate = 0, worst_wall = 0;
+  std::vector<std::size_t> crowded;  // beads of a cell holding more than fit (pairs not tried)
 };
 
 void Note(OverlapStats& stats, double ratio) {
@@ -105,7 +146,9 @@ void Finish(OverlapStats& stats) {
 
 Measured MeasureOverlaps(const dem::ParticleState& b, double wall_radius) {
   Measured m;
-  BeadGrid(b).ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
+  const BeadGrid grid(b);
+  m.crowded = grid.crowded();
+  grid.ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
     const double ratio = overlap / std::min(b.radius[i], b.radius[j]);
     if (ratio > m.pairs.max_ratio) {
       m.worst_i = i;
@@ -153,7 +196,9 @@ bool Separate(dem::ParticleState& b, double wall_radius) {
         moved = true;
       }
     }
-    BeadGrid(b).ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
+    const BeadGrid grid(b);
+    if (!grid.crowded().empty()) return false;
+    grid.ForEachOverlap([&](std::size_t i, std::size_t j, double overlap) {
       const double r_min = std::min(b.radius[i], b.radius[j]);
       if (overlap <= kSeparationTarget * r_min) return;
       const dem::Vec3 d = b.position[j] - b.position[i];
@@ -228,6 +273,16 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
   if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
 
   Measured m = MeasureOverlaps(bed.beads, R);
+  if (!m.crowded.empty()) {
+    // A pile no relaxation makes a bed of: refused before its pairs are tried.
+    std::string lines;
+    for (std::size_t k = 0; k < std::min<std::size_t>(m.crowded.size(), 5); ++k)
+      lines += (k ? ", " : "") + std::to_string(bed.lines[m.crowded[k]]);
+    throw SceneError("bed.import", name + ": " + std::to_string(m.crowded.size()) +
+                                       " beads lie in one place (lines " + lines +
+                                       ", ...), more than fit there without overlapping: is a "
+                                       "bead repeated, or the file's units wrong?");
+  }
   bed.max_ratio_before = Worst(m);
   if (bed.max_ratio_before > kMaxRestingOverlap && scene.bed.import_overlaps == "relax") {
     const std::vector<dem::Vec3> before = bed.beads.position;

@@ -246,20 +246,21 @@ std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes,
 nlohmann::json ParseBoundedJson(std::string_view text, const std::string& what,
                                 std::size_t max_bytes) {
   if (text.size() > max_bytes)
-    throw InputLimitError(what + " holds " + Bytes(text.size()) + "; at most " + Bytes(max_bytes));
+    throw InputLimitError(what + ": " + Bytes(text.size()) + ", more than the " + Bytes(max_bytes) +
+                          " taken");
   // The parser reports each value's depth as it goes: the text is refused at the first
   // value too deep, before anything of it is built.
   const nlohmann::json::parser_callback_t within_depth =
       [&](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
         if (depth > kMaxJsonDepth)
-          throw InputLimitError(what + " nests deeper than " + std::to_string(kMaxJsonDepth) +
+          throw InputLimitError(what + ": nested deeper than " + std::to_string(kMaxJsonDepth) +
                                 " levels");
         return true;
       };
   try {
     return nlohmann::json::parse(text.begin(), text.end(), within_depth);
   } catch (const nlohmann::json::exception& e) {
-    throw InputLimitError(what + " is not JSON: " + e.what());
+    throw InputLimitError(what + ": not JSON: " + e.what());
   }
 }
 

@@ -144,6 +144,12 @@ int Report(const Remote& remote, const grpc::Status& status) {
                      status.error_message().c_str());
         return kExitBadInput;
       }
+      // A user's quota on the server (queued jobs, stored results): their own to free.
+      if (status.error_details().rfind("quota=", 0) == 0) {
+        std::fprintf(stderr, "dembuf: over your quota on the server: %s\n",
+                     status.error_message().c_str());
+        return kExitRuntime;
+      }
       // A job past the server's limits names the field to change (bad input); a full queue
       // or disk is worth trying again later.
       if (status.error_details().rfind("field=", 0) == 0) {
@@ -1119,9 +1125,38 @@ int RemoteServerInfo(const Remote& remote, bool json) {
         info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
         info.database().c_str());
   else
-    std::printf("workers %d x %d threads, running %d, queued %d of %d, database %s\n",
-                info.workers(), info.threads_per_job(), info.running(), info.queue_depth(),
-                info.queue_limit(), info.database().c_str());
+    std::printf("workers %d x %d threads, running %d, queued %d of %d%s%s\n", info.workers(),
+                info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
+                info.database().empty() ? "" : ", database ", info.database().c_str());
+  // The caller's share, against the per-user quotas.
+  auto of = [](double used, double quota, const char* unit) {
+    char text[64];
+    if (quota > 0)
+      std::snprintf(text, sizeof text, "%.4g of %.4g%s", used, quota, unit);
+    else
+      std::snprintf(text, sizeof text, "%.4g%s (no quota)", used, unit);
+    return std::string(text);
+  };
+  std::printf("yours: %s queued jobs, %s of stored results\n",
+              of(info.queued_jobs(), info.quota_queued_jobs(), "").c_str(),
+              of(info.stored_bytes() / 1e6, info.quota_stored_bytes() / 1e6, " MB").c_str());
+  return 0;
+}
+
+int RemoteDelete(const Remote& remote, std::int64_t id, bool sweep) {
+  v1::DeleteRequest request;
+  if (sweep) {
+    request.set_sweep_id(id);
+  } else {
+    request.set_job_id(id);
+  }
+  v1::DeleteResponse response;
+  grpc::ClientContext context;
+  Prepare(context, remote);
+  const grpc::Status status = Connect(remote)->Delete(&context, request, &response);
+  if (!status.ok()) return Report(remote, status);
+  std::printf("deleted %d job(s); %.4g MB of results freed\n", response.deleted(),
+              response.freed_bytes() / 1e6);
   return 0;
 }
 

@@ -50,6 +50,8 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
                 bool plots, bool force);
 int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep);
+/// Deletes an ended job (or sweep, with its jobs) and its stored results.
+int RemoteDelete(const Remote& remote, std::int64_t id, bool sweep);
 /// Pushes the prepared beds of a scene (each of its stages found in `bed_cache`) into the
 /// server's bed cache, where its jobs find them instead of preparing them again.
 int RemotePushBeds(const Remote& remote, const RemoteScene& scene, const std::string& bed_cache);

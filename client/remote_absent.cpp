@@ -10,7 +10,7 @@ namespace dembuf::cli {
 
 void AddRemoteCommands(CLI::App& app, RunOptions&, CommandTable& commands) {
   for (const char* name :
-       {"submit", "list", "status", "watch", "fetch", "cancel", "server-info", "push"}) {
+       {"submit", "list", "status", "watch", "fetch", "cancel", "delete", "server-info", "push"}) {
     // push is `dembuf bed push`, beside export.
     CLI::App* group = std::string_view(name) == "push" ? app.get_subcommand("bed") : &app;
     CLI::App* command = group->add_subcommand(name, "(needs a build with the service)");

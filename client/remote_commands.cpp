@@ -110,6 +110,13 @@ void AddResultCommands(CLI::App& app, RemoteArgs& a, CommandTable& commands) {
   cancel->add_option("id", a.id, "job id (or sweep id with --sweep)")->required();
   cancel->add_flag("--sweep", a.is_sweep, "cancel every unfinished job of the sweep");
   commands.Add(cancel, [&] { return RemoteCancel(a.remote, a.id, a.is_sweep); });
+  CLI::App* del = app.add_subcommand(
+      "delete",
+      "delete an ended job (or sweep) and its stored results, which count against "
+      "your quota on the server");
+  del->add_option("id", a.id, "job id (or sweep id with --sweep)")->required();
+  del->add_flag("--sweep", a.is_sweep, "delete the sweep and every job of it (all ended)");
+  commands.Add(del, [&] { return RemoteDelete(a.remote, a.id, a.is_sweep); });
 
   CLI::App* info = app.add_subcommand("server-info", "the server's version, workers and queue");
   info->add_flag("--json", a.json, "print JSON (docs/service.md) instead of text");

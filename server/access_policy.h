@@ -35,6 +35,7 @@ enum class Action {
   kWatch,     ///< a live stream of a job's samples
   kFetch,     ///< an ended job's results and files
   kCancel,    ///< cancel a job or sweep
+  kDelete,    ///< delete an ended job or sweep and its stored results
   kSubmit,    ///< file new work under the owner's name
   kShareBed,  ///< put a prepared bed in the cache every user's jobs read (no owner: admins)
 };

@@ -38,20 +38,22 @@ void AdmitSnapshots(const Scene& scene) {
 
 }  // namespace
 
-void AdmitScene(const Scene& scene, const std::optional<BedFile>& sent,
-                const ResourceLimits& limits) {
+ResourceEstimate AdmitScene(const Scene& scene, const std::optional<BedFile>& sent,
+                            const ResourceLimits& limits) {
   // The bed file first: nothing below may look a path up.
   AdmitBedImport(scene, sent);
   ValidateScene(scene);
   AdmitSnapshots(scene);
-  CheckResources(EstimateResources(scene), limits, scene, "this server's");
+  ResourceEstimate estimate = EstimateResources(scene);
+  CheckResources(estimate, limits, scene, "this server's");
+  return estimate;
 }
 
-Scene AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& sent,
-               const ResourceLimits& limits) {
-  Scene scene = ResolveSceneSpec(spec, sent);
-  AdmitScene(scene, sent, limits);
-  return scene;
+AdmittedJob AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& sent,
+                     const ResourceLimits& limits) {
+  AdmittedJob job{ResolveSceneSpec(spec, sent)};
+  job.output_bytes = AdmitScene(job.scene, sent, limits).output_bytes_max;
+  return job;
 }
 
 AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optional<BedFile>& sent,
@@ -65,8 +67,9 @@ AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optio
   }
   sweep.axes = WithSeedAxis(sweep.axes, std::max(1, request.seeds()), base.bed.seed);
   // Each run as soon as its axes are set: before anything looks at what they name.
-  sweep.runs = ExpandSweep(base, sweep.axes, max_runs,
-                           [&](const Scene& run) { AdmitScene(run, sent, limits); });
+  sweep.runs = ExpandSweep(base, sweep.axes, max_runs, [&](const Scene& run) {
+    sweep.output_bytes += AdmitScene(run, sent, limits).output_bytes_max;
+  });
   return sweep;
 }
 

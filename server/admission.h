@@ -21,25 +21,32 @@ namespace dembuf::server {
 /// The most snapshots (output.snapshot_*) one job on the server may take.
 inline constexpr std::size_t kMaxServerSnapshots = 100;
 
-/// Admits `scene`, or throws: SceneError naming the field, or ResourceError naming the limit.
+/// Admits `scene` and returns its resource estimate, or throws: SceneError naming the field,
+/// or ResourceError naming the limit. Admitted:
 ///  - bed.import is empty, or names exactly the bed file `sent` with the request (whose bytes
 ///    the scene carries): the daemon reads no file of its own, and its refusal is the same
 ///    whether a path it was given exists or not;
 ///  - every field is in range (ValidateScene);
 ///  - at most kMaxServerSnapshots snapshots, whose bytes the estimate bounds;
 ///  - its resource estimate is within `limits` (the daemon's quota_* settings).
-void AdmitScene(const Scene& scene, const std::optional<BedFile>& sent,
-                const ResourceLimits& limits);
+ResourceEstimate AdmitScene(const Scene& scene, const std::optional<BedFile>& sent,
+                            const ResourceLimits& limits);
 
-/// A job's scene from its request, admitted. `sent` is the bed file the spec names, if any.
-Scene AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& sent,
-               const ResourceLimits& limits);
+/// A job's scene from its request, admitted, and the bytes its results may store at most.
+/// `sent` is the bed file the spec names, if any.
+struct AdmittedJob {
+  Scene scene;
+  double output_bytes = 0.0;
+};
+AdmittedJob AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& sent,
+                     const ResourceLimits& limits);
 
 /// A sweep's axes (its seeds among them) and runs from its request, every run admitted as it
 /// will run: at most `max_runs` of them. `sent` is the bed file its base names, if any.
 struct AdmittedSweep {
   std::vector<SweepAxis> axes;
   std::vector<SweepRun> runs;
+  double output_bytes = 0.0;  ///< what their results may store at most, in all
 };
 AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optional<BedFile>& sent,
                          const ResourceLimits& limits, std::size_t max_runs);

@@ -68,6 +68,7 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"tls_cert", &config.tls_cert},
       {"tls_key", &config.tls_key},
       {"quota_queued_jobs", &config.quota_queued_jobs},
+      {"quota_stored_mb", &config.quota_stored_mb},
       {"quota_beads", &config.quota_beads},
       {"quota_steps", &config.quota_steps},
       {"quota_bead_steps", &config.quota_bead_steps},
@@ -207,7 +208,13 @@ void ValidateConfig(ServerConfig& config) {
       "log_level: must be trace, debug, info, warn, error, critical or off");
   require(config.tls_cert.empty() == config.tls_key.empty(),
           "tls_cert and tls_key: give both (or neither)");
-  require(config.quota_queued_jobs >= 0, "quota_queued_jobs: must be >= 0 (0: no limit)");
+  // (A quota above queue_limit is no error: the queue's own limit applies first.)
+  require(config.quota_queued_jobs >= 0,
+          "quota_queued_jobs: must be 0 (no limit) or more, not " +
+              std::to_string(config.quota_queued_jobs));
+  require(config.quota_stored_mb >= 0 && config.quota_stored_mb <= 1e12,
+          "quota_stored_mb: must be 0 (no limit) to 1e12, not " +
+              std::to_string(config.quota_stored_mb));
   // A cap on streams in all, up to `most`, and one per user within it.
   auto require_caps = [&](const std::string& total_name, int total, int most,
                           const std::string& per_user_name, int per_user) {

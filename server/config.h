@@ -15,9 +15,9 @@ inline constexpr int kAutoWorkers = 0;
 struct ServerConfig {
   std::string listen = "127.0.0.1:50051";  ///< loopback unless told otherwise
   std::string db = "dembuf.db";
-  int workers = 0;          ///< kAutoWorkers ("auto"): one per usable CPU
-  int threads_per_job = 0;  ///< 0: the usable CPUs divided among the workers
-  int queue_limit = 1000;
+  int workers = 0;           ///< kAutoWorkers ("auto"): one per usable CPU
+  int threads_per_job = 0;   ///< 0: the usable CPUs divided among the workers
+  int queue_limit = 100000;  ///< queued jobs at most, of all users
   int max_sweep_jobs = 10000;
   std::string log_file;  ///< "" for the console only
   std::string log_level = "info";
@@ -27,9 +27,12 @@ struct ServerConfig {
   /// user's token) or "local" (a request without one comes from this machine's trusted
   /// user, an admin; refused unless every address is on loopback).
   std::string access = "tokens";
-  std::string tls_cert;       ///< PEM certificate chain; with tls_key, the daemon speaks TLS only
-  std::string tls_key;        ///< PEM private key
-  int quota_queued_jobs = 0;  ///< per user; 0: no limit beyond queue_limit
+  std::string tls_cert;  ///< PEM certificate chain; with tls_key, the daemon speaks TLS only
+  std::string tls_key;   ///< PEM private key
+  /// Per user, so that one user's sweep cannot fill the queue: queued jobs (a sweep of
+  /// max_sweep_jobs fits), and the results stored of their jobs. 0: no limit.
+  int quota_queued_jobs = 10000;
+  double quota_stored_mb = 10000;
   /// Watch streams open at once, per user and in all. A stream holds no thread (gRPC's
   /// callback API): an idle one costs a few kilobytes and a look at its job twice a second.
   int max_watch_streams_per_user = 8;

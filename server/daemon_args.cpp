@@ -64,8 +64,9 @@ void SetupDaemonArgs(CLI::App& app, DaemonArgs& args) {
   args.token_list = app.add_subcommand("token-list", "list the users that have tokens");
   app.add_flag("--check-db", args.check_db,
                "verify the database offline (SQLite's integrity check, then every stored "
-               "summary, series and result file against its checksum) and exit: 0 intact, 1 "
-               "damaged; refused while a daemon uses it");
+               "summary, series and result file against its checksum), reading only, and exit: "
+               "0 intact, 1 damaged or not verifiable (an older database is reported as such, "
+               "and left as it is); refused while a daemon uses it");
 }
 
 ServerConfig ResolveConfig(const DaemonArgs& args) {
@@ -110,14 +111,31 @@ int TokenCommand(const ServerConfig& config, const DaemonArgs& args) {
 
 int CheckDatabase(const ServerConfig& config) {
   try {
-    // The lock first: the check reads a database no daemon is changing.
-    DatabaseLock lock(config.db);
-    Store store(config.db);
+    // The lock first: the check reads a database no daemon is changing. Read only: a check
+    // changes nothing, and finds what is there (it upgraded an old database, writing
+    // checksums over whatever it held, and called that intact).
+    DatabaseLock lock(config.db, /*create=*/false);
+    StoreOptions read_only;
+    read_only.read_only = true;
+    Store store(config.db, read_only);
+    const std::string older = store.schema_version() < Store::CurrentSchemaVersion()
+                                  ? " (schema version " + std::to_string(store.schema_version()) +
+                                        ", older than this dembufd's " +
+                                        std::to_string(Store::CurrentSchemaVersion()) +
+                                        ": left as it is; dembufd upgrades it at its next start)"
+                                  : "";
+    if (!store.HasChecksums()) {
+      std::printf(
+          "database %s: SQLite's integrity check passed, but its results have no checksums to "
+          "check%s: not verified\n",
+          config.db.c_str(), older.c_str());
+      return kDaemonRuntime;
+    }
     const CheckReport report = store.Check();
     for (const std::string& problem : report.problems) std::printf("%s\n", problem.c_str());
     std::printf(
-        "database %s: %lld summaries, %lld series chunks and %lld result files checked: %s\n",
-        config.db.c_str(), static_cast<long long>(report.summaries),
+        "database %s%s: %lld summaries, %lld series chunks and %lld result files checked: %s\n",
+        config.db.c_str(), older.c_str(), static_cast<long long>(report.summaries),
         static_cast<long long>(report.series_chunks), static_cast<long long>(report.files),
         report.problems.empty() ? "intact"
                                 : (std::to_string(report.problems.size()) + " damaged").c_str());

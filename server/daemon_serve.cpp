@@ -133,6 +133,7 @@ ServiceInfo MakeServiceInfo(const ServerConfig& config) {
   info.started_at = report::UtcNow();
   info.max_sweep_jobs = config.max_sweep_jobs;
   info.quota_queued_jobs = config.quota_queued_jobs;
+  info.quota_stored_bytes = static_cast<std::int64_t>(config.quota_stored_mb * 1e6);
   info.job_limits.beads = config.quota_beads;
   info.job_limits.steps = config.quota_steps;
   info.job_limits.bead_steps = config.quota_bead_steps;

@@ -49,6 +49,12 @@ Status OverLimits(const ResourceError& e) {
   return Status(StatusCode::RESOURCE_EXHAUSTED, e.what(), "field=" + e.field());
 }
 
+std::string Megabytes(double bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4g MB", bytes / 1e6);
+  return text;
+}
+
 // A stream's caller whose token was revoked or replaced while it streamed.
 Status TokenWithdrawn() {
   return Status(StatusCode::UNAUTHENTICATED,
@@ -184,10 +190,28 @@ Status DembufService::CheckQueuedQuota(const std::string& owner, std::size_t mor
   if (m_info.quota_queued_jobs <= 0) return Status::OK;
   const int queued = m_store.CountQueuedBy(owner);
   if (queued + static_cast<long>(more) <= m_info.quota_queued_jobs) return Status::OK;
+  // The details name the quota: not worth retrying before the queue moves.
   return Status(StatusCode::RESOURCE_EXHAUSTED,
                 "owner: " + owner + " has " + std::to_string(queued) + " jobs queued; " +
                     std::to_string(more) + " more would pass the quota of " +
-                    std::to_string(m_info.quota_queued_jobs));
+                    std::to_string(m_info.quota_queued_jobs) +
+                    " a user (quota_queued_jobs): wait for them to run, or cancel some",
+                "quota=quota_queued_jobs");
+}
+
+Status DembufService::CheckStoredQuota(const std::string& owner, double more_bytes) {
+  if (m_info.quota_stored_bytes <= 0) return Status::OK;
+  const std::int64_t stored = m_store.StoredBytesOf(owner);
+  if (static_cast<double>(stored) + more_bytes <= static_cast<double>(m_info.quota_stored_bytes))
+    return Status::OK;
+  return Status(StatusCode::RESOURCE_EXHAUSTED,
+                "owner: " + owner + " stores " + Megabytes(static_cast<double>(stored)) +
+                    " of results, and these jobs may add up to " + Megabytes(more_bytes) +
+                    ": more than the quota of " +
+                    Megabytes(static_cast<double>(m_info.quota_stored_bytes)) +
+                    " a user (quota_stored_mb); delete what is no longer needed (dembuf delete "
+                    "JOB, or --sweep SWEEP)",
+                "quota=quota_stored_mb");
 }
 
 Status DembufService::CheckJobQuota(const Scene& scene) {
@@ -382,8 +406,10 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
     JobRecord job;
     std::vector<std::string> warnings;
     try {
-      const Scene scene =
+      const AdmittedJob admitted =
           AdmitJob(request->scene(), BedFileOf(request->scene(), owner), m_info.job_limits);
+      const Scene& scene = admitted.scene;
+      if (Status s = CheckStoredQuota(owner, admitted.output_bytes); !s.ok()) return s;
       warnings = SceneWarnings(scene);
       std::string name = request->name();
       if (name.empty())
@@ -445,6 +471,7 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
           AdmitSweep(*request, BedFileOf(request->base(), owner), m_info.job_limits,
                      static_cast<std::size_t>(m_info.max_sweep_jobs));
       const std::vector<SweepRun>& runs = admitted.runs;
+      if (Status s = CheckStoredQuota(owner, admitted.output_bytes); !s.ok()) return s;
       sweep.owner = owner;
       sweep.name = request->name().empty() ? "sweep" : request->name();
       sweep.axes = admitted.axes;
@@ -587,6 +614,53 @@ grpc::ServerUnaryReactor* DembufService::Cancel(grpc::CallbackServerContext* con
                     "job_id: job " + std::to_string(request->job_id()) + " has already ended (" +
                         StateName(targets.front().state) + ")");
     response->set_cancelled(cancelled);
+    return Status::OK;
+  });
+}
+
+grpc::ServerUnaryReactor* DembufService::Delete(grpc::CallbackServerContext* context,
+                                                const v1::DeleteRequest* request,
+                                                v1::DeleteResponse* response) {
+  return Serve("Delete", context, [=, this](const Caller& caller) -> Status {
+    if ((request->job_id() != 0) == (request->sweep_id() != 0))
+      return Invalid("job_id", "give either job_id or sweep_id");
+    const std::string what = request->job_id() != 0
+                                 ? "job_id: job " + std::to_string(request->job_id())
+                                 : "sweep_id: sweep " + std::to_string(request->sweep_id());
+    std::vector<JobRecord> targets;
+    if (request->job_id() != 0) {
+      const auto job = m_store.GetJob(request->job_id());
+      if (!job)
+        return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
+      AccessPolicy::Require(caller, Action::kDelete, job->owner, what);
+      targets.push_back(*job);
+    } else {
+      const auto sweep = m_store.GetSweep(request->sweep_id());
+      if (!sweep)
+        return Status(StatusCode::NOT_FOUND,
+                      "sweep_id: no sweep " + std::to_string(request->sweep_id()));
+      AccessPolicy::Require(caller, Action::kDelete, sweep->owner, what);
+      JobFilter filter;
+      filter.sweep_id = request->sweep_id();
+      filter.limit = 1000000;
+      targets = m_store.ListJobs(filter);
+    }
+    // A job that has not ended keeps adding to its results: it is cancelled first.
+    std::vector<std::int64_t> ids;
+    int unfinished = 0;
+    for (const JobRecord& job : targets) {
+      if (!IsFinal(job.state) || m_executor.Live(job.id)) ++unfinished;
+      ids.push_back(job.id);
+    }
+    if (unfinished > 0)
+      return Status(StatusCode::FAILED_PRECONDITION,
+                    what + " has " + std::to_string(unfinished) +
+                        " job(s) not ended; cancel first (dembuf cancel), then delete");
+    const std::int64_t freed = m_store.DeleteJobs(ids, request->sweep_id());
+    m_log->info("{} deleted {} job(s) ({}): {} bytes of results", caller.name, ids.size(), what,
+                freed);
+    response->set_deleted(static_cast<int>(ids.size()));
+    response->set_freed_bytes(freed);
     return Status::OK;
   });
 }
@@ -793,8 +867,8 @@ grpc::ServerWriteReactor<v1::FileChunk>* DembufService::FetchFiles(
 grpc::ServerUnaryReactor* DembufService::ServerInfo(grpc::CallbackServerContext* context,
                                                     const v1::ServerInfoRequest*,
                                                     v1::ServerInfoResponse* response) {
-  // Anyone known to the server may ask.
-  return Serve("ServerInfo", context, [=, this](const Caller&) -> Status {
+  // Anyone known to the server may ask; where its files are, only an admin learns.
+  return Serve("ServerInfo", context, [=, this](const Caller& caller) -> Status {
     response->set_version(kVersion);
     const ExecutorInfo executor = m_executor.info();
     response->set_executor(executor.kind);
@@ -803,7 +877,11 @@ grpc::ServerUnaryReactor* DembufService::ServerInfo(grpc::CallbackServerContext*
     response->set_queue_depth(m_executor.queued());
     response->set_queue_limit(executor.queue_limit);
     response->set_running(m_executor.running());
-    response->set_database(m_info.database);
+    if (caller.admin) response->set_database(m_info.database);
+    response->set_stored_bytes(m_store.StoredBytesOf(caller.name));
+    response->set_quota_stored_bytes(m_info.quota_stored_bytes);
+    response->set_queued_jobs(m_store.CountQueuedBy(caller.name));
+    response->set_quota_queued_jobs(m_info.quota_queued_jobs);
     response->set_host(m_info.host);
     response->set_started_at(m_info.started_at);
     return Status::OK;

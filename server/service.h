@@ -26,8 +26,9 @@ struct ServiceInfo {
   std::string host;
   std::string started_at;
   int max_sweep_jobs = 10000;
-  int quota_queued_jobs = 0;
-  ResourceLimits job_limits;  ///< what one job may cost
+  int quota_queued_jobs = 0;            ///< per user; 0: none
+  std::int64_t quota_stored_bytes = 0;  ///< per user; 0: none
+  ResourceLimits job_limits;            ///< what one job may cost
   int max_watch_streams_per_user = 8;
   int max_watch_streams = 1024;
   int max_fetch_streams_per_user = 4;
@@ -72,6 +73,8 @@ class DembufService final : public DembufServiceBase {
                                        v1::ListSweepsResponse*) override;
   grpc::ServerUnaryReactor* Cancel(grpc::CallbackServerContext*, const v1::CancelRequest*,
                                    v1::CancelResponse*) override;
+  grpc::ServerUnaryReactor* Delete(grpc::CallbackServerContext*, const v1::DeleteRequest*,
+                                   v1::DeleteResponse*) override;
   grpc::ServerWriteReactor<v1::WatchJobResponse>* WatchJob(grpc::CallbackServerContext*,
                                                            const v1::WatchJobRequest*) override;
   grpc::ServerUnaryReactor* FetchResults(grpc::CallbackServerContext*,
@@ -102,8 +105,9 @@ class DembufService final : public DembufServiceBase {
   grpc::Status OpenFetchStream(const char* rpc, const grpc::ServerContextBase* context,
                                std::int64_t id, Caller* caller, std::optional<JobRecord>* job,
                                std::optional<StreamLimits::Place>* place);
-  /// The per-user quota of queued jobs.
+  /// The per-user quotas: queued jobs, and stored results (`more_bytes` the new jobs' bound).
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
+  grpc::Status CheckStoredQuota(const std::string& owner, double more_bytes);
   /// The per-job limits, against the job's resource estimate.
   grpc::Status CheckJobQuota(const Scene& scene);
   /// Runs a handler and turns any exception it lets out into a status with the reason (and

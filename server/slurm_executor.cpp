@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -70,6 +71,23 @@ std::vector<ImpactSample> ReadSamples(const OwnedFolder& folder, std::uint64_t f
                                       most * report::kPackedSampleBytes);
   bytes.resize(bytes.size() - bytes.size() % report::kPackedSampleBytes);
   return report::UnpackSamples(bytes);
+}
+
+// Jobs in their owners' turns: each owner's first, then each one's second, ...: Slurm queues
+// them in the order they come, so that one user's sweep does not go before another's job.
+std::vector<JobRecord> InTurns(const std::vector<JobRecord>& jobs) {
+  std::map<std::string, std::vector<const JobRecord*>> by_owner;
+  std::vector<std::string> owners;  // in the order they first come
+  for (const JobRecord& job : jobs) {
+    std::vector<const JobRecord*>& mine = by_owner[job.owner];
+    if (mine.empty()) owners.push_back(job.owner);
+    mine.push_back(&job);
+  }
+  std::vector<JobRecord> turns;
+  for (std::size_t round = 0; turns.size() < jobs.size(); ++round)
+    for (const std::string& owner : owners)
+      if (round < by_owner[owner].size()) turns.push_back(*by_owner[owner][round]);
+  return turns;
 }
 
 // Why Slurm ended a job that left no result, in words, with Slurm's state name in them.
@@ -295,7 +313,7 @@ bool SlurmExecutor::BedReady(const std::string& hash) const {
 }
 
 void SlurmExecutor::SubmitQueued() {
-  for (const JobRecord& job : m_store.UnfinishedJobs()) {
+  for (const JobRecord& job : InTurns(m_store.UnfinishedJobs())) {
     if (job.slurm_id != 0 || job.state != JobState::kQueued || job.cancel_requested) continue;
     {
       std::lock_guard lock(m_mutex);

@@ -79,8 +79,9 @@ class Statement {
 
 class Database {
  public:
-  /// Opens (creating if absent) the database file. Throws SqliteError.
-  explicit Database(const std::string& path);
+  /// Opens (creating if absent) the database file; `read_only`: opens it for reading, and
+  /// never creates or changes it. Throws SqliteError.
+  explicit Database(const std::string& path, bool read_only = false);
   ~Database();
   Database(const Database&) = delete;
   Database& operator=(const Database&) = delete;

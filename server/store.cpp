@@ -235,9 +235,17 @@ std::optional<JobState> ParseState(const std::string& name) {
   return std::nullopt;
 }
 
+int Store::CurrentSchemaVersion() {
+  return kSchemaVersion;
+}
+
+bool Store::HasChecksums() const {
+  return m_schema_version >= kChecksumsVersion;
+}
+
 Store::Store(const std::string& path, StoreOptions options) : m_options(options) {
   try {
-    m_db = std::make_unique<Database>(path);
+    m_db = std::make_unique<Database>(path, m_options.read_only);
     if (m_options.max_blob_bytes > 0) m_db->SetLengthLimit(m_options.max_blob_bytes);
     // Read-only checks first: a foreign or damaged file is reported, never modified.
     Statement& check = m_db->Prepare("PRAGMA quick_check");
@@ -260,6 +268,8 @@ Store::Store(const std::string& path, StoreOptions options) : m_options(options)
       tables.Run();
       if (count != 0) throw StoreError("it holds tables but is not a dembuf database");
     }
+    m_schema_version = have;
+    if (m_options.read_only) return;  // read as it is: no upgrade, no write
     // A database it cannot write (permissions, a read-only file system, a folder where its
     // journal cannot be made) is refused now, not at the first job.
     if (m_db->ReadOnly())
@@ -274,6 +284,7 @@ Store::Store(const std::string& path, StoreOptions options) : m_options(options)
       Transaction t(*m_db);
       m_db->Execute(kMigrations[v]);
       m_db->Execute("PRAGMA user_version = " + std::to_string(v + 1));
+      m_schema_version = v + 1;
       if (v + 1 == kChecksumsVersion) {
         // Before this version a client could leave its token in a kept command line.
         HideTokensInCommandLinesLocked();
@@ -1055,6 +1066,63 @@ int Store::CountQueuedBy(const std::string& owner) {
   const int count = s.Step() ? static_cast<int>(s.Int(0)) : 0;
   s.Run();
   return count;
+}
+
+namespace {
+
+// The bytes stored of the jobs a condition selects (`jobs`: "... FROM jobs WHERE ..." giving
+// their ids), in one place for the quota and for deleting.
+std::string StoredBytesSql(const std::string& jobs) {
+  return "SELECT (SELECT IFNULL(SUM(length(summary_json) + length(series)), 0) FROM results "
+         "WHERE job_id IN (" +
+         jobs +
+         ")) + (SELECT IFNULL(SUM(length(data)), 0) FROM "
+         "series_chunks WHERE job_id IN (" +
+         jobs +
+         ")) + (SELECT IFNULL(SUM(length(data)), 0) "
+         "FROM job_files WHERE job_id IN (" +
+         jobs + "))";
+}
+
+}  // namespace
+
+std::int64_t Store::StoredBytesOf(const std::string& owner) {
+  std::lock_guard lock(m_mutex);
+  // (The owner is bound three times, once a subquery.)
+  Statement& s = m_db->Prepare(StoredBytesSql("SELECT id FROM jobs WHERE owner = ?1"));
+  s.Bind(owner);
+  const std::int64_t bytes = s.Step() ? s.Int(0) : 0;
+  s.Run();
+  return bytes;
+}
+
+std::int64_t Store::DeleteJobs(const std::vector<std::int64_t>& ids, std::int64_t sweep_id) {
+  std::lock_guard lock(m_mutex);
+  Transaction t(*m_db);
+  std::int64_t freed = 0;
+  for (const std::int64_t id : ids) {
+    Statement& bytes = m_db->Prepare(StoredBytesSql("SELECT ?1"));
+    bytes.Bind(id);
+    freed += bytes.Step() ? bytes.Int(0) : 0;
+    bytes.Run();
+    for (const char* table :
+         {"series_chunks", "results", "job_files", "bed_preparations", "events"})
+      m_db->Prepare(std::string("DELETE FROM ") + table + " WHERE job_id = ?").Bind(id).Run();
+    m_db->Prepare("DELETE FROM submissions WHERE job_id = ?").Bind(id).Run();
+    m_db->Prepare("DELETE FROM jobs WHERE id = ?").Bind(id).Run();
+  }
+  if (sweep_id != 0) {
+    Statement& left = m_db->Prepare("SELECT count(*) FROM jobs WHERE sweep_id = ?");
+    left.Bind(sweep_id);
+    const bool empty = left.Step() && left.Int(0) == 0;
+    left.Run();
+    if (empty) {
+      m_db->Prepare("DELETE FROM submissions WHERE sweep_id = ?").Bind(sweep_id).Run();
+      m_db->Prepare("DELETE FROM sweeps WHERE id = ?").Bind(sweep_id).Run();
+    }
+  }
+  t.Commit();
+  return freed;
 }
 
 std::optional<PreparedBed> Store::Beds::Load(const std::string& hash) {

@@ -126,6 +126,9 @@ struct StoreOptions {
   std::int64_t chunk_samples = 4096;
   /// The longest blob SQLite accepts; 0 keeps SQLite's (1e9 bytes). Tests lower it.
   int max_blob_bytes = 0;
+  /// Opened to be read only (dembufd --check-db): nothing is created, upgraded or written,
+  /// and a database of an older schema stays as it is (schema_version says which).
+  bool read_only = false;
 };
 
 /// A holder of an API token.
@@ -171,6 +174,13 @@ class Store {
   /// a clear message for a file that is not a dembuf database, is damaged, or is newer than
   /// this program; such a file is never modified.
   explicit Store(const std::string& path, StoreOptions options = {});
+
+  /// The schema version the database has (older than kSchemaVersion only when read_only).
+  int schema_version() const { return m_schema_version; }
+  /// The schema version this program writes.
+  static int CurrentSchemaVersion();
+  /// Whether the database's results carry checksums (its schema version is recent enough).
+  bool HasChecksums() const;
 
   /// Adds a sweep and its jobs in one transaction; sets their ids. A `request_id` ("" for
   /// none) is recorded with them, for FindSubmission.
@@ -245,6 +255,11 @@ class Store {
   bool RemoveUser(const std::string& name);
   bool AnyUsers();
   int CountQueuedBy(const std::string& owner);
+  /// The bytes of the results stored for `owner`'s jobs (summaries, series, result files).
+  std::int64_t StoredBytesOf(const std::string& owner);
+  /// Deletes these jobs (all ended) and what is stored of them, and the sweep `sweep_id`
+  /// (0: none) when it is left without jobs; the bytes of the results freed.
+  std::int64_t DeleteJobs(const std::vector<std::int64_t>& ids, std::int64_t sweep_id);
 
   /// This database's daemon id: 8 random hex digits, made once.
   std::string DaemonId();
@@ -312,6 +327,7 @@ class Store {
   std::vector<ImpactSample> ReadSeriesLocked(std::int64_t id, std::int64_t from, std::int64_t max);
 
   StoreOptions m_options;
+  int m_schema_version = 0;
   std::mutex m_mutex;  // one connection, used by one thread at a time
   std::unique_ptr<Database> m_db;
   Beds m_beds{*this};

@@ -29,10 +29,11 @@ thread_local std::int64_t t_current_job = 0;
 // milliseconds even for the largest beds, so that a cancel takes effect within a second.
 constexpr std::int64_t kProgressEverySteps = 64;
 
-// What the queue needs to know of a job: its beds, and how many threads they can feed. A
-// scene the estimate cannot take (a bed file gone) fails when it runs, and may take any core.
+// What the queue needs to know of a job: its beds, how many threads they can feed, and its
+// owner (users take turns). A scene the estimate cannot take (a bed file gone) fails when it
+// runs, and may take any core.
 RunQueue::Needs QueueNeeds(Store& store, const JobRecord& job) {
-  RunQueue::Needs needs{{job.source_hash, job.bed_hash}, {}};
+  RunQueue::Needs needs{{job.source_hash, job.bed_hash}, {}, job.owner};
   try {
     const Scene scene = SceneOfJob(store, job);
     needs.load = LoadOf(EstimateResources(scene), job.source_hash);

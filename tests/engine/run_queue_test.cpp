@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <thread>
+#include <vector>
 
 #include "dembuf/study/sweep/run_queue.h"
 
@@ -33,6 +34,27 @@ TEST(RunQueue, RunsGoInOrderAndAClosedQueueEndsWhenEmpty) {
   EXPECT_EQ(queue.Next(Into(threads)), 2);
   queue.Done(2);
   EXPECT_EQ(queue.Next(Into(threads)), std::nullopt);
+}
+
+// Owners take turns: one user's ten queued runs do not hold back another's one run longer
+// than the run going now; runs of one owner keep their order.
+TEST(RunQueue, OwnersTakeTurns) {
+  BedCache beds;
+  RunQueue queue(beds, 1);
+  auto needs = [](const char* owner) { return RunQueue::Needs{{}, {}, owner}; };
+  for (RunQueue::Id id = 1; id <= 10; ++id) queue.Push(id, needs("alice"));
+  queue.Push(11, needs("bob"));
+  queue.Push(12, needs("bob"));
+  queue.Push(13, needs("carol"));
+  queue.Close();
+  std::atomic<int> threads{0};
+  std::vector<RunQueue::Id> order;
+  while (const std::optional<RunQueue::Id> id = queue.Next(Into(threads))) {
+    order.push_back(*id);
+    queue.Done(*id);
+  }
+  const std::vector<RunQueue::Id> turns = {1, 11, 13, 2, 12, 3, 4, 5, 6, 7, 8, 9, 10};
+  EXPECT_EQ(order, turns);
 }
 
 // More workers than cores (dembuf sweep --jobs 8 on 2 cores): no more runs go at once than

@@ -4,6 +4,12 @@
 # - A token revoked (or replaced) while its holder watched a job: the gRPC watch stream and the
 #   web page's event stream went on delivering until the job ended. Now both end within about
 #   a second of `dembufd token-revoke` (the test allows 10 s, for a loaded machine).
+# - One user's sweep went first, whole: another user's job waited behind all of it. Now users
+#   take turns: bob's one job starts as soon as a worker is free.
+# - A user's stored results had no bound (31.9 MB a 2 s job): now quota_stored_mb (10 GB by
+#   default) refuses new work past it, naming the quota, and `dembuf delete` frees it.
+# - `dembufd --check-db` upgraded an older database, writing checksums over whatever it held,
+#   and called it intact. Now it reads only, and says the database is older and not verified.
 # Usage: decisions_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
 db=$work/dembuf.db
@@ -36,4 +42,49 @@ ended "$events_pid" || fail "the web event stream went on after the token was re
 echo "both streams ended $took ms after token-revoke"
 grep -q "token: revoked or replaced" "$work/watch.err" || fail "watch: $(cat "$work/watch.err")"
 grep -q "^event: revoked" "$work/events" || fail "events: $(tail -3 "$work/events")"
+"$dembuf" cancel "$job" > /dev/null
+stop_daemon
+
+# Users in turn: one worker; alice's sweep of six, then bob's one job.
+bob=$("$dembufd" --db "$db" token-create bob 2> /dev/null)
+alice=$("$dembufd" --db "$db" token-create alice 2> /dev/null)
+start_daemon "$db" "$work/turns.log" --access tokens --workers 1
+short=(--set bed.thickness_m=0 --set projectile.height_m=0.05 --set time.end_s=0.05)
+"$dembuf" --token "$alice" sweep "${short[@]}" --vary projectile.speed_m_s=1,2,3,4,5,6 > /dev/null 2>&1
+bob_job=$("$dembuf" --token "$bob" submit "${short[@]}" --set projectile.speed_m_s=3 2> /dev/null)
+wait_state "$bob_job" done 120
+order=$(sed -n 's/.*worker 0: job \([0-9]*\) starts.*/\1/p' "$work/turns.log" | tr '\n' ' ')
+second=$(echo "$order" | awk '{print $2}')
+[ "$second" = "$bob_job" ] || fail "bob's job $bob_job waited behind alice's sweep: jobs started $order"
+stop_daemon
+
+# Stored results have a quota per user; deleting frees it.
+printf 'access = "tokens"\nquota_stored_mb = 1.05\n' > "$work/quota.toml"
+start_daemon "$db" "$work/quota.log" --config "$work/quota.toml"
+"$dembuf" --token "$bob" server-info | grep -q "of 1.05 MB of stored results" ||
+  fail "server-info does not show the quota: $("$dembuf" --token "$bob" server-info)"
+tiny=(--set bed.thickness_m=0 --set projectile.height_m=0.05 --set time.end_s=0.01
+  --set time.output_interval_s=1e-3)
+expect_exit 1 "over your quota on the server: owner: bob stores .* MB of results.*quota_stored_mb.*dembuf delete" \
+  "$dembuf" --token "$bob" submit "${tiny[@]}"
+expect_exit 0 "deleted 1 job(s)" "$dembuf" --token "$bob" delete "$bob_job"
+expect_exit 2 "no job $bob_job" "$dembuf" --token "$bob" status "$bob_job"
+"$dembuf" --token "$bob" submit "${tiny[@]}" > /dev/null 2> "$work/err" || fail "after the delete: $(cat "$work/err")"
+stop_daemon
+
+# --check-db on a database of an older schema reads only.
+"$dembufd" --db "$work/old.db" token-list > /dev/null 2>&1
+python3 - "$work/old.db" <<'PY'
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+db.executescript("ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
+                 "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
+                 "ALTER TABLE jobs DROP COLUMN bed_file; ALTER TABLE jobs DROP COLUMN result_nonce; "
+                 "PRAGMA user_version = 7;")
+db.close()
+PY
+before=$(sha256sum "$work/old.db" | cut -d' ' -f1)
+expect_exit 1 "schema version 7, older than this dembufd's .*: not verified" \
+  "$dembufd" --db "$work/old.db" --check-db
+[ "$(sha256sum "$work/old.db" | cut -d' ' -f1)" = "$before" ] || fail "--check-db changed the database"
 echo "decisions test passed"

@@ -62,11 +62,17 @@ job=$(grpc owner submit "${scene[@]}" 2>/dev/null)
 DEMBUF_TOKEN=$alice wait_state "$job" "done" 60
 sweep=$(grpc owner sweep "${scene[@]}" --vary projectile.speed_m_s=1,2 2>&1 | sed -n 's/^sweep \([0-9]*\).*/\1/p')
 [ -n "$sweep" ] || fail "alice's sweep was not submitted"
+# Two more of hers, ended, for deleting: one by her, one by the admin.
+declare -A deletable
+for who in owner admin; do
+  deletable[$who]=$(grpc owner submit "${scene[@]}" 2>/dev/null)
+  DEMBUF_TOKEN=$alice wait_state "${deletable[$who]}" "done" 60
+done
 
 for who in "${callers[@]}"; do
   case $who in
     none)
-      for args in "server-info" "list" "status $job" "watch $job" "cancel $job" \
+      for args in "server-info" "list" "status $job" "watch $job" "cancel $job" "delete $job" \
         "fetch $job --out $work/f-none" "status --sweep $sweep" "submit ${scene[*]}"; do
         # shellcheck disable=SC2086
         refused_grpc none "needs a token" $args
@@ -77,7 +83,7 @@ for who in "${callers[@]}"; do
       done
       ;;
     wrong)
-      for args in "server-info" "list" "status $job" "watch $job" "cancel $job" \
+      for args in "server-info" "list" "status $job" "watch $job" "cancel $job" "delete $job" \
         "fetch $job --out $work/f-wrong" "submit ${scene[*]}"; do
         # shellcheck disable=SC2086
         refused_grpc wrong "not known to this server" $args
@@ -92,7 +98,7 @@ for who in "${callers[@]}"; do
       if grep -q "alice" "$work/out"; then fail "bob lists alice's jobs"; fi
       refused_grpc other "owner: bob may act only as bob" list --owner alice
       for args in "status $job" "watch $job" "cancel $job" "fetch $job --out $work/f-other" \
-        "status --sweep $sweep" "cancel --sweep $sweep"; do
+        "status --sweep $sweep" "cancel --sweep $sweep" "delete $job" "delete --sweep $sweep"; do
         # shellcheck disable=SC2086
         refused_grpc other "belongs to alice" $args
       done
@@ -113,6 +119,7 @@ for who in "${callers[@]}"; do
       allowed_grpc "$who" "has already ended" cancel "$job"
       allowed_grpc "$who" "wrote" fetch "$job" --out "$work/f-$who" --no-plots
       allowed_grpc "$who" "owner alice" status --sweep "$sweep"
+      allowed_grpc "$who" "deleted 1 job" delete "${deletable[$who]}"
       allowed_grpc "$who" "" --owner alice submit "${scene[@]}"
       expect_http "$who" /api/server 200 '"tokens_required":true'
       expect_http "$who" /api/jobs 200 '"owner":"alice"'

@@ -317,6 +317,13 @@ class Client:
         request = pb.CancelRequest(job_id=job or 0, sweep_id=sweep or 0)
         return self._call(self._stub.Cancel, request).cancelled
 
+    def delete(self, job: int | None = None, sweep: int | None = None) -> int:
+        """Deletes an ended job, or a sweep whose jobs have all ended with its jobs, and what
+        the daemon stores of them (their results count against the user's quota_stored_mb);
+        returns how many jobs."""
+        request = pb.DeleteRequest(job_id=job or 0, sweep_id=sweep or 0)
+        return self._call(self._stub.Delete, request).deleted
+
     # -- following -----------------------------------------------------------------------------
 
     def job(self, job: int) -> dict:

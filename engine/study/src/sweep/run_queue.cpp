@@ -47,12 +47,10 @@ void RunQueue::Requeue(Id id) {
   m_changed.notify_all();
 }
 
-bool RunQueue::WaitsLocked(const Entry& run) {
-  // A bed another worker is preparing will be ready soon; preparing it twice would waste a
-  // worker, and waiting for it would idle one.
+std::vector<BedNeeds> RunQueue::BusyLocked() const {
   std::vector<BedNeeds> busy;
   for (const auto& [id, running] : m_running) busy.push_back(running.needs.beds);
-  return WaitsForBed(run.needs.beds, busy, m_beds);
+  return busy;
 }
 
 std::optional<RunQueue::Id> RunQueue::Next(const std::function<std::atomic<int>*(Id)>& start) {
@@ -66,14 +64,34 @@ std::optional<RunQueue::Id> RunQueue::Next(const std::function<std::atomic<int>*
     }
     // A run gets a core at least: more runs than cores would wait for each other at every
     // step (8 runs on 2 cores took 3.3 times as long as 2).
-    const bool core_free = m_running.size() < static_cast<std::size_t>(m_cores);
-    for (auto it = m_queue.begin(); core_free && it != m_queue.end(); ++it) {
-      if (WaitsLocked(*it)) continue;
-      const Entry run = *it;
-      m_queue.erase(it);
-      m_running[run.id] = {run.needs, start(run.id)};
-      ShareCoresLocked();
-      return run.id;
+    if (m_running.size() < static_cast<std::size_t>(m_cores)) {
+      // Each owner's first run that may start now competes; the owner whose last run started
+      // longest ago (or never) wins, the earlier run on a tie. A bed another worker is
+      // preparing will be ready soon: preparing it twice would waste a worker, and waiting for
+      // it would idle one, so a run waiting for one is passed over.
+      const std::vector<BedNeeds> busy = BusyLocked();
+      std::map<std::string, bool> seen;  // owners whose first run that may start is found
+      auto chosen = m_queue.end();
+      std::uint64_t chosen_turn = 0;
+      for (auto it = m_queue.begin(); it != m_queue.end(); ++it) {
+        if (seen.count(it->needs.owner) || WaitsForBed(it->needs.beds, busy, m_beds)) continue;
+        seen[it->needs.owner] = true;
+        const auto last = m_last_start.find(it->needs.owner);
+        const std::uint64_t turn = last == m_last_start.end() ? 0 : last->second;
+        if (chosen == m_queue.end() || turn < chosen_turn) {
+          chosen = it;
+          chosen_turn = turn;
+          if (turn == 0) break;  // an owner with no run started yet: none comes before it
+        }
+      }
+      if (chosen != m_queue.end()) {
+        const Entry run = *chosen;
+        m_queue.erase(chosen);
+        m_last_start[run.needs.owner] = ++m_starts;
+        m_running[run.id] = {run.needs, start(run.id)};
+        ShareCoresLocked();
+        return run.id;
+      }
     }
     // Nothing may start: wait for a new run, an ended one or a prepared bed. The timeout
     // covers a cancel flag set by a signal handler and a bed stored by another process.

@@ -1,11 +1,13 @@
 // The queue of runs that parallel workers take from: a local sweep's workers and the daemon's
-// alike. Runs go in their order, except that a run whose bed another running run is preparing
-// is passed over (WaitsForBed) while the workers take others, so a bed is prepared once, by one
-// worker; when every run left waits, a worker sleeps until a bed is ready or a run ends. The
-// machine's cores are shared among the running runs by what each can use (ShareCores): a run
-// preparing a source bed others wait for gets the cores its beds can feed first, and cores no
-// run can feed stay free. No more runs go at once than there are cores: workers beyond them
-// wait for a core.
+// alike. Runs go in their order, their owners in turn (the daemon's users: the owner whose
+// last run started longest ago goes first, so that one user's 10,000 runs do not hold back
+// another's one run for more than a run's time), except that a run whose bed another running
+// run is preparing is passed over (WaitsForBed) while the workers take others, so a bed is
+// prepared once, by one worker; when every run left waits, a worker sleeps until a bed is ready or
+// a run ends. The machine's cores are shared among the running runs by what each can use
+// (ShareCores): a run preparing a source bed others wait for gets the cores its beds can feed
+// first, and cores no run can feed stay free. No more runs go at once than there are cores: workers
+// beyond them wait for a core.
 #pragma once
 
 #include <atomic>
@@ -18,6 +20,8 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/sweep/schedule.h"
@@ -28,11 +32,12 @@ class RunQueue {
  public:
   using Id = std::int64_t;
   using Clock = std::chrono::steady_clock;
-  /// What the queue knows of a run: the beds it needs, and how many threads they can feed
-  /// (without a load, it may take every core).
+  /// What the queue knows of a run: the beds it needs, how many threads they can feed
+  /// (without a load, it may take every core), and whose it is ("" for a local sweep's).
   struct Needs {
     BedNeeds beds;
     RunLoad load;
+    std::string owner{};
   };
 
   /// Runs share `cores` engine threads, at most `cores` runs at once; `beds` tells which beds
@@ -78,7 +83,8 @@ class RunQueue {
     Needs needs;
     std::atomic<int>* threads;
   };
-  bool WaitsLocked(const Entry& run);
+  /// The beds the running runs are preparing or use (what a queued run may wait for).
+  std::vector<BedNeeds> BusyLocked() const;
   void ShareCoresLocked();
 
   BedCache& m_beds;
@@ -88,6 +94,9 @@ class RunQueue {
   std::condition_variable m_changed;
   std::deque<Entry> m_queue;
   std::map<Id, Running> m_running;
+  /// When each owner's last run started (a count of starts): the smallest goes next.
+  std::map<std::string, std::uint64_t> m_last_start;
+  std::uint64_t m_starts = 0;
   bool m_closed = false;
   bool m_stopped = false;
   Clock::time_point m_paused_until{};

@@ -14,7 +14,8 @@ extern char** environ;
 
 namespace dembuf {
 
-ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::milliseconds timeout) {
+ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::milliseconds timeout,
+                         const std::vector<std::string>& environment) {
   if (args.empty()) throw std::invalid_argument("RunProgram: no program");
   int pipe_fds[2];
   if (pipe2(pipe_fds, O_CLOEXEC) != 0)
@@ -28,7 +29,14 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   pid_t pid = 0;
-  const int spawned = posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), environ);
+  // This process's environment, with `environment`'s NAME=value entries put first (the first
+  // of a name is the one a program reads).
+  std::vector<char*> envp;
+  for (const std::string& entry : environment) envp.push_back(const_cast<char*>(entry.c_str()));
+  for (char** e = environ; *e; ++e) envp.push_back(*e);
+  envp.push_back(nullptr);
+  const int spawned =
+      posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
   close(pipe_fds[1]);
   ProgramResult result;

@@ -18,9 +18,12 @@ struct ProgramResult {
 };
 
 /// Runs `args[0]` (looked up in PATH) with these arguments, no shell between, and waits for it;
-/// after `timeout` (0: none) it is killed and timed_out is set.
+/// after `timeout` (0: none) it is killed and timed_out is set. `environment` ("NAME=value"
+/// entries) is added to this process's environment for it: unlike its arguments, which every
+/// account may read in /proc, its environment only its own account may.
 ProgramResult RunProgram(const std::vector<std::string>& args,
-                         std::chrono::milliseconds timeout = std::chrono::milliseconds(0));
+                         std::chrono::milliseconds timeout = std::chrono::milliseconds(0),
+                         const std::vector<std::string>& environment = {});
 
 /// `text` as one word for a POSIX shell: in single quotes, each quote written '\''. For the
 /// one place a shell line cannot be avoided (sbatch --wrap).

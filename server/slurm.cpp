@@ -165,13 +165,10 @@ std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& 
     args.push_back("--kill-on-invalid-dep=yes");
   }
   args.insert(args.end(), settings.extra_args.begin(), settings.extra_args.end());
-  std::string line;
-  for (const auto& [name, value] : job.environment) {
-    if (name.empty() || name.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZ_") != std::string::npos)
-      throw SlurmError("not an environment variable's name: " + name.substr(0, 40));
-    line += "export " + name + "=" + ShellQuote(value) + "; ";
-  }
-  line += "exec";
+  // The job gets sbatch's environment, the variables of the submission among it
+  // (SubmitEnvironment).
+  if (!job.environment.empty()) args.push_back("--export=ALL");
+  std::string line = "exec";
   for (const std::string& word : job.command) {
     line += ' ';
     line += ShellQuote(word);
@@ -197,8 +194,10 @@ bool SlurmUnreachable(const std::string& error) {
   return error.find("submission failed") == std::string::npos;
 }
 
-std::string Client::Run(const std::vector<std::string>& args, bool check) {
-  const ProgramResult result = RunProgram(args, std::chrono::seconds(m_settings.command_timeout_s));
+std::string Client::Run(const std::vector<std::string>& args, bool check,
+                        const std::vector<std::string>& environment) {
+  const ProgramResult result =
+      RunProgram(args, std::chrono::seconds(m_settings.command_timeout_s), environment);
   if (result.timed_out)
     throw SlurmError(args[0] + " did not answer in " +
                      std::to_string(m_settings.command_timeout_s) + " s");
@@ -208,8 +207,18 @@ std::string Client::Run(const std::vector<std::string>& args, bool check) {
   return result.output;
 }
 
+std::vector<std::string> SubmitEnvironment(const Submission& job) {
+  std::vector<std::string> environment;
+  for (const auto& [name, value] : job.environment) {
+    if (name.empty() || name.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZ_") != std::string::npos)
+      throw SlurmError("not an environment variable's name: " + name.substr(0, 40));
+    environment.push_back(name + "=" + value);
+  }
+  return environment;
+}
+
 std::int64_t Client::Submit(const Submission& job) {
-  const std::string output = Run(SbatchArgs(m_settings, job));
+  const std::string output = Run(SbatchArgs(m_settings, job), true, SubmitEnvironment(job));
   const std::optional<std::int64_t> id = ParseSbatchId(output);
   if (!id) throw SlurmError("sbatch did not print a job id: " + output.substr(0, 2000));
   return *id;

@@ -78,14 +78,18 @@ struct Submission {
   int time_s = 0;                      ///< 0: the partition's default
   std::vector<std::int64_t> after_ok;  ///< jobs that must end well first
   std::vector<std::string> command;    ///< the program and its arguments
-  /// Variables the job's script exports before the command (names of [A-Z_], made by the
-  /// daemon): in the script, which Slurm shows its owner only, not on a command line.
+  /// Variables the job gets (names of [A-Z_], made by the daemon): in sbatch's environment,
+  /// which sbatch hands to the job (--export=ALL) and only the daemon's account may read, not
+  /// on sbatch's command line, which every account on the machine may.
   std::vector<std::pair<std::string, std::string>> environment;
 };
 
 /// The sbatch arguments of a submission: every value one argument, and the command a single
 /// shell word each (sbatch --wrap runs a shell line: each word is quoted).
 std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& job);
+/// The "NAME=value" entries sbatch runs with for a submission (its `environment`). Throws
+/// SlurmError for a name that is not one of [A-Z_].
+std::vector<std::string> SubmitEnvironment(const Submission& job);
 
 /// Runs the commands. Thread-compatible (no state besides the settings).
 class Client {
@@ -106,7 +110,8 @@ class Client {
   const Settings& settings() const { return m_settings; }
 
  private:
-  std::string Run(const std::vector<std::string>& args, bool check = true);
+  std::string Run(const std::vector<std::string>& args, bool check = true,
+                  const std::vector<std::string>& environment = {});
 
   Settings m_settings;
 };

@@ -35,8 +35,8 @@ constexpr const char* kNodeBedFile = "bed-file";
 
 // A run's summary.json or failure.json, as a node left it: a regular file of the daemon's
 // (no link followed), bounded (a summary is a few kB), no deeper than kMaxJsonDepth, a JSON
-// object, and written by the run this daemon started: it carries the nonce of the job's
-// script, which is taken out. Nothing when the file is absent; a std::runtime_error saying
+// object, and written by the run this daemon started: it carries the nonce the daemon gave
+// the job, which is taken out. Nothing when the file is absent; a std::runtime_error saying
 // what is wrong otherwise.
 std::optional<nlohmann::json> ReadRunJson(const OwnedFolder& out, const std::string& name,
                                           const std::string& nonce) {
@@ -48,14 +48,16 @@ std::optional<nlohmann::json> ReadRunJson(const OwnedFolder& out, const std::str
   if (nonce.empty() || proof == json.end() || !proof->is_string() || *proof != nonce)
     throw std::runtime_error(name +
                              " was not written by the run this daemon started (it lacks "
-                             "the nonce of the job's script)");
+                             "the nonce the daemon gave the job)");
   json.erase(proof);
   return json;
 }
 
 // Samples read from a run's stream in one pass at most: a run gone wild cannot make the
-// daemon read gigabytes at once (48 MB; the rest comes in the next passes).
-constexpr std::uint64_t kMaxSamplesPerRead = 1 << 20;
+// daemon read much at once (3 MB; the rest comes in the next passes).
+constexpr std::uint64_t kMaxSamplesPerRead = 1 << 16;
+// Samples read at a job's end at most (a run writes its last ones between two looks).
+constexpr std::uint64_t kMaxSamplesAtEnd = 1 << 20;
 
 // Result files read back from a job's folder at most: a server job takes at most
 // kMaxServerSnapshots snapshots of report::SnapshotFiles' seven files each and their .pvd,
@@ -415,7 +417,9 @@ std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& s
 
 void SlurmExecutor::AddBed(const PreparedBed& bed) {
   // The nodes read their beds from the shared folder's bed cache, a FolderBedStore.
-  FolderBedStore(m_beds.path()).Save(bed);
+  // Written as FolderBedStore names and reads it, but made exclusively and renamed into
+  // place: never through a link a node may have left there.
+  m_beds.Write(bed.hash + ".bed", SerializeBed(bed));
 }
 
 void SlurmExecutor::Submit(const JobRecord& job) {
@@ -538,7 +542,21 @@ void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& sta
       if (const auto it = m_followed.find(job.id); it != m_followed.end()) followed = &it->second;
     }
     if (!followed) followed = &StartFollowing(job);
-    Follow(job.id, *followed);
+    if (!Follow(job.id, *followed)) {
+      // More samples than its run may write: a node gone wrong. Ended here, not taken.
+      m_slurm.Cancel(job.slurm_id);
+      Finish(job, s);
+    }
+  }
+}
+
+std::uint64_t SlurmExecutor::SamplesMax(const JobRecord& job) {
+  try {
+    return static_cast<std::uint64_t>(
+               std::ceil(EstimateResources(SceneOfJob(m_store, job)).samples_max)) +
+           1;
+  } catch (const std::exception&) {
+    return kMaxSamplesAtEnd;  // a scene the estimate cannot take: the job fails as it ends
   }
 }
 
@@ -552,16 +570,20 @@ SlurmExecutor::Followed& SlurmExecutor::StartFollowing(const JobRecord& job) {
   } catch (const std::exception&) {
     followed.expected_end_s = 0.0;  // progress unknown; the samples still come
   }
+  followed.samples_max = SamplesMax(job);
   std::lock_guard lock(m_mutex);
   return m_followed[job.id] = std::move(followed);
 }
 
-void SlurmExecutor::Follow(std::int64_t id, Followed& followed) {
+bool SlurmExecutor::Follow(std::int64_t id, Followed& followed) {
   LiveJob& live = *followed.live;
   auto [first, held] = live.UnstoredSamples();
-  const std::int64_t read = first + static_cast<std::int64_t>(held.size());
+  const auto read = static_cast<std::uint64_t>(first) + held.size();
+  // One sample past what the run may write is enough to tell.
+  const std::uint64_t room = followed.samples_max > read ? followed.samples_max - read : 0;
   const std::vector<ImpactSample> fresh =
-      ReadSamples(JobFolder(id, false), static_cast<std::uint64_t>(read), kMaxSamplesPerRead);
+      ReadSamples(JobFolder(id, false), read, std::min(kMaxSamplesPerRead, room + 1));
+  if (fresh.size() > room) return false;
   for (const ImpactSample& sample : fresh) live.Append(sample);
   if (!fresh.empty()) {
     const double t = fresh.back().t_s;
@@ -573,6 +595,7 @@ void SlurmExecutor::Follow(std::int64_t id, Followed& followed) {
     m_store.AppendSeries(id, from, samples);
     live.Stored(from + static_cast<std::int64_t>(samples.size()));
   }
+  return true;
 }
 
 void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobStatus>& status) {
@@ -588,13 +611,18 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
   std::vector<report::ResultFile> files;
   try {
     const OwnedFolder folder = JobFolder(job.id, false);
-    const std::vector<ImpactSample> tail = ReadSamples(
-        folder, static_cast<std::uint64_t>(first) + rest.size(), 8 * kMaxSamplesPerRead);
-    // More than a run of dembuf's writes after its last look: not taken.
-    if (tail.size() == 8 * kMaxSamplesPerRead)
-      throw std::runtime_error(
-          "its samples.bin holds more samples than the daemon reads at a job's end (" +
-          std::to_string(8 * kMaxSamplesPerRead) + ")");
+    // More than its run may write, or than a run writes between two looks: not taken.
+    const auto read = static_cast<std::uint64_t>(first) + rest.size();
+    const std::uint64_t samples_max = SamplesMax(job);
+    const std::uint64_t room =
+        std::min(samples_max > read ? samples_max - read : 0, kMaxSamplesAtEnd);
+    const std::vector<ImpactSample> tail = ReadSamples(folder, read, room + 1);
+    if (tail.size() > room)
+      throw std::runtime_error("its samples.bin holds more samples than its run may write (" +
+                               std::to_string(samples_max) +
+                               ") or the daemon reads at a job's "
+                               "end (" +
+                               std::to_string(kMaxSamplesAtEnd) + "); none was taken");
     rest.insert(rest.end(), tail.begin(), tail.end());
     std::optional<OwnedFolder> out;
     if (folder.Contains("out")) out = folder.Folder("out", false);

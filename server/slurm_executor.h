@@ -11,8 +11,8 @@
 // The daemon owns work_dir (owned_files.h): it must be the daemon's account's and closed to
 // others, every name in it is one the daemon makes, and what a node leaves is read without
 // following links and within bounds. A run's result is taken only with the random nonce the
-// daemon wrote into that job's script (DEMBUF_RESULT_NONCE, which `dembuf run` writes into
-// summary.json and failure.json): a file another account or an earlier daemon left is not.
+// daemon gave that job (DEMBUF_RESULT_NONCE, in sbatch's environment, which `dembuf run` writes
+// into summary.json and failure.json): a file another account or an earlier daemon left is not.
 //
 // A bed is prepared once, by a job of its own (the source bed first when it has one), and the
 // jobs that need it wait for it with --dependency=afterok. The run's own files are the truth
@@ -68,7 +68,8 @@ class SlurmExecutor final : public Executor {
   /// What the daemon follows of a running job.
   struct Followed {
     std::shared_ptr<LiveJob> live;
-    double expected_end_s = 0.0;  ///< simulated time at which the run ends at the latest
+    double expected_end_s = 0.0;    ///< simulated time at which the run ends at the latest
+    std::uint64_t samples_max = 0;  ///< the most samples its run may write (its estimate)
   };
 
   void Loop();
@@ -90,8 +91,12 @@ class SlurmExecutor final : public Executor {
   void FailDependents(const std::string& bed_hash, const std::string& why);
   /// Cancels the bed jobs that no job waits for any more.
   void CancelUnneededBeds();
-  /// Reads the job's new samples from samples.bin into its LiveJob, storing full chunks.
-  void Follow(std::int64_t id, Followed& followed);
+  /// Reads the job's new samples from samples.bin into its LiveJob, storing full chunks; false
+  /// (nothing more taken) once the file holds more samples than its run may write.
+  bool Follow(std::int64_t id, Followed& followed);
+  /// The most samples a job's run may write, by its estimate (a node may write more: they are
+  /// not taken).
+  std::uint64_t SamplesMax(const JobRecord& job);
   Followed& StartFollowing(const JobRecord& job);
 
   /// A job's folder, made when `make` is set (else OwnershipError when it is not there).
@@ -104,7 +109,7 @@ class SlurmExecutor final : public Executor {
   /// A Slurm job of `dembuf dembuf_args...` in `folder`, where it writes the scene (and its
   /// bed file), after job `after` (0: none): its memory and time from the settings, else from
   /// the scene's estimate (`bed_only`: the estimate of preparing its bed; else of its impact
-  /// alone). `nonce`, when given, goes into the job's script as DEMBUF_RESULT_NONCE.
+  /// alone). `nonce`, when given, goes to the job as DEMBUF_RESULT_NONCE (sbatch's environment).
   slurm::Submission NewSubmission(const std::string& name, const OwnedFolder& folder,
                                   const std::string& scene_toml, const Scene& scene, bool bed_only,
                                   std::int64_t after, const std::vector<std::string>& dembuf_args,

@@ -9,6 +9,11 @@
 #   refused past 64 levels, the job failing with the reason.
 # - samples.bin as a link to the database was followed and stored as the job's samples: now
 #   no link is followed; the job fails saying so.
+# - a samples.bin of 100,000 samples from a run that writes at most 502 was read whole, a few
+#   MB a look: now the job is cancelled on Slurm at the first sample past its estimate, and
+#   fails saying so.
+# - a pushed bed was written to the cluster's bed cache as HASH.bed.tmp, through a link of
+#   that name: now under a name of its own, made exclusively, and renamed into place.
 # - a real run on the fake cluster (which runs the job's script) ends done: the nonce goes from
 #   the script through `dembuf run` to the daemon.
 # Usage: hostile_node_test.sh DEMBUF DEMBUFD
@@ -36,13 +41,15 @@ node() {
   folder=$(cat "$FAKE_SLURM_DIR/jobs/$slurm_id/chdir")
   mkdir -p "$folder/out"
 }
-nonce_of() { sed -n "s/^export DEMBUF_RESULT_NONCE='\([0-9a-f]*\)'.*/\1/p" "$FAKE_SLURM_DIR/jobs/$1/wrap"; }
+# The nonce a job was submitted with (in sbatch's environment, never on its command line).
+nonce_of() { cat "$FAKE_SLURM_DIR/jobs/$1/nonce"; }
 ends() { echo COMPLETED > "$FAKE_SLURM_DIR/jobs/$slurm_id/state"; wait_state "$1" "done failed" 60; }
 note() { "$dembuf" status "$1" | sed -n 's/^note: //p'; }
 
 # 1. A result without the script's nonce.
 job=$("$dembuf" submit "${bare[@]}")
 node "$job"
+grep -q "$(nonce_of "$slurm_id")" "$FAKE_SLURM_DIR/jobs/$slurm_id/args" && fail "the nonce is on sbatch's command line"
 printf '{"P_N": 1e9, "provenance": {"forged": true}}\n' > "$folder/out/summary.json"
 ends "$job"
 [ "$(job_state "$job")" = failed ] || fail "a planted summary.json was taken: $("$dembuf" status "$job")"
@@ -77,6 +84,38 @@ ends "$job"
 note "$job" | grep -q "symbolic link" || fail "linked samples: $(note "$job")"
 "$dembuf" fetch "$job" --out "$work/linked" --no-plots > /dev/null 2>&1 || true
 [ "$(wc -l < "$work/linked/plate_force.csv")" -le 1 ] || fail "the database was stored as samples"
+
+# 3b. samples.bin far longer than its run may write (the bare plate's estimate: 502 samples):
+#   it was read to the end, a few MB a look, into the store; now the job is cancelled on
+#   Slurm and fails saying so, and no more than its estimate is kept.
+job=$("$dembuf" submit "${bare[@]}")
+node "$job"
+head -c $((100000 * 48)) /dev/zero > "$folder/samples.new"
+mv "$folder/samples.new" "$folder/samples.bin"
+echo RUNNING > "$FAKE_SLURM_DIR/jobs/$slurm_id/state"
+wait_state "$job" "done failed" 60
+[ "$(job_state "$job")" = failed ] || fail "100,000 samples were taken from a run that writes 502"
+note "$job" | grep -q "holds more samples than its run may write" || fail "long samples: $(note "$job")"
+[ "$(cat "$FAKE_SLURM_DIR/jobs/$slurm_id/state")" = CANCELLED ] || fail "the Slurm job was left running"
+"$dembuf" fetch "$job" --out "$work/long" --no-plots > /dev/null 2>&1 || true
+[ "$(cat "$work/long/plate_force.csv" 2> /dev/null | wc -l)" -le 504 ] || fail "more samples than the estimate were stored"
+
+# 3c. Links where a pushed bed goes in the cluster's bed cache, and where it was written first
+#   (HASH.bed.tmp, a name anyone could foresee): neither is written through.
+small_scene "$work/small.toml"
+"$dembuf" prepare-bed "$work/small.toml" --bed-cache "$work/local-beds" > "$work/prepared" 2>&1 ||
+  fail "prepare-bed: $(cat "$work/prepared")"
+cut=$(sed -n 's/^cut bed \([0-9a-f]*\).*/\1/p' "$work/prepared")
+echo "the daemon's own file" > "$work/victim"
+for name in "$cut.bed" "$cut.bed.tmp"; do
+  ln -s "$work/victim" "$work/shared/beds/$name" || fail "cannot plant the link $name"
+done
+"$dembuf" bed push "$work/small.toml" --bed-cache "$work/local-beds" > "$work/push" 2>&1 ||
+  fail "push: $(cat "$work/push")"
+[ "$(cat "$work/victim")" = "the daemon's own file" ] || fail "the pushed bed was written through a link"
+[ -f "$work/shared/beds/$cut.bed" ] && [ ! -L "$work/shared/beds/$cut.bed" ] ||
+  fail "the link was left in the bed cache"
+cmp -s "$work/shared/beds/$cut.bed" "$work/local-beds/$cut.bed" || fail "the pushed bed differs"
 
 # 4. A real run on the fake cluster ends done.
 export FAKE_SLURM_RUN=1

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # A stand-in for Slurm's commands, for tests of dembufd's Slurm executor that play the cluster
 # themselves: sbatch, squeue, scontrol and scancel (this script under each name, in PATH).
-# It keeps its jobs in $FAKE_SLURM_DIR/jobs/ID/ (name, state, chdir, output, wrap) and runs
+# It keeps its jobs in $FAKE_SLURM_DIR/jobs/ID/ (name, state, chdir, wrap, args, and the
+# DEMBUF_RESULT_NONCE of the environment it was submitted with) and runs
 # nothing unless FAKE_SLURM_RUN=1, when sbatch runs the job's --wrap script in its folder in
 # the background (after the jobs of its --dependency=afterok have COMPLETED). Otherwise a test
 # is the node: it writes what a job would leave and sets the job's state with
@@ -34,6 +35,7 @@ case $(basename "$0") in
     printf '%s' "$chdir" > "$dir/jobs/$id/chdir"
     printf '%s' "$wrap" > "$dir/jobs/$id/wrap"
     printf '%s\n' "$@" > "$dir/jobs/$id/args"
+    printf '%s' "${DEMBUF_RESULT_NONCE:-}" > "$dir/jobs/$id/nonce"  # as the job's environment has it
     echo PENDING > "$dir/jobs/$id/state"
     flock -u 9
     if [ "${FAKE_SLURM_RUN:-0}" = 1 ]; then

@@ -68,7 +68,7 @@ class SampleStreamWriter {
 };
 
 /// A daemon's proof that a run's result is the run's it started on a cluster: the daemon puts a
-/// random nonce into the job's script as this variable, and `dembuf run` writes it into its
+/// random nonce in the job's environment as this variable, and `dembuf run` writes it into its
 /// summary.json and failure.json under kResultNonceKey. A result without it is not taken.
 inline constexpr const char* kResultNonceVariable = "DEMBUF_RESULT_NONCE";
 inline constexpr const char* kResultNonceKey = "result_nonce";

@@ -57,7 +57,8 @@ AdmittedJob AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& se
 }
 
 AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optional<BedFile>& sent,
-                         const ResourceLimits& limits, std::size_t max_runs) {
+                         const ResourceLimits& limits, std::size_t max_runs,
+                         const std::function<bool()>& cancelled) {
   CheckSweepAxes(request);
   const Scene base = ResolveSceneSpec(request.base(), sent);
   AdmittedSweep sweep;
@@ -68,6 +69,7 @@ AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optio
   sweep.axes = WithSeedAxis(sweep.axes, std::max(1, request.seeds()), base.bed.seed);
   // Each run as soon as its axes are set: before anything looks at what they name.
   sweep.runs = ExpandSweep(base, sweep.axes, max_runs, [&](const Scene& run) {
+    if (cancelled && cancelled()) throw Cancelled();  // no work for a caller who left
     sweep.output_bytes += AdmitScene(run, sent, limits).output_bytes_max;
   });
   return sweep;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <optional>
 
 #include <vector>
@@ -48,7 +49,9 @@ struct AdmittedSweep {
   std::vector<SweepRun> runs;
   double output_bytes = 0.0;  ///< what their results may store at most, in all
 };
+/// `cancelled`, when given, is asked before each run: true throws Cancelled (the caller left).
 AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optional<BedFile>& sent,
-                         const ResourceLimits& limits, std::size_t max_runs);
+                         const ResourceLimits& limits, std::size_t max_runs,
+                         const std::function<bool()>& cancelled = {});
 
 }  // namespace dembuf::server

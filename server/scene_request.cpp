@@ -83,10 +83,10 @@ Scene ResolveSceneSpec(const v1::SceneSpec& spec, const std::optional<BedFile>& 
   if (!spec.bed_file().empty()) {
     if (!bed_file) throw SceneError("bed_file", "no bed file " + spec.bed_file());
     scene.bed.import = bed_file->name;
-    scene.bed.import_bytes = std::make_shared<const std::string>(bed_file->data);
+    scene.bed.import_bytes = bed_file->data;
+    scene.bed.import_sha256 = bed_file->sha256;  // checked against the bytes as it was read
   }
-  ValidateScene(scene);
-  return scene;
+  return scene;  // validated by AdmitScene, once it is the scene that will run
 }
 
 Scene SceneOfJob(Store& store, const JobRecord& job) {
@@ -101,7 +101,8 @@ Scene SceneOfJob(Store& store, const JobRecord& job) {
   if (!file) throw SceneError("bed_file", what + ": its bed file " + job.bed_file + " is gone");
   // The bytes first: the file is not on this machine's disk, and the scene is validated.
   Scene with_bytes;
-  with_bytes.bed.import_bytes = std::make_shared<const std::string>(file->data);
+  with_bytes.bed.import_bytes = file->data;
+  with_bytes.bed.import_sha256 = file->sha256;
   Scene scene = LoadSceneText(job.scene_toml, what, with_bytes);
   if (scene.bed.import != file->name || !IsPlainBedFileName(scene.bed.import))
     throw SceneError("bed.import", what + " names a bed file other than the one sent with it");

@@ -16,10 +16,11 @@ inline constexpr int kMaxAssignments = 1000;
 inline constexpr int kMaxAxes = 16;
 inline constexpr int kMaxAxisValues = 10000;
 /// The default scene, then the preset, the scene file text, the accuracy level, the typed
-/// fields, and each `set` assignment, in that order; validated. Throws SceneError naming the field
-/// at fault. `bed_file` is the bed file the spec names (SceneSpec.bed_file), found by the
-/// caller: the scene imports it, under its name, from its bytes. What the daemon accepts is
-/// decided later, by AdmitScene (admission.h), on the scene as it will run.
+/// fields, and each `set` assignment, in that order. Throws SceneError naming the field at
+/// fault in any of them; the scene as a whole is checked by AdmitScene. `bed_file` is the bed file
+/// the spec names (SceneSpec.bed_file), found by the caller: the scene imports it, under its name,
+/// from its bytes. What the daemon accepts is decided later, by AdmitScene (admission.h), on the
+/// scene as it will run.
 Scene ResolveSceneSpec(const v1::SceneSpec& spec,
                        const std::optional<BedFile>& bed_file = std::nullopt);
 

@@ -5,6 +5,7 @@
 #include <ctime>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <set>
 #include <tuple>
 
 #include "dembuf/study/files/provenance.h"
@@ -169,8 +170,8 @@ CREATE TABLE bed_files (
 ALTER TABLE jobs ADD COLUMN bed_file TEXT NOT NULL DEFAULT '';
 )sql",
     R"sql(
--- The Slurm executor's proof that a run's result is the run's it started: a random nonce put
--- into the job's script, which the run writes into its summary.json and failure.json.
+-- The Slurm executor's proof that a run's result is the run's it started: a random nonce
+-- given to its Slurm job, which the run writes into its summary.json and failure.json.
 ALTER TABLE jobs ADD COLUMN result_nonce TEXT NOT NULL DEFAULT '';
 )sql",
 };
@@ -1100,25 +1101,32 @@ std::int64_t Store::DeleteJobs(const std::vector<std::int64_t>& ids, std::int64_
   std::lock_guard lock(m_mutex);
   Transaction t(*m_db);
   std::int64_t freed = 0;
+  std::set<std::int64_t> sweeps;
+  if (sweep_id != 0) sweeps.insert(sweep_id);
   for (const std::int64_t id : ids) {
     Statement& bytes = m_db->Prepare(StoredBytesSql("SELECT ?1"));
     bytes.Bind(id);
     freed += bytes.Step() ? bytes.Int(0) : 0;
     bytes.Run();
+    Statement& sweep = m_db->Prepare("SELECT sweep_id FROM jobs WHERE id = ?");
+    sweep.Bind(id);
+    if (sweep.Step() && sweep.Int(0) != 0) sweeps.insert(sweep.Int(0));
+    sweep.Run();
     for (const char* table :
          {"series_chunks", "results", "job_files", "bed_preparations", "events"})
       m_db->Prepare(std::string("DELETE FROM ") + table + " WHERE job_id = ?").Bind(id).Run();
     m_db->Prepare("DELETE FROM submissions WHERE job_id = ?").Bind(id).Run();
     m_db->Prepare("DELETE FROM jobs WHERE id = ?").Bind(id).Run();
   }
-  if (sweep_id != 0) {
+  // A sweep without jobs would stay in the listings, counting nothing.
+  for (const std::int64_t sweep : sweeps) {
     Statement& left = m_db->Prepare("SELECT count(*) FROM jobs WHERE sweep_id = ?");
-    left.Bind(sweep_id);
+    left.Bind(sweep);
     const bool empty = left.Step() && left.Int(0) == 0;
     left.Run();
     if (empty) {
-      m_db->Prepare("DELETE FROM submissions WHERE sweep_id = ?").Bind(sweep_id).Run();
-      m_db->Prepare("DELETE FROM sweeps WHERE id = ?").Bind(sweep_id).Run();
+      m_db->Prepare("DELETE FROM submissions WHERE sweep_id = ?").Bind(sweep).Run();
+      m_db->Prepare("DELETE FROM sweeps WHERE id = ?").Bind(sweep).Run();
     }
   }
   t.Commit();
@@ -1171,7 +1179,7 @@ bool Store::PutBedFile(const BedFile& file, std::int64_t max_bytes_per_owner) {
       removable.emplace_back(files.Text(0), files.Int(1));
   }
   files.Run();
-  const auto size = static_cast<std::int64_t>(file.data.size());
+  const auto size = static_cast<std::int64_t>(file.data->size());
   if (waited_for + size > max_bytes_per_owner)
     throw BedFilesFull(file.owner + "'s bed files waiting for their jobs hold " +
                        std::to_string(waited_for) + " bytes; with these " + std::to_string(size) +
@@ -1182,24 +1190,30 @@ bool Store::PutBedFile(const BedFile& file, std::int64_t max_bytes_per_owner) {
     m_db->Prepare("DELETE FROM bed_files WHERE owner = ? AND sha256 = ?")
         .Bind(file.owner, sha256)
         .Run();
+    m_bed_files_read.erase({file.owner, sha256});
     stored -= bytes;
   }
   Statement& s = m_db->Prepare(
       "INSERT INTO bed_files (owner, sha256, name, data, created_at) VALUES (?, ?, ?, ?, ?)");
-  s.Bind(file.owner, file.sha256, file.name, Statement::Bytes{file.data}, report::UtcNow());
+  s.Bind(file.owner, file.sha256, file.name, Statement::Bytes{*file.data}, report::UtcNow());
   s.Run();
   return true;
 }
 
 std::optional<BedFile> Store::GetBedFile(const std::string& owner, const std::string& sha256) {
+  constexpr std::size_t kBedFilesKept = 4;
   std::lock_guard lock(m_mutex);
+  if (const auto kept = m_bed_files_read.find({owner, sha256}); kept != m_bed_files_read.end())
+    return kept->second;
   Statement& s = m_db->Prepare("SELECT name, data FROM bed_files WHERE owner = ? AND sha256 = ?");
   s.Bind(owner, sha256);
   if (!s.Step()) return std::nullopt;
-  BedFile file{owner, sha256, s.Text(0), s.Blob(1)};
+  BedFile file{owner, sha256, s.Text(0), std::make_shared<const std::string>(s.Blob(1))};
   s.Run();
-  if (report::Sha256Hex(file.data) != sha256)
+  if (report::Sha256Hex(*file.data) != sha256)
     throw DamagedData("bed file " + sha256 + " is damaged: it does not match its checksum");
+  if (m_bed_files_read.size() >= kBedFilesKept) m_bed_files_read.erase(m_bed_files_read.begin());
+  m_bed_files_read.emplace(std::pair{owner, sha256}, file);
   return file;
 }
 

@@ -58,8 +58,8 @@ struct JobRecord {
 struct BedFile {
   std::string owner;
   std::string sha256;
-  std::string name;  ///< as its user named it (plain)
-  std::string data;
+  std::string name;                         ///< as its user named it (plain)
+  std::shared_ptr<const std::string> data;  ///< shared: every job of a sweep imports it
 };
 
 /// A cluster job preparing a bed (the Slurm executor): one per bed hash, shared by every job
@@ -257,8 +257,9 @@ class Store {
   int CountQueuedBy(const std::string& owner);
   /// The bytes of the results stored for `owner`'s jobs (summaries, series, result files).
   std::int64_t StoredBytesOf(const std::string& owner);
-  /// Deletes these jobs (all ended) and what is stored of them, and the sweep `sweep_id`
-  /// (0: none) when it is left without jobs; the bytes of the results freed.
+  /// Deletes these jobs (all ended) and what is stored of them, and every sweep left without
+  /// jobs: theirs, and `sweep_id` (0: none; a sweep asked for may have none); the bytes of the
+  /// results freed.
   std::int64_t DeleteJobs(const std::vector<std::int64_t>& ids, std::int64_t sweep_id);
 
   /// This database's daemon id: 8 random hex digits, made once.
@@ -266,7 +267,7 @@ class Store {
   /// Jobs queued, preparing or running, oldest first.
   std::vector<JobRecord> UnfinishedJobs();
   void SetSlurmId(std::int64_t id, std::int64_t slurm_id);
-  /// Keeps the nonce put into the job's script (the Slurm executor), before it is submitted.
+  /// Keeps the nonce given to the job's Slurm job (the Slurm executor), before it is submitted.
   void SetResultNonce(std::int64_t id, const std::string& nonce);
   /// Notes that the job's user asked to cancel it.
   void RequestCancel(std::int64_t id);
@@ -281,7 +282,8 @@ class Store {
   /// imports are removed to make room, and BedFilesFull is thrown when that is not enough.
   bool PutBedFile(const BedFile& file, std::int64_t max_bytes_per_owner);
   /// The owner's bed file of that SHA-256, or nothing. Throws DamagedData when its bytes no
-  /// longer match it.
+  /// longer match it. The last few read are kept in memory, checked: the jobs of a sweep on
+  /// one file read it once, not once a job.
   std::optional<BedFile> GetBedFile(const std::string& owner, const std::string& sha256);
 
   /// Appends to the provenance log.
@@ -328,6 +330,8 @@ class Store {
 
   StoreOptions m_options;
   int m_schema_version = 0;
+  /// Bed files read and checked lately, by owner and SHA-256 (kBedFilesKept at most).
+  std::map<std::pair<std::string, std::string>, BedFile> m_bed_files_read;
   std::mutex m_mutex;  // one connection, used by one thread at a time
   std::unique_ptr<Database> m_db;
   Beds m_beds{*this};

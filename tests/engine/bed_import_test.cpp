@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include "dembuf/study/bed/bed_io.h"
@@ -197,7 +198,7 @@ TEST(BedImport, OneBeadRepeatedIsRefusedAsAPileBeforeItsPairsAreTried) {
 
 // The pairs are sought by size class: a small bead touching a large one of another class is
 // met, as are pairs within a class; beads of every size class far apart are not.
-TEST(BedImport, PairsOfBeadsOfVerySizesAreFound) {
+TEST(BedImport, PairsOfBeadsOfVeryDifferentSizesAreFound) {
   // A 10 mm bead resting on the plate, and a 0.1 mm bead sunk 5% of its radius into its side.
   const double big = 0.005, small = 0.0001;
   std::ostringstream text;
@@ -207,6 +208,31 @@ TEST(BedImport, PairsOfBeadsOfVerySizesAreFound) {
   text << "0.015 0 0.01 " << small << "\n";  // alone
   const std::string why = Refusal(ImportScene(text.str(), "sizes.txt"));
   EXPECT_NE(why.find("the beads of lines 1 and 2 overlap by 5%"), std::string::npos) << why;
+}
+
+// A sweep of many runs on one large sent file is estimated run by run (and again as each job
+// queues and runs): the file is measured once for its content, not once a run. Shown by
+// giving the same digest with other bytes: the size of the first is what comes back.
+TEST(BedImport, AnImportIsMeasuredOnceForItsContent) {
+  Scene scene = ImportScene("", "measured.txt");
+  scene.bed.import_bytes = std::make_shared<const std::string>(Monolayer(1e-4, 0.0));
+  scene.bed.import_sha256 = std::string(64, 'a');
+  const ImportedBedSize first = MeasureImportedBed(scene);
+  EXPECT_GT(first.beads, 50.0);
+  EXPECT_DOUBLE_EQ(first.max_radius_m, 0.002);
+  EXPECT_DOUBLE_EQ(first.top_m, 0.004);
+  scene.bed.import_bytes = std::make_shared<const std::string>("0 0 0.001 0.001\n");
+  EXPECT_EQ(MeasureImportedBed(scene).beads, first.beads);
+  // Another digest, or the same content checked against another container, is measured anew.
+  scene.bed.import_sha256 = std::string(64, 'b');
+  EXPECT_EQ(MeasureImportedBed(scene).beads, 1.0);
+  scene.bed.import_sha256 = std::string(64, 'a');
+  scene.cylinder.radius_m = 0.03;
+  EXPECT_EQ(MeasureImportedBed(scene).beads, 1.0);
+  // Without a digest given, it is the content's own.
+  scene.bed.import_sha256.clear();
+  EXPECT_EQ(ImportContentSha256(scene),
+            "e2ee763d23d5c80341442fe56dcffe442aa3971ed6437937aff344fcbd949b6d");
 }
 
 }  // namespace

@@ -179,6 +179,32 @@ TEST_F(StoreTest, InterruptedJobsGoBackToTheQueue) {
   EXPECT_EQ(store.QueuedJobs().size(), 2u);
 }
 
+// A sweep whose jobs are deleted one by one goes with its last job (it stayed in the
+// listings, counting nothing); a sweep asked for by its id goes even without jobs.
+TEST_F(StoreTest, ASweepLeftWithoutJobsIsDeletedWithTheLast) {
+  Store store(path.string());
+  SweepRecord sweep;
+  sweep.owner = "ada";
+  std::vector<JobRecord> jobs(2);
+  for (JobRecord& job : jobs) {
+    job.owner = "ada";
+    job.scene_toml = "x";
+  }
+  store.AddSweep(sweep, jobs, "request-1");
+  for (const JobRecord& job : jobs) store.FinishJob(job.id, JobState::kDone, "", {"{}\n", {}, 0, {}});
+  store.DeleteJobs({jobs[0].id}, 0);
+  ASSERT_TRUE(store.GetSweep(sweep.id));
+  store.DeleteJobs({jobs[1].id}, 0);
+  EXPECT_FALSE(store.GetSweep(sweep.id));
+  EXPECT_FALSE(store.FindSubmission("ada", "request-1"));
+  SweepRecord empty;
+  empty.owner = "ada";
+  std::vector<JobRecord> none;
+  store.AddSweep(empty, none);
+  store.DeleteJobs({}, empty.id);
+  EXPECT_FALSE(store.GetSweep(empty.id));
+}
+
 // n samples whose values say their index.
 std::vector<ImpactSample> Samples(std::int64_t first, std::int64_t n) {
   std::vector<ImpactSample> samples;
@@ -413,7 +439,7 @@ TEST_F(StoreTest, BedFilesMakeRoomButKeepThoseAQueuedJobImports) {
   auto file = [&](const std::string& name) {
     const std::string data = std::string(999, 'x') + name;
     sha[name] = report::Sha256Hex(data);
-    return BedFile{"alice", sha[name], "bed.txt", data};
+    return BedFile{"alice", sha[name], "bed.txt", std::make_shared<const std::string>(data)};
   };
   EXPECT_TRUE(store.PutBedFile(file("a"), 2500));
   EXPECT_TRUE(store.PutBedFile(file("b"), 2500));

@@ -640,24 +640,16 @@ PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const Bed
 }
 
 std::string ImportHash(const Scene& scene) {
-  std::ostringstream content;
-  if (scene.bed.import_bytes) {
-    content << *scene.bed.import_bytes;
-  } else {
-    // (A file that cannot be read would hash as an empty one.)
-    CheckSceneFiles(scene);
-    std::ifstream in(scene.bed.import, std::ios::binary);
-    if (!in) throw SceneError("bed.import", "cannot read \"" + scene.bed.import + "\"");
-    content << in.rdbuf();
-  }
   // Named only when set, so that beds imported as they were keep their hashes.
   const std::string relax = scene.bed.import_overlaps == "relax"
                                 ? FieldText(scene, "bed.import_overlaps")
                                 : std::string();
   const std::string units =
       scene.bed.import_units != "m" ? FieldText(scene, "bed.import_units") : std::string();
+  // The content by its SHA-256: a sweep's runs on one file hash it once (the daemon knows
+  // its sent files' digests).
   return ContentHash(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
-                     relax + units + "import\n" + content.str());
+                     relax + units + "import\n" + ImportContentSha256(scene));
 }
 
 PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,

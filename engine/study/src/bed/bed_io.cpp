@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <sstream>
 #include <unordered_map>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "dembuf/study/bed/bed_formats.h"
 #include "dembuf/study/scene/bed_plan.h"
 #include "dembuf/study/scene/errors.h"
+#include "dembuf/study/text/sha256.h"
 
 namespace dembuf {
 
@@ -319,6 +322,51 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
   bed.plate = m.plate;
   bed.wall = m.wall;
   return bed;
+}
+
+std::string ImportContentSha256(const Scene& scene) {
+  if (!scene.bed.import_sha256.empty()) return scene.bed.import_sha256;
+  if (scene.bed.import_bytes) return report::Sha256Hex(*scene.bed.import_bytes);
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(scene.bed.import, error))
+    throw SceneError("bed.import",
+                     "file \"" + scene.bed.import + "\" does not exist or is not a file");
+  std::ifstream in(scene.bed.import, std::ios::binary);
+  if (!in) throw SceneError("bed.import", "cannot read \"" + scene.bed.import + "\"");
+  report::Sha256Stream digest;
+  char block[1 << 16];
+  while (in.read(block, sizeof block) || in.gcount() > 0)
+    digest.Add(std::string_view(block, static_cast<std::size_t>(in.gcount())));
+  return digest.Hex();
+}
+
+ImportedBedSize MeasureImportedBed(const Scene& scene) {
+  // What ReadTextBed's result depends on: the content, the container it is checked against,
+  // the unit of its numbers and what is done with overlaps.
+  std::ostringstream key;
+  key.precision(17);
+  key << ImportContentSha256(scene) << ' ' << scene.cylinder.radius_m << ' '
+      << scene.cylinder.height_m << ' ' << scene.bed.import_units << ' '
+      << scene.bed.import_overlaps;
+  static std::mutex mutex;
+  static std::map<std::string, ImportedBedSize> measured;
+  {
+    std::lock_guard lock(mutex);
+    if (const auto it = measured.find(key.str()); it != measured.end()) return it->second;
+  }
+  const ImportedBed imported = ReadTextBed(scene.bed.import, scene);
+  ImportedBedSize size;
+  size.beads = static_cast<double>(imported.beads.size());
+  for (std::size_t i = 0; i < imported.beads.size(); ++i) {
+    const double r = imported.beads.radius[i];
+    size.min_radius_m = i == 0 ? r : std::min(size.min_radius_m, r);
+    size.max_radius_m = std::max(size.max_radius_m, r);
+    size.top_m = std::max(size.top_m, imported.beads.position[i].z() + r);
+  }
+  std::lock_guard lock(mutex);
+  if (measured.size() >= 256) measured.clear();  // a few hundred files' sizes at most
+  measured.emplace(key.str(), size);
+  return size;
 }
 
 ImportedBed ReadTextBed(const std::string& path, const Scene& scene) {

@@ -181,15 +181,13 @@ ResourceEstimate EstimateResources(const Scene& scene) {
   double bed_top_m = std::max(plan.column_top_m, scene.bed.thickness_m);
   const std::vector<BedStage> stages = BedStagesOf(scene);
   if (!scene.bed.import.empty()) {
-    const ImportedBed imported = ReadTextBed(scene.bed.import, scene);
-    min_radius = max_radius = imported.beads.radius.empty() ? min_radius : imported.beads.radius[0];
-    bed_top_m = 0.0;
-    for (std::size_t i = 0; i < imported.beads.size(); ++i) {
-      min_radius = std::min(min_radius, imported.beads.radius[i]);
-      max_radius = std::max(max_radius, imported.beads.radius[i]);
-      bed_top_m = std::max(bed_top_m, imported.beads.position[i].z() + imported.beads.radius[i]);
+    const ImportedBedSize imported = MeasureImportedBed(scene);
+    if (imported.beads > 0) {
+      min_radius = imported.min_radius_m;
+      max_radius = imported.max_radius_m;
     }
-    e.impact_beads = static_cast<double>(imported.beads.size());
+    bed_top_m = imported.top_m;
+    e.impact_beads = imported.beads;
   }
   e.dt_s = scene.time.alpha * dem::CriticalTimeStep(min_radius, scene.material.density_kg_m3,
                                                     scene.material.youngs_modulus_Pa,

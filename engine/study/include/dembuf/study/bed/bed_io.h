@@ -59,4 +59,21 @@ ImportedBed ReadTextBed(const std::string& path, const Scene& scene);
 /// The same for a stream; `name` names it in messages.
 ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene& scene);
 
+/// The SHA-256 (hex) of the bytes the scene imports: bed.import_sha256 when given, else of
+/// bed.import_bytes or of the file bed.import names. Throws SceneError for a file it cannot
+/// read.
+std::string ImportContentSha256(const Scene& scene);
+
+/// What the resource estimate needs of an imported bed: its beads, their smallest and largest
+/// radius and the top of the highest (after the checks and any separating ReadTextBed does).
+struct ImportedBedSize {
+  double beads = 0.0;
+  double min_radius_m = 0.0, max_radius_m = 0.0, top_m = 0.0;
+};
+/// The imported bed's size, read once for each content and the fields that shape it
+/// (cylinder size, units, overlaps), then remembered (the last few hundred): the daemon
+/// estimates every run of a sweep, and every job again as it queues and runs it. Throws as
+/// ReadTextBed.
+ImportedBedSize MeasureImportedBed(const Scene& scene);
+
 }  // namespace dembuf

@@ -61,6 +61,10 @@ struct BedSpec {
   /// disk (a bed file sent to the daemon): read instead of the file. Not a scene field: the
   /// scene text names the file, and the bed's hash covers these bytes.
   std::shared_ptr<const std::string> import_bytes;
+  /// The SHA-256 of import_bytes (hex) when whoever gave them knows it (the daemon keeps its
+  /// sent files by it), so that a sweep of many runs does not hash them once a run; "" to
+  /// compute it. Not a scene field either.
+  std::string import_sha256;
   /// What to do with an imported bed whose beads overlap by more than a settled bed's resting
   /// contacts (1% of a radius): "refuse" it, naming the worst bead, or "relax": separate them.
   std::string import_overlaps = "refuse";

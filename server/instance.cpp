@@ -15,6 +15,8 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace dembuf::server {
 
@@ -50,25 +52,29 @@ std::pair<OwnedFolder, std::string> DatabaseFolder(const std::string& db_path) {
   if (!IsPlainName(path.filename().string()))
     throw OwnershipError("database " + db_path + ": not a file name");
   OwnedFolder folder = OwnedFolder::Open(path.parent_path(), "the database folder", false);
-  const std::string name = path.filename().string();
-  for (const char* suffix : kSideFiles)
-    if (folder.Contains(name + suffix)) close(folder.OpenToUpdate(name + suffix));
-  return {std::move(folder), name};
+  std::string name = path.filename().string();
+  for (const char* suffix : kSideFiles) folder.CheckOwned(name + suffix);
+  return {std::move(folder), std::move(name)};
 }
 
 }  // namespace
 
 void CheckDatabaseFiles(const std::string& db_path) {
   auto [folder, name] = DatabaseFolder(db_path);
-  if (folder.Contains(name)) close(folder.OpenToUpdate(name));
+  folder.CheckOwned(name);
 }
 
 DatabaseLock::DatabaseLock(const std::string& db_path, bool create)
-    : m_folder(DatabaseFolder(db_path).first), m_name(fs::path(db_path).filename().string()) {
+    : DatabaseLock(DatabaseFolder(db_path), db_path, create) {}
+
+DatabaseLock::DatabaseLock(std::pair<OwnedFolder, std::string> folder, const std::string& db_path,
+                           bool create)
+    : m_folder(std::move(folder.first)), m_name(std::move(folder.second)) {
   if (!create && !m_folder.Contains(m_name))
     throw std::runtime_error("database " + db_path + " does not exist");
   try {
-    m_fd = m_folder.OpenToUpdate(m_name);
+    // A database only checked (create unset) may be read-only; flock needs no write access.
+    m_fd = create ? m_folder.OpenToUpdate(m_name) : m_folder.OpenToRead(m_name);
   } catch (const OwnershipError& e) {
     if (e.system_error() == EROFS || e.system_error() == EACCES)
       throw std::runtime_error("database " + db_path + " cannot be used: it cannot be written (" +
@@ -108,10 +114,11 @@ void DatabaseLock::Describe(const std::string& holder) {
 
 std::string DatabaseLock::MakePrivate() {
   std::string opened;
-  for (const std::string suffix : {"", "-wal", "-shm", "-journal", ".lock"}) {
-    const std::string name = m_name + suffix;
+  std::vector<std::string> names = {m_name, m_name + ".lock"};
+  for (const char* suffix : kSideFiles) names.push_back(m_name + suffix);
+  for (const std::string& name : names) {
     if (!m_folder.Contains(name)) continue;
-    const int fd = suffix.empty() ? m_fd : m_folder.OpenToUpdate(name);
+    const int fd = name == m_name ? m_fd : m_folder.OpenToRead(name);
     struct stat file {};
     if (fstat(fd, &file) == 0 && (file.st_mode & 077) != 0 && fchmod(fd, 0600) == 0)
       opened += (opened.empty() ? "" : ", ") + (m_folder.path() / name).string();

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 
 #include "owned_files.h"
 
@@ -37,6 +38,8 @@ class DatabaseLock {
   std::string MakePrivate();
 
  private:
+  DatabaseLock(std::pair<OwnedFolder, std::string> folder, const std::string& db_path, bool create);
+
   OwnedFolder m_folder;  ///< the database's folder
   std::string m_name;    ///< the database's file name in it
   int m_fd = -1;         ///< the database file, locked

@@ -37,27 +37,27 @@ std::string SystemError(const std::string& what, int error) {
   return what + ": " + std::strerror(error);
 }
 
-// Why a folder (stat of the folder itself) is not the daemon's to use; "" when it is.
+// Why a folder (stat of the folder itself) is not the daemon's to use, with what fixes it; ""
+// when it may use it.
 std::string FolderProblem(const struct stat& folder, const std::string& path,
                           const std::string& what) {
-  const uid_t me = geteuid();
-  const std::string mine = AccountName(me);
+  const std::string me = AccountName(geteuid());
   if (!S_ISDIR(folder.st_mode)) return what + " " + path + " is not a folder";
   const std::string found =
       " (owner " + AccountName(folder.st_uid) + ", mode " + ModeText(folder.st_mode) + ")";
-  const std::string own_folder = "install -d -m 0700 -o " + mine + " FOLDER";
+  const std::string own_folder = "give dembufd a folder of its own (install -d -m 0700 -o " + me +
+                                 " DIR) and point " + what + " at it";
   // A shared folder such as /tmp: any account may create names in it.
   if ((folder.st_mode & 002) != 0 && (folder.st_mode & S_ISVTX) != 0)
     return what + " " + path + " is shared with other accounts" + found +
-           ": one could plant the daemon's files there first. Give dembufd a folder of its own: " +
-           own_folder;
-  if (folder.st_uid != me) {
+           ": one could plant the daemon's files there first; " + own_folder;
+  if (folder.st_uid != geteuid()) {
     const std::string owner = AccountName(folder.st_uid);
-    return what + " " + path + " belongs to another account" + found + ", not to " + mine +
-           ", which runs dembufd: " + owner +
-           " could plant or read the daemon's files. If it is the daemon's, run dembufd as " +
-           owner + " (sudo -u " + owner +
-           " dembufd ...); else give dembufd a folder of its own: " + own_folder;
+    return what + " " + path + " belongs to " + owner + found + ", but this dembufd runs as " + me +
+           ", and does not use another account's folder (" + owner +
+           " could plant or read its files). If " + owner +
+           " is the daemon's account, run dembufd as it (sudo -u " + owner + " dembufd ...); " +
+           "else " + own_folder;
   }
   if ((folder.st_mode & 022) != 0)
     return what + " " + path + " may be written by other accounts" + found +
@@ -65,11 +65,55 @@ std::string FolderProblem(const struct stat& folder, const std::string& path,
   return "";
 }
 
-void CheckFolderFd(int fd, const std::string& path, const std::string& what) {
+// Opens the folder `name` under `dir_fd` (AT_FDCWD for a path) and checks it.
+int OpenFolderAt(int dir_fd, const std::string& name, const std::string& shown,
+                 const std::string& what, bool make) {
+  if (make && mkdirat(dir_fd, name.c_str(), 0700) != 0 && errno != EEXIST)
+    throw OwnershipError(SystemError(what + " " + shown + " cannot be made", errno), errno);
+  const int fd = openat(dir_fd, name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) {
+    const int error = errno;
+    struct stat entry {};
+    if (fstatat(dir_fd, name.c_str(), &entry, AT_SYMLINK_NOFOLLOW) == 0 && S_ISLNK(entry.st_mode))
+      throw OwnershipError(what + " " + shown +
+                           " is a symbolic link: dembufd follows no link to its own files; "
+                           "give the folder's real path");
+    if (error == ENOENT)
+      throw OwnershipError(what + " " + shown +
+                               " does not exist: make it for the daemon's account "
+                               "(install -d -m 0700 -o " +
+                               AccountName(geteuid()) + " " + shown + ")",
+                           error);
+    throw OwnershipError(SystemError(what + " " + shown + " cannot be opened", error), error);
+  }
   struct stat folder {};
-  if (fstat(fd, &folder) != 0) throw OwnershipError(SystemError(what + " " + path, errno));
-  if (const std::string problem = FolderProblem(folder, path, what); !problem.empty())
+  std::string problem = fstat(fd, &folder) != 0 ? SystemError(what + " " + shown, errno)
+                                                : FolderProblem(folder, shown, what);
+  if (!problem.empty()) {
+    close(fd);
     throw OwnershipError(problem);
+  }
+  return fd;
+}
+
+// At most `count` bytes of the open file from `offset` (fewer at its end, or if it shrank).
+std::string ReadAt(int fd, std::uint64_t offset, std::uint64_t count) {
+  std::string bytes(count, '\0');
+  std::size_t got = 0;
+  while (got < bytes.size()) {
+    const ssize_t n =
+        pread(fd, bytes.data() + got, bytes.size() - got, static_cast<off_t>(offset + got));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  bytes.resize(got);
+  return bytes;
+}
+
+std::uint64_t SizeOf(int fd) {
+  struct stat file {};
+  return fstat(fd, &file) == 0 ? static_cast<std::uint64_t>(file.st_size) : 0;
 }
 
 // A name of its own beside `name`, for a file written whole and renamed into place.
@@ -102,22 +146,7 @@ void CheckOwnedFile(int fd, const std::string& path, const std::string& what) {
 }
 
 OwnedFolder OwnedFolder::Open(const fs::path& path, const std::string& what, bool make) {
-  const std::string shown = path.string();
-  if (make && mkdir(shown.c_str(), 0700) != 0 && errno != EEXIST)
-    throw OwnershipError(SystemError(what + " " + shown + " cannot be made", errno));
-  const int fd = open(shown.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
-  if (fd < 0) {
-    const int error = errno;
-    struct stat link {};
-    if (lstat(shown.c_str(), &link) == 0 && S_ISLNK(link.st_mode))
-      throw OwnershipError(what + " " + shown +
-                           " is a symbolic link: dembufd follows no link to its own files; "
-                           "give the folder's real path");
-    throw OwnershipError(SystemError(what + " " + shown + " cannot be opened", error));
-  }
-  OwnedFolder folder(fd, path, what);
-  CheckFolderFd(fd, shown, what);
-  return folder;
+  return OwnedFolder(OpenFolderAt(AT_FDCWD, path.string(), path.string(), what, make), path, what);
 }
 
 OwnedFolder::OwnedFolder(OwnedFolder&& other) noexcept
@@ -140,19 +169,9 @@ OwnedFolder::~OwnedFolder() {
 }
 
 OwnedFolder OwnedFolder::Folder(const std::string& name, bool make) const {
-  const std::string shown = (m_path / name).string();
   if (!IsPlainName(name)) throw OwnershipError(m_what + ": \"" + name + "\" is not a plain name");
-  if (make && mkdirat(m_fd, name.c_str(), 0700) != 0 && errno != EEXIST)
-    throw OwnershipError(SystemError(m_what + " " + shown + " cannot be made", errno));
-  const int fd = openat(m_fd, name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
-  if (fd < 0)
-    throw OwnershipError(SystemError(m_what + " " + shown +
-                                         " cannot be opened as a folder (a "
-                                         "link, or not a folder?)",
-                                     errno));
-  OwnedFolder folder(fd, m_path / name, m_what);
-  CheckFolderFd(fd, shown, m_what);
-  return folder;
+  return OwnedFolder(OpenFolderAt(m_fd, name, (m_path / name).string(), m_what, make),
+                     m_path / name, m_what);
 }
 
 bool OwnedFolder::Contains(const std::string& name) const {
@@ -216,6 +235,16 @@ int OwnedFolder::OpenToUpdate(const std::string& name) const {
   return OpenFile(name, O_RDWR | O_CREAT);
 }
 
+int OwnedFolder::OpenToRead(const std::string& name) const {
+  // O_NONBLOCK: a fifo planted in place of the file does not hang the daemon (it is refused
+  // as not a regular file).
+  return OpenFile(name, O_RDONLY | O_NONBLOCK);
+}
+
+void OwnedFolder::CheckOwned(const std::string& name) const {
+  if (Contains(name)) close(OpenToRead(name));
+}
+
 void OwnedFolder::Remove(const std::string& name) const {
   if (IsPlainName(name)) unlinkat(m_fd, name.c_str(), 0);
 }
@@ -223,34 +252,20 @@ void OwnedFolder::Remove(const std::string& name) const {
 std::string OwnedFolder::ReadFrom(const std::string& name, std::uint64_t offset,
                                   std::uint64_t max_bytes) const {
   if (!Contains(name)) return "";
-  // O_NONBLOCK: a fifo planted in place of the file does not hang the daemon (it is refused
-  // as not a regular file).
-  const int fd = OpenFile(name, O_RDONLY | O_NONBLOCK);
-  struct stat file {};
-  fstat(fd, &file);
-  const auto size = static_cast<std::uint64_t>(file.st_size);
-  std::string bytes(size > offset ? std::min(size - offset, max_bytes) : 0, '\0');
-  std::size_t got = 0;
-  while (got < bytes.size()) {
-    const ssize_t n =
-        pread(fd, bytes.data() + got, bytes.size() - got, static_cast<off_t>(offset + got));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;  // the file shrank meanwhile
-    got += static_cast<std::size_t>(n);
-  }
+  const int fd = OpenToRead(name);
+  const std::uint64_t size = SizeOf(fd);
+  std::string bytes = ReadAt(fd, offset, size > offset ? std::min(size - offset, max_bytes) : 0);
   close(fd);
-  bytes.resize(got);
   return bytes;
 }
 
 std::string OwnedFolder::ReadTail(const std::string& name, std::uint64_t max_bytes) const {
   if (!Contains(name)) return "";
-  const int fd = OpenFile(name, O_RDONLY | O_NONBLOCK);
-  struct stat file {};
-  fstat(fd, &file);
+  const int fd = OpenToRead(name);
+  const std::uint64_t size = SizeOf(fd);
+  std::string bytes = ReadAt(fd, size > max_bytes ? size - max_bytes : 0, max_bytes);
   close(fd);
-  const auto size = static_cast<std::uint64_t>(file.st_size);
-  return ReadFrom(name, size > max_bytes ? size - max_bytes : 0, max_bytes);
+  return bytes;
 }
 
 std::optional<std::string> OwnedFolder::Read(const std::string& name,
@@ -268,7 +283,8 @@ std::vector<std::pair<std::string, std::string>> OwnedFolder::ReadTree(
     std::uint64_t max_bytes, std::size_t max_files) const {
   std::vector<std::pair<std::string, std::string>> files;
   std::uint64_t total = 0;
-  // Folder `dir` (open) holding the entries under `prefix`, depth first.
+  // The entries `names` of the open folder `dir_fd`, whose paths start with `prefix`, depth
+  // first; nothing is followed, and every path must be allowed.
   auto walk = [&](auto&& self, int dir_fd, const std::string& prefix,
                   const std::vector<std::string>& names) -> void {
     for (const std::string& name : names) {
@@ -286,21 +302,11 @@ std::vector<std::pair<std::string, std::string>> OwnedFolder::ReadTree(
         std::string data;
         try {
           CheckOwnedFile(fd, path, "the result file");
-          struct stat file {};
-          fstat(fd, &file);
-          const auto size = static_cast<std::uint64_t>(file.st_size);
+          const std::uint64_t size = SizeOf(fd);
           if (size > max_bytes - total)
             throw std::runtime_error("the result files pass " + std::to_string(max_bytes) +
                                      " bytes");
-          data.resize(size);
-          std::size_t got = 0;
-          while (got < size) {
-            const ssize_t n = pread(fd, data.data() + got, size - got, static_cast<off_t>(got));
-            if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) break;
-            got += static_cast<std::size_t>(n);
-          }
-          data.resize(got);
+          data = ReadAt(fd, 0, size);
         } catch (...) {
           close(fd);
           throw;
@@ -317,11 +323,12 @@ std::vector<std::pair<std::string, std::string>> OwnedFolder::ReadTree(
           close(sub);
           throw std::runtime_error(SystemError("cannot read " + path, errno));
         }
+        // (More names than files may be taken: the count is refused with the files.)
         std::vector<std::string> inside;
         while (const dirent* item = readdir(listing)) {
           const std::string child = item->d_name;
           if (child != "." && child != "..") inside.push_back(child);
-          if (inside.size() > max_files) break;  // the count is refused below, with the files
+          if (inside.size() > max_files) break;
         }
         std::sort(inside.begin(), inside.end());
         try {

@@ -64,6 +64,12 @@ class OwnedFolder {
   int OpenToAppend(const std::string& name) const;
   /// Opens the file `name` to read and write (made 0600 when absent), checked as OpenToAppend.
   int OpenToUpdate(const std::string& name) const;
+  /// Opens the file `name` to read, checked as OpenToAppend (it must be there). The caller
+  /// closes the descriptor.
+  int OpenToRead(const std::string& name) const;
+  /// Checks, when `name` is there, that it is a regular file of the daemon's account that no
+  /// other account may write. Throws OwnershipError.
+  void CheckOwned(const std::string& name) const;
   /// Removes `name` when it is there (a file or a link, never what a link names).
   void Remove(const std::string& name) const;
 

@@ -91,7 +91,7 @@ slurm_config() {
 }
 as "$other" mkdir -m 0755 "$shared/slurm-work"
 slurm_config "$shared/slurm-work"
-daemon_refused "slurm.work_dir $shared/slurm-work belongs to another account (owner $other" \
+daemon_refused "slurm.work_dir $shared/slurm-work belongs to $other (owner $other, mode 0755), but this dembufd runs as $daemon_user" \
   --db "$home/db/dembuf.db" --config "$home/slurm.toml"
 slurm_config "$home/no/such/folder"
 daemon_refused "slurm.work_dir $home/no/such/folder cannot be made" --db "$home/db/dembuf.db" \

@@ -53,6 +53,34 @@ TEST(OwnedFolder, IsMadeForTheDaemonAlone) {
   EXPECT_THROW(folder.Folder("absent", false), OwnershipError);
 }
 
+// A folder that is not there (a --db in a folder never made) is named with the command that
+// makes it for the daemon's account.
+TEST(OwnedFolder, AMissingFolderIsNamedWithTheCommandThatMakesIt) {
+  const fs::path absent = test::TempPath("never-made");
+  fs::remove_all(absent);
+  const std::string why = Message([&] { OwnedFolder::Open(absent, "the database folder", false); });
+  EXPECT_NE(why.find("the database folder " + absent.string() + " does not exist"),
+            std::string::npos)
+      << why;
+  EXPECT_NE(why.find("install -d -m 0700 -o "), std::string::npos) << why;
+  EXPECT_FALSE(fs::exists(absent));
+}
+
+// A file only checked (CheckOwned, OpenToRead) may be read-only: the daemon's own file is
+// taken, one others may write is not, and an absent one is no error for CheckOwned.
+TEST(OwnedFolder, CheckOwnedTakesAReadOnlyFileOfItsOwn) {
+  const OwnedFolder folder = MakeFolder("checked");
+  EXPECT_NO_THROW(folder.CheckOwned("absent.db"));
+  WriteText(folder.path() / "read-only.db", "x");
+  chmod((folder.path() / "read-only.db").c_str(), 0400);
+  EXPECT_NO_THROW(folder.CheckOwned("read-only.db"));
+  WriteText(folder.path() / "open.db", "x");
+  chmod((folder.path() / "open.db").c_str(), 0666);
+  const std::string why = Message([&] { folder.CheckOwned("open.db"); });
+  EXPECT_NE(why.find("may be written by other accounts (mode 0666)"), std::string::npos) << why;
+  EXPECT_THROW(folder.OpenToRead("absent.db"), OwnershipError);
+}
+
 // A folder other accounts may write (a work_dir made in /tmp by someone else, or left open)
 // would let them plant the daemon's files first: refused, naming the mode and the fix.
 TEST(OwnedFolder, AFolderOthersMayWriteIsRefusedNamingTheFix) {
@@ -91,8 +119,13 @@ TEST(OwnedFolder, AnotherAccountsFolderOrFileIsRefused) {
   chmod(theirs.c_str(), 0700);
   ASSERT_EQ(chown(theirs.c_str(), 65534, 65534), 0);
   const std::string why = Message([&] { OwnedFolder::Open(theirs, "slurm.work_dir", true); });
-  EXPECT_NE(why.find("belongs to another account"), std::string::npos) << why;
-  EXPECT_NE(why.find("nobody"), std::string::npos) << why;
+  EXPECT_NE(why.find("belongs to nobody (owner nobody, mode 0700), but this dembufd runs as root"),
+            std::string::npos)
+      << why;
+  EXPECT_NE(why.find("sudo -u nobody dembufd"), std::string::npos) << why;
+  EXPECT_NE(why.find("install -d -m 0700 -o root DIR) and point slurm.work_dir at it"),
+            std::string::npos)
+      << why;
   const OwnedFolder mine = MakeFolder("mine");
   WriteText(mine.path() / "summary.json", "{}");
   ASSERT_EQ(chown((mine.path() / "summary.json").c_str(), 65534, 65534), 0);

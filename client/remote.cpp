@@ -52,8 +52,11 @@ constexpr const char* kDefaultServer = "127.0.0.1:50051";
 // longer than FetchResults carries (65,536 samples, 3.5 MB) comes in FetchSeries' pieces.
 constexpr int kMaxAnswerBytes = 128 << 20;
 // The longest series a client takes from a server: a job's series is at most the daemon's
-// quota_samples (a million by default); this is a thousand times that.
-constexpr std::int64_t kMaxSeriesSamples = 1'000'000'000;
+// quota_samples (a million by default); this is a hundred times that (some 10 GB of CSV).
+constexpr std::int64_t kMaxSeriesSamples = 100'000'000;
+// The most bytes of result files a client takes for one job: the daemon's quota_output_mb
+// (1024 by default) sixteen times.
+constexpr std::int64_t kMaxResultFilesBytes = std::int64_t{16} << 30;
 
 std::unique_ptr<v1::Dembuf::Stub> Connect(const Remote& remote) {
   grpc::ChannelArguments args;
@@ -868,7 +871,17 @@ grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, c
   constexpr std::int64_t kMaxFileBytes = std::int64_t{1} << 34;  // 16 GiB
   // The files the job lists, with their sizes: what comes must be exactly that.
   std::map<std::string, std::int64_t> listed;
-  for (const v1::ResultFileInfo& file : job.files()) listed[file.path()] = file.size();
+  std::int64_t listed_bytes = 0;
+  for (const v1::ResultFileInfo& file : job.files()) {
+    listed[file.path()] = file.size();
+    if (file.size() < 0 || file.size() > kMaxResultFilesBytes - listed_bytes)
+      return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                          "the server at " + remote.address + " lists more than " +
+                              std::to_string(kMaxResultFilesBytes >> 30) +
+                              " GiB of result files for job " + std::to_string(job.id()) +
+                              "; nothing of them was written");
+    listed_bytes += file.size();
+  }
   grpc::ClientContext context;
   Prepare(context, remote, 3600);
   v1::FetchFilesRequest request;
@@ -1090,13 +1103,24 @@ int RemotePushBeds(const Remote& remote, const RemoteScene& remote_scene,
   return 0;
 }
 
-int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {
-  v1::CancelRequest request;
+namespace {
+
+// A Cancel or Delete request that names job `id`, or sweep `id`.
+template <class Request>
+Request NamingJobOrSweep(std::int64_t id, bool sweep) {
+  Request request;
   if (sweep) {
     request.set_sweep_id(id);
   } else {
     request.set_job_id(id);
   }
+  return request;
+}
+
+}  // namespace
+
+int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep) {
+  const auto request = NamingJobOrSweep<v1::CancelRequest>(id, sweep);
   v1::CancelResponse response;
   grpc::ClientContext context;
   Prepare(context, remote);
@@ -1128,34 +1152,27 @@ int RemoteServerInfo(const Remote& remote, bool json) {
     std::printf("workers %d x %d threads, running %d, queued %d of %d%s%s\n", info.workers(),
                 info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
                 info.database().empty() ? "" : ", database ", info.database().c_str());
-  // The caller's share, against the per-user quotas.
-  auto of = [](double used, double quota, const char* unit) {
-    char text[64];
-    if (quota > 0)
-      std::snprintf(text, sizeof text, "%.4g of %.4g%s", used, quota, unit);
-    else
-      std::snprintf(text, sizeof text, "%.4g%s (no quota)", used, unit);
-    return std::string(text);
+  // The caller's share, against the per-user quotas (counts whole, bytes in MB to 0.01).
+  auto of = [](double used, double quota, const char* format) {
+    char used_text[32], quota_text[32];
+    std::snprintf(used_text, sizeof used_text, format, used);
+    std::snprintf(quota_text, sizeof quota_text, format, quota);
+    return std::string(used_text) + (quota > 0 ? " of " + std::string(quota_text) : " (no quota)");
   };
   std::printf("yours: %s queued jobs, %s of stored results\n",
-              of(info.queued_jobs(), info.quota_queued_jobs(), "").c_str(),
-              of(info.stored_bytes() / 1e6, info.quota_stored_bytes() / 1e6, " MB").c_str());
+              of(info.queued_jobs(), info.quota_queued_jobs(), "%.0f").c_str(),
+              of(info.stored_bytes() / 1e6, info.quota_stored_bytes() / 1e6, "%.2f MB").c_str());
   return 0;
 }
 
 int RemoteDelete(const Remote& remote, std::int64_t id, bool sweep) {
-  v1::DeleteRequest request;
-  if (sweep) {
-    request.set_sweep_id(id);
-  } else {
-    request.set_job_id(id);
-  }
+  const auto request = NamingJobOrSweep<v1::DeleteRequest>(id, sweep);
   v1::DeleteResponse response;
   grpc::ClientContext context;
   Prepare(context, remote);
   const grpc::Status status = Connect(remote)->Delete(&context, request, &response);
   if (!status.ok()) return Report(remote, status);
-  std::printf("deleted %d job(s); %.4g MB of results freed\n", response.deleted(),
+  std::printf("deleted %d job(s); %.2f MB of results freed\n", response.deleted(),
               response.freed_bytes() / 1e6);
   return 0;
 }

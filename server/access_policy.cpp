@@ -8,8 +8,8 @@ namespace {
 
 constexpr const char* kNeedsToken =
     "this server needs a token: give --token or set DEMBUF_TOKEN, log in on the web pages, or "
-    "send \"Authorization: Bearer TOKEN\" (the lab's admin makes one with: dembufd "
-    "token-create NAME)";
+    "send \"Authorization: Bearer TOKEN\" (the lab's admin makes one as the daemon's account: "
+    "sudo -u dembuf dembufd --config /etc/dembuf/dembufd.toml token-create NAME)";
 
 }  // namespace
 

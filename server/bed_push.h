@@ -183,7 +183,7 @@ class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
       return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
                           "the bed came slower than " +
                               std::to_string(kMinPushBytesPerSecond >> 10) +
-                              " kB/s; the push was cut off");
+                              " KiB/s; the push was cut off");
     return std::nullopt;
   }
 

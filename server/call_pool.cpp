@@ -4,8 +4,9 @@
 
 namespace dembuf::server {
 
-CallPool::CallPool(int threads, std::size_t max_waiting_per_user)
-    : m_max_waiting(max_waiting_per_user) {
+CallPool::CallPool(int threads, std::size_t max_running_per_user, std::size_t max_waiting_per_user)
+    : m_max_running(std::max<std::size_t>(max_running_per_user, 1)),
+      m_max_waiting(max_waiting_per_user) {
   for (int t = 0; t < std::max(threads, 1); ++t) m_workers.emplace_back([this] { Work(); });
 }
 
@@ -33,12 +34,20 @@ bool CallPool::Queue(const std::string& user, std::function<void()> work) {
 void CallPool::Work() {
   std::unique_lock lock(m_mutex);
   for (;;) {
-    m_changed.wait(lock, [&] { return m_stopping || !m_turns.empty(); });
+    // The first user in turn with fewer than m_max_running calls running.
+    auto turn = m_turns.end();
+    m_changed.wait(lock, [&] {
+      turn = std::find_if(m_turns.begin(), m_turns.end(), [&](const std::string& user) {
+        const auto running = m_running.find(user);
+        return running == m_running.end() || running->second < m_max_running;
+      });
+      return turn != m_turns.end() || (m_stopping && m_turns.empty());
+    });
     // Stopping: the calls waiting still run (each must be answered), then the workers end.
-    if (m_turns.empty()) return;
+    if (turn == m_turns.end()) return;
     // The user whose turn it is gives one call, and waits for a turn again behind the others.
-    const std::string user = m_turns.front();
-    m_turns.pop_front();
+    const std::string user = *turn;
+    m_turns.erase(turn);
     std::deque<std::function<void()>>& mine = m_waiting[user];
     std::function<void()> work = std::move(mine.front());
     mine.pop_front();
@@ -46,6 +55,7 @@ void CallPool::Work() {
       m_waiting.erase(user);
     else
       m_turns.push_back(user);
+    ++m_running[user];
     lock.unlock();
     try {
       work();
@@ -53,6 +63,8 @@ void CallPool::Work() {
       // the service answers every failure itself (Guard); nothing may end a worker
     }
     lock.lock();
+    if (--m_running[user] == 0) m_running.erase(user);
+    m_changed.notify_all();  // that user's next call may go
   }
 }
 

@@ -30,7 +30,9 @@ void SetupDaemonArgs(CLI::App& app, DaemonArgs& args) {
   app.add_option("--config", args.config_file, "TOML configuration file (flags override it)")
       ->check(CLI::ExistingFile);
   AddSetting(app, args, "--listen", &ServerConfig::listen, "address to serve, host:port");
-  AddSetting(app, args, "--db", &ServerConfig::db, "SQLite database file (created if absent)");
+  AddSetting(app, args, "--db", &ServerConfig::db,
+             "SQLite database file (created if absent), in a folder of the daemon's own account "
+             "that no other account may write");
   const CLI::Option* workers =
       app.add_option("--workers", args.workers,
                      "jobs run at once: 1 to 256, or auto (one per usable CPU; the default)");

@@ -308,11 +308,12 @@ int Serve(const ServerConfig& config) {
         "NAME [--admin]",
         config.db);
   DembufService service(*store, *executor, policy, info, log);
-  // Reflection v1 only, with its streams capped: gRPC's v1alpha service held a thread per
-  // stream without a cap (250 silent streams starved every other call).
+  // Reflection v1 only, with its streams capped and its callers identified as every other
+  // call's: gRPC's v1alpha service held a thread per stream without a cap (250 silent streams
+  // starved every other call).
   ReflectionV1Service reflection({v1::Dembuf::service_full_name(), "grpc.health.v1.Health",
                                   grpc::reflection::v1::ServerReflection::service_full_name()},
-                                 kReflectionStreams);
+                                 kReflectionStreams, &policy);
   std::unique_ptr<grpc::Server> server;
   std::unique_ptr<web::WebServer> web_server;
   int port = 0;

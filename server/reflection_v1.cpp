@@ -1,5 +1,7 @@
 #include "reflection_v1.h"
 
+#include <algorithm>
+
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/descriptor.pb.h>
 
@@ -40,9 +42,11 @@ void AnswerWithFile(const pb::FileDescriptor* file, const std::string& not_found
 
 }  // namespace
 
-ReflectionV1Service::ReflectionV1Service(std::vector<std::string> services, int max_streams)
+ReflectionV1Service::ReflectionV1Service(std::vector<std::string> services, int max_streams,
+                                         const AccessPolicy* policy)
     : m_services(std::move(services)),
-      m_streams(max_streams, max_streams, "reflection streams", "a fixed limit") {}
+      m_streams(std::max(1, max_streams / 4), max_streams, "reflection streams", "a fixed limit"),
+      m_policy(policy) {}
 
 rv1::ServerReflectionResponse ReflectionV1Service::Answer(
     const rv1::ServerReflectionRequest& request) const {
@@ -103,8 +107,21 @@ rv1::ServerReflectionResponse ReflectionV1Service::Answer(
 grpc::Status ReflectionV1Service::ServerReflectionInfo(
     grpc::ServerContext* context,
     grpc::ServerReaderWriter<rv1::ServerReflectionResponse, rv1::ServerReflectionRequest>* stream) {
+  Caller caller;
+  if (m_policy) {
+    try {
+      const auto& metadata = context->client_metadata();
+      const auto found = metadata.find("authorization");
+      caller = m_policy->Identify(found == metadata.end()
+                                      ? std::nullopt
+                                      : std::optional<std::string>(std::string(
+                                            found->second.data(), found->second.size())));
+    } catch (const AccessDenied& e) {
+      return {grpc::StatusCode::UNAUTHENTICATED, e.what()};
+    }
+  }
   std::string why;
-  std::optional<StreamLimits::Place> place = m_streams.Take(Caller{}, &why);
+  std::optional<StreamLimits::Place> place = m_streams.Take(caller, &why);
   if (!place) return {grpc::StatusCode::RESOURCE_EXHAUSTED, why};
   rv1::ServerReflectionRequest request;
   while (!context->IsCancelled() && stream->Read(&request)) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "access_policy.h"
 #include "grpc/reflection/v1/reflection.grpc.pb.h"
 #include "stream_limits.h"
 
@@ -15,7 +16,10 @@ class ReflectionV1Service final : public grpc::reflection::v1::ServerReflection:
  public:
   /// `services`: the full names of the services the server offers, as list_services answers.
   /// `max_streams`: how many reflection streams may be open at once (each holds a thread).
-  ReflectionV1Service(std::vector<std::string> services, int max_streams);
+  /// `policy`, when given, identifies the caller first, as every other call of the daemon:
+  /// a caller it refuses takes no place (grpcurl sends a token with -H).
+  ReflectionV1Service(std::vector<std::string> services, int max_streams,
+                      const AccessPolicy* policy = nullptr);
 
   grpc::Status ServerReflectionInfo(
       grpc::ServerContext* context,
@@ -29,6 +33,7 @@ class ReflectionV1Service final : public grpc::reflection::v1::ServerReflection:
  private:
   std::vector<std::string> m_services;
   StreamLimits m_streams;
+  const AccessPolicy* m_policy;
 };
 
 }  // namespace dembuf::server

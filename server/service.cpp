@@ -195,7 +195,7 @@ Status DembufService::CheckQueuedQuota(const std::string& owner, std::size_t mor
                 "owner: " + owner + " has " + std::to_string(queued) + " jobs queued; " +
                     std::to_string(more) + " more would pass the quota of " +
                     std::to_string(m_info.quota_queued_jobs) +
-                    " a user (quota_queued_jobs): wait for them to run, or cancel some",
+                    " per user (quota_queued_jobs): wait for them to run, or cancel some",
                 "quota=quota_queued_jobs");
 }
 
@@ -209,18 +209,9 @@ Status DembufService::CheckStoredQuota(const std::string& owner, double more_byt
                     " of results, and these jobs may add up to " + Megabytes(more_bytes) +
                     ": more than the quota of " +
                     Megabytes(static_cast<double>(m_info.quota_stored_bytes)) +
-                    " a user (quota_stored_mb); delete what is no longer needed (dembuf delete "
+                    " per user (quota_stored_mb); delete what is no longer needed (dembuf delete "
                     "JOB, or --sweep SWEEP)",
                 "quota=quota_stored_mb");
-}
-
-Status DembufService::CheckJobQuota(const Scene& scene) {
-  try {
-    CheckResources(EstimateResources(scene), m_info.job_limits, scene, "this server's");
-  } catch (const ResourceError& e) {
-    return OverLimits(e);
-  }
-  return Status::OK;
 }
 
 template <class Handler>
@@ -245,19 +236,28 @@ grpc::ServerUnaryReactor* DembufService::Serve(const char* rpc,
   }
   const bool queued =
       m_calls.Queue(caller.name, [this, rpc, context, reactor, caller, work = std::move(work)] {
-        // A caller that left while its call waited: no work for nobody.
+        // A caller that left while its call waited, or whose token was withdrawn meanwhile:
+        // its work is not done.
         if (context->IsCancelled()) {
           reactor->Finish(Status(StatusCode::CANCELLED, "the caller left"));
           return;
         }
+        if (!m_policy.StillValid(caller)) {
+          reactor->Finish(TokenWithdrawn());
+          return;
+        }
         reactor->Finish(Guard(rpc, [&] { return work(caller); }));
       });
-  if (!queued)
-    reactor->Finish(
-        Status(StatusCode::RESOURCE_EXHAUSTED,
-               caller.name + " has " + std::to_string(m_calls.max_waiting_per_user()) +
-                   " calls waiting for the server; send the next when one is answered"));
+  if (!queued) reactor->Finish(CallsWaiting(caller));
   return reactor;
+}
+
+Status DembufService::CallsWaiting(const Caller& caller) const {
+  return Status(StatusCode::RESOURCE_EXHAUSTED,
+                caller.name + " has " + std::to_string(m_calls.max_waiting_per_user()) +
+                    " calls waiting for the server, the most per user; send the next when one "
+                    "is answered",
+                "quota=calls_waiting");
 }
 
 Status DembufService::FailureStatus(const char* rpc) {
@@ -293,7 +293,7 @@ DembufService::DembufService(Store& store, Executor& executor, const AccessPolic
       m_fetch_streams(m_info.max_fetch_streams_per_user, m_info.max_fetch_streams,
                       "result streams (fetch)", "max_fetch_streams"),
       m_bed_pushes(kMaxBedPushesPerUser, kMaxBedPushes, "bed pushes", "the daemon's limit"),
-      m_calls(kCallThreads, kCallsWaitingPerUser) {}
+      m_calls(kCallThreads, kCallsRunningPerUser, kCallsWaitingPerUser) {}
 
 bool DembufService::AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
                                 v1::SubmitJobResponse* job_answer,
@@ -469,7 +469,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
     try {
       const AdmittedSweep admitted =
           AdmitSweep(*request, BedFileOf(request->base(), owner), m_info.job_limits,
-                     static_cast<std::size_t>(m_info.max_sweep_jobs));
+                     static_cast<std::size_t>(m_info.max_sweep_jobs),
+                     [context] { return context->IsCancelled(); });
       const std::vector<SweepRun>& runs = admitted.runs;
       if (Status s = CheckStoredQuota(owner, admitted.output_bytes); !s.ok()) return s;
       sweep.owner = owner;
@@ -490,6 +491,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
       return FromSceneError(e);
     } catch (const ResourceError& e) {
       return OverLimits(e);
+    } catch (const Cancelled&) {
+      return Status(StatusCode::CANCELLED, "the caller left while its sweep was admitted");
     }
     if (Status s = CheckQueuedQuota(owner, jobs.size()); !s.ok()) return s;
     try {
@@ -575,32 +578,37 @@ grpc::ServerUnaryReactor* DembufService::ListSweeps(grpc::CallbackServerContext*
   });
 }
 
+Status DembufService::TargetedJobs(const Caller& caller, Action action, std::int64_t job_id,
+                                   std::int64_t sweep_id, std::vector<JobRecord>* targets) {
+  if ((job_id != 0) == (sweep_id != 0)) return Invalid("job_id", "give either job_id or sweep_id");
+  if (job_id != 0) {
+    const auto job = m_store.GetJob(job_id);
+    if (!job) return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(job_id));
+    AccessPolicy::Require(caller, action, job->owner, "job_id: job " + std::to_string(job_id));
+    targets->push_back(*job);
+    return Status::OK;
+  }
+  const auto sweep = m_store.GetSweep(sweep_id);
+  if (!sweep)
+    return Status(StatusCode::NOT_FOUND, "sweep_id: no sweep " + std::to_string(sweep_id));
+  AccessPolicy::Require(caller, action, sweep->owner,
+                        "sweep_id: sweep " + std::to_string(sweep_id));
+  JobFilter filter;
+  filter.sweep_id = sweep_id;
+  filter.limit = 1000000;
+  *targets = m_store.ListJobs(filter);
+  return Status::OK;
+}
+
 grpc::ServerUnaryReactor* DembufService::Cancel(grpc::CallbackServerContext* context,
                                                 const v1::CancelRequest* request,
                                                 v1::CancelResponse* response) {
   return Serve("Cancel", context, [=, this](const Caller& caller) -> Status {
-    if ((request->job_id() != 0) == (request->sweep_id() != 0))
-      return Invalid("job_id", "give either job_id or sweep_id");
     std::vector<JobRecord> targets;
-    if (request->job_id() != 0) {
-      const auto job = m_store.GetJob(request->job_id());
-      if (!job)
-        return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
-      AccessPolicy::Require(caller, Action::kCancel, job->owner,
-                            "job_id: job " + std::to_string(job->id));
-      targets.push_back(*job);
-    } else {
-      const auto sweep = m_store.GetSweep(request->sweep_id());
-      if (!sweep)
-        return Status(StatusCode::NOT_FOUND,
-                      "sweep_id: no sweep " + std::to_string(request->sweep_id()));
-      AccessPolicy::Require(caller, Action::kCancel, sweep->owner,
-                            "sweep_id: sweep " + std::to_string(sweep->id));
-      JobFilter filter;
-      filter.sweep_id = request->sweep_id();
-      filter.limit = 1000000;
-      targets = m_store.ListJobs(filter);
-    }
+    if (Status s =
+            TargetedJobs(caller, Action::kCancel, request->job_id(), request->sweep_id(), &targets);
+        !s.ok())
+      return s;
     int cancelled = 0;
     try {
       for (const JobRecord& job : targets)
@@ -622,40 +630,36 @@ grpc::ServerUnaryReactor* DembufService::Delete(grpc::CallbackServerContext* con
                                                 const v1::DeleteRequest* request,
                                                 v1::DeleteResponse* response) {
   return Serve("Delete", context, [=, this](const Caller& caller) -> Status {
-    if ((request->job_id() != 0) == (request->sweep_id() != 0))
-      return Invalid("job_id", "give either job_id or sweep_id");
+    std::vector<JobRecord> targets;
+    if (Status s =
+            TargetedJobs(caller, Action::kDelete, request->job_id(), request->sweep_id(), &targets);
+        !s.ok())
+      return s;
     const std::string what = request->job_id() != 0
                                  ? "job_id: job " + std::to_string(request->job_id())
                                  : "sweep_id: sweep " + std::to_string(request->sweep_id());
-    std::vector<JobRecord> targets;
-    if (request->job_id() != 0) {
-      const auto job = m_store.GetJob(request->job_id());
-      if (!job)
-        return Status(StatusCode::NOT_FOUND, "job_id: no job " + std::to_string(request->job_id()));
-      AccessPolicy::Require(caller, Action::kDelete, job->owner, what);
-      targets.push_back(*job);
-    } else {
-      const auto sweep = m_store.GetSweep(request->sweep_id());
-      if (!sweep)
-        return Status(StatusCode::NOT_FOUND,
-                      "sweep_id: no sweep " + std::to_string(request->sweep_id()));
-      AccessPolicy::Require(caller, Action::kDelete, sweep->owner, what);
-      JobFilter filter;
-      filter.sweep_id = request->sweep_id();
-      filter.limit = 1000000;
-      targets = m_store.ListJobs(filter);
-    }
-    // A job that has not ended keeps adding to its results: it is cancelled first.
+    // A job that has not ended keeps adding to its results: it is cancelled first, and a job
+    // cancelled is deleted once it has stopped (its worker may still be writing).
     std::vector<std::int64_t> ids;
     int unfinished = 0;
     for (const JobRecord& job : targets) {
       if (!IsFinal(job.state) || m_executor.Live(job.id)) ++unfinished;
       ids.push_back(job.id);
     }
-    if (unfinished > 0)
+    if (unfinished > 0) {
+      const JobState state = targets.front().state;
+      const std::string why =
+          request->sweep_id() != 0
+              ? what + " has " + std::to_string(unfinished) + " job(s) not ended"
+          : IsFinal(state) ? what + " is still stopping"
+                           : what + " has not ended (" + StateName(state) + ")";
+      const std::string cancel =
+          request->sweep_id() != 0 ? "dembuf cancel --sweep " + std::to_string(request->sweep_id())
+                                   : "dembuf cancel " + std::to_string(request->job_id());
       return Status(StatusCode::FAILED_PRECONDITION,
-                    what + " has " + std::to_string(unfinished) +
-                        " job(s) not ended; cancel first (dembuf cancel), then delete");
+                    why + ": cancel first (" + cancel +
+                        "), and delete once stopped (a cancelled job stops within seconds)");
+    }
     const std::int64_t freed = m_store.DeleteJobs(ids, request->sweep_id());
     m_log->info("{} deleted {} job(s) ({}): {} bytes of results", caller.name, ids.size(), what,
                 freed);
@@ -932,10 +936,7 @@ grpc::ServerReadReactor<v1::BedPiece>* DembufService::PushBed(grpc::CallbackServ
             return ReceiveBed(caller, bed->first, std::move(bed->second), response);
           }));
         });
-        if (!queued)
-          answer(Status(StatusCode::RESOURCE_EXHAUSTED,
-                        caller.name + " has " + std::to_string(m_calls.max_waiting_per_user()) +
-                            " calls waiting for the server; push again when one is answered"));
+        if (!queued) answer(CallsWaiting(caller));
       });
 }
 
@@ -952,8 +953,9 @@ Status DembufService::ReceiveBed(const Caller& caller, const v1::BedPiece& first
     const std::string sha256 = report::Sha256Hex(data);
     bool added = false;
     try {
-      added = m_store.PutBedFile({owner, sha256, first.name(), std::move(data)},
-                                 kBedFileRoomPerPush * m_info.max_bed_push_bytes);
+      added = m_store.PutBedFile(
+          {owner, sha256, first.name(), std::make_shared<const std::string>(std::move(data))},
+          kBedFileRoomPerPush * m_info.max_bed_push_bytes);
     } catch (const BedFilesFull& e) {
       return Status(StatusCode::RESOURCE_EXHAUSTED, std::string("owner: ") + e.what());
     }
@@ -969,12 +971,16 @@ Status DembufService::ReceiveBed(const Caller& caller, const v1::BedPiece& first
   AccessPolicy::Require(caller, Action::kShareBed, "", "put prepared beds in the shared bed cache");
   PreparedBed bed;
   try {
+    // The scene is admitted as a job's is: it may name no file on the daemon's disk, and
+    // what it costs must be within the limits.
     const Scene scene = LoadSceneText(first.scene_toml(), "scene_toml");
-    if (Status s = CheckJobQuota(scene); !s.ok()) return s;
+    AdmitScene(scene, std::nullopt, m_info.job_limits);
     bed = ParseBed(data, "the pushed bed");
     CheckPreparedBed(bed, scene);
   } catch (const SceneError& e) {
     return FromSceneError(e);
+  } catch (const ResourceError& e) {
+    return OverLimits(e);
   } catch (const std::runtime_error& e) {  // ParseBed: damaged or foreign bytes
     return Invalid("data", e.what());
   }

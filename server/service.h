@@ -21,20 +21,22 @@
 
 namespace dembuf::server {
 
+/// What the service says of itself and the limits it applies, as MakeServiceInfo takes them
+/// from the daemon's configuration (whose defaults are in config.h, and nowhere else).
 struct ServiceInfo {
   std::string database;
   std::string host;
   std::string started_at;
-  int max_sweep_jobs = 10000;
+  int max_sweep_jobs = 0;
   int quota_queued_jobs = 0;            ///< per user; 0: none
   std::int64_t quota_stored_bytes = 0;  ///< per user; 0: none
   ResourceLimits job_limits;            ///< what one job may cost
-  int max_watch_streams_per_user = 8;
-  int max_watch_streams = 1024;
-  int max_fetch_streams_per_user = 4;
-  int max_fetch_streams = 64;
-  std::chrono::seconds stream_write_timeout{30};
-  std::int64_t max_bed_push_bytes = std::int64_t{64} << 20;
+  int max_watch_streams_per_user = 0;
+  int max_watch_streams = 0;
+  int max_fetch_streams_per_user = 0;
+  int max_fetch_streams = 0;
+  std::chrono::seconds stream_write_timeout{};
+  std::int64_t max_bed_push_bytes = 0;
 };
 
 /// Pushes of beds at once, per user and in all: each holds its bed in memory until it is
@@ -45,13 +47,15 @@ inline constexpr int kMaxBedPushes = 4;
 /// oldest no unfinished job imports make way for new ones.
 inline constexpr int kBedFileRoomPerPush = 4;
 
-/// Every call is served on gRPC's callback API. A unary call is identified on gRPC's thread
-/// (from memory: AccessPolicy) and its work done by the CallPool, users in turn; a stream
-/// (StreamReactor, BedPushReactor) holds no thread while it waits.
+/// Every call of the dembuf API is served on gRPC's callback API. A unary call is identified
+/// on gRPC's thread (from memory: AccessPolicy) and its work done by the CallPool, users in
+/// turn; a stream (StreamReactor, BedPushReactor) holds no thread while it waits.
 using DembufServiceBase = v1::Dembuf::CallbackService;
 
-/// The CallPool's threads, and the calls of one user that may wait for them at once.
+/// The CallPool's threads, and the calls of one user that may run on them and wait for them
+/// at once.
 inline constexpr int kCallThreads = 8;
+inline constexpr std::size_t kCallsRunningPerUser = 2;
 inline constexpr std::size_t kCallsWaitingPerUser = 64;
 
 class DembufService final : public DembufServiceBase {
@@ -105,11 +109,15 @@ class DembufService final : public DembufServiceBase {
   grpc::Status OpenFetchStream(const char* rpc, const grpc::ServerContextBase* context,
                                std::int64_t id, Caller* caller, std::optional<JobRecord>* job,
                                std::optional<StreamLimits::Place>* place);
+  /// The jobs a Cancel or Delete names: job `job_id`, or those of sweep `sweep_id` (exactly
+  /// one given), when they exist and the caller may do `action` to them.
+  grpc::Status TargetedJobs(const Caller& caller, Action action, std::int64_t job_id,
+                            std::int64_t sweep_id, std::vector<JobRecord>* targets);
+  /// The refusal of a call when the caller has the most calls waiting a user may have.
+  grpc::Status CallsWaiting(const Caller& caller) const;
   /// The per-user quotas: queued jobs, and stored results (`more_bytes` the new jobs' bound).
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
   grpc::Status CheckStoredQuota(const std::string& owner, double more_bytes);
-  /// The per-job limits, against the job's resource estimate.
-  grpc::Status CheckJobQuota(const Scene& scene);
   /// Runs a handler and turns any exception it lets out into a status with the reason (and
   /// a log line), instead of an abort or a reasonless answer; the access policy's refusals
   /// become UNAUTHENTICATED or PERMISSION_DENIED.

@@ -56,12 +56,21 @@ wait_state "$bob_job" done 120
 order=$(sed -n 's/.*worker 0: job \([0-9]*\) starts.*/\1/p' "$work/turns.log" | tr '\n' ' ')
 second=$(echo "$order" | awk '{print $2}')
 [ "$second" = "$bob_job" ] || fail "bob's job $bob_job waited behind alice's sweep: jobs started $order"
+# A job not ended is not deleted: the refusal says what to do first.
+long=$("$dembuf" --token "$bob" submit --set bed.thickness_m=0 --set time.end_s=100 \
+  --set time.output_interval_s=1e-3) || fail "a long job was refused"
+expect_exit 1 "not now: job_id: job $long has not ended (\(queued\|running\)): cancel first (dembuf cancel $long)" \
+  "$dembuf" --token "$bob" delete "$long"
+"$dembuf" --token "$bob" cancel "$long" > /dev/null
+DEMBUF_TOKEN=$bob wait_state "$long" cancelled 60
+for _ in $(seq 50); do "$dembuf" --token "$bob" delete "$long" > /dev/null 2>&1 && break; sleep 0.2; done
+expect_exit 2 "no job $long" "$dembuf" --token "$bob" status "$long"
 stop_daemon
 
 # Stored results have a quota per user; deleting frees it.
 printf 'access = "tokens"\nquota_stored_mb = 1.05\n' > "$work/quota.toml"
 start_daemon "$db" "$work/quota.log" --config "$work/quota.toml"
-"$dembuf" --token "$bob" server-info | grep -q "of 1.05 MB of stored results" ||
+"$dembuf" --token "$bob" server-info | grep -q "MB of 1.05 MB of stored results" ||
   fail "server-info does not show the quota: $("$dembuf" --token "$bob" server-info)"
 tiny=(--set bed.thickness_m=0 --set projectile.height_m=0.05 --set time.end_s=0.01
   --set time.output_interval_s=1e-3)

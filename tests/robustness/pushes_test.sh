@@ -2,7 +2,7 @@
 # Bed pushes that cannot hold the daemon's places (docs/robustness.md), through the API as any
 # client could (the Python package's stubs):
 # - four users each dripping one byte of a push every 0.6 stream timeouts held every PushBed
-#   place for good: the timeout counts silence only. Now a push slower than 64 kB/s on average
+#   place for good: the timeout counts silence only. Now a push slower than 64 KiB/s on average
 #   once the timeout has passed is cut off, and a fifth user's push goes through.
 # - a user's next push right after an answer was refused as "still open" (9 of 100): the place
 #   was given back after the answer. Now before it: 100 pushes in a row all go through.
@@ -55,7 +55,7 @@ for t in drippers:
 print(f"a fifth user's push went through {time.time() - started:.1f} s after four drippers began;"
       f" the drippers were told: {sorted(set(answers.values()))}")
 assert fifth == "OK", f"the drippers held every place: {fifth}"
-assert all("slower than 64 kB/s" in a for a in answers.values()), answers
+assert all("slower than 64 KiB/s" in a for a in answers.values()), answers
 
 # 2. A hundred pushes in a row.
 refused = [a for a in (push("u5", iter([pb.BedPiece(kind="file", name=f"b{k}.txt",

@@ -4,6 +4,7 @@
 # admin, a caller with no token and one with a wrong token. Then the two ways a daemon used
 # to be open by accident: web pages on loopback beside a gRPC address that asks for tokens
 # (the pages answered everyone as an admin), and a local daemon listening beyond loopback.
+# Server reflection asks for a token as the rest does.
 # Usage: access_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/../robustness/lib.sh" "$1" "$2"
 
@@ -138,6 +139,48 @@ bed=(--set cylinder.radius_m=0.02 --set bed.thickness_m=0.01 --set bed.source_th
 "$dembuf" prepare-bed "${bed[@]}" --bed-cache "$work/beds" > /dev/null 2>&1 || fail "prepare-bed"
 refused_grpc owner "only an admin may put prepared beds" bed push "${bed[@]}" --bed-cache "$work/beds"
 allowed_grpc admin "cut bed [0-9a-f]*.*pushed" bed push "${bed[@]}" --bed-cache "$work/beds"
+# Server reflection (for grpcurl: -H "authorization: Bearer TOKEN") identifies its caller
+# first, as every other call: a stream without a valid token is refused before it takes one of
+# the few places (each holds a thread), and a user holds at most a quarter of them.
+/usr/bin/python3 - "$DEMBUF_SERVER" "$alice" "$wrong" <<'PY' || fail "reflection's access"
+import queue, sys
+import grpc
+server, alice, wrong = sys.argv[1:]
+channel = grpc.insecure_channel(server)
+info = channel.stream_stream("/grpc.reflection.v1.ServerReflection/ServerReflectionInfo")
+LIST_SERVICES = b"\x3a\x00"  # ServerReflectionRequest { list_services = "" }
+def open_stream(token):
+    questions = queue.Queue()
+    def requests():
+        while (q := questions.get()) is not None:
+            yield q
+    metadata = [("authorization", "Bearer " + token)] if token else []
+    call = info(requests(), metadata=metadata, timeout=30)
+    questions.put(LIST_SERVICES)
+    return questions, call
+def refusal(token):
+    questions, call = open_stream(token)
+    try:
+        next(call)
+    except grpc.RpcError as e:
+        return e.code(), e.details()
+    finally:
+        questions.put(None)
+    return None
+code, why = refusal("")
+assert code == grpc.StatusCode.UNAUTHENTICATED and "needs a token" in why, (code, why)
+code, why = refusal(wrong)
+assert code == grpc.StatusCode.UNAUTHENTICATED and "not known" in why, (code, why)
+held = [open_stream(alice) for _ in range(4)]
+for _, call in held:
+    assert b"dembuf.v1.Dembuf" in next(call), "alice's reflection stream did not answer"
+code, why = refusal(alice)
+assert code == grpc.StatusCode.RESOURCE_EXHAUSTED and "at most 4 per user" in why, (code, why)
+for questions, call in held:
+    questions.put(None)
+    list(call)
+channel.close()
+PY
 grpc admin cancel --sweep "$sweep" > /dev/null 2>&1 || true
 stop_daemon
 

@@ -67,6 +67,15 @@ Status DiskFull() {
                 "space)");
 }
 
+// A listing past kMaxListAnswerBytes, refused rather than built.
+Status ListTooLarge(int limit, const char* what) {
+  return Status(StatusCode::RESOURCE_EXHAUSTED,
+                "limit: the " + std::to_string(limit) + " newest " + what +
+                    " would make an answer of more than " +
+                    std::to_string(kMaxListAnswerBytes >> 20) + " MiB; ask for fewer (limit)",
+                "field=limit");
+}
+
 v1::JobState ToProto(JobState s) {
   switch (s) {
     case JobState::kQueued:
@@ -318,6 +327,7 @@ bool DembufService::AnswerRetry(const std::string& owner, const std::string& req
     JobFilter filter;
     filter.sweep_id = record->id;
     filter.limit = m_info.max_sweep_jobs;
+    filter.with_scene = false;
     std::vector<JobRecord> jobs = m_store.ListJobs(filter);
     std::sort(jobs.begin(), jobs.end(),
               [](const JobRecord& a, const JobRecord& b) { return a.id < b.id; });
@@ -397,19 +407,24 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
         !s.ok())
       return s;
     if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
-    std::unique_lock<std::mutex> retry_lock(m_submissions, std::defer_lock);
-    if (!request->request_id().empty()) {
-      retry_lock.lock();
-      Status retry;
-      if (AnswerRetry(owner, request->request_id(), false, response, nullptr, &retry)) return retry;
+    // A request id the owner used before answers the retry, before the admission and again
+    // as the job is filed (two copies admitted at once file it once).
+    auto retried = [&](Status* retry) {
+      return !request->request_id().empty() &&
+             AnswerRetry(owner, request->request_id(), false, response, nullptr, retry);
+    };
+    {
+      std::lock_guard lock(m_submissions);
+      if (Status retry; retried(&retry)) return retry;
     }
     JobRecord job;
     std::vector<std::string> warnings;
+    double output_bytes = 0.0;
     try {
       const AdmittedJob admitted =
           AdmitJob(request->scene(), BedFileOf(request->scene(), owner), m_info.job_limits);
       const Scene& scene = admitted.scene;
-      if (Status s = CheckStoredQuota(owner, admitted.output_bytes); !s.ok()) return s;
+      output_bytes = admitted.output_bytes;
       warnings = SceneWarnings(scene);
       std::string name = request->name();
       if (name.empty())
@@ -422,7 +437,14 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
     } catch (const ResourceError& e) {
       return OverLimits(e);
     }
+    // Filed under the lock, held for the quotas and the insert only (never for an admission):
+    // two submissions at once cannot both pass a quota.
+    std::lock_guard lock(m_submissions);
+    if (Status retry; retried(&retry)) return retry;
     if (Status s = CheckQueuedQuota(owner, 1); !s.ok()) return s;
+    if (Status s = CheckStoredQuota(owner, output_bytes + static_cast<double>(JobRowBytes(job)));
+        !s.ok())
+      return s;
     try {
       m_executor.Admit(1, [&] {
         m_store.AddJob(job, request->request_id());
@@ -452,11 +474,14 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
         !s.ok())
       return s;
     if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
-    std::unique_lock<std::mutex> retry_lock(m_submissions, std::defer_lock);
-    if (!request->request_id().empty()) {
-      retry_lock.lock();
-      Status retry;
-      if (AnswerRetry(owner, request->request_id(), true, nullptr, response, &retry)) return retry;
+    // As SubmitJob: a retry is answered before the admission and again as the sweep is filed.
+    auto retried = [&](Status* retry) {
+      return !request->request_id().empty() &&
+             AnswerRetry(owner, request->request_id(), true, nullptr, response, retry);
+    };
+    {
+      std::lock_guard lock(m_submissions);
+      if (Status retry; retried(&retry)) return retry;
     }
     if (request->axes().empty() && request->seeds() <= 1)
       return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
@@ -466,13 +491,14 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
     std::vector<JobRecord> jobs;
     const std::string command_line = KeptCommandLine(context, request->command_line());
     std::vector<std::string> warnings;
+    double output_bytes = 0.0;
     try {
       const AdmittedSweep admitted =
           AdmitSweep(*request, BedFileOf(request->base(), owner), m_info.job_limits,
                      static_cast<std::size_t>(m_info.max_sweep_jobs),
                      [context] { return context->IsCancelled(); });
       const std::vector<SweepRun>& runs = admitted.runs;
-      if (Status s = CheckStoredQuota(owner, admitted.output_bytes); !s.ok()) return s;
+      output_bytes = admitted.output_bytes;
       sweep.owner = owner;
       sweep.name = request->name().empty() ? "sweep" : request->name();
       sweep.axes = admitted.axes;
@@ -494,7 +520,11 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
     } catch (const Cancelled&) {
       return Status(StatusCode::CANCELLED, "the caller left while its sweep was admitted");
     }
+    std::lock_guard lock(m_submissions);
+    if (Status retry; retried(&retry)) return retry;
     if (Status s = CheckQueuedQuota(owner, jobs.size()); !s.ok()) return s;
+    for (const JobRecord& job : jobs) output_bytes += static_cast<double>(JobRowBytes(job));
+    if (Status s = CheckStoredQuota(owner, output_bytes); !s.ok()) return s;
     try {
       m_executor.Admit(jobs.size(), [&] {
         m_store.AddSweep(sweep, jobs, request->request_id());
@@ -557,7 +587,13 @@ grpc::ServerUnaryReactor* DembufService::ListJobs(grpc::CallbackServerContext* c
         caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
     filter.sweep_id = request->sweep_id();
     filter.limit = request->limit() == 0 ? 100 : request->limit();
-    for (const JobRecord& job : m_store.ListJobs(filter)) FillJob(job, false, response->add_jobs());
+    filter.with_scene = false;
+    filter.max_bytes = kMaxListAnswerBytes;
+    bool over = false;
+    for (const JobRecord& job : m_store.ListJobs(filter, &over)) {
+      if (over) return ListTooLarge(filter.limit, "jobs");
+      FillJob(job, false, response->add_jobs());
+    }
     return Status::OK;
   });
 }
@@ -571,9 +607,13 @@ grpc::ServerUnaryReactor* DembufService::ListSweeps(grpc::CallbackServerContext*
       return Invalid("limit", "must be 0 (100) to 100000");
     const std::string owner =
         caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
-    for (const SweepRecord& sweep :
-         m_store.ListSweeps(owner, request->limit() == 0 ? 100 : request->limit()))
+    const int limit = request->limit() == 0 ? 100 : request->limit();
+    std::int64_t bytes = 0;
+    for (const SweepRecord& sweep : m_store.ListSweeps(owner, limit)) {
       FillSweep(sweep, response->add_sweeps());
+      bytes += static_cast<std::int64_t>(response->sweeps().rbegin()->ByteSizeLong());
+      if (bytes > kMaxListAnswerBytes) return ListTooLarge(limit, "sweeps");
+    }
     return Status::OK;
   });
 }
@@ -596,6 +636,7 @@ Status DembufService::TargetedJobs(const Caller& caller, Action action, std::int
   JobFilter filter;
   filter.sweep_id = sweep_id;
   filter.limit = 1000000;
+  filter.with_scene = false;  // (their states and ids are what is wanted)
   *targets = m_store.ListJobs(filter);
   return Status::OK;
 }

@@ -57,6 +57,8 @@ class Statement {
     while (Step()) {
     }
   }
+  /// Ends a statement stepped part way, its other rows left unread.
+  void Reset() { sqlite3_reset(m_stmt); }
 
   std::int64_t Int(int column) const { return sqlite3_column_int64(m_stmt, column); }
   std::string Text(int column) const;

@@ -206,6 +206,12 @@ const char* const kJobColumns =
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
     "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
     "command_line";
+// The same for a listing, which shows no scene: its text is not read ('' in its place).
+const char* const kListedJobColumns =
+    "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
+    "'', scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
+    "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
+    "command_line";
 // How many kJobColumns names: a column selected after them has this index.
 constexpr int kJobColumnCount = 23;
 
@@ -406,15 +412,26 @@ std::optional<JobRecord> Store::GetJob(std::int64_t id) {
   return job;
 }
 
-std::vector<JobRecord> Store::ListJobs(const JobFilter& filter) {
+std::vector<JobRecord> Store::ListJobs(const JobFilter& filter, bool* over_max_bytes) {
   std::lock_guard lock(m_mutex);
-  Statement& s = m_db->Prepare(std::string("SELECT ") + kJobColumns +
-                               " FROM jobs WHERE (? = '' OR state = ?) AND (? = '' OR owner = ?)"
-                               " AND (? = 0 OR sweep_id = ?) ORDER BY id DESC LIMIT ?");
+  Statement& s =
+      m_db->Prepare(std::string("SELECT ") + (filter.with_scene ? kJobColumns : kListedJobColumns) +
+                    " FROM jobs WHERE (? = '' OR state = ?) AND (? = '' OR owner = ?)"
+                    " AND (? = 0 OR sweep_id = ?) ORDER BY id DESC LIMIT ?");
   const std::string state = filter.state ? StateName(*filter.state) : "";
   s.Bind(state, state, filter.owner, filter.owner, filter.sweep_id, filter.sweep_id, filter.limit);
   std::vector<JobRecord> jobs;
-  while (s.Step()) jobs.push_back(ReadJob(s));
+  std::int64_t bytes = 0;
+  if (over_max_bytes) *over_max_bytes = false;
+  while (s.Step()) {
+    jobs.push_back(ReadJob(s));
+    bytes += JobRowBytes(jobs.back());
+    if (filter.max_bytes > 0 && bytes > filter.max_bytes) {
+      if (over_max_bytes) *over_max_bytes = true;
+      s.Reset();
+      break;
+    }
+  }
   return jobs;
 }
 
@@ -1074,7 +1091,14 @@ namespace {
 // The bytes stored of the jobs a condition selects (`jobs`: "... FROM jobs WHERE ..." giving
 // their ids), in one place for the quota and for deleting.
 std::string StoredBytesSql(const std::string& jobs) {
-  return "SELECT (SELECT IFNULL(SUM(length(summary_json) + length(series)), 0) FROM results "
+  // (The records' part is JobRowBytes's, in SQL: bytes, not characters.)
+  auto bytes = [](const char* column) {
+    return std::string("length(CAST(") + column + " AS BLOB)) + ";
+  };
+  return "SELECT (SELECT IFNULL(SUM(" + bytes("scene_toml") + bytes("command_line") +
+         bytes("name") + bytes("error") + bytes("sweep_values_json") +
+         std::to_string(kJobRowOverheadBytes) + "), 0) FROM jobs WHERE id IN (" + jobs +
+         ")) + (SELECT IFNULL(SUM(length(summary_json) + length(series)), 0) FROM results "
          "WHERE job_id IN (" +
          jobs +
          ")) + (SELECT IFNULL(SUM(length(data)), 0) FROM "
@@ -1087,9 +1111,16 @@ std::string StoredBytesSql(const std::string& jobs) {
 
 }  // namespace
 
+std::int64_t JobRowBytes(const JobRecord& job) {
+  return static_cast<std::int64_t>(job.scene_toml.size() + job.command_line.size() +
+                                   job.name.size() + job.error.size() +
+                                   nlohmann::json(job.sweep_values).dump().size()) +
+         kJobRowOverheadBytes;
+}
+
 std::int64_t Store::StoredBytesOf(const std::string& owner) {
   std::lock_guard lock(m_mutex);
-  // (The owner is bound three times, once a subquery.)
+  // (The owner is bound once, as ?1, and used by each subquery.)
   Statement& s = m_db->Prepare(StoredBytesSql("SELECT id FROM jobs WHERE owner = ?1"));
   s.Bind(owner);
   const std::int64_t bytes = s.Step() ? s.Int(0) : 0;

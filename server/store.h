@@ -54,6 +54,12 @@ struct JobRecord {
   std::string result_nonce;  ///< put into its Slurm job's script; its result must carry it
 };
 
+/// The bytes a job's record takes in the database, counted in its owner's stored bytes: its
+/// texts (scene, command line, name, error, sweep values) and an allowance for its other
+/// columns, index entries and events. A cancelled job's record stays until it is deleted.
+inline constexpr std::int64_t kJobRowOverheadBytes = 512;
+std::int64_t JobRowBytes(const JobRecord& job);
+
 /// A bed file a user sent to import (PushBed), kept by its owner and the SHA-256 of its bytes.
 struct BedFile {
   std::string owner;
@@ -86,6 +92,8 @@ struct JobFilter {
   std::string owner;  ///< "" for all
   std::int64_t sweep_id = 0;
   int limit = 100;
+  bool with_scene = true;      ///< false: scene_toml left empty (a listing shows none)
+  std::int64_t max_bytes = 0;  ///< stop past this many bytes of records (JobRowBytes); 0: none
 };
 
 /// What a finished (or failed) job leaves: its summary.json, the samples written, and its
@@ -192,7 +200,9 @@ class Store {
   std::optional<Submission> FindSubmission(const std::string& owner, const std::string& request_id);
 
   std::optional<JobRecord> GetJob(std::int64_t id);
-  std::vector<JobRecord> ListJobs(const JobFilter& filter);
+  /// The newest jobs the filter takes; `over_max_bytes`, when given, says whether the listing
+  /// stopped at filter.max_bytes.
+  std::vector<JobRecord> ListJobs(const JobFilter& filter, bool* over_max_bytes = nullptr);
   std::optional<SweepRecord> GetSweep(std::int64_t id);
   std::vector<SweepRecord> ListSweeps(const std::string& owner, int limit);
   std::map<std::string, int> SweepStateCounts(std::int64_t sweep_id);
@@ -255,7 +265,8 @@ class Store {
   bool RemoveUser(const std::string& name);
   bool AnyUsers();
   int CountQueuedBy(const std::string& owner);
-  /// The bytes of the results stored for `owner`'s jobs (summaries, series, result files).
+  /// The bytes stored for `owner`'s jobs, whatever their state: their records (JobRowBytes)
+  /// and their results (summaries, series, result files).
   std::int64_t StoredBytesOf(const std::string& owner);
   /// Deletes these jobs (all ended) and what is stored of them, and every sweep left without
   /// jobs: theirs, and `sweep_id` (0: none; a sweep asked for may have none); the bytes of the

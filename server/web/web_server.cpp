@@ -331,6 +331,7 @@ class WebServer::Routes {
     }
     // Everyone but an admin sees their own jobs only.
     if (!caller.admin) filter.owner = AccessPolicy::OwnerFor(caller, "");
+    filter.with_scene = false;  // a listing shows no scene
     nlohmann::json jobs = nlohmann::json::array();
     for (const JobRecord& job : m_store.ListJobs(filter))
       jobs.push_back(JobJson(job, ProgressOf(job, m_executor),

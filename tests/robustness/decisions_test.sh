@@ -65,6 +65,18 @@ expect_exit 1 "not now: job_id: job $long has not ended (\(queued\|running\)): c
 DEMBUF_TOKEN=$bob wait_state "$long" cancelled 60
 for _ in $(seq 50); do "$dembuf" --token "$bob" delete "$long" > /dev/null 2>&1 && break; sleep 0.2; done
 expect_exit 2 "no job $long" "$dembuf" --token "$bob" status "$long"
+# A cancelled job's record counts in its owner's stored bytes until it is deleted (cancelled
+# sweeps of long command lines grew the database by 477 MB, counted nowhere).
+carol=$("$dembufd" --db "$db" token-create carol 2> /dev/null)
+stored() { "$dembuf" --token "$carol" server-info --json | python3 -c 'import json, sys; print(json.load(sys.stdin)["stored_bytes"])'; }
+sleep 0.5  # the daemon reads new tokens within 250 ms
+job=$("$dembuf" --token "$carol" submit --set bed.thickness_m=0 --set time.end_s=100 \
+  --set time.output_interval_s=1e-3) || fail "carol's job was refused"
+"$dembuf" --token "$carol" cancel "$job" > /dev/null
+DEMBUF_TOKEN=$carol wait_state "$job" cancelled 60
+[ "$(stored)" -gt 4000 ] || fail "a cancelled job's record is not counted: $(stored) bytes"
+for _ in $(seq 50); do "$dembuf" --token "$carol" delete "$job" > /dev/null 2>&1 && break; sleep 0.2; done
+[ "$(stored)" = 0 ] || fail "carol's deleted job still counts $(stored) bytes"
 stop_daemon
 
 # Stored results have a quota per user; deleting frees it.
@@ -79,6 +91,37 @@ expect_exit 1 "over your quota on the server: owner: bob stores .* MB of results
 expect_exit 0 "deleted 1 job(s)" "$dembuf" --token "$bob" delete "$bob_job"
 expect_exit 2 "no job $bob_job" "$dembuf" --token "$bob" status "$bob_job"
 "$dembuf" --token "$bob" submit "${tiny[@]}" > /dev/null 2> "$work/err" || fail "after the delete: $(cat "$work/err")"
+stop_daemon
+
+# One user's slow admission holds up no other's submission: alice's sweep of 40 containers
+# around an 85,000-bead file is measured run by run (seconds), then refused by her queued
+# quota; bob's job, sent meanwhile, is filed before she is answered. (A lock held through the
+# whole admission made every submission with a request id, which the clients always send,
+# wait behind it.)
+python3 - "$work/big.txt" <<'PY'
+import math, sys
+r, spacing, radius = 0.0005, 0.00105, 0.03
+n = int(radius / spacing) + 1
+with open(sys.argv[1], "w") as out:
+    out.write("# x y z radius (m)\n")
+    for k in range(35):
+        for i in range(-n, n + 1):
+            for j in range(-n, n + 1):
+                if math.hypot(i * spacing, j * spacing) + r < 0.99 * radius:
+                    out.write(f"{i * spacing:.6f} {j * spacing:.6f} {r + k * spacing:.6f} {r}\n")
+PY
+printf 'access = "tokens"\nquota_queued_jobs = 5\n' > "$work/slow.toml"
+start_daemon "$db" "$work/slow.log" --config "$work/slow.toml"
+"$dembuf" --token "$alice" sweep --server "$DEMBUF_SERVER" --set bed.import="$work/big.txt" \
+  --set projectile.diameter_m=0.01 --vary cylinder.radius_m=0.0300:0.0339:0.0001 \
+  > "$work/slow.out" 2>&1 &
+alice_pid=$!
+sleep 1  # her file sent, her sweep being admitted
+"$dembuf" --token "$bob" submit "${tiny[@]}" > /dev/null 2> "$work/err" || fail "bob's job: $(cat "$work/err")"
+kill -0 "$alice_pid" 2> /dev/null ||
+  fail "alice's sweep was answered before bob's job was filed, so this shows nothing: $(cat "$work/slow.out")"
+wait "$alice_pid" || true
+grep -q "quota_queued_jobs" "$work/slow.out" || fail "alice's sweep: $(cat "$work/slow.out")"
 stop_daemon
 
 # --check-db on a database of an older schema reads only.

@@ -542,8 +542,18 @@ void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& sta
       if (const auto it = m_followed.find(job.id); it != m_followed.end()) followed = &it->second;
     }
     if (!followed) followed = &StartFollowing(job);
-    if (!Follow(job.id, *followed)) {
-      // More samples than its run may write: a node gone wrong. Ended here, not taken.
+    bool followable = true;
+    try {
+      followable = Follow(job.id, *followed);
+    } catch (const std::exception& e) {
+      // What the node left cannot be read (a link, a fifo, the folder gone): this job ends
+      // here, and the others are followed on (one such job stalled them all).
+      m_log->warn("job {}: its samples cannot be read: {}", job.id, e.what());
+      followable = false;
+    }
+    if (!followable) {
+      // More samples than its run may write, or none that can be read: a node gone wrong.
+      // Ended here, not taken; Finish says why.
       m_slurm.Cancel(job.slurm_id);
       Finish(job, s);
     }
@@ -557,6 +567,17 @@ std::uint64_t SlurmExecutor::SamplesMax(const JobRecord& job) {
            1;
   } catch (const std::exception&) {
     return kMaxSamplesAtEnd;  // a scene the estimate cannot take: the job fails as it ends
+  }
+}
+
+std::uint64_t SlurmExecutor::ResultBytesMax(const JobRecord& job) {
+  try {
+    // The estimate is an upper bound on a run's files; a quarter and a megabyte more leave
+    // room for what it leaves out (file system rounding, a longer name), not for more runs.
+    const double bound = EstimateResources(SceneOfJob(m_store, job)).output_bytes_max * 1.25 + 1e6;
+    return std::min(m_options.max_result_bytes, static_cast<std::uint64_t>(bound));
+  } catch (const std::exception&) {
+    return m_options.max_result_bytes;
   }
 }
 
@@ -629,7 +650,7 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
     if (out && out->Contains("summary.json")) {
       summary = ReadRunJson(*out, "summary.json", job.result_nonce)->dump(2) + "\n";
       for (auto& [path, data] : out->ReadTree(report::ResultFileRoots(), report::IsSafeResultPath,
-                                              m_options.max_result_bytes, kMaxResultFiles))
+                                              ResultBytesMax(job), kMaxResultFiles))
         files.push_back({path, std::move(data)});
       state = JobState::kDone;
     } else if (out && out->Contains("failure.json")) {

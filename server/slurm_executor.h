@@ -97,6 +97,8 @@ class SlurmExecutor final : public Executor {
   /// The most samples a job's run may write, by its estimate (a node may write more: they are
   /// not taken).
   std::uint64_t SamplesMax(const JobRecord& job);
+  /// The most bytes of result files taken from a job's node, by its estimate.
+  std::uint64_t ResultBytesMax(const JobRecord& job);
   Followed& StartFollowing(const JobRecord& job);
 
   /// A job's folder, made when `make` is set (else OwnershipError when it is not there).

@@ -8,12 +8,15 @@
 # - a summary.json nested 10,000 deep (58 KB) became 200 MB in the store (re-indented): now
 #   refused past 64 levels, the job failing with the reason.
 # - samples.bin as a link to the database was followed and stored as the job's samples: now
-#   no link is followed; the job fails saying so.
+#   no link is followed; the job is cancelled and fails saying so. (While it ran, the error
+#   stopped the following of every other job: one beside it that ended was not taken.)
 # - a samples.bin of 100,000 samples from a run that writes at most 502 was read whole, a few
 #   MB a look: now the job is cancelled on Slurm at the first sample past its estimate, and
 #   fails saying so.
 # - a pushed bed was written to the cluster's bed cache as HASH.bed.tmp, through a link of
 #   that name: now under a name of its own, made exclusively, and renamed into place.
+# - result files of any size up to twice the output quota were taken from a node: now up to
+#   the job's estimate of its files.
 # - a real run on the fake cluster (which runs the job's script) ends done: the nonce goes from
 #   the script through `dembuf run` to the daemon.
 # Usage: hostile_node_test.sh DEMBUF DEMBUFD
@@ -73,15 +76,23 @@ ends "$job"
 note "$job" | grep -q "nested deeper than 64 levels" || fail "deep summary: $(note "$job")"
 [ "$(stat -c %s "$work/dembuf.db")" -lt 20000000 ] || fail "the store grew: $(stat -c %s "$work/dembuf.db")"
 
-# 3. samples.bin as a link to the database.
+# 3. samples.bin as a link to the database, while another job ends beside it.
 job=$("$dembuf" submit "${bare[@]}")
 node "$job"
+linked_slurm=$slurm_id
 ln -s "$work/dembuf.db" "$folder/samples.bin"
-echo RUNNING > "$FAKE_SLURM_DIR/jobs/$slurm_id/state"
-sleep 1
-ends "$job"
-[ "$(job_state "$job")" = failed ] || fail "a linked samples.bin was followed"
+other=$("$dembuf" submit "${bare[@]}")
+node "$other"
+printf '{"result_nonce": "%s"}\n' "$(nonce_of "$slurm_id")" > "$folder/summary.new"
+mv "$folder/summary.new" "$folder/out/summary.json"
+echo RUNNING > "$FAKE_SLURM_DIR/jobs/$linked_slurm/state"
+echo COMPLETED > "$FAKE_SLURM_DIR/jobs/$slurm_id/state"
+wait_state "$other" "done failed" 30
+[ "$(job_state "$other")" = done ] || fail "the job beside: $(note "$other")"
+wait_state "$job" "failed" 30
 note "$job" | grep -q "symbolic link" || fail "linked samples: $(note "$job")"
+[ "$(cat "$FAKE_SLURM_DIR/jobs/$linked_slurm/state")" = CANCELLED ] ||
+  fail "the job whose samples.bin is a link was left running on Slurm"
 "$dembuf" fetch "$job" --out "$work/linked" --no-plots > /dev/null 2>&1 || true
 [ "$(wc -l < "$work/linked/plate_force.csv")" -le 1 ] || fail "the database was stored as samples"
 
@@ -99,6 +110,19 @@ note "$job" | grep -q "holds more samples than its run may write" || fail "long 
 [ "$(cat "$FAKE_SLURM_DIR/jobs/$slurm_id/state")" = CANCELLED ] || fail "the Slurm job was left running"
 "$dembuf" fetch "$job" --out "$work/long" --no-plots > /dev/null 2>&1 || true
 [ "$(cat "$work/long/plate_force.csv" 2> /dev/null | wc -l)" -le 504 ] || fail "more samples than the estimate were stored"
+
+# 3d. Result files far larger than the run writes (20 MB of snapshots from a bare-plate run
+#   whose estimate is a few kB): they were taken up to twice the output quota (2 GB); now up
+#   to the job's estimate, the job failing with the reason.
+job=$("$dembuf" submit "${bare[@]}")
+node "$job"
+mkdir -p "$folder/out/snapshots/peak"
+head -c $((20 << 20)) /dev/zero > "$folder/out/snapshots/peak/beads.vtp"
+printf '{"result_nonce": "%s"}\n' "$(nonce_of "$slurm_id")" > "$folder/summary.new"
+mv "$folder/summary.new" "$folder/out/summary.json"
+ends "$job"
+[ "$(job_state "$job")" = failed ] || fail "20 MB of result files were taken from a bare-plate run"
+note "$job" | grep -q "the result files pass" || fail "large result files: $(note "$job")"
 
 # 3c. Links where a pushed bed goes in the cluster's bed cache, and where it was written first
 #   (HASH.bed.tmp, a name anyone could foresee): neither is written through.

@@ -3,8 +3,10 @@
 // states the size, which must be within the daemon's limit, and no more bytes than stated are
 // taken; a sender that sends nothing for the stream timeout, or less than kMinPushBytesPerSecond
 // once that long has passed, is cut off (one byte now and then held a place for good). The
-// place under the push caps is given back as soon as the last piece is in, before the bed is
-// checked and the call answered: the sender's next push is never refused for this one.
+// place under the push caps is held until the bed has been checked (the bytes are in memory
+// until then: given back at the last piece, a user's pushes piled up in the queue of calls,
+// 1.4 GB here), and given back before the call is answered: the sender's next push is never
+// refused for this one.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -39,7 +41,7 @@ class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
   using Receiver = std::function<void(const v1::BedPiece& first, std::string data, Answer answer)>;
 
   /// Reads the pieces, at most `max_bytes` in all, then hands them to `receive`; `place`
-  /// is its place under the push caps, given back when the last piece is in.
+  /// is its place under the push caps, given back with the answer (just before it).
   static BedPushReactor* Start(grpc::CallbackServerContext* context, StreamClock& clock,
                                std::chrono::seconds idle_timeout, std::int64_t max_bytes,
                                std::optional<StreamLimits::Place> place, Receiver receive) {
@@ -80,12 +82,19 @@ class BedPushReactor final : public grpc::ServerReadReactor<v1::BedPiece> {
                                   std::to_string(m_data.size()) + " sent");
       }
       m_reading_done = true;
-      m_place.reset();  // the last piece is in: the sender may push again at once
-      if (!status.ok()) m_finishing = true;
+      if (!status.ok()) {
+        m_finishing = true;
+        m_place.reset();
+      }
     }
     if (!status.ok()) return Finish(status);
     Hold();  // until the answer, which may come from another thread
     m_receive(*m_first, std::move(m_data), [this](grpc::Status answer) {
+      {
+        // The bed is checked and its bytes gone: the sender may push again at once.
+        std::lock_guard lock(m_mutex);
+        m_place.reset();
+      }
       Finish(std::move(answer));
       Release();
     });

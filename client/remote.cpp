@@ -105,30 +105,31 @@ const char* StatusName(grpc::StatusCode code) {
 
 // One line per failure, with the server's message (which names the field at fault).
 int Report(const Remote& remote, const grpc::Status& status) {
+  // The message is the server's text: printed, never obeyed (an escape sequence shows as '?').
+  const std::string message = Shown(status.error_message());
   // This client's refusal of a compressed answer (dembuf's own servers send none).
   if (status.error_message().rfind("Compression algorithm", 0) == 0) {
     std::fprintf(stderr,
                  "dembuf: the server at %s sent a compressed answer, which dembuf does not take "
                  "(%s)\n",
-                 remote.address.c_str(), status.error_message().c_str());
+                 remote.address.c_str(), message.c_str());
     return kExitRuntime;
   }
   switch (status.error_code()) {
     case grpc::StatusCode::INVALID_ARGUMENT:
-      std::fprintf(stderr, "dembuf: the server refused the request: %s\n",
-                   status.error_message().c_str());
+      std::fprintf(stderr, "dembuf: the server refused the request: %s\n", message.c_str());
       return kExitBadInput;
     case grpc::StatusCode::UNAVAILABLE:
       std::fprintf(stderr,
                    "dembuf: cannot reach dembufd at %s (%s); start it, or point --server or "
                    "DEMBUF_SERVER at it\n",
-                   remote.address.c_str(), status.error_message().c_str());
+                   remote.address.c_str(), message.c_str());
       return kExitRuntime;
     case grpc::StatusCode::UNAUTHENTICATED:
-      std::fprintf(stderr, "dembuf: not allowed in: %s\n", status.error_message().c_str());
+      std::fprintf(stderr, "dembuf: not allowed in: %s\n", message.c_str());
       return kExitRuntime;
     case grpc::StatusCode::PERMISSION_DENIED:
-      std::fprintf(stderr, "dembuf: not yours: %s\n", status.error_message().c_str());
+      std::fprintf(stderr, "dembuf: not yours: %s\n", message.c_str());
       return kExitRuntime;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
       // This client's refusal of an answer larger than it takes ("... vs. its limit").
@@ -136,7 +137,7 @@ int Report(const Remote& remote, const grpc::Status& status) {
           status.error_message().find("vs. " + std::to_string(kMaxAnswerBytes)) !=
               std::string::npos) {
         std::fprintf(stderr, "dembuf: the server at %s sent an answer larger than %d MB: %s\n",
-                     remote.address.c_str(), kMaxAnswerBytes >> 20, status.error_message().c_str());
+                     remote.address.c_str(), kMaxAnswerBytes >> 20, message.c_str());
         return kExitRuntime;
       }
       // gRPC's own refusal of a request larger than the server reads.
@@ -144,40 +145,38 @@ int Report(const Remote& remote, const grpc::Status& status) {
         std::fprintf(stderr,
                      "dembuf: the request is larger than this server accepts (max_request_kb): "
                      "%s\n",
-                     status.error_message().c_str());
+                     message.c_str());
         return kExitBadInput;
       }
       // A user's quota on the server (queued jobs, stored results): their own to free.
       if (status.error_details().rfind("quota=", 0) == 0) {
-        std::fprintf(stderr, "dembuf: over your quota on the server: %s\n",
-                     status.error_message().c_str());
+        std::fprintf(stderr, "dembuf: over your quota on the server: %s\n", message.c_str());
         return kExitRuntime;
       }
       // A job past the server's limits names the field to change (bad input); a full queue
       // or disk is worth trying again later.
       if (status.error_details().rfind("field=", 0) == 0) {
-        std::fprintf(stderr, "dembuf: refused by the server's limits: %s\n",
-                     status.error_message().c_str());
+        std::fprintf(stderr, "dembuf: refused by the server's limits: %s\n", message.c_str());
         return kExitBadInput;
       }
-      std::fprintf(stderr, "dembuf: the server is full: %s\n", status.error_message().c_str());
+      std::fprintf(stderr, "dembuf: the server is full: %s\n", message.c_str());
       return kExitRuntime;
     case grpc::StatusCode::NOT_FOUND:
-      std::fprintf(stderr, "dembuf: not found: %s\n", status.error_message().c_str());
+      std::fprintf(stderr, "dembuf: not found: %s\n", message.c_str());
       return kExitBadInput;
     case grpc::StatusCode::FAILED_PRECONDITION:
-      std::fprintf(stderr, "dembuf: not now: %s\n", status.error_message().c_str());
+      std::fprintf(stderr, "dembuf: not now: %s\n", message.c_str());
       return kExitRuntime;
     case grpc::StatusCode::DEADLINE_EXCEEDED:
       std::fprintf(stderr, "dembuf: dembufd at %s did not answer in time (%s)\n",
-                   remote.address.c_str(), status.error_message().c_str());
+                   remote.address.c_str(), message.c_str());
       return kExitRuntime;
     case grpc::StatusCode::INTERNAL:
-      std::fprintf(stderr, "dembuf: %s\n", status.error_message().c_str());
+      std::fprintf(stderr, "dembuf: %s\n", message.c_str());
       return kExitRuntime;
     default:
       std::fprintf(stderr, "dembuf: dembufd answered %s: %s\n", StatusName(status.error_code()),
-                   status.error_message().c_str());
+                   message.c_str());
       return kExitRuntime;
   }
 }
@@ -229,7 +228,9 @@ int ExitOfJob(v1::JobState s) {
 }
 
 void PrintWarnings(const google::protobuf::RepeatedPtrField<std::string>& warnings) {
-  for (const std::string& w : warnings) std::fprintf(stderr, "dembuf: warning: %s\n", w.c_str());
+  for (const std::string& w : warnings) {
+    std::fprintf(stderr, "dembuf: warning: %s\n", Shown(w).c_str());
+  }
 }
 
 // What a command tells people besides its result (on stderr; not with -q).
@@ -399,10 +400,11 @@ std::string SafeFolderName(const std::string& name, std::int64_t id) {
   return safe.substr(0, 200);
 }
 
+// A sweep axis as the server described it, for the terminal.
 std::string AxisText(const v1::SweepAxis& axis) {
   std::string text = axis.field() + " = ";
   for (int k = 0; k < axis.values_size(); ++k) text += (k ? "," : "") + axis.values(k);
-  return text;
+  return Shown(text);
 }
 
 // A long series (one FetchResults leaves out) streamed into `csv` piece by piece, checked
@@ -636,7 +638,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
       };
       std::printf("%6lld  %-12s %-20s %6d %6d %6d %6d  %s\n", static_cast<long long>(s.id()),
                   Shown(s.owner()).c_str(), Shown(s.name()).c_str(), s.jobs_total(), count("done"),
-                  count("failed"), s.beds_prepared(), s.created_at().c_str());
+                  count("failed"), s.beds_prepared(), Shown(s.created_at()).c_str());
     }
     return 0;
   }
@@ -694,12 +696,12 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
       return 0;
     }
     std::printf("sweep %lld  %s  owner %s  created %s\n", static_cast<long long>(s.id()),
-                Shown(s.name()).c_str(), Shown(s.owner()).c_str(), s.created_at().c_str());
+                Shown(s.name()).c_str(), Shown(s.owner()).c_str(), Shown(s.created_at()).c_str());
     for (const auto& axis : s.axes()) std::printf("  %s\n", AxisText(axis).c_str());
     std::printf("jobs: %d", s.jobs_total());
     for (const auto& [state, count] :
          std::map<std::string, int>(s.jobs_by_state().begin(), s.jobs_by_state().end()))
-      std::printf(", %s %d", state.c_str(), count);
+      std::printf(", %s %d", Shown(state).c_str(), count);
     std::printf("\nbeds prepared: %d\n", s.beds_prepared());
     return 0;
   }
@@ -716,9 +718,9 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
               StateText(j.state()).c_str());
   std::printf("owner %s, sweep %s, attempts %d\n", Shown(j.owner()).c_str(),
               j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.attempts());
-  std::printf("created %s, started %s, finished %s\n", j.created_at().c_str(),
-              j.started_at().empty() ? "-" : j.started_at().c_str(),
-              j.finished_at().empty() ? "-" : j.finished_at().c_str());
+  std::printf("created %s, started %s, finished %s\n", Shown(j.created_at()).c_str(),
+              j.started_at().empty() ? "-" : Shown(j.started_at()).c_str(),
+              j.finished_at().empty() ? "-" : Shown(j.finished_at()).c_str());
   // Progress while the job lives (one fraction over its bed stages and impact, and the time
   // left it implies); an ended job shows its summary (or reason) below instead.
   if (!Ended(j.state()))
@@ -726,12 +728,12 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
                 Shown(j.progress().stage()).c_str(), Percent(j.progress().fraction()).c_str(),
                 TimeLeft(j.started_at(), j.progress().fraction()).c_str(),
                 j.progress().sim_time_s() * 1e3, j.progress().peak_plate_force_n());
-  std::printf("scene %s, bed %s\n", j.scene_hash().c_str(),
-              j.bed_hash().empty() ? "(none)" : j.bed_hash().c_str());
+  std::printf("scene %s, bed %s\n", Shown(j.scene_hash()).c_str(),
+              j.bed_hash().empty() ? "(none)" : Shown(j.bed_hash()).c_str());
   if (j.slurm_job_id() != 0)
     std::printf("Slurm job %lld%s%s\n", static_cast<long long>(j.slurm_job_id()),
-                j.host().empty() ? "" : " on ", j.host().c_str());
-  for (const auto& bed : j.beds_prepared()) std::printf("prepared bed: %s\n", bed.c_str());
+                j.host().empty() ? "" : " on ", Shown(j.host()).c_str());
+  for (const auto& bed : j.beds_prepared()) std::printf("prepared bed: %s\n", Shown(bed).c_str());
   if (j.files_size() > 0) {
     std::int64_t bytes = 0;
     for (const auto& file : j.files()) bytes += file.size();
@@ -1140,18 +1142,18 @@ int RemoteServerInfo(const Remote& remote, bool json) {
     std::printf("%s\n", ServerInfoJson(info, remote.address).dump(2).c_str());
     return 0;
   }
-  std::printf("dembufd %s at %s (host %s, up since %s)\n", info.version().c_str(),
-              remote.address.c_str(), info.host().c_str(), info.started_at().c_str());
+  std::printf("dembufd %s at %s (host %s, up since %s)\n", Shown(info.version()).c_str(),
+              remote.address.c_str(), Shown(info.host()).c_str(), Shown(info.started_at()).c_str());
   if (info.executor() == "slurm")
     std::printf(
         "jobs run on a Slurm cluster, %d CPUs each; running %d, queued %d of %d, "
         "database %s\n",
         info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
-        info.database().c_str());
+        Shown(info.database()).c_str());
   else
     std::printf("workers %d x %d threads, running %d, queued %d of %d%s%s\n", info.workers(),
                 info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
-                info.database().empty() ? "" : ", database ", info.database().c_str());
+                info.database().empty() ? "" : ", database ", Shown(info.database()).c_str());
   // The caller's share, against the per-user quotas (counts whole, bytes in MB to 0.01).
   auto of = [](double used, double quota, const char* format) {
     char used_text[32], quota_text[32];

@@ -29,6 +29,9 @@ DEEP_SUMMARY = "{\"a\": " * 100_000 + "1" + "}" * 100_000
 WATCH_MESSAGES, WATCH_SAMPLES_PER_MESSAGE = 200, 100_000
 # Job 9 announces a series of 2^62 samples and streams without end.
 ENDLESS = 2**62
+# Job 10's text fields, and every refusal of Cancel, carry terminal escape sequences: clear
+# the screen, set the window title, and an OSC 52 write to the clipboard.
+ESCAPES = "\x1b[2J\x1b]0;owned\x07\x1b]52;c;dG91Y2ggUFdORUQK\x07\u009b31m"
 
 
 class Hostile(pb_grpc.DembufServicer):
@@ -49,8 +52,17 @@ class Hostile(pb_grpc.DembufServicer):
             first += 10_000
 
     def GetJob(self, request, context):
+        if request.id == 10:
+            return pb.Job(id=10, state=pb.JOB_STATE_RUNNING, owner=ESCAPES, name=ESCAPES,
+                          error=ESCAPES, scene_hash=ESCAPES, bed_hash=ESCAPES,
+                          created_at=ESCAPES, started_at=ESCAPES, beds_prepared=[ESCAPES],
+                          host=ESCAPES, slurm_job_id=1,
+                          progress=pb.Progress(stage=ESCAPES))
         return pb.Job(id=request.id, state=pb.JOB_STATE_DONE, owner="eve", name="job",
                       summary_json=DEEP_SUMMARY if request.id == 7 else "{}")
+
+    def Cancel(self, request, context):
+        context.abort(grpc.StatusCode.NOT_FOUND, "no job " + ESCAPES)
 
     def WatchJob(self, request, context):
         message = pb.WatchJobResponse(state=pb.JOB_STATE_RUNNING)

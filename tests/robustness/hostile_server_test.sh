@@ -5,7 +5,9 @@
 # (a raw C++ message), and sized a sweep by jobs_total = -1 or 2e9 (a multi-GB allocation,
 # "cannot create std::vector larger than max_size()"). Now only the result names the API
 # defines are written, counts are bounded before anything is sized by them, and each refusal
-# is one sentence naming the server and the file.
+# is one sentence naming the server and the file. A job's fields and the server's refusals
+# reached the terminal with their escape sequences; now every server string is shown with
+# control characters as '?'.
 # Usage: hostile_server_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
 
@@ -70,6 +72,15 @@ expect_exit 1 "the server at $DEMBUF_SERVER announced 4611686018427387904 sample
 # accepts"). Compressed answers are not taken.
 expect_exit 1 "the server at $DEMBUF_SERVER sent a compressed answer" "$dembuf" server-info
 if grep -q "max_request_kb" "$work/err"; then fail "blamed on the request: $(cat "$work/err")"; fi
+# Text from a server is printed, never obeyed: escape sequences (clear the screen, set the
+# title, write the clipboard) in a job's fields and in a refusal reached the terminal whole.
+"$dembuf" status 10 > "$work/out" 2> "$work/err" || true
+"$dembuf" cancel 10 >> "$work/out" 2>> "$work/err" || true
+grep -q "no job" "$work/err" && grep -q "Slurm job 1 on" "$work/out" ||
+  fail "status and cancel of job 10: $(cat "$work/out" "$work/err")"
+if LC_ALL=C grep -q $'[\x01-\x08\x0b-\x1f\x7f]\|\xc2[\x80-\x9f]' "$work/out" "$work/err"; then
+  fail "control characters from the server reached the terminal: $(cat -v "$work/out" "$work/err")"
+fi
 # The Python package likewise.
 /usr/bin/python3 - "$python_package" "$DEMBUF_SERVER" <<'PY' || fail "the Python package trusted the server"
 import sys

@@ -105,8 +105,8 @@ std::unique_ptr<Executor> MakeExecutor(const ServerConfig& config, Store& store,
     options.slurm = {s.partition,  s.account,  s.cpus_per_job, s.mem_per_job_mb, s.time_limit,
                      s.extra_args, s.work_dir, s.dembuf,       s.poll_s};
     options.queue_limit = config.queue_limit;
-    // A job's files were bounded by its estimate at submission; the bound read back is wider
-    // (the estimate is an upper bound, but a cluster node's files are not trusted).
+    // The ceiling on any job's files read back from a node; each job's own bound is its
+    // estimate (SlurmExecutor::ResultBytesMax), as a node's files are not trusted.
     options.max_result_bytes = config.quota_output_mb > 0
                                    ? static_cast<std::uint64_t>(2 * config.quota_output_mb * 1e6)
                                    : UINT64_MAX;
@@ -260,6 +260,12 @@ std::unique_ptr<web::WebServer> StartWebPages(const ServerConfig& config, Store&
     log->warn(
         "web pages on {} without TLS: tokens and data cross the network in clear text "
         "(set tls_cert and tls_key)",
+        web_address);
+  if (!IsLoopback(config.http))
+    log->warn(
+        "web pages on {}: a connection holds one of their threads until its request is "
+        "whole, and a client that sends it slowly holds it for hours; where other machines "
+        "reach them, serve them on loopback behind haproxy (deploy/haproxy/dembufd.cfg)",
         web_address);
   log->info("web pages on {}://{}/{}", config.tls_cert.empty() ? "http" : "https", web_address,
             policy.tokens_required() ? " (tokens required)" : "");

@@ -14,10 +14,15 @@ daemon's memory must stay within a bound (docs/service.md has the figures this p
    against it alone; behind haproxy a reset stream never reaches it.
    --direct-reset runs it against the daemon itself to measure that (not in CI: it grew the
    daemon by gigabytes).
+5. slow headers on the web pages (slowloris): 200 connections each sending a GET's headers a
+   byte every 2 s, through haproxy's web front: a page asked for meanwhile is answered.
+   dembufd serves a connection on a thread until its request is whole, so 80 such took every
+   thread of its web pages; --direct-slow measures that against the daemon itself.
 
 Timings are figures, not assertions (a loaded machine must pass): the test asserts answers,
 refusals and memory. Usage:
-  floods.py DEMBUF DEMBUFD PYTHON_PACKAGE_DIR SOURCE_DIR [--direct-reset] [--json FILE]
+  floods.py DEMBUF DEMBUFD PYTHON_PACKAGE_DIR SOURCE_DIR [--direct-reset] [--direct-slow]
+            [--json FILE]
 Exits 0 when everything held, 1 with the reason otherwise. Loopback only; about a minute.
 """
 import argparse
@@ -35,6 +40,8 @@ import zlib
 
 RESET_SECONDS = 8
 RESET_CONNECTIONS = 4
+SLOW_SECONDS = 12
+SLOW_CONNECTIONS = 200
 # What a flood may add to the daemon's memory (it runs in a few tens of MB).
 MEMORY_BOUND_MB = 200
 
@@ -180,6 +187,51 @@ def gzip_requests(address, inflated_mb, count):
     return statuses, len(body)
 
 
+# -- HTTP/1.1 slowly: the web pages ------------------------------------------------------------
+
+def page_seconds(address, timeout=4.0):
+    """Seconds a GET /login took at `address`, or None when it was not answered in time."""
+    host, port = address.rsplit(":", 1)
+    start = time.time()
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout) as sock:
+            sock.settimeout(timeout)
+            sock.sendall(f"GET /login HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n\r\n".encode())
+            if not sock.recv(12).startswith(b"HTTP/1.1 200"):
+                return None
+        return time.time() - start
+    except OSError:
+        return None
+
+
+def slow_headers(address, seconds, connections):
+    """`connections` requests whose headers come a byte every 2 s, for `seconds`; a page asked
+    for all the while. How many pages were answered, and how many were asked for."""
+    host, port = address.rsplit(":", 1)
+    slow = []
+    for _ in range(connections):
+        sock = socket.create_connection((host, int(port)), timeout=5)
+        sock.sendall(f"GET /login HTTP/1.1\r\nHost: {address}\r\nX-Slow: ".encode())
+        slow.append(sock)
+    pages, end = [], time.time() + seconds
+    next_byte = time.time()
+    while time.time() < end:
+        if time.time() >= next_byte:
+            for sock in slow:
+                try:
+                    sock.send(b"a")
+                except OSError:
+                    pass  # dropped by the server: as it should be
+            next_byte += 2
+        pages.append(page_seconds(address))
+        time.sleep(0.2)
+    for sock in slow:
+        sock.close()
+    answered = [p for p in pages if p is not None]
+    return {"pages_asked": len(pages), "pages_answered": len(answered),
+            "page_p99_ms": round(1e3 * percentile(answered, 0.99), 1) if answered else None}
+
+
 # -- the test ------------------------------------------------------------------------------------
 
 class Daemon:
@@ -193,13 +245,17 @@ class Daemon:
         self.log_path = os.path.join(work, "dembufd.log")
         self.log = open(self.log_path, "w")
         self.process = subprocess.Popen([dembufd, "--listen", "127.0.0.1:0", "--db", self.db,
+                                         "--http", "127.0.0.1:0",
                                          "--workers", "1", "--threads-per-job", "1"],
                                         stdout=self.log, stderr=self.log)
-        self.address = None
+        self.address = self.web_address = None
         for _ in range(100):
-            match = re.search(r"listening on .* \(port (\d+)\)", open(self.log_path).read())
-            if match:
+            log = open(self.log_path).read()
+            match = re.search(r"listening on .* \(port (\d+)\)", log)
+            web = re.search(r"web pages on http://(127\.0\.0\.1:\d+)/", log)
+            if match and web:
                 self.address = f"127.0.0.1:{match.group(1)}"
+                self.web_address = web.group(1)
                 return
             if self.process.poll() is not None:
                 fail(f"dembufd exited: {open(self.log_path).read()[-500:]}")
@@ -274,6 +330,7 @@ def main():
     parser.add_argument("package")
     parser.add_argument("source")
     parser.add_argument("--direct-reset", action="store_true")
+    parser.add_argument("--direct-slow", action="store_true")
     parser.add_argument("--json")
     opt = parser.parse_args()
     sys.path.insert(0, opt.package)
@@ -327,10 +384,11 @@ def main():
             fail(f"bob's calls: {answers}")
 
         # The front proxy of deploy/haproxy/, on a port of its own.
-        front_port = free_port()
+        front_port, web_front_port = free_port(), free_port()
         front_log = open(os.path.join(work, "haproxy.log"), "w")
         front = subprocess.Popen(["bash", os.path.join(opt.source, "deploy/haproxy/front.sh"),
-                                  f"127.0.0.1:{front_port}", daemon.address],
+                                  f"127.0.0.1:{front_port}", daemon.address,
+                                  f"127.0.0.1:{web_front_port}", daemon.web_address],
                                  stdout=front_log, stderr=front_log)
         front_address = f"127.0.0.1:{front_port}"
         for _ in range(100):
@@ -351,6 +409,16 @@ def main():
                        lambda: rapid_reset(daemon.address, RESET_SECONDS, RESET_CONNECTIONS))
             except SystemExit as e:  # the measured limit, reported, not the test's verdict
                 print(f"(direct: {e})")
+        web_front = f"127.0.0.1:{web_front_port}"
+        if page_seconds(web_front, 30) is None:
+            fail("the web pages are not answered through haproxy")
+        pages = during("slow headers at the web pages through haproxy",
+                       lambda: slow_headers(web_front, SLOW_SECONDS, SLOW_CONNECTIONS), front_address)
+        if pages["pages_answered"] != pages["pages_asked"]:
+            fail(f"slow headers through haproxy: {pages}")
+        if opt.direct_slow:  # the measured limit, reported, not the test's verdict
+            during("slow headers at the daemon's web pages",
+                   lambda: slow_headers(daemon.web_address, SLOW_SECONDS, SLOW_CONNECTIONS))
         if opt.json:
             with open(opt.json, "w") as f:
                 json.dump(figures, f, indent=2)

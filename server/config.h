@@ -77,7 +77,11 @@ struct ServerConfig {
     std::string work_dir;                 ///< a folder every node sees (required)
     std::string dembuf;                   ///< dembuf on the nodes; "" for the one beside dembufd
     double poll_s = 2.0;                  ///< how often the daemon asks Slurm
+    bool operator==(const Slurm&) const = default;
   } slurm;
+
+  /// (For the test that the example configuration states these defaults.)
+  bool operator==(const ServerConfig&) const = default;
 };
 
 /// A setting is unknown, of the wrong type or out of range; the message names it.

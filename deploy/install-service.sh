@@ -14,4 +14,4 @@ install -m 0644 deploy/dembufd.service /etc/systemd/system/dembufd.service
 systemctl daemon-reload
 systemctl enable --now dembufd
 systemctl --no-pager status dembufd | head -5
-echo "dembufd runs; try: dembuf server-info"
+echo "dembufd runs. Make a token (sudo -u dembuf dembufd --config /etc/dembuf/dembufd.toml token-create NAME --admin), then: DEMBUF_TOKEN=... dembuf server-info"

@@ -15,6 +15,8 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <type_traits>
+#include <variant>
 
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/impact/impact.h"
@@ -708,61 +710,106 @@ TEST(BedCacheThreads, ARunWaitsOnlyForABedBeingPrepared) {
   EXPECT_TRUE(WaitsForBed(cut_a, {cut_a}, beds));         // the cut itself is not yet
 }
 
-TEST(BedHash, IsStableAndNamesWhatDeterminesTheBed) {
-  const Scene s = SmallBedScene();
-  // A fixed value: a change here means every cached bed is invalidated (raise
+TEST(BedHash, IsStable) {
+  // A fixed value: a change here means every cached bed is prepared again (raise
   // kBedPreparationVersion instead when that is intended).
-  // Preparation version 5, local settling version 3, cut beads stopped at their peaks version
-  // 1, surface cut version 2.
-  EXPECT_EQ(BedHash(s), "cfa0dfadd6a8bcaa");
-  Scene projectile = s;
-  projectile.projectile.mass_kg = 0.2;  // the projectile does not shape the bed
-  projectile.time.end_s = 0.1;
-  EXPECT_EQ(BedHash(projectile), BedHash(s));
-  for (const char* field :
-       {"seed", "prep", "thickness", "mu", "alpha", "quench", "local", "cut", "soft", "peaks"}) {
-    Scene other = s;
-    if (std::string(field) == "peaks") other.bed.quench_cut_beads = false;
-    if (std::string(field) == "soft") other.bed.soft_settling = 30.0;
-    if (std::string(field) == "cut") other.bed.cut = "tops";
-    if (std::string(field) == "quench") other.bed.quench_cut_relaxation = true;
-    if (std::string(field) == "local") other.bed.local_settling = !s.bed.local_settling;
-    if (std::string(field) == "seed") other.bed.seed = 2;
-    if (std::string(field) == "prep") other.bed.prep_friction = 0.3;
-    if (std::string(field) == "thickness") other.bed.thickness_m = 0.011;
-    if (std::string(field) == "mu") other.material.friction_bead_bead = 0.2;
-    if (std::string(field) == "alpha") other.time.alpha = 0.1;
-    EXPECT_NE(BedHash(other), BedHash(s)) << field;
+  EXPECT_EQ(BedHash(SmallBedScene()), "e796675b31287a0a");
+}
+
+// `field` of `scene` set to another value it may take: a number 5% up (or down, or another in
+// its range), the next seed, the other truth value or choice, another bed file's content, one
+// more snapshot time.
+Scene Changed(const Scene& scene, const SceneField& field) {
+  Scene other = scene;
+  std::visit(
+      [&](auto ref) {
+        auto& value = ref(other);
+        using T = std::decay_t<decltype(value)>;
+        if constexpr (std::is_same_v<T, double>) {
+          for (const double candidate : {value * 1.05, value * 0.95, 0.0123, 0.5, 2.0})
+            if (candidate != value && candidate <= field.max &&
+                (field.min_open ? candidate > field.min : candidate >= field.min)) {
+              value = candidate;
+              return;
+            }
+          ADD_FAILURE() << field.name << ": no other value in range";
+        } else if constexpr (std::is_same_v<T, std::int64_t>) {
+          value += 1;
+        } else if constexpr (std::is_same_v<T, bool>) {
+          value = !value;
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          if (field.choices.empty()) {  // bed.import: another file, by its content
+            value = "other.txt";
+            other.bed.import_bytes = std::make_shared<const std::string>("0 0 0.0012 0.0011\n");
+          } else {
+            value = std::string(value == field.choices[0] ? field.choices[1] : field.choices[0]);
+          }
+        } else {
+          value.push_back(0.01);
+        }
+      },
+      field.ref);
+  return other;
+}
+
+// The keys of every bed stage come from the field table's column: each field of the table,
+// changed in turn, moves exactly the keys of the stages it shapes and of those after them. A
+// new field says what it shapes (the column has no default), and this test holds it to it.
+TEST(BedKeys, EveryFieldMovesTheKeysOfTheStagesItShapes) {
+  using enum Shapes;
+  Scene prepared = SmallBedScene();
+  prepared.bed.source_thickness_m = 0.03;  // H 5% up or down is cut from the same source bed
+  Scene imported = SmallBedScene();
+  imported.bed.import = "bed.txt";
+  imported.bed.import_bytes = std::make_shared<const std::string>("0 0 0.0011 0.0011\n");
+  const BedStageKeys prepared_keys = BedKeys(prepared), imported_keys = BedKeys(imported);
+  for (const SceneField& field : SceneFields()) {
+    const Shapes s = field.shapes;
+    if (s != kImportedBed) {  // a bed file's fields shape only an imported bed
+      const BedStageKeys keys = BedKeys(Changed(prepared, field));
+      EXPECT_EQ(keys.source != prepared_keys.source, s == kSourceBed) << field.name;
+      EXPECT_EQ(keys.cut != prepared_keys.cut, s == kSourceBed || s == kCutBed) << field.name;
+      EXPECT_EQ(keys.friction != prepared_keys.friction,
+                s == kSourceBed || s == kCutBed || s == kFrictionBed)
+          << field.name;
+    }
+    const BedStageKeys keys = BedKeys(Changed(imported, field));
+    EXPECT_EQ(keys.import != imported_keys.import,
+              s == kSourceBed || s == kFrictionBed || s == kImportedBed)
+        << field.name;
   }
-  // Local settling (the default) names its version, so beds of an earlier version are not
-  // reused; without it the hash names no local settling at all.
-  Scene whole = s;
-  whole.bed.local_settling = false;
-  EXPECT_EQ(BedHash(whole), "b019bda83f3ab3f5");  // preparation version 5, surface cut 2
-  // Stopping the cut beds at their peaks belongs to local settling: without it, it changes
-  // nothing, and the hash does not name it. Nor does the source's, which it does not touch.
-  Scene whole_free = whole;
-  whole_free.bed.quench_cut_beads = false;
-  EXPECT_EQ(BedHash(whole_free), BedHash(whole));
-  Scene free = s;
-  free.bed.quench_cut_beads = false;
-  EXPECT_EQ(BedSourceHash(free), BedSourceHash(s));
-  // Soft settling names the factor it settles with, so that the automatic factor (the
-  // default) and the same factor given share their beds; the beds settled stiff (the test
-  // scene's) keep the hash they had before it was the default.
-  Scene automatic = s, hundred = s;
+}
+
+TEST(BedKeys, AutomaticValuesAndBedFilesAreKeyedAsWhatTheyResolveTo) {
+  // The automatic softening and the same factor given share their beds.
+  Scene automatic = SmallBedScene(), given = SmallBedScene();
   automatic.bed.soft_settling = 0.0;
-  hundred.bed.soft_settling = 100.0;
-  EXPECT_EQ(BedHash(automatic), BedHash(hundred));
-  EXPECT_NE(BedHash(automatic), BedHash(s));
-  // Both cuts share the source bed.
-  Scene tops = s;
+  given.bed.soft_settling = SoftSettlingFactor(automatic);
+  ASSERT_GT(given.bed.soft_settling, 1.0);
+  EXPECT_EQ(BedHash(automatic), BedHash(given));
+  // A friction stage's tolerance of 0 means the settling's own.
+  Scene zero = SmallBedScene(), same = SmallBedScene();
+  zero.material.friction_bead_bead = same.material.friction_bead_bead = 0.2;
+  zero.bed.friction_settle_tolerance = 0.0;
+  same.bed.friction_settle_tolerance = same.bed.settle_tolerance;
+  EXPECT_EQ(BedHash(zero), BedHash(same));
+  // A bed file is named by its content, not by its name.
+  Scene a = SmallBedScene(), b = SmallBedScene();
+  a.bed.import = "a.txt";
+  b.bed.import = "elsewhere/b.txt";
+  a.bed.import_bytes = b.bed.import_bytes =
+      std::make_shared<const std::string>("0 0 0.0011 0.0011\n");
+  EXPECT_EQ(BedHash(a), BedHash(b));
+  // Both cuts, and every friction after settling, share the source bed; the projectile and
+  // the run's end shape no bed.
+  Scene tops = SmallBedScene(), mu = SmallBedScene(), projectile = SmallBedScene();
   tops.bed.cut = "tops";
-  EXPECT_EQ(BedSourceHash(tops), BedSourceHash(s));
-  // Changing friction after settling keeps the source (shared settling).
-  Scene mu = s;
   mu.material.friction_bead_bead = 0.2;
-  EXPECT_EQ(BedSourceHash(mu), BedSourceHash(s));
+  projectile.projectile.mass_kg = 0.2;
+  projectile.time.end_s = 0.1;
+  EXPECT_EQ(BedSourceHash(tops), BedSourceHash(SmallBedScene()));
+  EXPECT_EQ(BedSourceHash(mu), BedSourceHash(SmallBedScene()));
+  EXPECT_EQ(BedHash(projectile), BedHash(SmallBedScene()));
 }
 
 // 1500 beads (enough for the parallel blocks, >= 1024) in a 3 cm cylinder, thrown in random

@@ -22,95 +22,54 @@ namespace dembuf {
 
 namespace {
 
-// ---- hashing ---------------------------------------------------------------------------------
-
-std::string FieldText(const Scene& scene, const char* name) {
-  return std::string(name) + "=" + FormatSceneField(scene, *FindSceneField(name)) + "\n";
-}
-
-// The canonical text of the fields that determine the source bed: exact number texts, fixed
-// order. Anything that changes the settled packing belongs here, including the time step.
-std::string SourceKeyText(const Scene& scene, double source_thickness) {
-  static const char* kFields[] = {"gravity_m_s2",
-                                  "cylinder.radius_m",
-                                  "cylinder.height_m",
-                                  "material.density_kg_m3",
-                                  "material.youngs_modulus_Pa",
-                                  "material.poisson_ratio",
-                                  "material.restitution",
-                                  "material.restitution_ref_speed_m_s",
-                                  "material.friction_bead_wall",
-                                  "material.shear_stiffness",
-                                  "walls.material_from_beads",
-                                  "walls.youngs_modulus_Pa",
-                                  "walls.poisson_ratio",
-                                  "beads.diameter_min_m",
-                                  "beads.diameter_max_m",
-                                  "bed.prep_friction",
-                                  "bed.seed",
-                                  "bed.settle_tolerance",
-                                  "time.alpha"};
-  std::ostringstream key;
-  key << "dembuf bed v" << kBedPreparationVersion << "\n";
-  for (const char* name : kFields)
-    key << name << "=" << FormatSceneField(scene, *FindSceneField(name)) << "\n";
-  // Named only when set, so that the beds settled as a whole keep the hashes they had.
-  if (scene.bed.local_settling)
-    key << FieldText(scene, "bed.local_settling")
-        << "local_settling_version=" << kLocalSettlingVersion << "\n";
-  // The factor itself, so that the automatic one and the same factor given share their beds.
-  if (const double softening = SoftSettlingFactor(scene); softening != 1.0) {
-    Scene resolved = scene;
-    resolved.bed.soft_settling = softening;
-    key << FieldText(resolved, "bed.soft_settling")
-        << "soft_settling_version=" << kSoftSettlingVersion << "\n";
-  }
-  key << "source_thickness_m="
-      << FormatSceneField(
-             [&] {
-               Scene s;
-               s.bed.source_thickness_m = source_thickness;
-               return s;
-             }(),
-             *FindSceneField("bed.source_thickness_m"))
-      << "\n";
-  return key.str();
-}
+// ---- keys --------------------------------------------------------------------------------------
 
 double SourceThickness(const Scene& scene) {
   return PlanSourceBed(scene).thickness_m;
 }
 
-struct StageKeys {
-  std::string source, cut, friction;
-};
-
-// Whether the cut beds' local settling stops beads at their kinetic-energy peaks. Named in
-// the cut bed's hash only then, so that the cut beds relaxed without it keep their hashes.
+// Whether the cut beds' local settling stops beads at their kinetic-energy peaks.
 bool QuenchesCutBeads(const Scene& scene) {
   return scene.bed.local_settling && scene.bed.quench_cut_beads;
 }
 
-StageKeys Keys(const Scene& scene) {
-  StageKeys k;
-  const std::string source_text = SourceKeyText(scene, SourceThickness(scene));
-  k.source = ContentHash(source_text);
-  // Named only when set, so that the beds relaxed freely keep the hashes they always had.
-  const std::string cut_text =
-      source_text + FieldText(scene, "bed.thickness_m") +
-      (scene.bed.quench_cut_relaxation ? FieldText(scene, "bed.quench_cut_relaxation") : "") +
-      (QuenchesCutBeads(scene)
-           ? FieldText(scene, "bed.quench_cut_beads") +
-                 "cut_bead_quench_version=" + std::to_string(kCutBeadQuenchVersion) + "\n"
-           : "") +
-      (scene.bed.cut != "surface"
-           ? FieldText(scene, "bed.cut")
-           : "surface_cut_version=" + std::to_string(kSurfaceCutVersion) + "\n");
-  k.cut = ContentHash(cut_text);
-  k.friction = ContentHash(cut_text + FieldText(scene, "material.friction_bead_bead") +
-                           FieldText(scene, "bed.friction_ramp_s") +
-                           FieldText(scene, "bed.friction_settle_tolerance"));
-  return k;
+// The scene a bed's key is computed from: automatic values resolved (the source bed's
+// thickness, the softening factor, a friction-stage tolerance of 0) and a bed file named by
+// its content, so that scenes which make the same bed share it. (An imported bed has no
+// source bed: its source fields are keyed as given.)
+Scene ResolvedForKeys(const Scene& scene) {
+  Scene resolved = scene;
+  if (!scene.bed.import.empty()) {
+    resolved.bed.import = "sha256:" + ImportContentSha256(scene);
+  } else {
+    resolved.bed.source_thickness_m = SourceThickness(scene);
+    resolved.bed.soft_settling = SoftSettlingFactor(scene);
+  }
+  if (resolved.bed.friction_settle_tolerance == 0.0)
+    resolved.bed.friction_settle_tolerance = scene.bed.settle_tolerance;
+  return resolved;
+}
+
+// The versions of the procedures that make each stage (bed.h).
+std::string SourceVersions() {
+  return "preparation v" + std::to_string(kBedPreparationVersion) + "\nlocal settling v" +
+         std::to_string(kLocalSettlingVersion) + "\nsoft settling v" +
+         std::to_string(kSoftSettlingVersion) + "\n";
+}
+std::string CutVersions() {
+  return "cut bead quench v" + std::to_string(kCutBeadQuenchVersion) + "\nsurface cut v" +
+         std::to_string(kSurfaceCutVersion) + "\n";
+}
+
+// A stage's key text: its procedures' versions, then every field whose value shapes one of
+// `stages` (the field table's column), exact number texts, in the table's order.
+std::string KeyText(const Scene& resolved, std::initializer_list<Shapes> stages,
+                    const std::string& versions) {
+  std::string text = "dembuf bed\n" + versions;
+  for (const SceneField& field : SceneFields())
+    if (std::find(stages.begin(), stages.end(), field.shapes) != stages.end())
+      text += std::string(field.name) + "=" + FormatSceneField(resolved, field) + "\n";
+  return text;
 }
 
 // ---- deterministic random numbers --------------------------------------------------------------
@@ -639,19 +598,6 @@ PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const Bed
   return bed;
 }
 
-std::string ImportHash(const Scene& scene) {
-  // Named only when set, so that beds imported as they were keep their hashes.
-  const std::string relax = scene.bed.import_overlaps == "relax"
-                                ? FieldText(scene, "bed.import_overlaps")
-                                : std::string();
-  const std::string units =
-      scene.bed.import_units != "m" ? FieldText(scene, "bed.import_units") : std::string();
-  // The content by its SHA-256: a sweep's runs on one file hash it once (the daemon knows
-  // its sent files' digests).
-  return ContentHash(SourceKeyText(scene, 0.0) + FieldText(scene, "material.friction_bead_bead") +
-                     relax + units + "import\n" + ImportContentSha256(scene));
-}
-
 PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::string& stage,
                        const std::function<PreparedBed()>& make) {
   return cache.FindOrMake(hash, stage, make);
@@ -659,21 +605,37 @@ PreparedBed FindOrMake(BedCache& cache, const std::string& hash, const std::stri
 
 }  // namespace
 
+BedStageKeys BedKeys(const Scene& scene) {
+  const Scene r = ResolvedForKeys(scene);
+  using enum Shapes;
+  BedStageKeys keys;
+  if (!scene.bed.import.empty()) {
+    keys.import = ContentHash(KeyText(r, {kSourceBed, kFrictionBed, kImportedBed},
+                                      SourceVersions() + "imported\n"));
+    return keys;
+  }
+  keys.source = ContentHash(KeyText(r, {kSourceBed}, SourceVersions()));
+  keys.cut = ContentHash(KeyText(r, {kSourceBed, kCutBed}, SourceVersions() + CutVersions()));
+  keys.friction = ContentHash(
+      KeyText(r, {kSourceBed, kCutBed, kFrictionBed}, SourceVersions() + CutVersions()));
+  return keys;
+}
+
 std::string BedSourceHash(const Scene& scene) {
   if (!scene.bed.import.empty() || scene.bed.thickness_m <= 0.0) return "";
-  return Keys(scene).source;
+  return BedKeys(scene).source;
 }
 
 std::string BedHash(const Scene& scene) {
-  if (!scene.bed.import.empty()) return ImportHash(scene);
-  const StageKeys k = Keys(scene);
+  const BedStageKeys k = BedKeys(scene);
+  if (!scene.bed.import.empty()) return k.import;
   return NeedsFrictionStage(scene) ? k.friction : k.cut;
 }
 
 std::vector<BedStage> BedStagesOf(const Scene& scene) {
-  if (!scene.bed.import.empty()) return {{"import", ImportHash(scene)}};
+  if (!scene.bed.import.empty()) return {{"import", BedKeys(scene).import}};
   if (scene.bed.thickness_m <= 0.0) return {};
-  const StageKeys k = Keys(scene);
+  const BedStageKeys k = BedKeys(scene);
   std::vector<BedStage> stages = {{"source", k.source}, {"cut", k.cut}};
   if (NeedsFrictionStage(scene)) stages.push_back({"friction", k.friction});
   return stages;
@@ -698,10 +660,10 @@ bool WaitsForBed(const BedNeeds& needs, const std::vector<BedNeeds>& running, Be
 
 PreparedBed GetBed(const Scene& scene, BedCache& cache, const BedRequest& request) {
   ValidateScene(scene);
+  const BedStageKeys k = BedKeys(scene);
   if (!scene.bed.import.empty())
-    return FindOrMake(cache, ImportHash(scene), "import",
-                      [&] { return PrepareImport(scene, ImportHash(scene), request); });
-  const StageKeys k = Keys(scene);
+    return FindOrMake(cache, k.import, "import",
+                      [&] { return PrepareImport(scene, k.import, request); });
   auto cut = [&] {
     return FindOrMake(cache, k.cut, "cut", [&] {
       const PreparedBed source = FindOrMake(
@@ -718,7 +680,7 @@ PreparedBed GetSourceBed(const Scene& scene, BedCache& cache, const BedRequest& 
   ValidateScene(scene);
   if (!scene.bed.import.empty() || scene.bed.thickness_m <= 0.0)
     throw SceneError("bed.thickness_m", "this scene's bed is not cut from a source bed");
-  const StageKeys k = Keys(scene);
+  const BedStageKeys k = BedKeys(scene);
   return FindOrMake(cache, k.source, "source",
                     [&] { return PrepareSource(scene, k.source, request); });
 }

@@ -46,35 +46,35 @@ bool IsRegularFile(const std::string& path) {
 // the container, the beads' material and sizes.
 std::vector<SceneField> WorldFields() {
   return {
-      {"gravity_m_s2", "m/s^2", "gravitational acceleration, downward", DEMBUF_FIELD(gravity_m_s2),
+      {"gravity_m_s2", "m/s^2", "gravitational acceleration, downward", Shapes::kSourceBed, DEMBUF_FIELD(gravity_m_s2),
        0.0, 1000.0},
 
       {"cylinder.radius_m", "m", "inner radius of the cylinder (paper: 0.095)",
-       DEMBUF_FIELD(cylinder.radius_m), 0.0, 5.0, true},
-      {"cylinder.height_m", "m", "height H2 of the side wall", DEMBUF_FIELD(cylinder.height_m), 0.0,
+       Shapes::kSourceBed, DEMBUF_FIELD(cylinder.radius_m), 0.0, 5.0, true},
+      {"cylinder.height_m", "m", "height H2 of the side wall", Shapes::kSourceBed, DEMBUF_FIELD(cylinder.height_m), 0.0,
        10.0, true},
 
-      {"material.density_kg_m3", "kg/m^3", "bead density rho", DEMBUF_FIELD(material.density_kg_m3),
+      {"material.density_kg_m3", "kg/m^3", "bead density rho", Shapes::kSourceBed, DEMBUF_FIELD(material.density_kg_m3),
        0.0, 1e5, true},
       {"material.youngs_modulus_Pa", "Pa", "Young's modulus E of beads and projectile",
-       DEMBUF_FIELD(material.youngs_modulus_Pa), 0.0, 1e13, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(material.youngs_modulus_Pa), 0.0, 1e13, true},
       {"material.poisson_ratio", "", "Poisson ratio nu of beads and projectile",
-       DEMBUF_FIELD(material.poisson_ratio), 0.0, 0.5, false, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(material.poisson_ratio), 0.0, 0.5, false, true},
       {"material.restitution", "", "restitution e of two mean beads meeting at the reference speed",
-       DEMBUF_FIELD(material.restitution), 0.0, 1.0, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(material.restitution), 0.0, 1.0, true},
       {"material.restitution_ref_speed_m_s", "m/s", "impact speed at which e is calibrated",
-       DEMBUF_FIELD(material.restitution_ref_speed_m_s), 0.0, 1000.0, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(material.restitution_ref_speed_m_s), 0.0, 1000.0, true},
       {"material.friction_bead_bead", "", "mu_pp, bead-bead and projectile-bead friction",
-       DEMBUF_FIELD(material.friction_bead_bead), 0.0, 10.0},
+       Shapes::kFrictionBed, DEMBUF_FIELD(material.friction_bead_bead), 0.0, 10.0},
       {"material.friction_bead_wall", "", "mu_pw, friction with plate and wall (beads, projectile)",
-       DEMBUF_FIELD(material.friction_bead_wall), 0.0, 10.0},
+       Shapes::kSourceBed, DEMBUF_FIELD(material.friction_bead_wall), 0.0, 10.0},
       {"material.rolling_friction", "",
        "mu_r, rolling resistance of every contact in the impact (0 = none, as the paper)",
-       DEMBUF_FIELD(material.rolling_friction), 0.0, 1.0},
+       Shapes::kImpact, DEMBUF_FIELD(material.rolling_friction), 0.0, 1.0},
       {"material.shear_stiffness",
        "",
        "G* formula: paper = G/(2(1-nu)) (kt/kn = 2), mindlin = G/(2(2-nu))",
-       DEMBUF_FIELD(material.shear_stiffness),
+       Shapes::kSourceBed, DEMBUF_FIELD(material.shear_stiffness),
        0.0,
        0.0,
        false,
@@ -82,16 +82,16 @@ std::vector<SceneField> WorldFields() {
        {"paper", "mindlin"}},
 
       {"walls.material_from_beads", "", "plate and wall take the beads' E and nu",
-       DEMBUF_FIELD(walls.material_from_beads)},
+       Shapes::kSourceBed, DEMBUF_FIELD(walls.material_from_beads)},
       {"walls.youngs_modulus_Pa", "Pa", "E of plate and wall, if not from beads",
-       DEMBUF_FIELD(walls.youngs_modulus_Pa), 0.0, 1e13, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(walls.youngs_modulus_Pa), 0.0, 1e13, true},
       {"walls.poisson_ratio", "", "nu of plate and wall, if not from beads",
-       DEMBUF_FIELD(walls.poisson_ratio), 0.0, 0.5, false, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(walls.poisson_ratio), 0.0, 0.5, false, true},
 
       {"beads.diameter_min_m", "m", "smallest bead diameter (uniform distribution)",
-       DEMBUF_FIELD(beads.diameter_min_m), 0.0, 1.0, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_min_m), 0.0, 1.0, true},
       {"beads.diameter_max_m", "m", "largest bead diameter (uniform distribution)",
-       DEMBUF_FIELD(beads.diameter_max_m), 0.0, 1.0, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_max_m), 0.0, 1.0, true},
   };
 }
 
@@ -99,18 +99,18 @@ std::vector<SceneField> WorldFields() {
 std::vector<SceneField> BedFields() {
   return {
       {"bed.thickness_m", "m", "settled bed thickness H; 0 = no beads",
-       DEMBUF_FIELD(bed.thickness_m), 0.0, 10.0},
+       Shapes::kCutBed, DEMBUF_FIELD(bed.thickness_m), 0.0, 10.0},
       {"bed.prep_friction", "", "bead friction while the bed settles (sets the packing C0)",
-       DEMBUF_FIELD(bed.prep_friction), 0.0, 10.0},
-      {"bed.seed", "", "random seed of the bead insertion", DEMBUF_FIELD(bed.seed), 0.0, 1e15},
+       Shapes::kSourceBed, DEMBUF_FIELD(bed.prep_friction), 0.0, 10.0},
+      {"bed.seed", "", "random seed of the bead insertion", Shapes::kSourceBed, DEMBUF_FIELD(bed.seed), 0.0, 1e15},
       {"bed.import", "",
        "bed file: text (x y z radius a line, or a header naming the columns), LAMMPS data "
        "(atom style sphere) or LAMMPS dump (its last frame); empty = prepare",
-       DEMBUF_FIELD(bed.import)},
+       Shapes::kImportedBed, DEMBUF_FIELD(bed.import)},
       {"bed.import_units",
        "",
        "length unit of bed.import's numbers",
-       DEMBUF_FIELD(bed.import_units),
+       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_units),
        0.0,
        0.0,
        false,
@@ -119,97 +119,97 @@ std::vector<SceneField> BedFields() {
       {"bed.import_overlaps",
        "",
        "beads of bed.import overlapping by more than 1% of a radius: refuse, or relax (separate)",
-       DEMBUF_FIELD(bed.import_overlaps),
+       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_overlaps),
        0.0,
        0.0,
        false,
        false,
        {"refuse", "relax"}},
       {"bed.source_thickness_m", "m", "thickness of the settled bed every H is cut from",
-       DEMBUF_FIELD(bed.source_thickness_m), 0.0, 10.0, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(bed.source_thickness_m), 0.0, 10.0, true},
       {"bed.cut",
        "",
        "how a bed is cut to H: surface = mean surface at H, tops = every bead top below H",
-       DEMBUF_FIELD(bed.cut),
+       Shapes::kCutBed, DEMBUF_FIELD(bed.cut),
        0.0,
        0.0,
        false,
        false,
        {"surface", "tops"}},
       {"bed.settle_tolerance", "", "rest: kinetic energy per bead below this times m g d",
-       DEMBUF_FIELD(bed.settle_tolerance), 0.0, 1.0, true},
+       Shapes::kSourceBed, DEMBUF_FIELD(bed.settle_tolerance), 0.0, 1.0, true},
       {"bed.friction_settle_tolerance", "",
        "the same after the friction change; 0 = bed.settle_tolerance",
-       DEMBUF_FIELD(bed.friction_settle_tolerance), 0.0, 1.0},
+       Shapes::kFrictionBed, DEMBUF_FIELD(bed.friction_settle_tolerance), 0.0, 1.0},
       {"bed.quench_cut_relaxation", "",
        "relax a cut bed with kinetic damping (zero velocities at each kinetic-energy peak)",
-       DEMBUF_FIELD(bed.quench_cut_relaxation)},
+       Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_relaxation)},
       {"bed.local_settling", "",
        "settle beds by stepping only the last moving beads' neighbourhood (false: every bead)",
-       DEMBUF_FIELD(bed.local_settling)},
+       Shapes::kSourceBed, DEMBUF_FIELD(bed.local_settling)},
       {"bed.quench_cut_beads", "",
        "in a cut bed's local settling, stop each bead whose kinetic energy passes a maximum",
-       DEMBUF_FIELD(bed.quench_cut_beads)},
+       Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_beads)},
       {"bed.soft_settling", "",
        "settle the source bed with E divided by this, then restore E and relax; 0 = automatic "
        "(up to 100, within the pour's overlap limit), 1 = off",
-       DEMBUF_FIELD(bed.soft_settling), 0.0, 1000.0},
+       Shapes::kSourceBed, DEMBUF_FIELD(bed.soft_settling), 0.0, 1000.0},
       {"bed.max_settle_s", "s", "simulated time allowed for settling before giving up",
-       DEMBUF_FIELD(bed.max_settle_s), 0.0, 1e3, true},
+       Shapes::kNothing, DEMBUF_FIELD(bed.max_settle_s), 0.0, 1e3, true},
       {"bed.friction_ramp_s", "s", "duration of the slow change from prep_friction to mu_pp",
-       DEMBUF_FIELD(bed.friction_ramp_s), 0.0, 10.0},
+       Shapes::kFrictionBed, DEMBUF_FIELD(bed.friction_ramp_s), 0.0, 10.0},
   };
 }
 
 // the projectile, the run's times and its output.
 std::vector<SceneField> ImpactFields() {
   return {
-      {"projectile.enabled", "", "drop a projectile", DEMBUF_FIELD(projectile.enabled)},
-      {"projectile.diameter_m", "m", "projectile diameter D", DEMBUF_FIELD(projectile.diameter_m),
+      {"projectile.enabled", "", "drop a projectile", Shapes::kImpact, DEMBUF_FIELD(projectile.enabled)},
+      {"projectile.diameter_m", "m", "projectile diameter D", Shapes::kImpact, DEMBUF_FIELD(projectile.diameter_m),
        0.0, 10.0, true},
-      {"projectile.mass_kg", "kg", "projectile mass M", DEMBUF_FIELD(projectile.mass_kg), 0.0, 1e6,
+      {"projectile.mass_kg", "kg", "projectile mass M", Shapes::kImpact, DEMBUF_FIELD(projectile.mass_kg), 0.0, 1e6,
        true},
       {"projectile.speed_m_s", "m/s", "initial downward speed V0",
-       DEMBUF_FIELD(projectile.speed_m_s), 0.0, 1000.0},
+       Shapes::kImpact, DEMBUF_FIELD(projectile.speed_m_s), 0.0, 1000.0},
       {"projectile.height_m", "m", "H1, initial centre height above the bed surface",
-       DEMBUF_FIELD(projectile.height_m), 0.0, 100.0, true},
+       Shapes::kImpact, DEMBUF_FIELD(projectile.height_m), 0.0, 100.0, true},
       {"projectile.offset_m", "m",
        "horizontal distance of the drop line from the axis (radius - diameter/2 grazes the wall)",
-       DEMBUF_FIELD(projectile.offset_m), 0.0, 100.0},
+       Shapes::kImpact, DEMBUF_FIELD(projectile.offset_m), 0.0, 100.0},
 
       {"damping.local_alpha", "",
        "local damping of every bead's motion in the impact: a force -alpha |F| sign(v) per degree "
        "of freedom (as PFC's); 0 = none, as the paper states its model",
-       DEMBUF_FIELD(damping.local_alpha), 0.0, 1.0, false, true},
+       Shapes::kImpact, DEMBUF_FIELD(damping.local_alpha), 0.0, 1.0, false, true},
       {"damping.viscous_rate_per_s", "1/s",
        "viscous background damping of every bead's motion in the impact: -rate m v and -rate I w; "
        "0 = none",
-       DEMBUF_FIELD(damping.viscous_rate_per_s), 0.0, 1e5},
+       Shapes::kImpact, DEMBUF_FIELD(damping.viscous_rate_per_s), 0.0, 1e5},
 
       {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
-       DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
-      {"time.end_s", "s", "end time; 0 = stop when the impact is over", DEMBUF_FIELD(time.end_s),
+       Shapes::kSourceBed, DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
+      {"time.end_s", "s", "end time; 0 = stop when the impact is over", Shapes::kImpact, DEMBUF_FIELD(time.end_s),
        0.0, 1e3},
       {"time.impact_window_s", "s", "automatic end: at most this long after the first contact",
-       DEMBUF_FIELD(time.impact_window_s), 0.0, 1e3, true},
+       Shapes::kImpact, DEMBUF_FIELD(time.impact_window_s), 0.0, 1e3, true},
       {"time.output_interval_s", "s", "spacing of the written force samples",
-       DEMBUF_FIELD(time.output_interval_s), 0.0, 1.0, true},
+       Shapes::kOutput, DEMBUF_FIELD(time.output_interval_s), 0.0, 1.0, true},
 
       {"output.snapshot_times_s", "s",
        "times of contact-network snapshots (force chains, plate map, force PDF)",
-       DEMBUF_FIELD(output.snapshot_times_s), 0.0, 1e3},
+       Shapes::kOutput, DEMBUF_FIELD(output.snapshot_times_s), 0.0, 1e3},
       {"output.snapshot_after_contact_s", "s",
        "snapshot times counted from the projectile's first contact",
-       DEMBUF_FIELD(output.snapshot_after_contact_s), 0.0, 1e3},
+       Shapes::kOutput, DEMBUF_FIELD(output.snapshot_after_contact_s), 0.0, 1e3},
       {"output.snapshot_at_peak", "", "also snapshot at the peak plate force (runs twice)",
-       DEMBUF_FIELD(output.snapshot_at_peak)},
+       Shapes::kOutput, DEMBUF_FIELD(output.snapshot_at_peak)},
       {"output.chain_slab_width_m", "m",
        "width of the vertical slice through the axis drawn in force-chain pictures",
-       DEMBUF_FIELD(output.chain_slab_width_m), 0.0, 10.0, true},
+       Shapes::kOutput, DEMBUF_FIELD(output.chain_slab_width_m), 0.0, 10.0, true},
       {"output.animation_interval_s", "s",
        "spacing of animation frames of the beads during the impact (frames/, for ParaView); "
        "0 = none",
-       DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
+       Shapes::kOutput, DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
   };
 }
 
@@ -381,6 +381,26 @@ void SetFromToml(Scene& scene, const SceneField& f, const toml::value& v) {
 
 std::span<const SceneField> SceneFields() {
   return FieldTable();
+}
+
+std::string_view ShapesName(Shapes shapes) {
+  switch (shapes) {
+    case Shapes::kSourceBed:
+      return "source bed";
+    case Shapes::kCutBed:
+      return "cut bed";
+    case Shapes::kFrictionBed:
+      return "friction stage";
+    case Shapes::kImportedBed:
+      return "imported bed";
+    case Shapes::kImpact:
+      return "impact";
+    case Shapes::kOutput:
+      return "output";
+    case Shapes::kNothing:
+      return "nothing";
+  }
+  return "nothing";
 }
 
 const SceneField* FindSceneField(std::string_view name) {

@@ -190,6 +190,16 @@ void CheckPreparedBed(const PreparedBed& bed, const Scene& scene);
 /// The content hash of the bed a scene asks for (16 hex digits, FNV-1a 64 of a canonical text).
 std::string BedHash(const Scene& scene);
 
+/// The cache key of each stage a scene's bed may be made in. Each is the hash of the versions
+/// of the procedures that make it and of every field the field table marks as shaping it or
+/// a stage before it (SceneField::shapes; automatic values resolved, a bed file by its
+/// content): a field cannot shape a bed and be left out of its key. An imported bed has only
+/// `import`; a prepared one the other three (whether its friction stage runs or not).
+struct BedStageKeys {
+  std::string source, cut, friction, import;
+};
+BedStageKeys BedKeys(const Scene& scene);
+
 /// The stages a scene's bed is made in, in order, with their hashes: source, cut (and
 /// friction), or import; none without beads.
 struct BedStage {

@@ -16,6 +16,22 @@
 
 namespace dembuf {
 
+/// What a field's value shapes: the earliest stage of a run it enters (each stage carries on
+/// into those after it). The cache keys of beds are computed from this column (bed_keys.h):
+/// a field that shapes a bed cannot be left out of its key.
+enum class Shapes {
+  kSourceBed,    ///< the settled source bed, so every bed cut from it
+  kCutBed,       ///< the bed cut to H
+  kFrictionBed,  ///< the bed after the change of friction (and a relaxed imported bed)
+  kImportedBed,  ///< an imported bed (its file by content)
+  kImpact,       ///< the impact only
+  kOutput,       ///< what a run writes, not what it computes
+  kNothing,      ///< neither: a limit a run fails past (a bed not at rest by bed.max_settle_s)
+};
+
+/// The column's value as a word ("source bed", "impact", ...).
+std::string_view ShapesName(Shapes shapes);
+
 /// One scene field. `ref` gives access to the member inside a Scene.
 struct SceneField {
   using Ref = std::variant<double& (*)(Scene&), std::int64_t& (*)(Scene&), bool& (*)(Scene&),
@@ -23,6 +39,7 @@ struct SceneField {
   std::string_view name;  ///< dotted name, e.g. "projectile.mass_kg"
   std::string_view unit;  ///< SI unit, "" when dimensionless
   std::string_view help;
+  Shapes shapes;  ///< what its value shapes (no default: every field says)
   Ref ref;
   double min = 0.0;  ///< numeric range (of each element of a list); inclusive unless *_open
   double max = 0.0;

@@ -119,6 +119,8 @@ void AddSweep(CLI::App& app, RunOptions& opt, CommandTable& commands) {
                     "with --dry-run: plan for this many CPUs instead of this machine's (a lab "
                     "server's, a cluster node's), 1 to 1024");
   sweep->add_option("--out", opt.out_dir, "output folder (default: dembuf-sweep-<UTC time>)");
+  sweep->add_flag("--force", opt.force,
+                  "replace another sweep's runs in the output folder (the same sweep resumes)");
   sweep->add_option("--bed-cache", opt.bed_cache, "folder of prepared beds");
   sweep->add_flag("--no-bed-cache", opt.no_bed_cache, "keep prepared beds in memory only");
   sweep->add_flag("--dry-run", opt.dry_run, "print what the sweep would cost and stop");

@@ -36,22 +36,50 @@ struct RunResult {
   bool interrupted = false;
   std::string error;
   nlohmann::json summary;
+  std::string folder;  ///< the folder of runs/ it is in (its name, unless kept from another)
 };
+
+namespace fs = std::filesystem;
+
+// The folders of runs/ (not links), by name.
+std::vector<std::string> RunFolders(const fs::path& runs) {
+  std::vector<std::string> names;
+  std::error_code error;
+  for (const fs::directory_entry& entry : fs::directory_iterator(runs, error))
+    if (entry.symlink_status().type() == fs::file_type::directory)
+      names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// A finished run's summary in `dir`, or null (none, or not readable as one).
+nlohmann::json FinishedSummary(const fs::path& dir) {
+  std::ifstream in{dir / "summary.json"};
+  if (!in) return nullptr;
+  nlohmann::json summary = nlohmann::json::parse(in, nullptr, false);
+  return summary.is_object() && summary.contains("scene") ? summary : nullptr;
+}
 
 // The runs of one sweep, run by the workers of one queue, each into its folder of runs/.
 class SweepRunner {
  public:
   SweepRunner(const SweepOptions& options, BedCache& beds, const std::vector<SweepRun>& runs)
-      : m_options(options), m_beds(beds), m_runs(runs), m_results(runs.size()) {}
+      : m_options(options), m_beds(beds), m_runs(runs), m_results(runs.size()) {
+    // The finished runs already in the folder, by their scene: a run is kept wherever an
+    // earlier invocation of the sweep put it (another point list numbers its runs otherwise).
+    for (const std::string& name : RunFolders(options.out_dir / "runs"))
+      if (nlohmann::json done = FinishedSummary(options.out_dir / "runs" / name); !done.is_null())
+        m_finished_by_scene.emplace(done["scene"].dump(), name);
+  }
   /// Runs every run, options.jobs at a time.
   void RunAll();
   const std::vector<RunResult>& results() const { return m_results; }
 
  private:
   void RunOne(const SweepRun& job, const std::atomic<int>* threads);
-  // A run finished by an earlier, interrupted invocation of the same sweep is kept: its
-  // summary records its scene, and only an identical scene counts.
-  bool KeptFromEarlier(const SweepRun& job, const std::filesystem::path& dir, RunResult& result);
+  // A run finished by an earlier invocation of the same sweep is kept: its summary records
+  // its scene, and only an identical scene counts.
+  bool KeptFromEarlier(const SweepRun& job, RunResult& result);
   void PrintEnd(const SweepRun& job, const RunResult& result,
                 std::chrono::steady_clock::time_point start);
   // Notes what run `index` is doing; every PlainProgressInterval() one line on stderr says
@@ -64,7 +92,8 @@ class SweepRunner {
   std::vector<RunResult> m_results;
   std::atomic<int> m_finished{0};
   std::mutex m_print_mutex;
-  std::map<std::size_t, std::string> m_doing;  ///< what each running run does
+  std::map<std::size_t, std::string> m_doing;              ///< what each running run does
+  std::map<std::string, std::string> m_finished_by_scene;  ///< scene JSON -> folder name
   std::chrono::steady_clock::time_point m_last_report = std::chrono::steady_clock::now();
 };
 
@@ -84,27 +113,25 @@ void SweepRunner::Report(std::size_t index, std::string doing) {
   std::fprintf(stderr, "\n");
 }
 
-bool SweepRunner::KeptFromEarlier(const SweepRun& job, const std::filesystem::path& dir,
-                                  RunResult& result) {
-  std::ifstream previous{dir / "summary.json"};
-  if (!previous) return false;
-  try {
-    nlohmann::json done = nlohmann::json::parse(previous);
-    if (done["scene"] != report::SceneToJson(job.scene)) return false;
-    result.summary = std::move(done);
-    result.ok = true;
-  } catch (const std::exception&) {
-    return false;  // unreadable: run it again
-  }
+bool SweepRunner::KeptFromEarlier(const SweepRun& job, RunResult& result) {
+  const auto found = m_finished_by_scene.find(report::SceneToJson(job.scene).dump());
+  if (found == m_finished_by_scene.end()) return false;
+  result.summary = FinishedSummary(m_options.out_dir / "runs" / found->second);
+  if (result.summary.is_null()) return false;  // gone since: run it again
+  result.ok = true;
+  result.folder = found->second;
   std::lock_guard lock(m_print_mutex);
-  std::printf("[%d/%zu] %s: done earlier, kept\n", ++m_finished, m_runs.size(), job.name.c_str());
+  std::printf("[%d/%zu] %s: done earlier, kept%s%s\n", ++m_finished, m_runs.size(),
+              job.name.c_str(), found->second == job.name ? "" : " in ",
+              found->second == job.name ? "" : found->second.c_str());
   return true;
 }
 
 void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
   const std::filesystem::path dir = m_options.out_dir / "runs" / job.name;
   RunResult& result = m_results[job.index];
-  if (KeptFromEarlier(job, dir, result)) return;
+  if (KeptFromEarlier(job, result)) return;
+  result.folder = job.name;
   const auto job_start = std::chrono::steady_clock::now();
   char text[160];
   auto bed_progress = [&](const BedProgress& p) {
@@ -192,7 +219,69 @@ void SweepRunner::RunAll() {
   m_beds.OnPrepared({});
 }
 
+// A run's values of the axes, as the field table writes them (so that a point asked for as
+// 0.01 and as 1e-2 is one point).
+std::vector<std::string> AxisValues(const Scene& scene, const std::vector<SweepAxis>& axes) {
+  std::vector<std::string> values;
+  for (const SweepAxis& axis : axes)
+    values.push_back(FormatSceneField(scene, RequireSceneField(axis.field)));
+  return values;
+}
+
+// The report files a sweep writes into its folder, besides runs/.
+constexpr const char* kSweepReportFiles[] = {"sweep.csv", "points.csv", "summary.json",
+                                             "incomplete.json"};
+
 }  // namespace
+
+nlohmann::json SweepFolderKey(const Scene& base, const std::vector<std::string>& varied_fields) {
+  std::set<std::string> varied(varied_fields.begin(), varied_fields.end());
+  varied.erase("bed.seed");
+  nlohmann::json fields = nlohmann::json::object();
+  for (const SceneField& field : SceneFields())
+    if (field.name != "bed.seed" && !varied.count(std::string(field.name)))
+      fields[std::string(field.name)] = FormatSceneField(base, field);
+  return {{"varies", varied}, {"fields", fields}};
+}
+
+std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann::json& key,
+                                            bool force) {
+  const fs::path key_file = dir / kSweepKeyFile;
+  std::string refusal;
+  if (std::ifstream in{key_file}) {
+    const nlohmann::json held = nlohmann::json::parse(in, nullptr, false);
+    if (!held.is_object() || !held.contains("varies") || !held.contains("fields")) {
+      refusal = dir.string() + "/" + kSweepKeyFile + " is not a sweep's record";
+    } else if (held["varies"] != key["varies"]) {
+      refusal = dir.string() + " holds a sweep that varies " + held["varies"].dump() +
+                "; this one varies " + key["varies"].dump();
+    } else {
+      std::vector<std::string> differ;
+      for (const auto& [name, value] : key["fields"].items())
+        if (held["fields"].value(name, std::string("(absent)")) != value)
+          differ.push_back(name + " = " + held["fields"].value(name, std::string("(absent)")) +
+                           " there, " + value.get<std::string>() + " here");
+      if (!differ.empty()) {
+        refusal = dir.string() + " holds a sweep of another scene: " + differ[0];
+        if (differ.size() > 1)
+          refusal += " (and " + std::to_string(differ.size() - 1) + " more field" +
+                     (differ.size() > 2 ? "s" : "") + ")";
+      }
+    }
+  } else if (!RunFolders(dir / "runs").empty()) {
+    refusal =
+        dir.string() + " holds runs of a sweep that names no scene (no " + kSweepKeyFile + ")";
+  }
+  if (!refusal.empty() && !force)
+    return refusal + "; choose another --out, or pass --force to remove its runs first";
+  if (!refusal.empty()) {
+    fs::remove_all(dir / "runs");
+    for (const char* name : kSweepReportFiles) fs::remove(dir / name);
+  }
+  fs::create_directories(dir / "runs");
+  report::WriteFileAtomically(key_file, key.dump(1) + "\n");
+  return std::nullopt;
+}
 
 int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
              std::vector<report::SweepRunReport>* reports_out) {
@@ -213,9 +302,29 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
   const std::vector<RunResult>& results = runner.results();
 
   std::vector<report::SweepRunReport> reports;
-  for (std::size_t k = 0; k < runs.size(); ++k)
-    reports.push_back(
-        {runs[k].name, runs[k].values, results[k].ok, results[k].error, results[k].summary});
+  std::set<std::string> reported;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const std::string folder = results[k].folder.empty() ? runs[k].name : results[k].folder;
+    reported.insert(folder);
+    reports.push_back({folder, AxisValues(runs[k].scene, axes), results[k].ok, results[k].error,
+                       results[k].summary});
+  }
+  // The folder's other runs, of points asked for before: its report lists every run there is.
+  for (const std::string& name : RunFolders(options.out_dir / "runs")) {
+    if (reported.count(name)) continue;
+    report::SweepRunReport earlier{name, {}, false, "", nullptr};
+    earlier.summary = FinishedSummary(options.out_dir / "runs" / name);
+    earlier.ok = !earlier.summary.is_null();
+    try {
+      std::ifstream in(options.out_dir / "runs" / name / "scene.toml");
+      const std::string text{std::istreambuf_iterator<char>(in), {}};
+      earlier.values = AxisValues(LoadSceneText(text, name), axes);
+    } catch (const std::exception&) {
+      continue;  // not a run of this sweep's: no scene to place it by
+    }
+    if (!earlier.ok) earlier.error = "not finished (asked for by an earlier invocation)";
+    reports.push_back(std::move(earlier));
+  }
   const nlohmann::json extra = {
       {"wall_time_s",
        std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count()},

@@ -5,6 +5,8 @@
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,9 +35,25 @@ struct SweepOptions {
   std::function<void(const PreparedBed&)> on_bed_prepared;
 };
 
-/// Runs the sweep; writes out_dir/sweep.csv, out_dir/summary.json and out_dir/runs/<job>/.
-/// Returns the number of failed jobs (runs stopped by the cancel flag are not failures).
-/// `reports`, when given, receives every run's report.
+/// The file in a sweep folder that names the sweep it holds (SweepFolderKey).
+inline constexpr const char* kSweepKeyFile = "sweep_scene.json";
+
+/// What makes a folder's runs one sweep: the fields it varies, and the value of every other
+/// field of its scene (the bed seed apart: adding seeds adds points). Derived from the field
+/// table.
+nlohmann::json SweepFolderKey(const Scene& base, const std::vector<std::string>& varied_fields);
+
+/// Claims `dir` for the sweep of `key`: a new or empty folder, or one holding the same sweep
+/// (resumed, points added), takes it; one holding another sweep is refused with a sentence
+/// naming the fields that differ, unless `force`, which removes its runs and reports first.
+/// Returns the refusal, or nothing when the folder is the sweep's.
+std::optional<std::string> ClaimSweepFolder(const std::filesystem::path& dir,
+                                            const nlohmann::json& key, bool force);
+
+/// Runs the sweep; writes out_dir/sweep.csv, out_dir/summary.json and out_dir/runs/<job>/. A
+/// run whose scene a folder of runs/ already holds, finished, is kept (whatever its name), and
+/// the report lists every run folder there is. Returns the number of failed jobs (runs stopped by
+/// the cancel flag are not failures). `reports`, when given, receives every run's report.
 int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
              std::vector<report::SweepRunReport>* reports = nullptr);
 

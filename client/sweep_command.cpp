@@ -112,7 +112,15 @@ int SweepCommand(const RunOptions& opt) {
     return 0;
   }
   CheckLocalCost(scenes, costs, sweep.out_dir, sweep.jobs, beds, opt.yes);
-  // An existing folder is resumed: runs whose summary.json matches their scene are kept.
+  // A folder holds one sweep: the same one is resumed (runs whose summary.json matches their
+  // scene are kept), another refused unless --force.
+  std::vector<std::string> varied;
+  for (const SweepAxis& axis : hc_search ? planned : sweep.axes) varied.push_back(axis.field);
+  if (const std::optional<std::string> refusal =
+          ClaimSweepFolder(sweep.out_dir, SweepFolderKey(base, varied), opt.force)) {
+    std::fprintf(stderr, "dembuf: error: %s\n", refusal->c_str());
+    return kExitBadInput;
+  }
   CatchInterrupts();
   sweep.cancel = &Interrupted();
   int failed = 0;

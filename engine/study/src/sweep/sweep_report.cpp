@@ -52,25 +52,51 @@ const std::vector<std::string>& SweepMetricNames() {
 
 nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h_to_p) {
   if (h_to_p.size() < 3) return nullptr;
-  const double h_max = h_to_p.back().first;
+  constexpr double kMargin = 0.10;
+  const double h_min = h_to_p.front().first, h_max = h_to_p.back().first;
+  const double middle = 0.5 * (h_min + h_max);
   double plateau = 0.0;
-  int count = 0;
+  std::vector<double> upper;  // mean P of the points in the upper half of the range
   for (const auto& [h, p] : h_to_p)
-    if (h >= 0.5 * h_max) {
-      plateau += p;
-      ++count;
-    }
-  plateau /= count;
-  double hc = h_max;
-  for (auto it = h_to_p.rbegin(); it != h_to_p.rend(); ++it) {
-    if (it->second > 1.10 * plateau) break;
-    hc = it->first;
+    if (h >= middle) upper.push_back(p);
+  for (double p : upper) plateau += p / static_cast<double>(upper.size());
+  // A plateau only where P has levelled off: across the upper half it changes by no more
+  // than the margin. Otherwise there is no Hc in the range, whatever the rule below would say.
+  const double change = (upper.back() - upper.front()) / plateau;
+  nlohmann::json hc = {
+      {"plateau_P_N", plateau},
+      {"range_m", {h_min, h_max}},
+      {"margin", kMargin},
+      {"upper_half_change", change},
+      {"rule",
+       "the mean P over the upper half of the H range is a plateau only if P changes by at "
+       "most the margin across that half; Hc is then the smallest H from which mean P stays "
+       "within the margin above the plateau"}};
+  if (upper.size() < 2 || std::abs(change) > kMargin) {
+    char note[160];
+    if (upper.size() < 2)
+      std::snprintf(note, sizeof note,
+                    "Hc not reached in %.3g-%.3g cm (one point in the upper half: no plateau "
+                    "to tell)",
+                    100 * h_min, 100 * h_max);
+    else
+      std::snprintf(note, sizeof note,
+                    "Hc not reached in %.3g-%.3g cm (P still %s %.0f%% over the upper half)",
+                    100 * h_min, 100 * h_max, change < 0 ? "falls" : "rises",
+                    100 * std::abs(change));
+    hc["Hc_m"] = nullptr;
+    hc["reached"] = false;
+    hc["note"] = note;
+    return hc;
   }
-  return {{"Hc_m", hc},
-          {"plateau_P_N", plateau},
-          {"rule",
-           "smallest H from which mean P stays within 10% of the mean P over the upper "
-           "half of the H range"}};
+  double h_c = h_max;
+  for (auto it = h_to_p.rbegin(); it != h_to_p.rend(); ++it) {
+    if (it->second > (1.0 + kMargin) * plateau) break;
+    h_c = it->first;
+  }
+  hc["Hc_m"] = h_c;
+  hc["reached"] = true;
+  return hc;
 }
 
 nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
@@ -208,8 +234,11 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     if (!hc.is_null()) {
       summary["Hc_m"] = hc["Hc_m"];
       summary["critical_thickness"] = hc;
-      std::fprintf(table, "critical thickness Hc = %.2f cm (plateau P = %.4g N)\n",
-                   100 * hc["Hc_m"].get<double>(), hc["plateau_P_N"].get<double>());
+      if (hc["reached"].get<bool>())
+        std::fprintf(table, "critical thickness Hc = %.2f cm (plateau P = %.4g N)\n",
+                     100 * hc["Hc_m"].get<double>(), hc["plateau_P_N"].get<double>());
+      else
+        std::fprintf(table, "%s\n", hc["note"].get<std::string>().c_str());
     }
   }
   WriteFileAtomically(dir / "summary.json", summary.dump(2) + "\n");

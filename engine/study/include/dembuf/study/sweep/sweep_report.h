@@ -33,8 +33,10 @@ const std::vector<std::string>& SweepMetricNames();
 nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
                            const std::vector<SweepRunReport>& runs);
 
-/// Hc: the plateau is the mean P of the points in the upper half of the thickness range; Hc is
-/// the smallest thickness from which every point's mean P stays within 10% of the plateau.
+/// Hc: the plateau is the mean P of the points in the upper half of the thickness range, and
+/// a plateau only if P changes by at most 10% across that half; Hc is then the smallest
+/// thickness from which every point's mean P stays within 10% of the plateau. Where P has not
+/// levelled off, Hc_m is null, `reached` false and `note` says how much P still changes.
 /// Null for fewer than three thicknesses. `h_to_p` is sorted by thickness.
 nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h_to_p);
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <random>
 
+#include "dembuf/study/files/run_output.h"
+#include "dembuf/study/impact/impact.h"
 #include "dembuf/study/impact/peaks.h"
 
 namespace dembuf {
@@ -126,6 +128,24 @@ TEST(Peaks, BarePlateImpactIsOnePushPeak) {
   ASSERT_EQ(a.peaks.size(), 1u);
   EXPECT_TRUE(a.has_pa);
   EXPECT_NEAR(a.pa.time_s, tc / 2, 2e-6);
+}
+
+// A thin bed hit twice: two push peaks. summary.json named both "Pa", and a reader took the
+// second hump for the paper's Pa; now each peak is named once, the rest are bumps.
+TEST(PeakNames, EachPeakIsNamedOnceAndTheOthersAreBumps) {
+  ImpactSummary s;
+  ForcePeak wave{900.0, 1e-4, 0.05, false}, first{3000.0, 3e-4, 0.02, true},
+      second{1200.0, 6e-4, 0.021, true};
+  s.peaks.peaks = {wave, first, second};
+  s.peaks.has_pa = s.peaks.has_pb = true;
+  s.peaks.pa = first;
+  s.peaks.pb = wave;
+  const nlohmann::json peaks = report::SummaryToJson(s, Scene{}, {})["peaks"];
+  ASSERT_EQ(peaks.size(), 3u);
+  EXPECT_EQ(peaks[0]["kind"], "Pb");
+  EXPECT_EQ(peaks[1]["kind"], "Pa");
+  EXPECT_EQ(peaks[2]["kind"], "bump");
+  EXPECT_EQ(peaks[2]["push"], true);
 }
 
 }  // namespace

@@ -83,11 +83,19 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
               {"rest_wall_force_z_N", s.bed.rest_wall_force_z_N},
               {"weight_N", s.bed.weight_N}};
   if (!s.bed.note.empty()) j["bed"]["imported"] = s.bed.note;
+  // Each peak named once: Pa the largest push, Pb the largest wave, the others bumps (of
+  // either kind, as `push` says).
+  auto is = [](const ForcePeak& a, const ForcePeak& b) {
+    return a.time_s == b.time_s && a.force_N == b.force_N;
+  };
   nlohmann::json peaks = nlohmann::json::array();
   for (const ForcePeak& p : pk.peaks)
     peaks.push_back({{"force_N", p.force_N},
                      {"time_s", p.time_s},
-                     {"kind", p.is_push ? "Pa" : "Pb"},
+                     {"kind", pk.has_pa && is(p, pk.pa)   ? "Pa"
+                              : pk.has_pb && is(p, pk.pb) ? "Pb"
+                                                          : "bump"},
+                     {"push", p.is_push},
                      {"projectile_z_m", p.projectile_z_m}});
   j["peaks"] = peaks;
   j["first_contact_time_s"] =

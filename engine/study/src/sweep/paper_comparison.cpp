@@ -141,7 +141,6 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
   const nlohmann::json defaults = SceneToJson(Scene{});
   std::set<std::string> differs;
   std::map<double, std::vector<const nlohmann::json*>> by_thickness;
-  double speed = 0.0;
   for (const nlohmann::json& s : summaries) {
     if (!s.is_object() || !s.contains("scene") || !s["scene"].is_object())
       throw std::runtime_error("not a run's summary.json: no scene");
@@ -149,7 +148,6 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
     DifferingFields(scene, e2, defaults, "", differs);
     const double h = Number(scene.value("bed", nlohmann::json::object()), "thickness_m");
     by_thickness[std::round(h * 1e7) / 1e7].push_back(&s);
-    speed += Number(s, "impact_speed_m_s") / summaries.size();
   }
   for (const std::string& name : differs) {
     if (!VariantField(name)) {
@@ -171,8 +169,21 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
     const nlohmann::json& w = scene["walls"];
     const bool from_beads = w.value("material_from_beads", true);
     const double e = Number(m, "youngs_modulus_Pa"), nu = Number(m, "poisson_ratio");
-    c.hertz_peak_N = HertzImpactPeak(Number(scene["projectile"], "mass_kg"),
-                                     0.5 * Number(scene["projectile"], "diameter_m"), speed, e, nu,
+    // The speed at first contact by the scene (its fall from height_m to the surface), not
+    // as runs measured it: the reference is the same whichever runs are given.
+    // (A field an older run does not record had its default.)
+    const Scene d;
+    const nlohmann::json& projectile = scene["projectile"];
+    auto field = [](const nlohmann::json& part, const char* key, double otherwise) {
+      return part.contains(key) ? Number(part, key) : otherwise;
+    };
+    const double radius = 0.5 * field(projectile, "diameter_m", d.projectile.diameter_m);
+    const double v0 = field(projectile, "speed_m_s", d.projectile.speed_m_s);
+    const double fall =
+        std::max(0.0, field(projectile, "height_m", d.projectile.height_m) - radius);
+    const double speed =
+        std::sqrt(v0 * v0 + 2.0 * field(scene, "gravity_m_s2", d.gravity_m_s2) * fall);
+    c.hertz_peak_N = HertzImpactPeak(Number(projectile, "mass_kg"), radius, speed, e, nu,
                                      from_beads ? e : Number(w, "youngs_modulus_Pa"),
                                      from_beads ? nu : Number(w, "poisson_ratio"));
   }

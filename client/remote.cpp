@@ -480,6 +480,11 @@ grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
   report::WriteFileAtomically(dir / "job.json", provenance.dump(2) + "\n");
   if (job.state() == v1::JOB_STATE_DONE) {
     report::WriteFileAtomically(dir / "summary.json", job.summary_json());
+    // As a local run's folder has it.
+    report::WriteFileAtomically(
+        dir / "log.txt",
+        report::RunLogText(ServerJson(remote, job.summary_json(),
+                                      "job " + std::to_string(job.id()) + "'s summary_json")));
   } else if (job.state() == v1::JOB_STATE_CANCELLED) {
     // As a local run stopped before its end: what it had computed, marked incomplete.
     report::WriteFileAtomically(

@@ -39,7 +39,7 @@ stop_daemon
 files_of() { (cd "$1" && find . -type f ! -name '*.png' ! -name '*.svg' ! -name '*.gp' ! -path ./job.json | sort); }
 [ -f "$work/fetched/job.json" ] || fail "the fetched folder has no job.json"
 files_of "$work/run" > "$work/run.files"
-for required in ./plate_force.csv ./plate_force_bare.csv ./summary.json ./scene.toml \
+for required in ./plate_force.csv ./plate_force_bare.csv ./summary.json ./log.txt ./scene.toml \
                 ./snapshots.pvd ./frames.pvd ./snapshots/peak/contacts.csv; do
   grep -qx "$required" "$work/run.files" || fail "dembuf run wrote no $required"
 done
@@ -47,8 +47,12 @@ for other in "$sweep_run" "$work/fetched"; do
   files_of "$other" > "$work/other.files"
   diff "$work/run.files" "$work/other.files" ||
     fail "$other holds other files than dembuf run's folder (< run, > $other)"
+  # log.txt: the provenance (where and when it ran) differs; the warnings are the same.
+  warnings_of() { grep '^warning: \|^no warnings$' "$1/log.txt"; }
+  diff <(warnings_of "$work/run") <(warnings_of "$other") ||
+    fail "log.txt's warnings differ between dembuf run and $other"
   while read -r file; do
-    [ "$file" = ./summary.json ] && continue
+    [ "$file" = ./summary.json ] || [ "$file" = ./log.txt ] && continue
     cmp -s "$work/run/$file" "$other/$file" || fail "$file differs between dembuf run and $other"
   done < "$work/run.files"
   python3 - "$work/run/summary.json" "$other/summary.json" <<'PY' || fail "summary.json of $other"

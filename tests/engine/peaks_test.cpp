@@ -148,5 +148,23 @@ TEST(PeakNames, EachPeakIsNamedOnceAndTheOthersAreBumps) {
   EXPECT_EQ(peaks[2]["push"], true);
 }
 
+// A run's own findings are kept with its results: the overlap note was printed on the
+// terminal only, summary.json's warnings empty.
+TEST(RunWarnings, ALargeOverlapIsKeptInTheSummaryAndItsLog) {
+  ImpactSummary s;
+  s.max_overlap_ratio = 0.25;
+  const nlohmann::json summary = report::SummaryToJson(s, Scene{}, {});
+  ASSERT_EQ(summary["warnings"].size(), 1u) << summary["warnings"];
+  const std::string w = summary["warnings"][0];
+  EXPECT_NE(w.find("max_overlap_ratio: the largest contact overlap reached 25% of a bead radius"),
+            std::string::npos)
+      << w;
+  const std::string log = report::RunLogText(summary);
+  EXPECT_NE(log.find("warning: " + w), std::string::npos) << log;
+  EXPECT_NE(log.find("scene_sha256: "), std::string::npos) << log;
+  s.max_overlap_ratio = 0.05;
+  EXPECT_TRUE(report::SummaryToJson(s, Scene{}, {})["warnings"].empty());
+}
+
 }  // namespace
 }  // namespace dembuf

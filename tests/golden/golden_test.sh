@@ -40,7 +40,8 @@ declare -A extra=(
 # The files compared: every output but the plots; summary.json without the fields that
 # differ from run to run.
 comparable() {
-  (cd "$1" && find . -type f ! -name '*.png' ! -name '*.svg' ! -name '*.gp' | LC_ALL=C sort)  # plots aside
+  # plots aside, and log.txt (where and when it ran; its warnings are summary.json's)
+  (cd "$1" && find . -type f ! -name '*.png' ! -name '*.svg' ! -name '*.gp' ! -name log.txt | LC_ALL=C sort)
 }
 normalise_summary() {
   python3 -c '

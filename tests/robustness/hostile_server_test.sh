@@ -28,7 +28,7 @@ refused_file() {
   [ "$(wc -l < "$work/err")" = 1 ] || fail "job $1: more than one line: $(cat "$work/err")"
   local extra
   extra=$(cd "$out" && find . -mindepth 1 ! -name summary.json ! -name plate_force.csv \
-    ! -name scene.toml ! -name job.json)
+    ! -name scene.toml ! -name job.json ! -name log.txt)
   [ -z "$extra" ] || fail "job $1: fetch wrote $extra"
 }
 refused_file 1 ".git/config"

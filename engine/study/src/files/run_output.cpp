@@ -28,7 +28,33 @@ nlohmann::json SceneToJson(const Scene& scene) {
   return out;
 }
 
+std::vector<std::string> ResultWarnings(const ImpactSummary& s) {
+  std::vector<std::string> warnings;
+  // Hertz's law is derived for small strains (docs/model.md); past a tenth of a radius the
+  // contact forces are extrapolated.
+  if (s.max_overlap_ratio > 0.1)
+    warnings.push_back("max_overlap_ratio: the largest contact overlap reached " +
+                       std::to_string(static_cast<int>(std::lround(100 * s.max_overlap_ratio))) +
+                       "% of a bead radius, beyond the small strains Hertz theory assumes");
+  return warnings;
+}
+
+std::string RunLogText(const nlohmann::json& summary) {
+  if (!summary.is_object()) return "";
+  std::string text;
+  const nlohmann::json provenance = summary.value("provenance", nlohmann::json::object());
+  for (const auto& [key, value] : provenance.items())
+    text += key + ": " + (value.is_string() ? value.get<std::string>() : value.dump()) + "\n";
+  const nlohmann::json warnings = summary.value("warnings", nlohmann::json::array());
+  if (warnings.empty()) text += "no warnings\n";
+  for (const nlohmann::json& w : warnings)
+    text += "warning: " + (w.is_string() ? w.get<std::string>() : w.dump()) + "\n";
+  return text;
+}
+
 nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const RunContext& run) {
+  std::vector<std::string> warnings = SceneWarnings(scene);
+  for (std::string& w : ResultWarnings(s)) warnings.push_back(std::move(w));
   nlohmann::json curve = nlohmann::json::array();
   for (const auto& point : s.damping.restitution_curve)
     curve.push_back({{"speed_m_s", point.speed_m_s}, {"restitution", point.restitution}});
@@ -54,7 +80,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
       {"end_time_s", s.end_time_s},
       {"end_reason", s.end_reason},
       {"scene", SceneToJson(scene)},
-      {"warnings", SceneWarnings(scene)},
+      {"warnings", warnings},
       {"provenance", ProvenanceJson(run, scene, s.bed)},
   };
   // The paper's measurements (docs/model.md section 6).
@@ -216,7 +242,8 @@ const std::vector<std::string>& RunOutputNames() {
                                                  "frames.pvd",
                                                  "container.vtp",
                                                  "scene.toml",
-                                                 "job.json"};
+                                                 "job.json",
+                                                 "log.txt"};
   return names;
 }
 

@@ -45,6 +45,7 @@ void FolderRecorder::Finished(const ImpactSummary&, const nlohmann::json& summar
     proven[report::kResultNonceKey] = m_result_nonce;
     report::WriteFileAtomically(m_dir / "summary.json", proven.dump(2) + "\n");
   }
+  report::WriteFileAtomically(m_dir / "log.txt", report::RunLogText(summary_json));
   m_summary = summary_json;
 }
 

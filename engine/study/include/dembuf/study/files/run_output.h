@@ -20,6 +20,14 @@ namespace dembuf::report {
 /// The scene as nested JSON: {"projectile": {"mass_kg": 0.167, ...}, ...}.
 nlohmann::json SceneToJson(const Scene& scene);
 
+/// What a run found that its numbers alone do not say (a contact overlap beyond the small
+/// strains Hertz theory assumes), as "what: why" sentences. SummaryToJson keeps them in
+/// `warnings`, after the scene's (SceneWarnings); every caller prints them from there.
+std::vector<std::string> ResultWarnings(const ImpactSummary& summary);
+
+/// The run folder's log.txt from its summary.json: the provenance, then every warning.
+std::string RunLogText(const nlohmann::json& summary);
+
 /// The summary.json document of a finished run, with its provenance (provenance.h).
 nlohmann::json SummaryToJson(const ImpactSummary& summary, const Scene& scene,
                              const RunContext& run);

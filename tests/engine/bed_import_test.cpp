@@ -74,6 +74,11 @@ TEST(BedImport, ABeadOutsideTheContainerIsRefusedWithItsLine) {
   EXPECT_NE(Refusal(ImportScene("0 0 0.002 0.002\n0 0.01 0.002 1e-12\n", "tiny.txt"))
                 .find("tiny.txt:2: radius 1e-12 m is below 1e-06 m"),
             std::string::npos);
+  // A file in millimetres read as metres: the refusal named no unit.
+  EXPECT_NE(Refusal(ImportScene("0 0 2.1 2.00053\n", "mm.txt"))
+                .find("mm.txt:1: radius 2.00053 m must be below half the cylinder's radius; if "
+                      "the file is in millimetres, set bed.import_units = \"mm\""),
+            std::string::npos);
   EXPECT_NE(Refusal(ImportScene("0 0 0.002 " + std::string(5000, '1') + "\n", "long.txt"))
                 .find("long.txt:1: a line longer than 4096 bytes"),
             std::string::npos);

@@ -251,6 +251,17 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
     std::snprintf(text, sizeof text, "%.6g", v);
     return std::string(text);
   };
+  // A bead too large for the container, read in metres, may be a file in another unit: the
+  // unit that makes it fit is named.
+  auto unit_hint = [&](double radius_m) -> std::string {
+    if (scene.bed.import_units != "m") return "";
+    for (const auto& [unit, factor] : {std::pair{"mm", 1e-3}, std::pair{"cm", 1e-2}})
+      if (radius_m * factor < 0.5 * R && radius_m * factor >= kMinBeadRadius_m)
+        return std::string("; if the file is in ") +
+               (factor == 1e-3 ? "millimetres" : "centimetres") + ", set bed.import_units = \"" +
+               unit + "\"";
+    return "";
+  };
   for (const BeadRecord& b : records.beads) {
     auto fail = [&](const std::string& why) {
       throw SceneError("bed.import", name + ":" + std::to_string(b.line) + ": " + why);
@@ -262,10 +273,11 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
       fail("radius " + number(r) + " m is below " + number(kMinBeadRadius_m) +
            " m, the smallest bead this model covers (finer powders are held by adhesion and the "
            "air, which it leaves out; a file in millimetres needs bed.import_units = \"mm\")");
-    if (r >= 0.5 * R) fail("radius " + number(r) + " m must be below half the cylinder's radius");
+    if (r >= 0.5 * R)
+      fail("radius " + number(r) + " m must be below half the cylinder's radius" + unit_hint(r));
     // Outside the container: no overlap to accept or separate.
     if (std::hypot(x, y) + 0.5 * r > R)
-      fail("bead reaches outside the cylinder (radius " + number(R) + " m)");
+      fail("bead reaches outside the cylinder (radius " + number(R) + " m)" + unit_hint(r));
     if (z < 0.5 * r) fail("bead reaches below the plate (its centre is at z = " + number(z) + ")");
     if (z + r > scene.cylinder.height_m)
       fail("bead reaches above the side wall (cylinder.height_m = " +

@@ -79,6 +79,26 @@ TEST(BedFormats, ALammpsDataFileOfStyleGranularWithImageFlags) {
   EXPECT_EQ(bed.lines[1], 12);
 }
 
+// A LAMMPS data file's own density, and beads of other sizes than the scene's, were replaced
+// or taken without a word: now each is named as the bed is read.
+TEST(BedFormats, WhereAFileDisagreesWithTheSceneItIsSaid) {
+  const Scene scene = SmallCylinder();
+  const std::string header =
+      "LAMMPS data file\n\n2 atoms\n1 atom types\n-0.03 0.03 xlo xhi\n-0.03 0.03 ylo yhi\n"
+      "0 0.1 zlo zhi\n\nAtoms # sphere\n\n";
+  EXPECT_TRUE(Read(header + "1 1 0.004 2650 0 0 0.002\n2 1 0.0045 2650 0.005 0 0.00225\n", scene)
+                  .warnings.empty());
+  const ImportedBed other =
+      Read(header + "1 1 0.003 1000 0 0 0.0015\n2 1 0.003 1000 0.005 0 0.0015\n", scene);
+  ASSERT_EQ(other.warnings.size(), 2u);
+  EXPECT_EQ(other.warnings[0],
+            "bed.import: the file gives 2 beads another density (1000 kg/m^3 the first); the run "
+            "gives every bead material.density_kg_m3 = 2650 kg/m^3");
+  EXPECT_EQ(other.warnings[1],
+            "bed.import: the file's bead diameters, 3 to 3 mm, lie outside the scene's "
+            "beads.diameter_min_m to diameter_max_m, 4 to 5 mm; the run uses the file's");
+}
+
 // A dump of two frames (the beads falling, then at rest): the last is read, its columns by
 // name, scaled coordinates from the box, a diameter halved.
 TEST(BedFormats, ALammpsDumpGivesItsLastFrame) {

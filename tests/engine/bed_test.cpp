@@ -73,7 +73,8 @@ TEST(BedPreparation, EndsAtRestByTheStatedCriterion) {
 }
 
 TEST(BedPreparation, SavingAndLoadingIsBitExact) {
-  const PreparedBed& bed = SmallBed();
+  PreparedBed bed = SmallBed();
+  bed.warnings = {"bed.import: one", "bed.import: two"};  // an imported bed's, kept with it
   const auto path = std::filesystem::path(test::TempPath("small.bed"));
   SaveBed(bed, path);
   const PreparedBed back = LoadBed(path);
@@ -93,6 +94,7 @@ TEST(BedPreparation, SavingAndLoadingIsBitExact) {
   EXPECT_EQ(back.hash, bed.hash);
   EXPECT_EQ(back.surface_m, bed.surface_m);
   EXPECT_EQ(back.solid_fraction, bed.solid_fraction);
+  EXPECT_EQ(back.warnings, bed.warnings);
 }
 
 TEST(BedPreparation, DamagedFileIsRefused) {

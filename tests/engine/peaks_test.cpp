@@ -164,6 +164,10 @@ TEST(RunWarnings, ALargeOverlapIsKeptInTheSummaryAndItsLog) {
   EXPECT_NE(log.find("scene_sha256: "), std::string::npos) << log;
   s.max_overlap_ratio = 0.05;
   EXPECT_TRUE(report::SummaryToJson(s, Scene{}, {})["warnings"].empty());
+  // ... and what an imported bed's file disagreed on.
+  s.bed.warnings = {"bed.import: another density"};
+  EXPECT_EQ(report::SummaryToJson(s, Scene{}, {})["warnings"],
+            nlohmann::json({"bed.import: another density"}));
 }
 
 }  // namespace

@@ -589,12 +589,14 @@ PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const Bed
   const auto wall_start = std::chrono::steady_clock::now();
   ImportedBed imported = ReadTextBed(scene.bed.import, scene);
   const std::string report = imported.Describe();
+  const std::vector<std::string> warnings = imported.warnings;
   dem::Simulation sim =
       BedSimulation(scene, nullptr, std::move(imported.beads), scene.material.friction_bead_bead);
   const double t = SettleToRest(sim, scene, "relaxing the imported bed", request,
                                 scene.bed.max_settle_s, scene.bed.settle_tolerance);
   PreparedBed bed = Finish(sim, scene, hash, "import", t, wall_start);
   bed.note = report;
+  bed.warnings = warnings;
   return bed;
 }
 

@@ -269,7 +269,8 @@ std::vector<BeadRecord> ReadLammpsData(Lines& lines, double metres, double max_b
       lines.Fail("image flags " + words[7] + " " + words[8] + " " + words[9] +
                  ": the atom lies in a periodic image; a bed in a cylinder has none");
     beads.push_back({value[4] * metres, value[5] * metres, value[6] * metres,
-                     0.5 * value[2] * metres, lines.number()});
+                     0.5 * value[2] * metres, lines.number(),
+                     value[3] / (metres * metres * metres)});
   }
   if (static_cast<double>(beads.size()) < atoms)
     lines.Fail("the Atoms section ends after " + std::to_string(beads.size()) + " of " +

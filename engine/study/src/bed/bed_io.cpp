@@ -286,6 +286,33 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
     bed.lines.push_back(b.line);
   }
   if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
+  // Where the file disagrees with the scene: said, not silently replaced.
+  const double rho = scene.material.density_kg_m3;
+  std::size_t other_density = 0;
+  double file_density = 0.0;
+  for (const BeadRecord& b : records.beads)
+    if (b.density_kg_m3 > 0.0 && std::abs(b.density_kg_m3 - rho) > 0.01 * rho) {
+      if (other_density++ == 0) file_density = b.density_kg_m3;
+    }
+  if (other_density > 0)
+    bed.warnings.push_back("bed.import: the file gives " + std::to_string(other_density) +
+                           " beads another density (" + number(file_density) +
+                           " kg/m^3 the first); the run gives every bead "
+                           "material.density_kg_m3 = " +
+                           number(rho) + " kg/m^3");
+  double r_min = bed.beads.radius[0], r_max = r_min;
+  for (double r : bed.beads.radius) {
+    r_min = std::min(r_min, r);
+    r_max = std::max(r_max, r);
+  }
+  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
+  if (2 * r_min < 0.99 * d_min || 2 * r_max > 1.01 * d_max)
+    bed.warnings.push_back("bed.import: the file's bead diameters, " + number(2e3 * r_min) +
+                           " to " + number(2e3 * r_max) +
+                           " mm, lie outside the scene's beads.diameter_min_m "
+                           "to diameter_max_m, " +
+                           number(1e3 * d_min) + " to " + number(1e3 * d_max) +
+                           " mm; the run uses the file's");
 
   Measured m = MeasureOverlaps(bed.beads, R);
   if (!m.crowded.empty()) {

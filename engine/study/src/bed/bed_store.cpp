@@ -69,8 +69,9 @@ std::string SerializeBed(const PreparedBed& bed) {
       << "settle_steps=" << bed.settle_steps << "\n"
       << "wall_time_s=" << Exact(bed.wall_time_s) << "\n"
       << "insert_time_s=" << Exact(bed.insert_time_s) << "\n"
-      << "note=" << bed.note << "\n"
-      << "data\n";
+      << "note=" << bed.note << "\n";
+  for (const std::string& w : bed.warnings) out << "warning=" << w << "\n";
+  out << "data\n";
   Checksum sum;
   const dem::ParticleState& b = bed.beads;
   Put<std::uint64_t>(out, sum, b.size());
@@ -135,6 +136,8 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
       bed.insert_time_s = std::stod(value);
     else if (key == "note")
       bed.note = value;
+    else if (key == "warning")
+      bed.warnings.push_back(value);
   }
   Checksum sum;
   const auto n = Get<std::uint64_t>(in, sum, name);

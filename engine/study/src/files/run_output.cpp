@@ -36,6 +36,7 @@ std::vector<std::string> ResultWarnings(const ImpactSummary& s) {
     warnings.push_back("max_overlap_ratio: the largest contact overlap reached " +
                        std::to_string(static_cast<int>(std::lround(100 * s.max_overlap_ratio))) +
                        "% of a bead radius, beyond the small strains Hertz theory assumes");
+  for (const std::string& w : s.bed.warnings) warnings.push_back(w);
   return warnings;
 }
 

@@ -26,7 +26,7 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
     world.bed_surface_m = bed.surface_m;
     world.bed = BedSummary{
         bed.hash,           sha256,       bed.surface_m, bed.solid_fraction, bed.plate_force_N,
-        bed.wall_force_z_N, bed.weight_N, bed.note};
+        bed.wall_force_z_N, bed.weight_N, bed.note,      bed.warnings};
   }
   double min_radius = 0.5 * scene.beads.diameter_min_m;
   for (double r : world.beads.radius) min_radius = std::min(min_radius, r);

@@ -61,9 +61,10 @@ struct PreparedBed {
   double kinetic_ratio = 0.0;   ///< rest criterion value reached
   double settle_time_s = 0.0;   ///< simulated time of this stage
   std::int64_t settle_steps = 0;
-  double wall_time_s = 0.0;    ///< computing time of this stage
-  double insert_time_s = 0.0;  ///< of which inserting the beads (a source bed)
-  std::string note;            ///< an imported bed's overlaps (ImportedBed::Describe)
+  double wall_time_s = 0.0;           ///< computing time of this stage
+  double insert_time_s = 0.0;         ///< of which inserting the beads (a source bed)
+  std::string note;                   ///< an imported bed's overlaps (ImportedBed::Describe)
+  std::vector<std::string> warnings;  ///< where an imported file disagrees with the scene
 };
 
 struct BedProgress {

@@ -20,6 +20,7 @@ inline constexpr std::size_t kMaxBedLineBytes = 4096;
 struct BeadRecord {
   double x = 0, y = 0, z = 0, radius = 0;
   long line = 0;
+  double density_kg_m3 = 0;  ///< as the file gives it (0: the format has none)
 };
 
 /// The bed file formats dembuf reads.

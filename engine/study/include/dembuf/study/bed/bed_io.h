@@ -42,6 +42,9 @@ struct ImportedBed {
   std::size_t moved = 0;          ///< beads moved apart (bed.import_overlaps = "relax")
   double max_move_m = 0.0;        ///< the farthest one moved
   double max_ratio_before = 0.0;  ///< the largest overlap before they were moved
+  /// Where the file disagrees with the scene (its densities, its beads' sizes), as "field:
+  /// what" sentences: the run goes on with the scene's density and the file's sizes.
+  std::vector<std::string> warnings;
 
   /// One paragraph for people: the beads, their resting contacts, what was separated.
   std::string Describe() const;

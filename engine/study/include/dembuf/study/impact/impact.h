@@ -9,6 +9,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "dembuf/core/damping.h"
 #include "dembuf/core/simulation.h"
@@ -27,7 +28,8 @@ struct BedSummary {
   double rest_plate_force_N = 0.0;
   double rest_wall_force_z_N = 0.0;
   double weight_N = 0.0;
-  std::string note;  ///< an imported bed's overlaps, as read
+  std::string note;                   ///< an imported bed's overlaps, as read
+  std::vector<std::string> warnings;  ///< where an imported file disagrees with the scene
 };
 
 /// Everything a Simulation needs, derived from a Scene.

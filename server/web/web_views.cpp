@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 
+#include "dembuf/study/files/run_output.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/sweep/sweep_report.h"
 
@@ -122,14 +123,15 @@ std::string SamplesJson(std::int64_t first, const std::vector<ImpactSample>& sam
   std::string text;
   text.reserve(64 + samples.size() * 5 * 24);
   text += "{\"first\":" + std::to_string(first);
-  auto column = [&](const char* name, double ImpactSample::*member) {
+  // The columns of plate_force.csv, by the same table.
+  for (const report::SampleColumn& c : report::SampleColumns()) {
     text += ",\"";
-    text += name;
+    text += c.name;
     text += "\":[";
     char number[32];
     for (std::size_t k = 0; k < samples.size(); ++k) {
       if (k) text += ',';
-      const double v = samples[k].*member;
+      const double v = report::SampleValue(samples[k], c);
       if (!std::isfinite(v)) {
         text += "null";
         continue;
@@ -139,12 +141,7 @@ std::string SamplesJson(std::int64_t first, const std::vector<ImpactSample>& sam
       text.append(number, end);
     }
     text += ']';
-  };
-  column("t_s", &ImpactSample::t_s);
-  column("plate_force_N", &ImpactSample::plate_force_N);
-  column("wall_force_z_N", &ImpactSample::wall_force_z_N);
-  column("proj_z_m", &ImpactSample::projectile_z_m);
-  column("proj_force_z_N", &ImpactSample::projectile_force_z_N);
+  }
   text += '}';
   return text;
 }

@@ -4,11 +4,13 @@
 // --http address.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <thread>
 
 #include "config.h"
+#include "dembuf/study/files/run_output.h"
 #include "job_feed.h"
 #include "sessions.h"
 #include "store.h"
@@ -218,6 +220,16 @@ TEST(WebViews, AJobsPeakIsItsSummarysOrElseTheRunningJobs) {
   EXPECT_TRUE(batch["proj_z_m"][2].is_null());
   EXPECT_EQ(batch["proj_force_z_N"][0].get<double>(), Sample(40).projectile_force_z_N);
   EXPECT_EQ(nlohmann::json::parse(web::SamplesJson(0, {}))["t_s"].size(), 0u);
+  // Every column of plate_force.csv, and no other (the stream lacked proj_vz_m_s).
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : batch.items())
+    if (key != "first") keys.push_back(key);
+  std::vector<std::string> columns;
+  for (const report::SampleColumn& c : report::SampleColumns()) columns.push_back(c.name);
+  std::sort(keys.begin(), keys.end());
+  std::sort(columns.begin(), columns.end());
+  EXPECT_EQ(keys, columns);
+  EXPECT_EQ(batch["proj_vz_m_s"][0].get<double>(), Sample(40).projectile_vz_m_s);
 }
 
 TEST(WebSessions, ASessionNamesItsTokenUntilClosedOrExpired) {

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <iterator>
+#include <limits>
 #include <stdexcept>
 
 #include "dembuf/study/scene/scene_fields.h"
@@ -130,22 +131,47 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
   return j;
 }
 
+std::span<const SampleColumn> SampleColumns() {
+  static const SampleColumn columns[] = {
+      {"t_s", &ImpactSample::t_s, false},
+      {"plate_force_N", &ImpactSample::plate_force_N, false},
+      {"wall_force_z_N", &ImpactSample::wall_force_z_N, false},
+      {"proj_z_m", &ImpactSample::projectile_z_m, true},
+      {"proj_vz_m_s", &ImpactSample::projectile_vz_m_s, true},
+      {"proj_force_z_N", &ImpactSample::projectile_force_z_N, true}};
+  return columns;
+}
+
+double SampleValue(const ImpactSample& sample, const SampleColumn& column) {
+  if (column.of_projectile && !std::isfinite(sample.projectile_z_m))
+    return std::numeric_limits<double>::quiet_NaN();
+  return sample.*column.member;
+}
+
 namespace {
 
-constexpr const char* kSampleCsvHeader =
-    "t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N\n";
+// plate_force.csv's first line, from the columns.
+const std::string& SampleCsvHeader() {
+  static const std::string header = [] {
+    std::string text;
+    for (const SampleColumn& c : SampleColumns())
+      text += (text.empty() ? "" : ",") + std::string(c.name);
+    return text + "\n";
+  }();
+  return header;
+}
 
-// One row of plate_force.csv; returns its length.
+// One row of plate_force.csv; returns its length. An empty cell for a value that is not
+// there (a scene without a projectile).
 int SampleCsvRow(const ImpactSample& s, char (&line)[256]) {
-  int n =
-      std::snprintf(line, sizeof line, "%.9g,%.9g,%.9g", s.t_s, s.plate_force_N, s.wall_force_z_N);
-  // Scenes without a projectile leave its columns empty.
-  if (std::isfinite(s.projectile_z_m)) {
-    n += std::snprintf(line + n, sizeof line - n, ",%.9g,%.9g,%.9g\n", s.projectile_z_m,
-                       s.projectile_vz_m_s, s.projectile_force_z_N);
-  } else {
-    n += std::snprintf(line + n, sizeof line - n, ",,,\n");
+  int n = 0;
+  for (const SampleColumn& c : SampleColumns()) {
+    if (n > 0) line[n++] = ',';
+    const double v = SampleValue(s, c);
+    if (std::isfinite(v)) n += std::snprintf(line + n, sizeof line - n, "%.9g", v);
   }
+  line[n++] = '\n';
+  line[n] = '\0';
   return n;
 }
 
@@ -155,7 +181,7 @@ SampleCsvWriter::SampleCsvWriter(std::filesystem::path path)
     : m_final(std::move(path)), m_partial(m_final.string() + ".partial") {
   m_out.open(m_partial);
   if (!m_out) throw std::runtime_error("cannot write " + m_partial.string());
-  m_out << kSampleCsvHeader;
+  m_out << SampleCsvHeader();
 }
 
 void SampleCsvWriter::Write(const ImpactSample& s) {
@@ -164,7 +190,7 @@ void SampleCsvWriter::Write(const ImpactSample& s) {
 }
 
 std::string SamplesToCsv(const std::vector<ImpactSample>& samples) {
-  std::string text = kSampleCsvHeader;
+  std::string text = SampleCsvHeader();
   char line[256];
   for (const ImpactSample& s : samples) text.append(line, SampleCsvRow(s, line));
   return text;

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -27,6 +28,18 @@ std::vector<std::string> ResultWarnings(const ImpactSummary& summary);
 
 /// The run folder's log.txt from its summary.json: the provenance, then every warning.
 std::string RunLogText(const nlohmann::json& summary);
+
+/// One column of a force sample: its name (plate_force.csv's header) and where it is. Every
+/// door that writes or sends samples takes its columns from SampleColumns(), so none drops one.
+struct SampleColumn {
+  const char* name;
+  double ImpactSample::*member;
+  bool of_projectile;  ///< empty (NaN) in a scene without a projectile
+};
+std::span<const SampleColumn> SampleColumns();
+
+/// A column's value in a sample: NaN for a projectile's column when there is no projectile.
+double SampleValue(const ImpactSample& sample, const SampleColumn& column);
 
 /// The summary.json document of a finished run, with its provenance (provenance.h).
 nlohmann::json SummaryToJson(const ImpactSummary& summary, const Scene& scene,

@@ -460,24 +460,12 @@ grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
   }
   csv.Commit();
   report::WriteFileAtomically(dir / "scene.toml", job.scene_toml());
-  nlohmann::json provenance = {
-      {"job", job.id()},
-      {"sweep", job.sweep_id()},
-      {"owner", job.owner()},
-      {"name", job.name()},
-      {"state", StateText(job.state())},
-      {"error", job.error()},
-      {"attempts", job.attempts()},
-      {"created_at", job.created_at()},
-      {"started_at", job.started_at()},
-      {"finished_at", job.finished_at()},
-      {"host", job.host()},
-      {"code_version", job.code_version()},
-      {"scene_hash", job.scene_hash()},
-      {"bed_hash", job.bed_hash()},
-      {"beds_prepared",
-       std::vector<std::string>(job.beds_prepared().begin(), job.beds_prepared().end())}};
-  report::WriteFileAtomically(dir / "job.json", provenance.dump(2) + "\n");
+  // The job as `dembuf status --json` shows it, but for what the folder holds as files of
+  // their own (summary.json, scene.toml).
+  nlohmann::json record = ServerJobJson(remote, job, true);
+  record.erase("summary");
+  record.erase("scene_toml");
+  report::WriteFileAtomically(dir / "job.json", record.dump(2) + "\n");
   if (job.state() == v1::JOB_STATE_DONE) {
     report::WriteFileAtomically(dir / "summary.json", job.summary_json());
     // As a local run's folder has it.

@@ -188,10 +188,21 @@ import dembuf
 api = json.load(urllib.request.urlopen(f"{os.environ['DEMBUF_HTTP']}/api/jobs/{job}"))
 with dembuf.connect() as daemon:
     python = daemon.job(job)
-for name, other in (("/api/jobs", api), ("Python", python)):
-    assert sorted(other) == sorted(status), (name, sorted(set(other) ^ set(status)))
-    for key in status:
-        assert other[key] == status[key], (name, key, other[key], status[key])
+# The fetched folder's job.json is that record, without what the folder holds as files.
+record = json.load(open(f"{work}/fetched/job.json"))
+files_of_their_own = {k: status[k] for k in status if k not in ("summary", "scene_toml")}
+for name, other, wanted in (("/api/jobs", api, status), ("Python", python, status),
+                            ("job.json", record, files_of_their_own)):
+    assert sorted(other) == sorted(wanted), (name, sorted(set(other) ^ set(wanted)))
+    for key in wanted:
+        assert other[key] == wanted[key], (name, key, other[key], wanted[key])
+# The listing likewise: Python's jobs() rows are list --json's jobs (sweep_id None, not 0).
+with dembuf.connect() as daemon:
+    listed = daemon.jobs(limit=1000)
+row = listed[listed["id"] == job].iloc[0].to_dict()
+assert sorted(row) == sorted(mine[0]), sorted(set(row) ^ set(mine[0]))
+for key in mine[0]:
+    assert row[key] == mine[0][key], ("jobs()", key, row[key], mine[0][key])
 info = json.load(open(f"{work}/info.json"))
 text = open(f"{work}/info.txt").read()
 assert f"dembufd {info['version']} at {info['address']}" in text, (info, text)

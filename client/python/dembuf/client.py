@@ -123,8 +123,9 @@ def _typed(value: str):
     return value
 
 
-def _job_json(j) -> dict:
-    """A job as `dembuf status --json` writes it (client/remote_json.cpp)."""
+def _job_json(j, details: bool = True) -> dict:
+    """A job as `dembuf status --json` writes it, or `dembuf list --json` without `details`
+    (client/remote_json.cpp)."""
     try:
         summary = frames.parse_summary(j.summary_json, f"job {j.id}'s summary_json") or None
     except ValueError as e:
@@ -144,11 +145,12 @@ def _job_json(j) -> dict:
         "peak_plate_force_N": peak,
         "P_N": summary.get("P_N") if summary else None,
         "slurm_job_id": j.slurm_job_id or None,
+    } | ({
         "scene_toml": j.scene_toml, "scene_hash": j.scene_hash, "bed_hash": j.bed_hash,
         "summary": summary,
         "files": [{"path": f.path, "size": f.size} for f in j.files],
         "beds_prepared": list(j.beds_prepared),
-    }
+    } if details else {})
 
 
 def _sample(s: pb.ForceSample) -> Sample:
@@ -334,14 +336,15 @@ class Client:
         return _job_json(self._call(self._stub.GetJob, pb.GetJobRequest(id=job)))
 
     def jobs(self, sweep: int = 0, owner: str = "", limit: int = 100) -> pd.DataFrame:
-        """Jobs, newest first, one row each: id, name, owner, state, sweep_id, created_at..."""
+        """Jobs, newest first, one row each, with the columns of `dembuf list --json`'s jobs:
+        id, name, owner, state, error, sweep_id (None for a single job), times (None until
+        they happen), progress, ..."""
         answer = self._call(self._stub.ListJobs,
                             pb.ListJobsRequest(sweep_id=sweep, owner=owner, limit=limit))
-        rows = [{"id": j.id, "name": j.name, "owner": j.owner, "state": state_name(j.state),
-                 "sweep_id": j.sweep_id, "created_at": j.created_at,
-                 "finished_at": j.finished_at, "error": j.error} for j in answer.jobs]
-        return pd.DataFrame(rows, columns=["id", "name", "owner", "state", "sweep_id",
-                                           "created_at", "finished_at", "error"])
+        rows = [_job_json(j, details=False) for j in answer.jobs]
+        columns = list(_job_json(pb.Job(), details=False))
+        # Object columns, so that None stays None (pandas makes a number column's None NaN).
+        return pd.DataFrame(rows, columns=columns, dtype=object)
 
     def watch(self, job: int, from_index: int = 0) -> Iterator[Sample]:
         """The job's samples: those computed so far, then the live ones as they come, until

@@ -1028,8 +1028,10 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     if (index >= runs.size()) continue;
     report::SweepRunReport& run = runs[index];
     run.name = SafeFolderName(job.name(), job.id());
+    run.id = job.id();
     run.values.assign(job.sweep_values().begin(), job.sweep_values().end());
     if (!Ended(job.state())) {
+      run.state = StateText(job.state());
       run.error = std::string("still ") + StateText(job.state());
       ++pending;
       continue;
@@ -1044,6 +1046,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
         !files.ok())
       return Report(remote, files);
     run.ok = result.job().state() == v1::JOB_STATE_DONE;
+    run.state = StateText(result.job().state());
     run.error = result.job().error();
     if (run.ok)
       run.summary = ServerJson(remote, result.job().summary_json(),

@@ -96,7 +96,7 @@ grep -q 'preset: unknown preset' "$work/err" || fail "unknown preset message: $(
 [ "$(wc -l < "$work/sweep/points.csv")" -eq 3 ] || fail "points.csv rows"
 grep -q '"points"' "$work/sweep/summary.json" || fail "sweep summary"
 # The faster impact hits harder: P at 5 m/s above P at 2 m/s.
-awk -F, 'NR == 2 { p2 = $5 } NR == 3 { p5 = $5 } END { exit !(p5 > p2) }' "$work/sweep/sweep.csv" \
+awk -F, 'NR == 2 { p2 = $6 } NR == 3 { p5 = $6 } END { exit !(p5 > p2) }' "$work/sweep/sweep.csv" \
   || fail "P does not grow with speed: $(cat "$work/sweep/sweep.csv")"
 "$dembuf" sweep --preset e2 --set bed.thickness_m=0 --vary projectile.speed_m_s=2,5 \
   --out "$work/sweep" --no-bed-cache > "$work/again.log"

@@ -140,15 +140,17 @@ class ClientTest(unittest.TestCase):
             self.assertEqual(self.daemon.wait(int(job), timeout_s=300), "done")
         frame = self.daemon.sweep(sweep)
         self.assertEqual(len(frame), 4)
-        self.assertEqual(list(frame["status"]), ["ok"] * 4)
+        self.assertEqual(list(frame["status"]), ["done"] * 4)
+        self.assertEqual(sorted(frame["run"]), [0, 1, 2, 3])
         self.assertEqual(sorted(frame["bed.thickness_m"]), [0.008, 0.008, 0.01, 0.01])
         for _, row in frame.iterrows():
-            self.assertEqual(row["P_N"], self.daemon.fetch(int(row["job"])).summary["P_N"])
-        # The fetched sweep folder gives the same frame (its job column counts the runs).
+            self.assertEqual(row["P_N"], self.daemon.fetch(int(row["id"])).summary["P_N"])
+        # The fetched sweep folder gives the same frame: the same runs and job ids.
         folder = WORK / "sweep"
         cli("fetch", "--sweep", str(sweep), "--out", str(folder), "--no-plots")
         local = dembuf.read_sweep(folder)
         self.assertEqual(list(local.columns), list(frame.columns))
+        self.assertEqual(sorted(zip(local["run"], local["id"])), sorted(zip(frame["run"], frame["id"])))
         # The swept values with the same types both ways (bed.seed 2, not 2.0).
         for axis in ("bed.thickness_m", "bed.seed"):
             self.assertEqual(list(local[axis]), list(frame[axis]), axis)

@@ -406,9 +406,9 @@ class Client:
         return frames.Run(series=self.series(job), summary=info["summary"] or {}, job=info)
 
     def sweep(self, sweep: int) -> pd.DataFrame:
-        """A sweep as sweep.csv has it, one row per job: job (its id), the swept fields,
-        status ("ok", "failed", or the state of an unfinished job), the summary's metrics,
-        error. sweep_points() averages it over the bed seeds."""
+        """A sweep as sweep.csv has it, one row per job: run (its index in the sweep), id (the
+        job's), the swept fields, status (the job's state: "done", "failed", ...), the
+        summary's metrics, error. sweep_points() averages it over the bed seeds."""
         info = self._call(self._stub.GetSweep, pb.GetSweepRequest(id=sweep))
         answer = self._call(self._stub.ListJobs,
                             pb.ListJobsRequest(sweep_id=sweep, limit=info.jobs_total or 100))
@@ -427,12 +427,12 @@ class Client:
                                                    f"job {j.id}'s summary_json")
                 except ValueError as e:
                     raise DembufError("DATA_LOSS", f"the server sent {e}") from None
-            status = {pb.JOB_STATE_DONE: "ok", pb.JOB_STATE_FAILED: "failed",
-                      pb.JOB_STATE_CANCELLED: "failed"}.get(j.state, state_name(j.state))
-            rows.append({"job": j.id, **dict(zip(axes, (_typed(v) for v in j.sweep_values))),
-                         "status": status, **frames.metrics_of(summary), "error": j.error})
-        return pd.DataFrame(rows, columns=["job", *axes, "status", *frames.sweep_metric_names(),
-                                           "error"])
+            rows.append({"run": j.sweep_index, "id": j.id,
+                         **dict(zip(axes, (_typed(v) for v in j.sweep_values))),
+                         "status": state_name(j.state), **frames.metrics_of(summary),
+                         "error": j.error})
+        return pd.DataFrame(rows, columns=["run", "id", *axes, "status",
+                                           *frames.sweep_metric_names(), "error"])
 
     def server_info(self) -> dict:
         return _message_dict(self._call(self._stub.ServerInfo, pb.ServerInfoRequest()))

@@ -116,11 +116,11 @@ def read_run(folder: str | os.PathLike) -> Run:
 
 def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
     """A sweep's folder (`dembuf sweep --out`, or a fetched sweep): sweep.csv, one row per
-    run, as Client.sweep() gives it for a sweep on the daemon (there `job` is the job's id,
-    here the run's number)."""
+    run, as Client.sweep() gives it for a sweep on the daemon (`id`, the job's, is empty for
+    a local run)."""
     csv = pathlib.Path(folder) / "sweep.csv"
     frame = pd.read_csv(csv, keep_default_na=False, na_values=[""])
-    missing = [c for c in ["job", "status", *_SWEEP_METRICS] if c not in frame.columns]
+    missing = [c for c in ["run", "id", "status", *_SWEEP_METRICS] if c not in frame.columns]
     if missing:
         raise ValueError(f"{csv}: no column {', '.join(missing)}")
     if "error" in frame:
@@ -131,9 +131,9 @@ def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
 
 
 def sweep_axes(frame: pd.DataFrame) -> list[str]:
-    """The swept fields of a sweep frame: its columns between `job` and `status`."""
+    """The swept fields of a sweep frame: its columns between `id` and `status`."""
     columns = list(frame.columns)
-    return columns[columns.index("job") + 1:columns.index("status")]
+    return columns[columns.index("id") + 1:columns.index("status")]
 
 
 def sweep_points(frame: pd.DataFrame, metric: str = "P_N") -> pd.DataFrame:
@@ -141,7 +141,7 @@ def sweep_points(frame: pd.DataFrame, metric: str = "P_N") -> pd.DataFrame:
     fields, the mean, sample standard deviation (NaN for one run) and n of `metric` over the
     runs that ended well."""
     axes = [a for a in sweep_axes(frame) if a != "bed.seed"]
-    ok = frame[frame["status"] == "ok"]
+    ok = frame[frame["status"] == "done"]
     if not axes:
         values = ok[metric]
         return pd.DataFrame({"mean": [values.mean()], "sd": [values.std()],

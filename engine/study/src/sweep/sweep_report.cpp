@@ -99,6 +99,11 @@ nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h
   return hc;
 }
 
+std::string RunStatus(const SweepRunReport& run) {
+  if (!run.state.empty()) return run.state;
+  return run.ok ? "done" : "failed";
+}
+
 nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
                            const std::vector<SweepRunReport>& runs) {
   const std::vector<std::size_t> point_axes = PointAxes(axes);
@@ -140,7 +145,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   std::filesystem::create_directories(dir);
   // sweep.csv: one row per run.
   std::ofstream csv(dir / "sweep.csv");
-  csv << "job";
+  csv << "run,id";
   for (const auto& axis : axes) csv << "," << axis.field;
   csv << ",status";
   for (const auto& m : SweepMetricNames()) csv << "," << m;
@@ -149,9 +154,10 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   int failed = 0;
   for (std::size_t j = 0; j < runs.size(); ++j) {
     const SweepRunReport& r = runs[j];
-    csv << j;
+    csv << j << ",";
+    if (r.id != 0) csv << r.id;
     for (const auto& v : r.values) csv << "," << v;
-    csv << "," << (r.ok ? "ok" : "failed");
+    csv << "," << RunStatus(r);
     for (const auto& m : SweepMetricNames()) {
       csv << ",";
       if (r.ok && r.summary.contains(m) && r.summary[m].is_number())

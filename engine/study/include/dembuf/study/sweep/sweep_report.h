@@ -4,6 +4,7 @@
 // the terminal. Written the same way for a local sweep and for a sweep fetched from the daemon.
 #pragma once
 
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -21,7 +22,13 @@ struct SweepRunReport {
   bool ok = false;
   std::string error;
   nlohmann::json summary;  ///< summary.json of the run, when ok
+  std::int64_t id = 0;     ///< the daemon's job id (0: a local run)
+  std::string state;       ///< the job's state when not ended well ("" : done or failed by ok)
 };
+
+/// A run's status as sweep.csv and Client.sweep() give it: a job state's name ("done",
+/// "failed", "cancelled", "queued", "running").
+std::string RunStatus(const SweepRunReport& run);
 
 /// The summary fields a sweep tabulates, in column order.
 const std::vector<std::string>& SweepMetricNames();

@@ -4,6 +4,7 @@
 #include <map>
 #include <vector>
 
+#include "dembuf/study/sweep/sweep_report.h"
 #include "dembuf/study/text/text_limits.h"
 
 namespace dembuf::cli {
@@ -50,7 +51,7 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
       {"error", job.error()},
       {"sweep_id", job.sweep_id() ? nlohmann::json(job.sweep_id()) : nlohmann::json()},
       {"sweep_index", job.sweep_index()},
-      {"sweep_values", Strings(job.sweep_values())},
+      {"sweep_values", report::SweepValuesJson(Strings(job.sweep_values()))},
       {"attempts", job.attempts()},
       {"created_at", Time(job.created_at())},
       {"started_at", Time(job.started_at())},
@@ -88,8 +89,9 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
 nlohmann::json SweepJson(const v1::Sweep& sweep) {
   nlohmann::json axes = nlohmann::json::array();
   for (const v1::SweepAxis& axis : sweep.axes())
-    axes.push_back(
-        {{"field", axis.field()}, {"values", Strings(axis.values())}, {"range", axis.range()}});
+    axes.push_back({{"field", axis.field()},
+                    {"values", report::SweepValuesJson(Strings(axis.values()))},
+                    {"range", axis.range()}});
   // Sorted by state name, so that the output does not depend on the map's order.
   const std::map<std::string, int> by_state(sweep.jobs_by_state().begin(),
                                             sweep.jobs_by_state().end());

@@ -50,7 +50,7 @@ nlohmann::json JobJson(const JobRecord& job, const JobProgress& progress,
           {"error", job.error},
           {"sweep_id", id_or_null(job.sweep_id)},
           {"sweep_index", job.sweep_index},
-          {"sweep_values", job.sweep_values},
+          {"sweep_values", report::SweepValuesJson(job.sweep_values)},
           {"attempts", job.attempts},
           {"created_at", time(job.created_at)},
           {"started_at", time(job.started_at)},
@@ -85,7 +85,7 @@ nlohmann::json SweepJson(const SweepRecord& sweep, const std::vector<SweepJobRes
   for (const SweepAxis& axis : sweep.axes) {
     const SceneField* field = FindSceneField(axis.field);
     axes.push_back({{"field", axis.field},
-                    {"values", axis.values},
+                    {"values", report::SweepValuesJson(axis.values)},
                     {"unit", field ? std::string(field->unit) : ""},
                     {"help", field ? std::string(field->help) : ""}});
   }
@@ -105,7 +105,7 @@ nlohmann::json SweepJson(const SweepRecord& sweep, const std::vector<SweepJobRes
     by_state[state] = by_state.value(state, 0) + 1;
     job_list.push_back({{"id", job.id},
                         {"sweep_index", job.sweep_index},
-                        {"values", job.sweep_values},
+                        {"values", report::SweepValuesJson(job.sweep_values)},
                         {"state", state}});
   }
   return {{"id", sweep.id},

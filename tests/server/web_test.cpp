@@ -177,7 +177,9 @@ TEST(WebViews, ASweepsPointsAreItsDoneJobsOverTheSeeds) {
   EXPECT_EQ(json["axes"][0]["unit"], "m/s");
   ASSERT_EQ(json["points"].size(), 2u);
   const nlohmann::json& slow = json["points"][0];
-  EXPECT_EQ(slow["projectile.speed_m_s"], "1");
+  EXPECT_EQ(slow["projectile.speed_m_s"], 1);  // a number, as in sweep.csv (it was "1")
+  EXPECT_EQ(json["axes"][0]["values"], nlohmann::json({1, 2}));
+  EXPECT_EQ(json["jobs"][0]["values"], nlohmann::json({1, 1}));
   EXPECT_EQ(slow["runs"], 2);
   EXPECT_DOUBLE_EQ(slow["P_N"]["mean"].get<double>(), 105.0);
   EXPECT_NEAR(slow["P_N"]["sd"].get<double>(), std::sqrt(50.0), 1e-9);  // sample sd of 100, 110

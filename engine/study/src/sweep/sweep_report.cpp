@@ -1,6 +1,7 @@
 #include "dembuf/study/sweep/sweep_report.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -99,6 +100,25 @@ nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h
   return hc;
 }
 
+nlohmann::json SweepValueJson(const std::string& text) {
+  const char* begin = text.data();
+  const char* end = begin + text.size();
+  std::int64_t whole = 0;
+  if (auto [ptr, ec] = std::from_chars(begin, end, whole); ec == std::errc() && ptr == end)
+    return whole;
+  double number = 0.0;
+  if (auto [ptr, ec] = std::from_chars(begin, end, number);
+      ec == std::errc() && ptr == end && std::isfinite(number))
+    return number;
+  return text;
+}
+
+nlohmann::json SweepValuesJson(const std::vector<std::string>& texts) {
+  nlohmann::json values = nlohmann::json::array();
+  for (const std::string& text : texts) values.push_back(SweepValueJson(text));
+  return values;
+}
+
 std::string RunStatus(const SweepRunReport& run) {
   if (!run.state.empty()) return run.state;
   return run.ok ? "done" : "failed";
@@ -116,7 +136,8 @@ nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
   nlohmann::json point_list = nlohmann::json::array();
   for (const auto& [key, members] : points) {
     nlohmann::json point;
-    for (std::size_t k = 0; k < point_axes.size(); ++k) point[axes[point_axes[k]].field] = key[k];
+    for (std::size_t k = 0; k < point_axes.size(); ++k)
+      point[axes[point_axes[k]].field] = SweepValueJson(key[k]);
     point["runs"] = members.size();
     for (const auto& m : SweepMetricNames()) {
       std::vector<double> v;
@@ -186,7 +207,10 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                "crater [cm]", "C0");
   for (const nlohmann::json& point : point_list) {
     std::vector<std::string> key;
-    for (std::size_t a : point_axes) key.push_back(point[axes[a].field].get<std::string>());
+    for (std::size_t a : point_axes) {
+      const nlohmann::json& value = point[axes[a].field];
+      key.push_back(value.is_string() ? value.get<std::string>() : value.dump());
+    }
     // mean and sd (NaN for one run) of the metrics that have values
     std::map<std::string, std::pair<double, double>> stats;
     for (const auto& m : SweepMetricNames())
@@ -234,7 +258,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   };
   summary.update(extra);
   for (const auto& axis : axes)
-    summary["axes"].push_back({{"field", axis.field}, {"values", axis.values}});
+    summary["axes"].push_back({{"field", axis.field}, {"values", SweepValuesJson(axis.values)}});
   if (!h_to_p.empty() && !summary.contains("critical_thickness")) {
     const nlohmann::json hc = CriticalThickness(h_to_p);
     if (!hc.is_null()) {

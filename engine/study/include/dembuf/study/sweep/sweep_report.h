@@ -26,6 +26,11 @@ struct SweepRunReport {
   std::string state;       ///< the job's state when not ended well ("" : done or failed by ok)
 };
 
+/// A swept value as JSON gives it at every door: a whole number, a number, else its text
+/// (bed.seed 2, bed.thickness_m 0.01, bed.cut "tops"), as a CSV reader types sweep.csv's.
+nlohmann::json SweepValueJson(const std::string& text);
+nlohmann::json SweepValuesJson(const std::vector<std::string>& texts);
+
 /// A run's status as sweep.csv and Client.sweep() give it: a job state's name ("done",
 /// "failed", "cancelled", "queued", "running").
 std::string RunStatus(const SweepRunReport& run);

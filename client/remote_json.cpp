@@ -48,7 +48,7 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
       {"name", job.name()},
       {"owner", job.owner()},
       {"state", StateText(job.state())},
-      {"error", job.error()},
+      {"error", job.error().empty() ? nlohmann::json() : nlohmann::json(job.error())},
       {"sweep_id", job.sweep_id() ? nlohmann::json(job.sweep_id()) : nlohmann::json()},
       {"sweep_index", job.sweep_index()},
       {"sweep_values", report::SweepValuesJson(Strings(job.sweep_values()))},

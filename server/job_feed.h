@@ -37,7 +37,8 @@ class JobFeed {
   FeedRead Read(std::int64_t from, std::size_t max, std::chrono::milliseconds wait);
 
  private:
-  /// The highest plate force of an ended job's stored series, read once.
+  /// An ended job's peak plate force, read once: its summary's (of every step), else the
+  /// highest of its stored series.
   double StoredPeak();
 
   Store& m_store;

@@ -130,15 +130,20 @@ TEST_F(JobFeedTest, ARunningJobIsReadFromTheStoreThenLiveThenToItsEnd) {
 
   // The end: stored, then the live job dropped, as the executor does.
   auto [rest_first, rest] = live->UnstoredSamples();
-  store->FinishJob(id, JobState::kDone, "", {"{}\n", rest, rest_first, {}});
+  // Its summary's peak (of every step) is above every sample's: the ended job says it, live
+  // and stored alike (watch ended on the samples' 3554 N where the summary said 3559.3).
+  store->FinishJob(id, JobState::kDone, "",
+                   {"{\"peak_plate_force_N\": 1e6}\n", rest, rest_first, {}});
   live->End(JobState::kDone);
   r = feed.Read(1501, 4096, std::chrono::milliseconds(0));
   EXPECT_TRUE(r.ended);
   EXPECT_EQ(r.state, JobState::kDone);
+  EXPECT_EQ(r.progress.peak_plate_force_N, 1e6);
   executor.live.clear();
   r = feed.Read(0, 4096, std::chrono::milliseconds(0));
   EXPECT_EQ(r.samples.size(), 1501u);
   EXPECT_TRUE(r.ended);
+  EXPECT_EQ(r.progress.peak_plate_force_N, 1e6);
 }
 
 TEST_F(JobFeedTest, AQueuedJobWaitsAndAMissingOneIsNotFound) {

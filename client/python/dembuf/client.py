@@ -135,7 +135,7 @@ def _job_json(j, details: bool = True) -> dict:
             else p.peak_plate_force_N if p.peak_plate_force_N > 0 else None)
     return {
         "id": j.id, "name": j.name, "owner": j.owner, "state": state_name(j.state),
-        "error": j.error, "sweep_id": j.sweep_id or None, "sweep_index": j.sweep_index,
+        "error": j.error or None, "sweep_id": j.sweep_id or None, "sweep_index": j.sweep_index,
         "sweep_values": [_typed(v) for v in j.sweep_values], "attempts": j.attempts,
         "created_at": j.created_at or None, "started_at": j.started_at or None,
         "finished_at": j.finished_at or None, "host": j.host, "code_version": j.code_version,

@@ -215,7 +215,8 @@ Status DembufService::CheckStoredQuota(const std::string& owner, double more_byt
     return Status::OK;
   return Status(StatusCode::RESOURCE_EXHAUSTED,
                 "owner: " + owner + " stores " + Megabytes(static_cast<double>(stored)) +
-                    " of results, and these jobs may add up to " + Megabytes(more_bytes) +
+                    " of results and job records, and these jobs may add up to " +
+                    Megabytes(more_bytes) +
                     ": more than the quota of " +
                     Megabytes(static_cast<double>(m_info.quota_stored_bytes)) +
                     " per user (quota_stored_mb); delete what is no longer needed (dembuf delete "

@@ -124,6 +124,21 @@ class ClientTest(unittest.TestCase):
             self.assertIn(column, beads.columns)
         self.assertTrue((beads["radius_m"] > 0).all())
 
+    def test_an_older_sweep_csv_is_read_as_today(self):
+        # Columns `job` (the run's number) and status `ok`, as dembuf wrote them before `run`,
+        # `id` and the job states.
+        folder = WORK / "older-sweep"
+        folder.mkdir(exist_ok=True)
+        metrics = dembuf.frames.sweep_metric_names()
+        (folder / "sweep.csv").write_text(
+            "job,bed.thickness_m,status," + ",".join(metrics) + ",run_dir,error\n"
+            "0,0.01,ok," + ",".join(["1"] * len(metrics)) + ",runs/000,\n"
+            "1,0.02,failed," + "," * (len(metrics) - 1) + ",runs/001,\"unstable\"\n")
+        frame = dembuf.read_sweep(folder)
+        self.assertEqual(list(frame.columns[:4]), ["run", "id", "bed.thickness_m", "status"])
+        self.assertEqual(list(frame["status"]), ["done", "failed"])
+        self.assertEqual(list(dembuf.sweep_points(frame)["n"]), [1])
+
     def test_a_local_run_folder(self):
         out = WORK / "local"
         cli("-q", "run", SCENE, "--set", "time.end_s=0.05", "--out", str(out),

@@ -120,6 +120,11 @@ def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
     a local run)."""
     csv = pathlib.Path(folder) / "sweep.csv"
     frame = pd.read_csv(csv, keep_default_na=False, na_values=[""])
+    if "job" in frame.columns and "run" not in frame.columns:
+        # A sweep.csv of an older dembuf: `job` counted the runs, `ok` was `done`.
+        frame = frame.rename(columns={"job": "run"})
+        frame.insert(1, "id", float("nan"))
+        frame["status"] = frame["status"].replace({"ok": "done"})
     missing = [c for c in ["run", "id", "status", *_SWEEP_METRICS] if c not in frame.columns]
     if missing:
         raise ValueError(f"{csv}: no column {', '.join(missing)}")

@@ -1029,6 +1029,21 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     report::SweepRunReport& run = runs[index];
     run.name = SafeFolderName(job.name(), job.id());
     run.id = job.id();
+    // A job's values go into sweep.csv, points.csv and the table: each must be one of its
+    // axis's values, which were checked as values of the field above.
+    bool values_ok = job.sweep_values_size() == static_cast<int>(axes.size());
+    for (int a = 0; values_ok && a < job.sweep_values_size(); ++a) {
+      const std::vector<std::string>& allowed = axes[static_cast<std::size_t>(a)].values;
+      values_ok = std::find(allowed.begin(), allowed.end(), job.sweep_values(a)) != allowed.end();
+    }
+    if (!values_ok) {
+      std::fprintf(stderr,
+                   "dembuf: the server at %s sent job %lld of sweep %lld with values that are "
+                   "not its sweep's\n",
+                   remote.address.c_str(), static_cast<long long>(job.id()),
+                   static_cast<long long>(id));
+      return kExitRuntime;
+    }
     run.values.assign(job.sweep_values().begin(), job.sweep_values().end());
     if (!Ended(job.state())) {
       run.state = StateText(job.state());

@@ -52,6 +52,14 @@ std::vector<std::string> RunFolders(const fs::path& runs) {
   return names;
 }
 
+// Whether a folder of runs/ is a run's (what `dembuf run` writes), not something else's.
+bool IsRunFolder(const fs::path& dir) {
+  for (const char* name :
+       {"summary.json", "scene.toml", "failure.json", "incomplete.json", "plate_force.csv.partial"})
+    if (fs::is_regular_file(fs::symlink_status(dir / name))) return true;
+  return false;
+}
+
 // A finished run's summary in `dir`, or null (none, or not readable as one).
 nlohmann::json FinishedSummary(const fs::path& dir) {
   std::ifstream in{dir / "summary.json"};
@@ -244,38 +252,70 @@ nlohmann::json SweepFolderKey(const Scene& base, const std::vector<std::string>&
   return {{"varies", varied}, {"fields", fields}};
 }
 
+namespace {
+
+// How `held` (a folder's record) differs from `key`, in a sentence ("" : the same sweep). A
+// field the record lacks (one added since it was written) had its default.
+std::string KeyDifference(const nlohmann::json& held, const nlohmann::json& key) {
+  if (!held.is_object() || !held.contains("varies") || !held["fields"].is_object())
+    return std::string(kSweepKeyFile) + " is not a sweep's record";
+  if (held["varies"] != key["varies"])
+    return "a sweep that varies " + held["varies"].dump() + "; this one varies " +
+           key["varies"].dump();
+  std::vector<std::string> differ;
+  for (const auto& [name, value] : key["fields"].items()) {
+    const SceneField* field = FindSceneField(name);
+    const nlohmann::json there =
+        held["fields"].contains(name)
+            ? held["fields"][name]
+            : nlohmann::json(field ? FormatSceneField(Scene{}, *field) : std::string("(absent)"));
+    if (there != value)
+      differ.push_back(name + " = " +
+                       (there.is_string() ? there.get<std::string>() : there.dump()) + " there, " +
+                       value.get<std::string>() + " here");
+  }
+  if (differ.empty()) return "";
+  std::string text = "a sweep of another scene: " + differ[0];
+  if (differ.size() > 1)
+    text += " (and " + std::to_string(differ.size() - 1) + " more field" +
+            (differ.size() > 2 ? "s" : "") + ")";
+  return text;
+}
+
+}  // namespace
+
 std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann::json& key,
                                             bool force) {
   const fs::path key_file = dir / kSweepKeyFile;
   std::string refusal;
   if (std::ifstream in{key_file}) {
-    const nlohmann::json held = nlohmann::json::parse(in, nullptr, false);
-    if (!held.is_object() || !held.contains("varies") || !held.contains("fields")) {
-      refusal = dir.string() + "/" + kSweepKeyFile + " is not a sweep's record";
-    } else if (held["varies"] != key["varies"]) {
-      refusal = dir.string() + " holds a sweep that varies " + held["varies"].dump() +
-                "; this one varies " + key["varies"].dump();
-    } else {
-      std::vector<std::string> differ;
-      for (const auto& [name, value] : key["fields"].items())
-        if (held["fields"].value(name, std::string("(absent)")) != value)
-          differ.push_back(name + " = " + held["fields"].value(name, std::string("(absent)")) +
-                           " there, " + value.get<std::string>() + " here");
-      if (!differ.empty()) {
-        refusal = dir.string() + " holds a sweep of another scene: " + differ[0];
-        if (differ.size() > 1)
-          refusal += " (and " + std::to_string(differ.size() - 1) + " more field" +
-                     (differ.size() > 2 ? "s" : "") + ")";
+    const std::string difference = KeyDifference(nlohmann::json::parse(in, nullptr, false), key);
+    if (!difference.empty()) refusal = dir.string() + " holds " + difference;
+  } else {
+    // Runs without a record (an older dembuf's sweep): the folder is this sweep's when every
+    // run's own scene makes the same record.
+    std::vector<std::string> varies = key["varies"];
+    for (const std::string& name : RunFolders(dir / "runs")) {
+      std::ifstream scene_file(dir / "runs" / name / "scene.toml");
+      const std::string text{std::istreambuf_iterator<char>(scene_file), {}};
+      std::string difference = "runs that name no scene (" + name + ")";
+      try {
+        if (!text.empty())
+          difference = KeyDifference(SweepFolderKey(LoadSceneText(text, name), varies), key);
+      } catch (const std::exception&) {
+      }
+      if (!difference.empty()) {
+        refusal = dir.string() + " holds " + difference;
+        break;
       }
     }
-  } else if (!RunFolders(dir / "runs").empty()) {
-    refusal =
-        dir.string() + " holds runs of a sweep that names no scene (no " + kSweepKeyFile + ")";
   }
   if (!refusal.empty() && !force)
     return refusal + "; choose another --out, or pass --force to remove its runs first";
   if (!refusal.empty()) {
-    fs::remove_all(dir / "runs");
+    // The runs only: a folder in runs/ that no run wrote stays.
+    for (const std::string& name : RunFolders(dir / "runs"))
+      if (IsRunFolder(dir / "runs" / name)) fs::remove_all(dir / "runs" / name);
     for (const char* name : kSweepReportFiles) fs::remove(dir / name);
   }
   fs::create_directories(dir / "runs");
@@ -311,7 +351,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
   }
   // The folder's other runs, of points asked for before: its report lists every run there is.
   for (const std::string& name : RunFolders(options.out_dir / "runs")) {
-    if (reported.count(name)) continue;
+    if (reported.count(name) || !IsRunFolder(options.out_dir / "runs" / name)) continue;
     report::SweepRunReport earlier{name, {}, false, "", nullptr};
     earlier.summary = FinishedSummary(options.out_dir / "runs" / name);
     earlier.ok = !earlier.summary.is_null();

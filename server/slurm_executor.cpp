@@ -545,6 +545,10 @@ void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& sta
     bool followable = true;
     try {
       followable = Follow(job.id, *followed);
+    } catch (const SqliteError&) {
+      throw;  // the daemon's own store (a full disk): no job's fault; the pass is tried again
+    } catch (const StoreError&) {
+      throw;
     } catch (const std::exception& e) {
       // What the node left cannot be read (a link, a fifo, the folder gone): this job ends
       // here, and the others are followed on (one such job stalled them all).

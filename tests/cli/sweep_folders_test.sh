@@ -35,8 +35,17 @@ rc=0
 sweep --set projectile.mass_kg=0.3 --vary projectile.height_m=0.05,0.06 || rc=$?
 [ "$rc" = 2 ] && grep -q "varies" "$work/err" || fail "another axis: exit $rc, $(cat "$work/err")"
 
-# --force: the old runs go first.
+# A folder of an older dembuf (no sweep_scene.json): the same sweep resumes, its runs' own
+# scenes saying it is the same.
+rm "$work/s/sweep_scene.json"
+sweep --set projectile.mass_kg=0.3 --vary projectile.speed_m_s=1,2 || fail "an older folder: $(cat "$work/err")"
+[ "$(grep -c "done earlier, kept" "$work/out")" = 2 ] || fail "the older folder's runs were not kept: $(cat "$work/out")"
+
+# --force: the old runs go first; a folder in runs/ that no run wrote stays.
+mkdir "$work/s/runs/notes" && echo "mine" > "$work/s/runs/notes/todo.txt"
 sweep --set projectile.mass_kg=0.5 --vary projectile.speed_m_s=3 --force || fail "--force: $(cat "$work/err")"
+[ -f "$work/s/runs/notes/todo.txt" ] || fail "--force removed a folder no run wrote"
+rm -r "$work/s/runs/notes"
 [ "$(ls "$work/s/runs")" = "000_speed_m_s=3_seed=1" ] || fail "--force left: $(ls "$work/s/runs")"
 [ "$(rows)" = 1 ] || fail "sweep.csv after --force: $(cat "$work/s/sweep.csv")"
 

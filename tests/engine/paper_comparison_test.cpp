@@ -163,6 +163,14 @@ TEST(PaperComparison, HertzPeakFromTheEnergyBalance) {
   EXPECT_NEAR(f, 13.5e3, 0.01 * 13.5e3);
 }
 
+// A summary whose scene lacks its parts (a hostile server's, a hand-made one): refused with a
+// sentence, not read past the end of the JSON (undefined behaviour).
+TEST(PaperComparison, ASceneWithoutItsPartsIsRefused) {
+  nlohmann::json bare = E2Run(0.02, 6000, 0.5);
+  bare["scene"] = {{"bed", {{"thickness_m", 0.02}}}};
+  EXPECT_THROW(report::CompareWithPaper({bare}), std::runtime_error);
+}
+
 // The reference Hertz peak is the scene's: it changed with the set of runs given (their
 // measured speeds at first contact differ with the bed).
 TEST(PaperComparison, TheHertzPeakIsTheScenesWhicheverRunsAreGiven) {

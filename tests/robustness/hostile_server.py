@@ -32,12 +32,16 @@ ENDLESS = 2**62
 # Job 10's text fields, and every refusal of Cancel, carry terminal escape sequences: clear
 # the screen, set the window title, and an OSC 52 write to the clipboard.
 ESCAPES = "\x1b[2J\x1b]0;owned\x07\x1b]52;c;dG91Y2ggUFdORUQK\x07\u009b31m"
+ESCAPES_JSON = "\\u001b[2J\\u001b]0;owned\\u0007"
 
 
 class Hostile(pb_grpc.DembufServicer):
     def FetchResults(self, request, context):
+        # Job 11's summary carries escapes in its provenance and warnings (for log.txt).
+        summary = ('{"provenance": {"host": "' + ESCAPES_JSON + '"}, "warnings": ["'
+                   + ESCAPES_JSON + '\\nwarning: forged"]}\n') if request.id == 11 else "{}\n"
         job = pb.Job(id=request.id, state=pb.JOB_STATE_DONE, owner="eve", name="job",
-                     summary_json="{}\n")
+                     summary_json=summary)
         for path, data in FILES.get(request.id, []):
             job.files.add(path=path, size=len(data))
         return pb.FetchResultsResponse(job=job, series_length=ENDLESS if request.id == 9 else 0)
@@ -84,10 +88,18 @@ class Hostile(pb_grpc.DembufServicer):
             yield pb.FileChunk(path=path, size=len(data), offset=0, data=data)
 
     def GetSweep(self, request, context):
-        return pb.Sweep(id=request.id, owner="eve", name="sweep",
-                        jobs_total=JOBS_TOTAL.get(request.id, 0))
+        sweep = pb.Sweep(id=request.id, owner="eve", name="sweep",
+                         jobs_total=JOBS_TOTAL.get(request.id, 0))
+        if request.id == 3:  # one job, whose value is no value of its axis (an escape in it)
+            sweep.jobs_total = 1
+            sweep.axes.add(field="bed.thickness_m", values=["0.01"])
+        return sweep
 
     def ListJobs(self, request, context):
+        if request.sweep_id == 3:
+            return pb.ListJobsResponse(jobs=[pb.Job(
+                id=30, state=pb.JOB_STATE_DONE, owner="eve", name="j", sweep_id=3,
+                sweep_values=["0.01\x1b]52;c;dG91Y2gK\x07"])])
         return pb.ListJobsResponse()
 
 

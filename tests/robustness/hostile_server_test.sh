@@ -81,6 +81,16 @@ grep -q "no job" "$work/err" && grep -q "Slurm job 1 on" "$work/out" ||
 if LC_ALL=C grep -q $'[\x01-\x08\x0b-\x1f\x7f]\|\xc2[\x80-\x9f]' "$work/out" "$work/err"; then
   fail "control characters from the server reached the terminal: $(cat -v "$work/out" "$work/err")"
 fi
+# A fetched run's log.txt and a fetched sweep's files take the server's text as text: a job's
+# provenance and warnings with escapes and a forged line, a sweep job's value that is none of
+# its axis's.
+"$dembuf" fetch 11 --out "$work/job11" --no-plots > /dev/null 2>&1 || fail "fetch 11: $(cat "$work/err")"
+[ "$(grep -c '^warning: ' "$work/job11/log.txt")" = 1 ] || fail "log.txt: $(cat -v "$work/job11/log.txt")"
+if LC_ALL=C grep -q $'[\x01-\x08\x0b-\x1f\x7f]' "$work/job11/log.txt"; then
+  fail "control characters from the server reached log.txt: $(cat -v "$work/job11/log.txt")"
+fi
+expect_exit 1 "the server at $DEMBUF_SERVER sent job 30 of sweep 3 with values that are not its sweep's" \
+  "$dembuf" fetch --sweep 3 --out "$work/sweep3" --no-plots
 # The Python package likewise.
 /usr/bin/python3 - "$python_package" "$DEMBUF_SERVER" <<'PY' || fail "the Python package trusted the server"
 import sys

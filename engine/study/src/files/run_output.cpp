@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/text/text_limits.h"
 #include "dembuf/study/version.h"
 
 namespace dembuf::report {
@@ -43,14 +44,20 @@ std::vector<std::string> ResultWarnings(const ImpactSummary& s) {
 
 std::string RunLogText(const nlohmann::json& summary) {
   if (!summary.is_object()) return "";
+  // A line of text for people, whoever wrote the summary (a server's may hold escapes that a
+  // terminal would obey, or line breaks that forge a line): control characters shown as '?'.
+  auto line = [](const nlohmann::json& value) {
+    return PrintableText(value.is_string() ? value.get<std::string>() : value.dump());
+  };
   std::string text;
   const nlohmann::json provenance = summary.value("provenance", nlohmann::json::object());
-  for (const auto& [key, value] : provenance.items())
-    text += key + ": " + (value.is_string() ? value.get<std::string>() : value.dump()) + "\n";
+  if (provenance.is_object())
+    for (const auto& [key, value] : provenance.items())
+      text += PrintableText(key) + ": " + line(value) + "\n";
   const nlohmann::json warnings = summary.value("warnings", nlohmann::json::array());
-  if (warnings.empty()) text += "no warnings\n";
-  for (const nlohmann::json& w : warnings)
-    text += "warning: " + (w.is_string() ? w.get<std::string>() : w.dump()) + "\n";
+  if (!warnings.is_array() || warnings.empty()) text += "no warnings\n";
+  if (warnings.is_array())
+    for (const nlohmann::json& w : warnings) text += "warning: " + line(w) + "\n";
   return text;
 }
 

@@ -165,15 +165,19 @@ Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
   c.is_paper_e2 = !summaries.empty() && c.differs.empty();
   if (!summaries.empty()) {
     const nlohmann::json& scene = summaries.front()["scene"];
-    const nlohmann::json& m = scene["material"];
-    const nlohmann::json& w = scene["walls"];
+    // A part the summary lacks is empty, not read past (a summary from elsewhere may lack it).
+    auto part = [&](const char* key) {
+      return scene.contains(key) && scene[key].is_object() ? scene[key] : nlohmann::json::object();
+    };
+    const nlohmann::json m = part("material");
+    const nlohmann::json w = part("walls");
     const bool from_beads = w.value("material_from_beads", true);
     const double e = Number(m, "youngs_modulus_Pa"), nu = Number(m, "poisson_ratio");
     // The speed at first contact by the scene (its fall from height_m to the surface), not
     // as runs measured it: the reference is the same whichever runs are given.
     // (A field an older run does not record had its default.)
     const Scene d;
-    const nlohmann::json& projectile = scene["projectile"];
+    const nlohmann::json projectile = part("projectile");
     auto field = [](const nlohmann::json& part, const char* key, double otherwise) {
       return part.contains(key) ? Number(part, key) : otherwise;
     };

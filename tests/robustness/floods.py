@@ -15,7 +15,7 @@ daemon's memory must stay within a bound (docs/service.md has the figures this p
    --direct-reset runs it against the daemon itself to measure that (not in CI: it grew the
    daemon by gigabytes).
 5. slow headers on the web pages (slowloris): 200 connections each sending a GET's headers a
-   byte every 2 s, through haproxy's web front: a page asked for meanwhile is answered.
+   byte every 2 s for 6 s, through haproxy's web front: a page asked for meanwhile is answered.
    dembufd serves a connection on a thread until its request is whole, so 80 such took every
    thread of its web pages; --direct-slow measures that against the daemon itself.
 
@@ -40,7 +40,7 @@ import zlib
 
 RESET_SECONDS = 8
 RESET_CONNECTIONS = 4
-SLOW_SECONDS = 12
+SLOW_SECONDS = 6
 SLOW_CONNECTIONS = 200
 # What a flood may add to the daemon's memory (it runs in a few tens of MB).
 MEMORY_BOUND_MB = 200

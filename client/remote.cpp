@@ -463,16 +463,13 @@ grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
   // The job as `dembuf status --json` shows it, but for what the folder holds as files of
   // their own (summary.json, scene.toml).
   nlohmann::json record = ServerJobJson(remote, job, true);
+  const nlohmann::json summary = std::move(record["summary"]);  // (parsed once, checked)
   record.erase("summary");
   record.erase("scene_toml");
   report::WriteFileAtomically(dir / "job.json", record.dump(2) + "\n");
   if (job.state() == v1::JOB_STATE_DONE) {
     report::WriteFileAtomically(dir / "summary.json", job.summary_json());
-    // As a local run's folder has it.
-    report::WriteFileAtomically(
-        dir / "log.txt",
-        report::RunLogText(ServerJson(remote, job.summary_json(),
-                                      "job " + std::to_string(job.id()) + "'s summary_json")));
+    report::WriteFileAtomically(dir / "log.txt", report::RunLogText(summary));  // as a local run's
   } else if (job.state() == v1::JOB_STATE_CANCELLED) {
     // As a local run stopped before its end: what it had computed, marked incomplete.
     report::WriteFileAtomically(

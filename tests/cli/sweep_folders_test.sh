@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A sweep folder belongs to one sweep (README.md, "Sweeps"): `dembuf sweep --out s` run again with
+# A sweep folder belongs to one sweep (docs/results.md, "Sweep folders"): `dembuf sweep --out s` run again with
 # another scene (projectile.mass_kg 0.3 -> 0.5) re-ran and overwrote the earlier runs without
 # --force, and where the run names differed left the other scene's runs beside the new ones,
 # sweep.csv listing only some. Now the folder records the sweep's scene: another is refused

@@ -1,7 +1,6 @@
 #include "job_feed.h"
 
 #include <algorithm>
-#include <nlohmann/json.hpp>
 #include <thread>
 
 namespace dembuf::server {
@@ -11,21 +10,19 @@ JobProgress ProgressOf(const JobRecord& job, Executor& executor) {
   JobProgress progress;
   progress.stage = job.state == JobState::kDone ? "done" : StateName(job.state);
   progress.fraction = job.state == JobState::kDone ? 1.0 : 0.0;
+  // An ended job's peak is its summary's, kept in its record (0 where it is not known).
+  progress.peak_plate_force_N = job.peak_plate_force_N.value_or(0.0);
   return progress;
 }
 
 double JobFeed::StoredPeak() {
   if (!m_stored_peak) {
-    // A finished job's peak is its summary's, of every step, as every door says it (the
-    // samples are every output interval, and missed the top by a few newtons).
-    try {
-      const nlohmann::json summary = nlohmann::json::parse(m_store.Summary(m_id), nullptr, false);
-      if (summary.is_object() && summary.contains("peak_plate_force_N") &&
-          summary["peak_plate_force_N"].is_number())
-        return *(m_stored_peak = summary["peak_plate_force_N"].get<double>());
-    } catch (const std::exception&) {
-      // no summary, or a damaged one: the samples say what they can
-    }
+    // A finished job's peak is its summary's, of every step, kept in its record, as every
+    // door says it (the samples are every output interval, and missed the top by a few
+    // newtons).
+    if (const std::optional<JobRecord> job = m_store.GetJob(m_id); job && job->peak_plate_force_N)
+      return *(m_stored_peak = *job->peak_plate_force_N);
+    // Not known (an older job's damaged summary): the samples say what they can.
     // Piece by piece: a long series is never held whole.
     constexpr std::int64_t kPiece = 1 << 14;
     double peak = 0.0;

@@ -37,8 +37,8 @@ class JobFeed {
   FeedRead Read(std::int64_t from, std::size_t max, std::chrono::milliseconds wait);
 
  private:
-  /// An ended job's peak plate force, read once: its summary's (of every step), else the
-  /// highest of its stored series.
+  /// An ended job's peak plate force, read once: its record's (the summary's, of every step),
+  /// else the highest of its stored series.
   double StoredPeak();
 
   Store& m_store;

@@ -63,6 +63,11 @@ class Statement {
   std::int64_t Int(int column) const { return sqlite3_column_int64(m_stmt, column); }
   std::string Text(int column) const;
   std::string Blob(int column) const;
+  /// A REAL column; nullopt where it is NULL.
+  std::optional<double> Real(int column) const {
+    if (sqlite3_column_type(m_stmt, column) == SQLITE_NULL) return std::nullopt;
+    return sqlite3_column_double(m_stmt, column);
+  }
 
  private:
   void BindOne(int index, std::int64_t v);
@@ -72,6 +77,10 @@ class Statement {
   void BindOne(int index, const std::string& v) { BindOne(index, std::string_view(v)); }
   void BindOne(int index, const char* v) { BindOne(index, std::string_view(v)); }
   void BindOne(int index, std::nullopt_t);
+  void BindOne(int index, const std::optional<double>& v) {
+    if (v) BindOne(index, *v);
+    else BindOne(index, std::nullopt);
+  }
   void BindOne(int index, Bytes v);
   friend class Database;
 

@@ -174,6 +174,23 @@ ALTER TABLE jobs ADD COLUMN bed_file TEXT NOT NULL DEFAULT '';
 -- given to its Slurm job, which the run writes into its summary.json and failure.json.
 ALTER TABLE jobs ADD COLUMN result_nonce TEXT NOT NULL DEFAULT '';
 )sql",
+    R"sql(
+-- A finished job's peak plate force and P, from its summary as it ends, so that a listing
+-- shows them without reading summaries (NULL: not known). Jobs that ended before get them
+-- here; a summary that is not JSON, or a value that is not a number, leaves NULL.
+ALTER TABLE jobs ADD COLUMN peak_plate_force_N REAL;
+ALTER TABLE jobs ADD COLUMN P_N REAL;
+UPDATE jobs SET
+  peak_plate_force_N = (
+    SELECT json_extract(summary_json, '$.peak_plate_force_N') FROM results
+    WHERE results.job_id = jobs.id AND json_valid(summary_json)
+      AND json_type(summary_json, '$.peak_plate_force_N') IN ('integer', 'real')),
+  P_N = (
+    SELECT json_extract(summary_json, '$.P_N') FROM results
+    WHERE results.job_id = jobs.id AND json_valid(summary_json)
+      AND json_type(summary_json, '$.P_N') IN ('integer', 'real'))
+WHERE state = 'done';
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 // The version that added the checksums of summaries, whole series and result files.
@@ -205,15 +222,15 @@ const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
     "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
-    "command_line";
+    "peak_plate_force_N, P_N, command_line";
 // The same for a listing, which shows no scene: its text is not read ('' in its place).
 const char* const kListedJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "'', scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
     "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
-    "command_line";
+    "peak_plate_force_N, P_N, command_line";
 // How many kJobColumns names: a column selected after them has this index.
-constexpr int kJobColumnCount = 23;
+constexpr int kJobColumnCount = 25;
 
 }  // namespace
 
@@ -332,6 +349,8 @@ JobRecord Store::ReadJob(Statement& s) {
   j.cancel_requested = s.Int(19) != 0;
   j.bed_file = s.Text(20);
   j.result_nonce = s.Text(21);
+  j.peak_plate_force_N = s.Real(22);
+  j.P_N = s.Real(23);
   j.command_line = s.Text(kJobColumnCount - 1);
   return j;
 }
@@ -597,8 +616,19 @@ void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
       .Run();
   PutJobFilesLocked(id, results.files);
   FaultPoint("kill-during-result-write");  // the series is written, the job not yet done
-  m_db->Prepare("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?")
-      .Bind(StateName(state), error, report::UtcNow(), id)
+  // Its peak and P, for listings: numbers from its summary, else not known.
+  const nlohmann::json summary = nlohmann::json::parse(results.summary_json, nullptr, false);
+  auto number = [&](const char* key) -> std::optional<double> {
+    if (state != JobState::kDone || !summary.is_object() || !summary.contains(key) ||
+        !summary[key].is_number())
+      return std::nullopt;
+    return summary[key].get<double>();
+  };
+  m_db->Prepare(
+          "UPDATE jobs SET state = ?, error = ?, finished_at = ?, peak_plate_force_N = ?, "
+          "P_N = ? WHERE id = ?")
+      .Bind(StateName(state), error, report::UtcNow(), number("peak_plate_force_N"),
+            number("P_N"), id)
       .Run();
   t.Commit();
 }

@@ -52,6 +52,9 @@ struct JobRecord {
   std::string command_line;  ///< what asked for it, as the client sent it ("" if it did not)
   std::string bed_file;      ///< SHA-256 of the owner's bed file it imports ("" for none)
   std::string result_nonce;  ///< put into its Slurm job's script; its result must carry it
+  /// A finished job's peak plate force and P from its summary (nullopt: not known).
+  std::optional<double> peak_plate_force_N;
+  std::optional<double> P_N;
 };
 
 /// The bytes a job's record takes in the database, counted in its owner's stored bytes: its

@@ -230,6 +230,51 @@ TEST_F(StoreTest, AJobsRecordCountsInItsOwnersStoredBytes) {
   EXPECT_EQ(store.StoredBytesOf("ada"), 0);
 }
 
+// A finished job's peak plate force and P are kept in its record as it ends, so that every
+// listing shows them without reading summaries (/api/jobs showed the peak 0.0 of a job whose
+// summary said 3559 N, `list --json` none); jobs that ended before get them at the upgrade.
+TEST_F(StoreTest, AFinishedJobsPeakAndPAreInItsRecord) {
+  std::vector<std::int64_t> ids;
+  {
+    Store store(path.string());
+    for (int k = 0; k < 3; ++k) {
+      JobRecord job;
+      job.scene_toml = "x";
+      store.AddJob(job);
+      ids.push_back(job.id);
+    }
+    store.FinishJob(ids[0], JobState::kDone, "",
+                    {"{\"P_N\": 2500.5, \"peak_plate_force_N\": 3559.3}\n", {}, 0, {}});
+    store.FinishJob(ids[1], JobState::kFailed, "unstable", {"", {}, 0, {}});
+    store.FinishJob(ids[2], JobState::kDone, "", {"{\"P_N\": \"many\"}\n", {}, 0, {}});
+    auto listed = [&](std::int64_t id) {
+      JobFilter filter;
+      for (const JobRecord& job : store.ListJobs(filter))
+        if (job.id == id) return job;
+      return JobRecord();
+    };
+    EXPECT_EQ(listed(ids[0]).peak_plate_force_N, 3559.3);
+    EXPECT_EQ(listed(ids[0]).P_N, 2500.5);
+    EXPECT_EQ(store.GetJob(ids[0])->P_N, 2500.5);
+    EXPECT_FALSE(listed(ids[1]).peak_plate_force_N.has_value());
+    EXPECT_FALSE(listed(ids[2]).P_N.has_value());  // not a number: not known
+  }
+  {
+    // The database as the version before kept them left it.
+    Database db(path.string());
+    db.Execute(
+        "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
+        "PRAGMA user_version = 10");
+    db.Execute("UPDATE results SET summary_json = 'not json' WHERE job_id = " +
+               std::to_string(ids[2]));
+  }
+  Store store(path.string());
+  EXPECT_EQ(store.GetJob(ids[0])->peak_plate_force_N, 3559.3);
+  EXPECT_EQ(store.GetJob(ids[0])->P_N, 2500.5);
+  EXPECT_FALSE(store.GetJob(ids[1])->P_N.has_value());
+  EXPECT_FALSE(store.GetJob(ids[2])->P_N.has_value());  // a damaged summary stops nothing
+}
+
 // A listing reads no scenes and stops at its byte bound (100,000 jobs of long command lines
 // made answers of 219 MB, and the daemon 1.75 GB).
 TEST_F(StoreTest, AListingIsBoundedInBytesAndReadsNoScenes) {
@@ -391,6 +436,7 @@ TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAndLoseTheirTokensAtTheUpgr
         "ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
         "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
         "ALTER TABLE jobs DROP COLUMN bed_file; ALTER TABLE jobs DROP COLUMN result_nonce; "
+        "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
         "PRAGMA user_version = 7");
     db.Execute("UPDATE jobs SET command_line = 'dembuf --token 0123abcd submit'");
     db.Execute(

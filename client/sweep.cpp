@@ -183,7 +183,7 @@ void SweepRunner::PrintEnd(const SweepRun& job, const RunResult& result,
     const nlohmann::json& s = result.summary;
     std::printf("P = %.4g N, lambda = %.1f%%, H = %.2f cm, C0 = %.3f (%.0f s with the bed)\n",
                 s["P_N"].get<double>(), 100 * s["lambda"].get<double>(),
-                100 * s["bed_thickness_m"].get<double>(), s["C0"].get<double>(),
+                100 * s["measured_thickness_m"].get<double>(), s["C0"].get<double>(),
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   } else {
     std::printf("FAILED: %s\n", result.error.c_str());
@@ -346,13 +346,19 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const std::string folder = results[k].folder.empty() ? runs[k].name : results[k].folder;
     reported.insert(folder);
-    reports.push_back({folder, AxisValues(runs[k].scene, axes), results[k].ok, results[k].error,
-                       results[k].summary});
+    report::SweepRunReport run;
+    run.name = folder;
+    run.values = AxisValues(runs[k].scene, axes);
+    run.ok = results[k].ok;
+    run.error = results[k].error;
+    run.summary = results[k].summary;
+    reports.push_back(std::move(run));
   }
   // The folder's other runs, of points asked for before: its report lists every run there is.
   for (const std::string& name : RunFolders(options.out_dir / "runs")) {
     if (reported.count(name) || !IsRunFolder(options.out_dir / "runs" / name)) continue;
-    report::SweepRunReport earlier{name, {}, false, "", nullptr};
+    report::SweepRunReport earlier;
+    earlier.name = name;
     earlier.summary = FinishedSummary(options.out_dir / "runs" / name);
     earlier.ok = !earlier.summary.is_null();
     try {
@@ -417,10 +423,15 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
   for (const HcPoint& p : hc.points)
     points.push_back({{"H_m", p.h_m}, {"P_N", p.p_N}, {"mean_P_N", p.mean_N}});
   // The search's Hc stands in the report instead of the fixed-grid rule's.
+  // Where P has not levelled off in the range, no Hc (null), as the grid rule says.
+  const nlohmann::json hc_m = hc.reached ? nlohmann::json(hc.hc_m) : nlohmann::json();
   const nlohmann::json extra = {
-      {"Hc_m", hc.hc_m},
+      {"Hc_m", hc_m},
       {"critical_thickness",
-       {{"Hc_m", hc.hc_m},
+       {{"Hc_m", hc_m},
+        {"reached", hc.reached},
+        {"upper_half_change", -hc.upper_half_change},
+        {"search_ended_m", hc.hc_m},
         {"Hc_sd_m", hc.hc_sd_m},
         {"seed_scatter_included", hc.seed_scatter_included},
         {"plateau_P_N", hc.plateau_N},
@@ -437,12 +448,13 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
         {"steps", points}}}};
   std::printf("\nall %zu runs of the search:", all.size());
   report::WriteSweepReport(options.out_dir, axes, all, extra, stdout);
-  std::printf(
-      "\nHc = %.2f +- %.2f cm (bisection: P within %.0f%% of the plateau P = %.4g N at H = %.3g "
-      "cm; bracket %.2f-%.2f cm; %s)\n",
-      100 * hc.hc_m, 100 * hc.hc_sd_m, 100 * search.margin, hc.plateau_N, 100 * search.high_m,
-      100 * hc.bracket_low_m, 100 * hc.bracket_high_m,
-      hc.seed_scatter_included ? "seed scatter included" : "one seed: bracket width only");
+  if (hc.reached)
+    std::printf(
+        "\nHc = %.2f +- %.2f cm (bisection: P within %.0f%% of the plateau P = %.4g N at H = "
+        "%.3g cm; bracket %.2f-%.2f cm; %s)\n",
+        100 * hc.hc_m, 100 * hc.hc_sd_m, 100 * search.margin, hc.plateau_N, 100 * search.high_m,
+        100 * hc.bracket_low_m, 100 * hc.bracket_high_m,
+        hc.seed_scatter_included ? "seed scatter included" : "one seed: bracket width only");
   if (!hc.note.empty()) std::printf("note: %s\n", hc.note.c_str());
   return failed;
 }

@@ -162,21 +162,32 @@ awk -F, 'NR == FNR { if (FNR > 1 && $1 ~ /^[0-9]+$/ && $2 ~ /^[0-9]+$/ && $9 > 0
          END { x = max / (sum / n); exit !(count > 0 && x >= last - 0.05 && x < last + 0.05) }' \
   "$snap/contacts.csv" "$snap/force_pdf.csv" || fail "the PDF's last bin is not the largest force"
 # Hc by bisection on the small bed (one seed): the search's runs are a sweep's, and
-# summary.json gives Hc inside the final bracket, with the steps taken.
+# summary.json gives Hc inside the final bracket, with the steps taken, where P levels off (the
+# upper half's start within 10% of the plateau), else no Hc and the note, as the grid rule.
 small=(--set cylinder.radius_m=0.02 --set bed.source_thickness_m=0.015
        --set projectile.diameter_m=0.012 --set projectile.mass_kg=0.01 --set projectile.height_m=0.02
        --set projectile.speed_m_s=2)
 "$dembuf" sweep "${small[@]}" --find-hc 0.004:0.01:0.002 --bed-cache "$work/beds" \
   --out "$work/hc" > "$work/hc.log" 2>&1 || fail "find-hc: $(tail -5 "$work/hc.log")"
-python3 - "$work/hc/summary.json" <<'PY' || fail "find-hc summary"
+python3 - "$work/hc/summary.json" > "$work/hc.check" <<'PY' || fail "find-hc summary"
 import json, sys
 hc = json.load(open(sys.argv[1]))["critical_thickness"]
 low, high = hc["bracket_m"]
-assert hc["method"] == "bisection" and low <= hc["Hc_m"] <= high, hc
+assert hc["method"] == "bisection" and low <= hc["search_ended_m"] <= high, hc
 assert high - low <= 0.002 and hc["Hc_sd_m"] > 0, hc
 assert len(hc["steps"]) == 2 + 2, hc["steps"]  # the ends, then 6 mm halved twice
+upper_start = hc["steps"][2]["mean_P_N"] / hc["plateau_P_N"] - 1  # the first midpoint, 7 mm
+assert hc["reached"] == (upper_start <= 0.10), hc
+assert hc["Hc_m"] == (hc["search_ended_m"] if hc["reached"] else None), hc
+assert hc["reached"] or hc["note"].startswith("Hc not reached in 0.4-1 cm (P still falls"), hc
+print("reached" if hc["reached"] else "not reached")
 PY
-grep -q "^Hc = " "$work/hc.log" || fail "find-hc printed no Hc"
+# The terminal says the same: Hc where it was reached, else why not.
+if [ "$(cat "$work/hc.check")" = reached ]; then
+  grep -q "^Hc = " "$work/hc.log" || fail "find-hc printed no Hc"
+else
+  grep -q "^note: Hc not reached" "$work/hc.log" || fail "find-hc printed no reason"
+fi
 if "$dembuf" sweep --find-hc 0.004:0.01 --vary projectile.mass_kg=1,2 2> "$work/err"; then
   fail "--find-hc with --vary"
 fi

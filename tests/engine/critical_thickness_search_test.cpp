@@ -44,6 +44,27 @@ TEST(HcSearch, FindsAKnownCrossingWithinTheTolerance) {
   EXPECT_EQ(static_cast<int>(r.points.size()), calls);
 }
 
+// A range where P has not levelled off (5-12 mm of SmoothP: the deep end is no plateau): the
+// search's Hc lies in the upper half, so P still falls by more than the margin there. No Hc
+// is reported, as the grid rule says "Hc not reached" (it named 11.3 mm).
+TEST(HcSearch, NoHcWherePStillFallsOverTheUpperHalf) {
+  HcSearchOptions o;
+  o.low_m = 0.005;
+  o.high_m = 0.012;
+  const HcSearchResult r =
+      FindCriticalThickness([](double h) { return std::vector<double>{SmoothP(h)}; }, o);
+  EXPECT_FALSE(r.reached);
+  EXPECT_GT(r.upper_half_change, 0.10);
+  EXPECT_NEAR(r.upper_half_change, SmoothP(0.0085) / SmoothP(0.012) - 1.0, 1e-12);
+  EXPECT_NE(r.note.find("Hc not reached in 0.5-1.2 cm (P still falls"), std::string::npos)
+      << r.note;
+  // The levelled curve of the first test reaches it.
+  const HcSearchResult levelled =
+      FindCriticalThickness([](double h) { return std::vector<double>{SmoothP(h)}; }, {});
+  EXPECT_TRUE(levelled.reached);
+  EXPECT_LE(levelled.upper_half_change, 0.10);
+}
+
 // Seeds scatter P by +-5%: Hc's uncertainty widens to cover it, and the truth is inside
 // two of its standard deviations.
 TEST(HcSearch, SeedScatterWidensTheUncertainty) {

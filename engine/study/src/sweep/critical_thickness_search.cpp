@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -44,6 +45,8 @@ HcSearchResult FindCriticalThickness(const PeakForcesAt& peak_forces_at, const H
   r.points.push_back(low);
   HcPoint high = plateau;
   if (low.mean_N <= r.threshold_N) {
+    r.reached = true;
+    r.upper_half_change = low.mean_N / plateau.mean_N - 1.0;
     r.hc_m = o.low_m;
     r.bracket_low_m = r.bracket_high_m = o.low_m;
     r.note =
@@ -77,6 +80,17 @@ HcSearchResult FindCriticalThickness(const PeakForcesAt& peak_forces_at, const H
   if (high.h_m - low.h_m > o.tolerance_m)
     r.note = "stopped after " + std::to_string(o.max_steps) +
              " steps with the bracket still wider than the tolerance";
+  // The first midpoint is the upper half's start: P levelled off only if it is on the plateau.
+  const HcPoint& upper_start = r.points.size() > 2 ? r.points[2] : low;
+  r.upper_half_change = upper_start.mean_N / plateau.mean_N - 1.0;
+  r.reached = upper_start.mean_N <= r.threshold_N;
+  if (!r.reached) {
+    char note[160];
+    std::snprintf(note, sizeof note,
+                  "Hc not reached in %.3g-%.3g cm (P still falls %.0f%% over the upper half)",
+                  100 * o.low_m, 100 * o.high_m, 100 * r.upper_half_change);
+    r.note = note;
+  }
   return r;
 }
 

@@ -323,7 +323,7 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
   const nlohmann::json s = ReadJson(dir / "summary.json");
   const double contact = Number(s, "first_contact_time_s", 0.0);
   const double end = Number(s, "end_time_s", contact + 0.02);
-  const double H = Number(s, "bed_thickness_m", 0.0);
+  const double H = Number(s, "measured_thickness_m", 0.0);
   const double P = Number(s, "P_N", 0.0), P0 = Number(s, "reference_peak_N", 0.0);
   const fs::path bare = dir / "plate_force_bare.csv";
   const bool with_bare = H > 0.0 && HasRows(bare);

@@ -111,7 +111,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
                                             : nlohmann::json();
   j["crater_depth_m"] = s.crater_depth_m;
   j["max_overlap_ratio"] = s.max_overlap_ratio;
-  j["bed_thickness_m"] = s.bed.thickness_m;
+  j["measured_thickness_m"] = s.bed.thickness_m;
   j["C0"] = s.bed.solid_fraction;
   j["bed"] = {{"hash", s.bed.hash},
               {"rest_plate_force_N", s.bed.rest_plate_force_N},

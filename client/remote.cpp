@@ -31,6 +31,7 @@
 #include "exit_codes.h"
 #include "plots.h"
 #include "progress.h"
+#include "api_json.h"
 #include "remote_json.h"
 #include "scene_input.h"
 
@@ -191,13 +192,21 @@ nlohmann::json ServerJson(const Remote& remote, const std::string& text, const s
   }
 }
 
-// JobJson of a job a server sent (its summary within the bounds of JSON from outside).
-nlohmann::json ServerJobJson(const Remote& remote, const v1::Job& job, bool details) {
+// The JSON of a job or a sweep a server sent (its summary or aggregates within the bounds of
+// JSON from outside).
+template <class View>
+nlohmann::json FromServer(const Remote& remote, View view) {
   try {
-    return JobJson(job, details);
+    return view();
   } catch (const InputLimitError& e) {
     throw std::runtime_error("the server at " + remote.address + " sent " + e.what());
   }
+}
+nlohmann::json ServerJobJson(const Remote& remote, const v1::Job& job, bool details) {
+  return FromServer(remote, [&] { return api::JobJson(job, details); });
+}
+nlohmann::json ServerSweepJson(const Remote& remote, const v1::Sweep& sweep) {
+  return FromServer(remote, [&] { return api::SweepJson(sweep, true); });
 }
 
 bool Ended(v1::JobState s) {
@@ -479,7 +488,7 @@ grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
   } else {
     report::WriteFileAtomically(
         dir / "failure.json",
-        nlohmann::json{{"state", StateText(job.state())}, {"error", job.error()}}.dump(2) + "\n");
+        nlohmann::json{{"state", api::StateText(job.state())}, {"error", job.error()}}.dump(2) + "\n");
   }
   return grpc::Status::OK;
 }
@@ -587,7 +596,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   if (json) {
     const std::vector<std::int64_t> job_ids(response.job_ids().begin(), response.job_ids().end());
     std::printf("%s\n",
-                nlohmann::json{{"sweep", SweepJson(sweep)}, {"job_ids", job_ids}}.dump(2).c_str());
+                nlohmann::json{{"sweep", api::SweepJson(sweep, false)}, {"job_ids", job_ids}}.dump(2).c_str());
     return 0;
   }
   std::printf("%lld\n", static_cast<long long>(sweep.id()));
@@ -615,7 +624,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
     if (!status.ok()) return Report(remote, status);
     if (options.json) {
       nlohmann::json sweeps = nlohmann::json::array();
-      for (const auto& s : response.sweeps()) sweeps.push_back(SweepJson(s));
+      for (const auto& s : response.sweeps()) sweeps.push_back(api::SweepJson(s, false));
       std::printf("%s\n", nlohmann::json{{"sweeps", sweeps}}.dump(2).c_str());
       return 0;
     }
@@ -636,7 +645,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
   if (!options.state.empty()) {
     v1::JobState state = v1::JOB_STATE_UNSPECIFIED;
     for (int s = v1::JOB_STATE_QUEUED; s <= v1::JOB_STATE_CANCELLED; ++s)
-      if (options.state == StateText(static_cast<v1::JobState>(s)))
+      if (options.state == api::StateText(static_cast<v1::JobState>(s)))
         state = static_cast<v1::JobState>(s);
     if (state == v1::JOB_STATE_UNSPECIFIED) {
       std::fprintf(stderr,
@@ -664,7 +673,7 @@ int RemoteList(const Remote& remote, const ListOptions& options) {
   for (const auto& j : response.jobs()) {
     const std::string progress = j.progress().stage() + " " + Percent(j.progress().fraction());
     std::printf("%6lld  %-13s %-12s %6s  %-34s %-18s %s\n", static_cast<long long>(j.id()),
-                StateText(j.state()).c_str(), Shown(j.owner()).c_str(),
+                api::StateText(j.state()).c_str(), Shown(j.owner()).c_str(),
                 j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", Shown(j.name()).c_str(),
                 progress.c_str(), j.created_at().c_str());
   }
@@ -682,7 +691,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
     const grpc::Status status = stub->GetSweep(&context, request, &s);
     if (!status.ok()) return Report(remote, status);
     if (json) {
-      std::printf("%s\n", SweepJson(s).dump(2).c_str());
+      std::printf("%s\n", ServerSweepJson(remote, s).dump(2).c_str());
       return 0;
     }
     std::printf("sweep %lld  %s  owner %s  created %s\n", static_cast<long long>(s.id()),
@@ -693,6 +702,14 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
          std::map<std::string, int>(s.jobs_by_state().begin(), s.jobs_by_state().end()))
       std::printf(", %s %d", Shown(state).c_str(), count);
     std::printf("\nbeds prepared: %d\n", s.beds_prepared());
+    const nlohmann::json view = ServerSweepJson(remote, s);
+    if (view["critical_thickness"].is_object()) {
+      const nlohmann::json& hc = view["critical_thickness"];
+      if (hc.value("reached", false) && hc["Hc_m"].is_number())
+        std::printf("critical thickness Hc = %.2f cm\n", 100 * hc["Hc_m"].get<double>());
+      else if (hc.contains("note") && hc["note"].is_string())
+        std::printf("%s\n", Shown(hc["note"].get<std::string>()).c_str());
+    }
     return 0;
   }
   v1::GetJobRequest request;
@@ -705,7 +722,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
     return ExitOfJob(j.state());
   }
   std::printf("job %lld  %s  (%s)\n", static_cast<long long>(j.id()), Shown(j.name()).c_str(),
-              StateText(j.state()).c_str());
+              api::StateText(j.state()).c_str());
   std::printf("owner %s, sweep %s, attempts %d\n", Shown(j.owner()).c_str(),
               j.sweep_id() ? std::to_string(j.sweep_id()).c_str() : "-", j.attempts());
   std::printf("created %s, started %s, finished %s\n", Shown(j.created_at()).c_str(),
@@ -745,7 +762,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
         "%.3f\n",
         s.value("P_N", 0.0), force("Pa_N").c_str(), force("Pb_N").c_str(),
         100 * s.value("lambda", 0.0), 100 * s.value("crater_depth_m", 0.0),
-        100 * s.value("bed_thickness_m", 0.0), s.value("C0", 0.0));
+        100 * s.value("measured_thickness_m", 0.0), s.value("C0", 0.0));
   }
   return ExitOfJob(j.state());
 }
@@ -815,19 +832,19 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
         std::printf("%lld,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s\n",
                     static_cast<long long>(message.first_index() + k), s.t_s(), s.plate_force_n(),
                     s.wall_force_z_n(), s.proj_z_m(), s.proj_vz_m_s(), s.proj_force_z_n(),
-                    StateText(state).c_str());
+                    api::StateText(state).c_str());
     }
     received += message.samples_size();
     const double force = forces.last();
     // The stage only where it says more than the state; an ended job's time is its last
     // sample's.
     const std::string stage =
-        message.progress().stage() == StateText(state) ? "" : Shown(message.progress().stage());
+        message.progress().stage() == api::StateText(state) ? "" : Shown(message.progress().stage());
     const double t = message.progress().sim_time_s() > 0 ? message.progress().sim_time_s() : last_t;
     char line[256];
     std::snprintf(
         line, sizeof line, "job %lld %-13s %-14s t = %8.3f ms  F = %9.4g N  peak %9.4g N  %s",
-        static_cast<long long>(id), StateText(state).c_str(), stage.c_str(), t * 1e3, force,
+        static_cast<long long>(id), api::StateText(state).c_str(), stage.c_str(), t * 1e3, force,
         message.progress().peak_plate_force_n(), Percent(message.progress().fraction()).c_str());
     if (tty) {
       // Two lines, redrawn in place: the numbers and a chart of F(t) so far.
@@ -848,7 +865,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   if (!status.ok()) return Report(remote, status);
   if (!csv && !tty && last_line != last_printed) std::printf("%s\n", last_line.c_str());
   if (!csv && state == v1::JOB_STATE_DONE) PrintFinalNumbers(*stub, remote, id);
-  Note("job %lld %s; %lld samples received\n", static_cast<long long>(id), StateText(state).c_str(),
+  Note("job %lld %s; %lld samples received\n", static_cast<long long>(id), api::StateText(state).c_str(),
        static_cast<long long>(received));
   return Ended(state) ? ExitOfJob(state) : kExitRuntime;
 }
@@ -971,7 +988,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
         !files.ok())
       return Report(remote, files);
     std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
-                StateText(result.job().state()).c_str(), dir.c_str());
+                api::StateText(result.job().state()).c_str(), dir.c_str());
     if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
     return ExitOfJob(result.job().state());
   }
@@ -1043,8 +1060,8 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     }
     run.values.assign(job.sweep_values().begin(), job.sweep_values().end());
     if (!Ended(job.state())) {
-      run.state = StateText(job.state());
-      run.error = std::string("still ") + StateText(job.state());
+      run.state = api::StateText(job.state());
+      run.error = std::string("still ") + api::StateText(job.state());
       ++pending;
       continue;
     }
@@ -1058,7 +1075,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
         !files.ok())
       return Report(remote, files);
     run.ok = result.job().state() == v1::JOB_STATE_DONE;
-    run.state = StateText(result.job().state());
+    run.state = api::StateText(result.job().state());
     run.error = result.job().error();
     if (run.ok)
       run.summary = ServerJson(remote, result.job().summary_json(),

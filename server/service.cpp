@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "admission.h"
+#include "api_messages.h"
 #include "auth.h"
 #include "bed_push.h"
 #include "dembuf/study/bed/bed.h"
@@ -76,24 +77,6 @@ Status ListTooLarge(int limit, const char* what) {
                 "field=limit");
 }
 
-v1::JobState ToProto(JobState s) {
-  switch (s) {
-    case JobState::kQueued:
-      return v1::JOB_STATE_QUEUED;
-    case JobState::kPreparingBed:
-      return v1::JOB_STATE_PREPARING_BED;
-    case JobState::kRunning:
-      return v1::JOB_STATE_RUNNING;
-    case JobState::kDone:
-      return v1::JOB_STATE_DONE;
-    case JobState::kFailed:
-      return v1::JOB_STATE_FAILED;
-    case JobState::kCancelled:
-      return v1::JOB_STATE_CANCELLED;
-  }
-  return v1::JOB_STATE_UNSPECIFIED;
-}
-
 std::optional<JobState> FromProto(v1::JobState s) {
   switch (s) {
     case v1::JOB_STATE_QUEUED:
@@ -120,14 +103,6 @@ void FillSample(const ImpactSample& s, v1::ForceSample* out) {
   out->set_proj_z_m(s.projectile_z_m);
   out->set_proj_vz_m_s(s.projectile_vz_m_s);
   out->set_proj_force_z_n(s.projectile_force_z_N);
-}
-
-void FillProgress(const JobProgress& p, v1::Progress* out) {
-  out->set_stage(p.stage);
-  out->set_fraction(p.fraction);
-  out->set_sim_time_s(p.sim_time_s);
-  out->set_steps(p.steps);
-  out->set_peak_plate_force_n(p.peak_plate_force_N);
 }
 
 // Names and command lines end up in logs, tables and terminals: bounded, and text that shows
@@ -320,11 +295,11 @@ bool DembufService::AnswerRetry(const std::string& owner, const std::string& req
               sweep ? "sweep" : "job", sweep ? earlier->sweep_id : earlier->job_id);
   if (!sweep) {
     if (const std::optional<JobRecord> job = m_store.GetJob(earlier->job_id))
-      FillJob(*job, false, job_answer->mutable_job());
+      FillJob(m_store, m_executor, *job, false, job_answer->mutable_job());
     return true;
   }
   if (const std::optional<SweepRecord> record = m_store.GetSweep(earlier->sweep_id)) {
-    FillSweep(*record, sweep_answer->mutable_sweep());
+    FillSweep(m_store, *record, false, sweep_answer->mutable_sweep());
     JobFilter filter;
     filter.sweep_id = record->id;
     filter.limit = m_info.max_sweep_jobs;
@@ -335,66 +310,6 @@ bool DembufService::AnswerRetry(const std::string& owner, const std::string& req
     for (const JobRecord& job : jobs) sweep_answer->add_job_ids(job.id);
   }
   return true;
-}
-
-void DembufService::FillJob(const JobRecord& r, bool with_details, v1::Job* out,
-                            bool damaged_summary_fails) {
-  out->set_id(r.id);
-  out->set_sweep_id(r.sweep_id);
-  out->set_sweep_index(r.sweep_index);
-  for (const auto& v : r.sweep_values) out->add_sweep_values(v);
-  out->set_owner(r.owner);
-  out->set_name(r.name);
-  out->set_error(r.error);
-  out->set_scene_hash(r.scene_hash);
-  out->set_bed_hash(r.bed_hash);
-  out->set_attempts(r.attempts);
-  out->set_created_at(r.created_at);
-  out->set_started_at(r.started_at);
-  out->set_finished_at(r.finished_at);
-  out->set_host(r.host);
-  out->set_code_version(r.code_version);
-  out->set_command_line(r.command_line);
-  out->set_slurm_job_id(r.slurm_id);
-  out->set_state(ToProto(r.state));
-  FillProgress(ProgressOf(r, m_executor), out->mutable_progress());
-  if (with_details) {
-    out->set_scene_toml(r.scene_toml);
-    for (const auto& bed : m_store.BedsPreparedBy(r.id)) out->add_beds_prepared(bed);
-    for (const JobFileInfo& file : m_store.JobFiles(r.id)) {
-      v1::ResultFileInfo* info = out->add_files();
-      info->set_path(file.path);
-      info->set_size(file.size);
-    }
-    // A damaged summary is not served; the job says why it has none.
-    if (r.state == JobState::kDone) {
-      try {
-        out->set_summary_json(m_store.Summary(r.id));
-      } catch (const DamagedData& e) {
-        if (damaged_summary_fails) throw;
-        out->set_error(e.what());
-      }
-    }
-  }
-}
-
-void DembufService::FillSweep(const SweepRecord& r, v1::Sweep* out) {
-  out->set_id(r.id);
-  out->set_owner(r.owner);
-  out->set_name(r.name);
-  for (const SweepAxis& axis : r.axes) {
-    auto* a = out->add_axes();
-    a->set_field(axis.field);
-    for (const auto& v : axis.values) a->add_values(v);
-  }
-  int total = 0;
-  for (const auto& [state, count] : m_store.SweepStateCounts(r.id)) {
-    (*out->mutable_jobs_by_state())[state] = count;
-    total += count;
-  }
-  out->set_jobs_total(total);
-  out->set_created_at(r.created_at);
-  out->set_beds_prepared(m_store.SweepBedsPrepared(r.id));
 }
 
 grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* context,
@@ -458,7 +373,7 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
       return DiskFull();
     }
     m_log->info("job {} submitted by {}: {}", job.id, job.owner, job.name);
-    FillJob(job, false, response->mutable_job());
+    FillJob(m_store, m_executor, job, false, response->mutable_job());
     for (const std::string& w : warnings) response->add_warnings(w);
     return Status::OK;
   });
@@ -538,7 +453,7 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
       return DiskFull();
     }
     m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, jobs.size());
-    FillSweep(sweep, response->mutable_sweep());
+    FillSweep(m_store, sweep, false, response->mutable_sweep());
     for (const JobRecord& job : jobs) response->add_job_ids(job.id);
     for (const std::string& w : warnings) response->add_warnings(w);
     return Status::OK;
@@ -552,7 +467,7 @@ grpc::ServerUnaryReactor* DembufService::GetJob(grpc::CallbackServerContext* con
     const auto job = m_store.GetJob(request->id());
     if (!job) return Status(StatusCode::NOT_FOUND, "id: no job " + std::to_string(request->id()));
     AccessPolicy::Require(caller, Action::kRead, job->owner, "id: job " + std::to_string(job->id));
-    FillJob(*job, true, response);
+    FillJob(m_store, m_executor, *job, true, response);
     return Status::OK;
   });
 }
@@ -566,7 +481,7 @@ grpc::ServerUnaryReactor* DembufService::GetSweep(grpc::CallbackServerContext* c
       return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
     AccessPolicy::Require(caller, Action::kRead, sweep->owner,
                           "id: sweep " + std::to_string(sweep->id));
-    FillSweep(*sweep, response);
+    FillSweep(m_store, *sweep, /*with_aggregates=*/true, response);
     return Status::OK;
   });
 }
@@ -593,7 +508,7 @@ grpc::ServerUnaryReactor* DembufService::ListJobs(grpc::CallbackServerContext* c
     bool over = false;
     for (const JobRecord& job : m_store.ListJobs(filter, &over)) {
       if (over) return ListTooLarge(filter.limit, "jobs");
-      FillJob(job, false, response->add_jobs());
+      FillJob(m_store, m_executor, job, false, response->add_jobs());
     }
     return Status::OK;
   });
@@ -611,7 +526,7 @@ grpc::ServerUnaryReactor* DembufService::ListSweeps(grpc::CallbackServerContext*
     const int limit = request->limit() == 0 ? 100 : request->limit();
     std::int64_t bytes = 0;
     for (const SweepRecord& sweep : m_store.ListSweeps(owner, limit)) {
-      FillSweep(sweep, response->add_sweeps());
+      FillSweep(m_store, sweep, false, response->add_sweeps());
       bytes += static_cast<std::int64_t>(response->sweeps().rbegin()->ByteSizeLong());
       if (bytes > kMaxListAnswerBytes) return ListTooLarge(limit, "sweeps");
     }
@@ -812,7 +727,7 @@ grpc::ServerUnaryReactor* DembufService::FetchResults(grpc::CallbackServerContex
     std::optional<JobRecord> job;
     if (Status s = FinishedJobOfCaller(caller, request->id(), &job); !s.ok()) return s;
     // A damaged summary fails the fetch (DATA_LOSS) rather than coming back empty.
-    FillJob(*job, true, response->mutable_job(), /*damaged_summary_fails=*/true);
+    FillJob(m_store, m_executor, *job, true, response->mutable_job(), /*damaged_summary_fails=*/true);
     const std::int64_t length = m_store.ResultSeriesLength(job->id);
     response->set_series_length(length);
     // A short series comes with the answer; a long one is streamed (FetchSeries).

@@ -134,11 +134,6 @@ class DembufService final : public DembufServiceBase {
   bool AnswerRetry(const std::string& owner, const std::string& request_id, bool sweep,
                    v1::SubmitJobResponse* job_answer, v1::SubmitSweepResponse* sweep_answer,
                    grpc::Status* status);
-  /// The job's answer. With details, a damaged summary is left out and named as the job's
-  /// note, or, with `damaged_summary_fails` (a fetch), thrown (DamagedData).
-  void FillJob(const JobRecord& record, bool with_details, v1::Job* out,
-               bool damaged_summary_fails = false);
-  void FillSweep(const SweepRecord& record, v1::Sweep* out);
   /// The caller's bed file a scene spec names (SceneSpec.bed_file), or none when it names
   /// none. Throws SceneError naming bed_file when the owner sent no such file.
   std::optional<BedFile> BedFileOf(const v1::SceneSpec& spec, const std::string& owner);

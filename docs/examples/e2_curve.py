@@ -16,19 +16,18 @@ import matplotlib.pyplot as plt
 import dembuf
 
 source, out = sys.argv[1], sys.argv[2]
+# One point per thickness, as dembuf computed it: P's mean, sample standard deviation and
+# number of seeds (P_N, P_N_sd, P_N_n).
 if pathlib.Path(source).is_dir():
-    runs = dembuf.read_sweep(source)
+    points = dembuf.read_points(source)
 else:
     with dembuf.connect() as daemon:
-        runs = daemon.sweep(int(source))
-
-# One point per thickness: mean, sample standard deviation and number of seeds.
-points = dembuf.sweep_points(runs, "P_N")
-print(points.to_string(index=False))
+        points = daemon.sweep_points(int(source))
+print(points[["bed.thickness_m", "runs", "P_N", "P_N_sd", "P_N_n"]].to_string(index=False))
 
 fig, ax = plt.subplots(figsize=(6, 4))
-ax.errorbar(points["bed.thickness_m"] * 100, points["mean"] / 1e3, yerr=points["sd"] / 1e3,
-            fmt="o-", capsize=3, label=f"dembuf, mean and sd of {points['n'].max()} bed seeds")
+ax.errorbar(points["bed.thickness_m"] * 100, points["P_N"] / 1e3, yerr=points["P_N_sd"] / 1e3,
+            fmt="o-", capsize=3, label=f"dembuf, mean and sd of {points['P_N_n'].max()} bed seeds")
 ax.set_xlabel("bed thickness H (cm)")
 ax.set_ylabel("peak plate force P (kN)")
 ax.set_ylim(bottom=0)

@@ -161,8 +161,7 @@ class WebServer::Routes {
     Api(server, R"(/api/jobs/(\d{1,18}))",
         [this](const Caller& caller, const Request& req, Response& res) {
           const JobRecord job = VisibleJob(caller, req.matches[1].str(), Action::kRead);
-          SendJson(res, JobDetailsJson(job, ProgressOf(job, m_executor), IntactSummary(job),
-                                       m_store.JobFiles(job.id), m_store.BedsPreparedBy(job.id)));
+          SendJson(res, JobJson(m_store, m_executor, job, /*details=*/true));
         });
     Api(server, R"(/api/jobs/(\d{1,18})/events)",
         [this](const Caller& caller, const Request& req, Response& res) {
@@ -182,7 +181,7 @@ class WebServer::Routes {
           if (!sweep) throw Refusal{404, "id: no sweep " + req.matches[1].str()};
           AccessPolicy::Require(caller, Action::kRead, sweep->owner,
                                 "id: sweep " + std::to_string(sweep->id));
-          SendJson(res, SweepJson(*sweep, m_store.SweepResults(sweep->id)));
+          SendJson(res, SweepJson(m_store, *sweep));
         });
   }
 
@@ -298,16 +297,6 @@ class WebServer::Routes {
               {"user", {{"name", caller.name}, {"admin", caller.admin}, {"token", caller.token}}}});
   }
 
-  /// A job's summary, or "" when it has none or it is damaged (logged; never served).
-  std::string IntactSummary(const JobRecord& job) {
-    try {
-      return m_store.Summary(job.id);
-    } catch (const DamagedData& e) {
-      m_log->error("web: {}", e.what());
-      return "";
-    }
-  }
-
   /// Job `id_text`, when it exists and the caller may do `action` to it.
   JobRecord VisibleJob(const Caller& caller, const std::string& id_text, Action action) {
     const std::int64_t id = ParseNumber(id_text, "id", 1, INT64_MAX);
@@ -334,8 +323,7 @@ class WebServer::Routes {
     filter.with_scene = false;  // a listing shows no scene
     nlohmann::json jobs = nlohmann::json::array();
     for (const JobRecord& job : m_store.ListJobs(filter))
-      jobs.push_back(JobJson(job, ProgressOf(job, m_executor),
-                             job.state == JobState::kDone ? IntactSummary(job) : ""));
+      jobs.push_back(JobJson(m_store, m_executor, job, /*details=*/false));
     SendJson(res, {{"jobs", jobs}});
   }
 

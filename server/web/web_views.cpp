@@ -3,120 +3,33 @@
 #include <charconv>
 #include <cmath>
 
+#include "api_json.h"
+#include "api_messages.h"
 #include "dembuf/study/files/run_output.h"
-#include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/sweep/sweep_report.h"
 
 namespace dembuf::server::web {
 
-namespace {
-
-nlohmann::json ProgressObject(const JobProgress& p) {
-  return {{"stage", p.stage},
-          {"fraction", p.fraction},
-          {"sim_time_s", p.sim_time_s},
-          {"steps", p.steps},
-          {"peak_plate_force_N", p.peak_plate_force_N}};
+nlohmann::json JobJson(Store& store, Executor& executor, const JobRecord& job, bool details) {
+  v1::Job message;
+  FillJob(store, executor, job, details, &message);
+  return api::JobJson(message, details);
 }
 
-}  // namespace
-
-nlohmann::json ParseSummary(const std::string& summary_json) {
-  if (summary_json.empty()) return nullptr;
-  nlohmann::json summary = nlohmann::json::parse(summary_json, nullptr, /*allow_exceptions=*/false);
-  return summary.is_discarded() || !summary.is_object() ? nlohmann::json() : summary;
-}
-
-nlohmann::json JobJson(const JobRecord& job, const JobProgress& progress,
-                       const std::string& summary_json) {
-  nlohmann::json peak;  // null: not known
-  const nlohmann::json summary = ParseSummary(summary_json);
-  if (summary.is_object() && summary.contains("peak_plate_force_N"))
-    peak = summary["peak_plate_force_N"];
-  else if (progress.peak_plate_force_N > 0.0)
-    peak = progress.peak_plate_force_N;
-  nlohmann::json p_n;
-  if (summary.is_object() && summary.contains("P_N")) p_n = summary["P_N"];
-  // The shape of `dembuf status --json` and the Python package's job(): null for what is not
-  // there (no sweep, not yet started or finished, no Slurm job).
-  auto time = [](const std::string& iso) {
-    return iso.empty() ? nlohmann::json() : nlohmann::json(iso);
-  };
-  auto id_or_null = [](std::int64_t id) { return id ? nlohmann::json(id) : nlohmann::json(); };
-  return {{"id", job.id},
-          {"name", job.name},
-          {"owner", job.owner},
-          {"state", StateName(job.state)},
-          {"error", job.error.empty() ? nlohmann::json() : nlohmann::json(job.error)},
-          {"sweep_id", id_or_null(job.sweep_id)},
-          {"sweep_index", job.sweep_index},
-          {"sweep_values", report::SweepValuesJson(job.sweep_values)},
-          {"attempts", job.attempts},
-          {"created_at", time(job.created_at)},
-          {"started_at", time(job.started_at)},
-          {"finished_at", time(job.finished_at)},
-          {"host", job.host},
-          {"code_version", job.code_version},
-          {"command_line", job.command_line},
-          {"progress", ProgressObject(progress)},
-          {"peak_plate_force_N", peak},
-          {"P_N", p_n},
-          {"slurm_job_id", id_or_null(job.slurm_id)}};
-}
-
-nlohmann::json JobDetailsJson(const JobRecord& job, const JobProgress& progress,
-                              const std::string& summary_json,
-                              const std::vector<JobFileInfo>& files,
-                              const std::vector<std::string>& beds_prepared) {
-  nlohmann::json out = JobJson(job, progress, summary_json);
-  out["scene_toml"] = job.scene_toml;
-  out["scene_hash"] = job.scene_hash;
-  out["bed_hash"] = job.bed_hash;
-  out["summary"] = ParseSummary(summary_json);
-  nlohmann::json file_list = nlohmann::json::array();
-  for (const JobFileInfo& f : files) file_list.push_back({{"path", f.path}, {"size", f.size}});
-  out["files"] = file_list;
-  out["beds_prepared"] = beds_prepared;
-  return out;
-}
-
-nlohmann::json SweepJson(const SweepRecord& sweep, const std::vector<SweepJobResult>& jobs) {
-  nlohmann::json axes = nlohmann::json::array();
-  for (const SweepAxis& axis : sweep.axes) {
-    const SceneField* field = FindSceneField(axis.field);
-    axes.push_back({{"field", axis.field},
-                    {"values", report::SweepValuesJson(axis.values)},
-                    {"unit", field ? std::string(field->unit) : ""},
-                    {"help", field ? std::string(field->help) : ""}});
-  }
-  // The jobs as the sweep report's runs: done ones with their summaries.
-  std::vector<report::SweepRunReport> runs;
-  nlohmann::json by_state = nlohmann::json::object();
+nlohmann::json SweepJson(Store& store, const SweepRecord& sweep) {
+  v1::Sweep message;
+  FillSweep(store, sweep, /*with_aggregates=*/false, &message);
+  const std::vector<SweepJobResult> jobs = store.SweepResults(sweep.id);
+  message.set_aggregates_json(SweepAggregatesJson(sweep, jobs));
+  nlohmann::json out = api::SweepJson(message, /*details=*/true);
   nlohmann::json job_list = nlohmann::json::array();
-  for (const SweepJobResult& job : jobs) {
-    report::SweepRunReport run;
-    run.values = job.sweep_values;
-    run.values.resize(sweep.axes.size());  // (a damaged row cannot make the points fail)
-    run.summary = job.state == JobState::kDone ? ParseSummary(job.summary_json) : nullptr;
-    run.ok = run.summary.is_object();
-    run.error = job.error;
-    runs.push_back(std::move(run));
-    const std::string state = StateName(job.state);
-    by_state[state] = by_state.value(state, 0) + 1;
+  for (const SweepJobResult& job : jobs)
     job_list.push_back({{"id", job.id},
                         {"sweep_index", job.sweep_index},
                         {"values", report::SweepValuesJson(job.sweep_values)},
-                        {"state", state}});
-  }
-  return {{"id", sweep.id},
-          {"name", sweep.name},
-          {"owner", sweep.owner},
-          {"created_at", sweep.created_at},
-          {"axes", axes},
-          {"jobs_total", jobs.size()},
-          {"jobs_by_state", by_state},
-          {"jobs", job_list},
-          {"points", report::SweepPoints(sweep.axes, runs)}};
+                        {"state", StateName(job.state)}});
+  out["jobs"] = job_list;
+  return out;
 }
 
 std::string SamplesJson(std::int64_t first, const std::vector<ImpactSample>& samples) {
@@ -147,7 +60,9 @@ std::string SamplesJson(std::int64_t first, const std::vector<ImpactSample>& sam
 }
 
 nlohmann::json ProgressJson(JobState state, const JobProgress& progress) {
-  return {{"state", StateName(state)}, {"progress", ProgressObject(progress)}};
+  v1::Progress message;
+  FillProgress(progress, &message);
+  return {{"state", StateName(state)}, {"progress", api::ProgressJson(message)}};
 }
 
 }  // namespace dembuf::server::web

@@ -1,6 +1,6 @@
-// The JSON the web pages read: jobs, sweeps with their points so far, the server, and the
-// batches of force samples of an event stream. Made from the same store records and live
-// progress as the gRPC answers (no second source of truth); pure functions of them.
+// The JSON the web pages read: jobs, sweeps with their points so far, and the batches of
+// force samples of an event stream. Jobs and sweeps are the gRPC answers' messages, made by
+// the same functions (api_messages.h), in the one JSON shape of api_json.h.
 #pragma once
 
 #include <cstdint>
@@ -14,21 +14,14 @@
 
 namespace dembuf::server::web {
 
-/// A job as the list shows it: identity, state, progress, times, and the peak plate force
-/// (the running job's so far, else its summary's; null when neither exists).
-nlohmann::json JobJson(const JobRecord& job, const JobProgress& progress,
-                       const std::string& summary_json);
+/// A job as api_json.h's JobJson says it at every door (of the message FillJob makes);
+/// `details` adds the scene, the summary (null until done), the result files and the beds it
+/// prepared.
+nlohmann::json JobJson(Store& store, Executor& executor, const JobRecord& job, bool details);
 
-/// JobJson with what the job's page adds: the scene, the summary as an object (null until
-/// done), the result files and the beds it prepared.
-nlohmann::json JobDetailsJson(const JobRecord& job, const JobProgress& progress,
-                              const std::string& summary_json,
-                              const std::vector<JobFileInfo>& files,
-                              const std::vector<std::string>& beds_prepared);
-
-/// A sweep: its axes (with units), jobs by state, and its points so far (mean, sd and n over
-/// the seeds of every metric, from the jobs that are done).
-nlohmann::json SweepJson(const SweepRecord& sweep, const std::vector<SweepJobResult>& jobs);
+/// A sweep as api_json.h's SweepJson says it with its aggregates (points so far and Hc), and
+/// what the sweep's page adds: its jobs, each with its index, values and state.
+nlohmann::json SweepJson(Store& store, const SweepRecord& sweep);
 
 /// A batch of samples from index `first`, as JSON text of columns (`t_s`, `plate_force_N`,
 /// `wall_force_z_N`, `proj_z_m`, `proj_force_z_N`; every double exact, null if not finite).
@@ -38,8 +31,5 @@ std::string SamplesJson(std::int64_t first, const std::vector<ImpactSample>& sam
 
 /// The state and progress of a job in an event stream.
 nlohmann::json ProgressJson(JobState state, const JobProgress& progress);
-
-/// A summary.json text as an object; null for "" or text that is not JSON.
-nlohmann::json ParseSummary(const std::string& summary_json);
 
 }  // namespace dembuf::server::web

@@ -137,7 +137,6 @@ class ClientTest(unittest.TestCase):
         frame = dembuf.read_sweep(folder)
         self.assertEqual(list(frame.columns[:4]), ["run", "id", "bed.thickness_m", "status"])
         self.assertEqual(list(frame["status"]), ["done", "failed"])
-        self.assertEqual(list(dembuf.sweep_points(frame)["n"]), [1])
 
     def test_a_local_run_folder(self):
         out = WORK / "local"
@@ -174,13 +173,17 @@ class ClientTest(unittest.TestCase):
         np.testing.assert_allclose(local[metrics].to_numpy(dtype=float),
                                    frame[metrics].to_numpy(dtype=float), rtol=1e-6,
                                    equal_nan=True)
-        points = dembuf.sweep_points(frame)
-        self.assertEqual(list(points["n"]), [2, 2])
+        # The points as the daemon computed them, row for row the fetched points.csv.
+        points = self.daemon.sweep_points(sweep)
+        self.assertEqual(list(points["P_N_n"]), [2, 2])
         self.assertEqual(list(points["bed.thickness_m"]), [0.008, 0.01])
         for thickness, point in points.set_index("bed.thickness_m").iterrows():
             values = frame[frame["bed.thickness_m"] == thickness]["P_N"]
-            self.assertAlmostEqual(point["mean"], values.mean())
-            self.assertAlmostEqual(point["sd"], values.std())
+            self.assertAlmostEqual(point["P_N"], values.mean())
+            self.assertAlmostEqual(point["P_N_sd"], values.std())
+        fetched = dembuf.read_points(folder)
+        self.assertEqual(list(fetched.columns), list(points.columns))
+        pd.testing.assert_frame_equal(fetched, points, check_dtype=False, rtol=1e-9)
         # The worked example of docs/python.md draws the curve, from the daemon and the folder.
         for source in (str(sweep), str(folder)):
             png = WORK / f"curve-{source.replace('/', '_')}.png"

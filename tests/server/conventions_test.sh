@@ -207,7 +207,57 @@ info = json.load(open(f"{work}/info.json"))
 text = open(f"{work}/info.txt").read()
 assert f"dembufd {info['version']} at {info['address']}" in text, (info, text)
 assert f"workers {info['workers']} x {info['threads_per_job']} threads" in text, (info, text)
+# The listings likewise: /api/jobs's row is list --json's, the finished job's peak and P
+# included (the API showed a peak 0.0, the CLI none: listings read no summaries).
+api_list = json.load(urllib.request.urlopen(f"{os.environ['DEMBUF_HTTP']}/api/jobs"))["jobs"]
+api_row = [j for j in api_list if j["id"] == job][0]
+assert sorted(api_row) == sorted(mine[0]), sorted(set(api_row) ^ set(mine[0]))
+for key in mine[0]:
+    assert api_row[key] == mine[0][key], ("/api/jobs", key, api_row[key], mine[0][key])
+assert mine[0]["peak_plate_force_N"] == fetched["peak_plate_force_N"], mine[0]
+assert mine[0]["progress"]["peak_plate_force_N"] == fetched["peak_plate_force_N"], mine[0]
+assert mine[0]["P_N"] == fetched["P_N"], mine[0]
 print("list, status and server-info --json agree with the text and the fetched files")
+PY
+
+# One sweep point at every door: status --sweep --json, /api/sweeps/ID, Python's
+# sweep_points() and the fetched folder's points.csv and summary.json, field by field (the
+# points were nested in the API, columns in the files, and computed again by Python).
+sweep=$("$dembuf" sweep "${bare[@]}" --vary projectile.speed_m_s=4,5 --seeds 2 2> /dev/null)
+for _ in $(seq 600); do
+  "$dembuf" status --sweep "$sweep" | grep -q "jobs: 4, done 4$" && break
+  sleep 0.2
+done
+"$dembuf" status --sweep "$sweep" --json > "$work/sweep_status.json"
+"$dembuf" fetch --sweep "$sweep" --out "$work/fetched_sweep" --no-plots > /dev/null
+DEMBUF_HTTP=$(web_base "$work/dembufd.log") DEMBUF_PYTHON="$(dirname "$dembuf")/../python" \
+  /usr/bin/python3 - "$work" "$sweep" <<'PY' || fail "a sweep point's doors"
+import json, math, os, sys, urllib.request
+work, sweep = sys.argv[1], int(sys.argv[2])
+sys.path.insert(0, os.environ["DEMBUF_PYTHON"])
+import dembuf
+status = json.load(open(f"{work}/sweep_status.json"))
+wanted, columns = status["points"], status["point_columns"]
+assert len(wanted) == 2 and all(p["runs"] == 2 and p["P_N_n"] == 2 for p in wanted), wanted
+assert all(sorted(p) == sorted(columns) for p in wanted), (columns, wanted)
+api = json.load(urllib.request.urlopen(f"{os.environ['DEMBUF_HTTP']}/api/sweeps/{sweep}"))
+folder = json.load(open(f"{work}/fetched_sweep/summary.json"))
+for name, other in (("/api/sweeps", api), ("summary.json", folder)):
+    assert other["point_columns"] == columns, (name, other["point_columns"])
+    assert other["points"] == wanted, (name, other["points"], wanted)
+with dembuf.connect() as daemon:
+    python = daemon.sweep_points(sweep)
+csv = dembuf.read_points(f"{work}/fetched_sweep")
+for name, frame in (("Python", python), ("points.csv", csv)):
+    assert list(frame.columns) == columns, (name, list(frame.columns))
+    for row, point in zip(frame.to_dict("records"), wanted):
+        for key in columns:
+            a, b = row[key], point[key]
+            if b is None:
+                assert a is None or (isinstance(a, float) and math.isnan(a)), (name, key, a)
+            else:
+                assert math.isclose(a, b, rel_tol=1e-9), (name, key, a, b)
+print("a sweep point: the same fields and numbers at every door")
 PY
 stop_daemon
 

@@ -13,6 +13,7 @@
 #include "dembuf/study/files/run_output.h"
 #include "job_feed.h"
 #include "sessions.h"
+#include "api_messages.h"
 #include "store.h"
 #include "stream_limits.h"
 #include "web_views.h"
@@ -160,22 +161,25 @@ TEST_F(JobFeedTest, AQueuedJobWaitsAndAMissingOneIsNotFound) {
   EXPECT_FALSE(none.Read(0, 10, std::chrono::milliseconds(0)).found);
 }
 
-TEST(WebViews, ASweepsPointsAreItsDoneJobsOverTheSeeds) {
-  SweepRecord sweep{
-      7, "ada", "speeds", {{"projectile.speed_m_s", {"1", "2"}}, {"bed.seed", {"1", "2"}}}, ""};
-  auto done = [](std::int64_t id, std::string speed, std::string seed, double p) {
-    return SweepJobResult{id,
-                          0,
-                          {speed, seed},
-                          JobState::kDone,
-                          "",
-                          "{\"P_N\": " + std::to_string(p) + ", \"lambda\": 0.5}"};
-  };
-  const std::vector<SweepJobResult> jobs = {done(1, "1", "1", 100.0),
-                                            done(2, "1", "2", 110.0),
-                                            done(3, "2", "1", 300.0),
-                                            {4, 3, {"2", "2"}, JobState::kRunning, "", ""}};
-  const nlohmann::json json = web::SweepJson(sweep, jobs);
+TEST_F(JobFeedTest, ASweepsPointsAreItsDoneJobsOverTheSeeds) {
+  SweepRecord sweep{0, "ada", "speeds",
+                    {{"projectile.speed_m_s", {"1", "2"}}, {"bed.seed", {"1", "2"}}}, ""};
+  std::vector<JobRecord> jobs(4);
+  const std::vector<std::vector<std::string>> values = {
+      {"1", "1"}, {"1", "2"}, {"2", "1"}, {"2", "2"}};
+  for (std::size_t k = 0; k < jobs.size(); ++k) {
+    jobs[k].owner = "ada";
+    jobs[k].scene_toml = "x";
+    jobs[k].sweep_index = static_cast<int>(k);
+    jobs[k].sweep_values = values[k];
+  }
+  store->AddSweep(sweep, jobs);
+  const double p[] = {100.0, 110.0, 300.0};
+  for (int k = 0; k < 3; ++k)
+    store->FinishJob(jobs[k].id, JobState::kDone, "",
+                     {"{\"P_N\": " + std::to_string(p[k]) + ", \"lambda\": 0.5}\n", {}, 0, {}});
+  store->MarkStarted(jobs[3].id, JobState::kRunning, "host", "0.1.0");
+  const nlohmann::json json = web::SweepJson(*store, sweep);
   EXPECT_EQ(json["jobs_total"], 4);
   EXPECT_EQ(json["jobs_by_state"]["done"], 3);
   EXPECT_EQ(json["jobs_by_state"]["running"], 1);
@@ -185,34 +189,46 @@ TEST(WebViews, ASweepsPointsAreItsDoneJobsOverTheSeeds) {
   EXPECT_EQ(slow["projectile.speed_m_s"], 1);  // a number, as in sweep.csv (it was "1")
   EXPECT_EQ(json["axes"][0]["values"], nlohmann::json({1, 2}));
   EXPECT_EQ(json["jobs"][0]["values"], nlohmann::json({1, 1}));
+  // The points are the study layer's, in points.csv's flat shape (they were nested here).
+  EXPECT_EQ(json["points"], nlohmann::json::parse(SweepAggregatesJson(
+                                sweep, store->SweepResults(sweep.id)))["points"]);
   EXPECT_EQ(slow["runs"], 2);
-  EXPECT_DOUBLE_EQ(slow["P_N"]["mean"].get<double>(), 105.0);
-  EXPECT_NEAR(slow["P_N"]["sd"].get<double>(), std::sqrt(50.0), 1e-9);  // sample sd of 100, 110
-  EXPECT_EQ(slow["P_N"]["n"], 2);
+  EXPECT_DOUBLE_EQ(slow["P_N"].get<double>(), 105.0);
+  EXPECT_NEAR(slow["P_N_sd"].get<double>(), std::sqrt(50.0), 1e-9);  // sample sd of 100, 110
+  EXPECT_EQ(slow["P_N_n"], 2);
   // The running job counts among the point's runs, in no metric: one done, no spread yet.
   const nlohmann::json& fast = json["points"][1];
   EXPECT_EQ(fast["runs"], 2);
-  EXPECT_EQ(fast["P_N"]["n"], 1);
-  EXPECT_TRUE(fast["P_N"]["sd"].is_null());
+  EXPECT_EQ(fast["P_N_n"], 1);
+  EXPECT_TRUE(fast["P_N_sd"].is_null());
+  EXPECT_TRUE(json["Hc_m"].is_null());  // not a thickness sweep
 }
 
-TEST(WebViews, AJobsPeakIsItsSummarysOrElseTheRunningJobs) {
-  JobRecord job;
-  job.id = 3;
-  job.state = JobState::kRunning;
-  JobProgress progress;
-  EXPECT_TRUE(web::JobJson(job, progress, "")["peak_plate_force_N"].is_null());
-  progress.peak_plate_force_N = 12.5;
-  EXPECT_EQ(web::JobJson(job, progress, "")["peak_plate_force_N"], 12.5);
-  job.state = JobState::kDone;
-  const nlohmann::json json =
-      web::JobJson(job, progress, "{\"peak_plate_force_N\": 13.25, \"P_N\": 13.0}");
-  EXPECT_EQ(json["peak_plate_force_N"], 13.25);
-  EXPECT_EQ(json["P_N"], 13.0);
-  EXPECT_EQ(json["state"], "done");
-  EXPECT_TRUE(web::ParseSummary("{not json").is_null());
-  EXPECT_TRUE(web::ParseSummary("[1, 2]").is_null());
+TEST_F(JobFeedTest, AJobsPeakIsItsSummarysOrElseTheRunningJobs) {
+  const std::int64_t id = AddJob();
+  store->MarkStarted(id, JobState::kRunning, "host", "0.1.0");
+  auto live = std::make_shared<LiveJob>(id);
+  live->SetState(JobState::kRunning);
+  executor.live[id] = live;
+  EXPECT_TRUE(web::JobJson(*store, executor, *store->GetJob(id), false)["peak_plate_force_N"]
+                  .is_null());
+  live->Append(Sample(100));
+  EXPECT_EQ(web::JobJson(*store, executor, *store->GetJob(id), false)["peak_plate_force_N"],
+            Sample(100).plate_force_N);
+  executor.live.clear();
+  store->FinishJob(id, JobState::kDone, "",
+                   {"{\"peak_plate_force_N\": 13.25, \"P_N\": 13.0}\n", {}, 0, {}});
+  // Done: the summary's, in the listing (which reads no summaries) as in the details.
+  for (bool details : {false, true}) {
+    const nlohmann::json json = web::JobJson(*store, executor, *store->GetJob(id), details);
+    EXPECT_EQ(json["peak_plate_force_N"], 13.25);
+    EXPECT_EQ(json["progress"]["peak_plate_force_N"], 13.25);
+    EXPECT_EQ(json["P_N"], 13.0);
+    EXPECT_EQ(json["state"], "done");
+  }
+}
 
+TEST(WebViews, SamplesAreExactColumns) {
   // The batch's text is JSON, every double exact, a value that is not finite null.
   ImpactSample odd = Sample(42);
   odd.projectile_z_m = std::nan("");

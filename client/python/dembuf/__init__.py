@@ -13,7 +13,7 @@ results, from the daemon or from a local run's folder, as pandas DataFrames.
 """
 
 from .client import Client, DembufError, Sample, connect
-from .frames import SERIES_COLUMNS, Run, read_run, read_sweep, sweep_points
+from .frames import SERIES_COLUMNS, Run, read_points, read_run, read_sweep
 from .vtp import read_contacts_vtp, read_pvd, read_vtp
 
 __all__ = [
@@ -24,9 +24,9 @@ __all__ = [
     "Sample",
     "connect",
     "read_contacts_vtp",
+    "read_points",
     "read_pvd",
     "read_run",
     "read_sweep",
     "read_vtp",
-    "sweep_points",
 ]

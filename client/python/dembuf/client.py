@@ -123,16 +123,18 @@ def _typed(value: str):
     return value
 
 
-def _job_json(j, details: bool = True) -> dict:
-    """A job as `dembuf status --json` writes it, or `dembuf list --json` without `details`
-    (client/remote_json.cpp)."""
+def _server_json(text: str, what: str) -> dict | None:
+    """A JSON object a server sent as text (a summary, a sweep's aggregates); None for none."""
     try:
-        summary = frames.parse_summary(j.summary_json, f"job {j.id}'s summary_json") or None
+        return frames.parse_summary(text, what) or None
     except ValueError as e:
         raise DembufError("DATA_LOSS", f"the server sent {e}") from None
+
+
+def _job_json(j, details: bool = True) -> dict:
+    """A job as `dembuf status --json` writes it, or `dembuf list --json` without `details`
+    (proto/json/api_json.cpp, field by field)."""
     p = j.progress
-    peak = (summary["peak_plate_force_N"] if summary and "peak_plate_force_N" in summary
-            else p.peak_plate_force_N if p.peak_plate_force_N > 0 else None)
     return {
         "id": j.id, "name": j.name, "owner": j.owner, "state": state_name(j.state),
         "error": j.error or None, "sweep_id": j.sweep_id or None, "sweep_index": j.sweep_index,
@@ -142,12 +144,12 @@ def _job_json(j, details: bool = True) -> dict:
         "command_line": j.command_line,
         "progress": {"stage": p.stage, "fraction": p.fraction, "sim_time_s": p.sim_time_s,
                      "steps": p.steps, "peak_plate_force_N": p.peak_plate_force_N},
-        "peak_plate_force_N": peak,
-        "P_N": summary.get("P_N") if summary else None,
+        "peak_plate_force_N": p.peak_plate_force_N if p.peak_plate_force_N > 0 else None,
+        "P_N": j.P_N if j.HasField("P_N") else None,
         "slurm_job_id": j.slurm_job_id or None,
     } | ({
         "scene_toml": j.scene_toml, "scene_hash": j.scene_hash, "bed_hash": j.bed_hash,
-        "summary": summary,
+        "summary": _server_json(j.summary_json, f"job {j.id}'s summary_json"),
         "files": [{"path": f.path, "size": f.size} for f in j.files],
         "beds_prepared": list(j.beds_prepared),
     } if details else {})
@@ -408,7 +410,7 @@ class Client:
     def sweep(self, sweep: int) -> pd.DataFrame:
         """A sweep as sweep.csv has it, one row per job: run (its index in the sweep), id (the
         job's), the swept fields, status (the job's state: "done", "failed", ...), the
-        summary's metrics, error. sweep_points() averages it over the bed seeds."""
+        summary's metrics, error. sweep_points() gives its points over the bed seeds."""
         info = self._call(self._stub.GetSweep, pb.GetSweepRequest(id=sweep))
         answer = self._call(self._stub.ListJobs,
                             pb.ListJobsRequest(sweep_id=sweep, limit=info.jobs_total or 100))
@@ -433,6 +435,22 @@ class Client:
                          "error": j.error})
         return pd.DataFrame(rows, columns=["run", "id", *axes, "status",
                                            *frames.sweep_metric_names(), "error"])
+
+    def sweep_points(self, sweep: int) -> pd.DataFrame:
+        """The sweep's points as the daemon computed them from the jobs done so far, the rows
+        of a fetched sweep's points.csv (read_points): the swept values but bed.seed, `runs`,
+        and per metric M its mean `M`, sample standard deviation `M_sd` (NaN for one run)
+        and number `M_n` over the runs that ended well."""
+        info = self._call(self._stub.GetSweep, pb.GetSweepRequest(id=sweep))
+        aggregates = _server_json(info.aggregates_json, f"sweep {sweep}'s aggregates_json")
+        if not aggregates or not isinstance(aggregates.get("points"), list):
+            raise DembufError("DATA_LOSS", f"the server sent sweep {sweep} without its points")
+        columns = aggregates.get("point_columns") or []
+        frame = pd.DataFrame(aggregates["points"], columns=columns)
+        # The counts and metrics as numbers, a value not known NaN, as read_points reads them.
+        for column in columns[columns.index("runs"):] if "runs" in columns else []:
+            frame[column] = pd.to_numeric(frame[column])
+        return frame
 
     def server_info(self) -> dict:
         return _message_dict(self._call(self._stub.ServerInfo, pb.ServerInfoRequest()))

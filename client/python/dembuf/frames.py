@@ -17,7 +17,7 @@ SERIES_COLUMNS = ["t_s", "plate_force_N", "wall_force_z_N", "proj_z_m", "proj_vz
 
 # The summary fields sweep.csv tabulates, in its column order (the engine's SweepMetricNames;
 # the Python tests compare them with a sweep.csv header).
-_SWEEP_METRICS = ["P_N", "Pa_N", "Pb_N", "lambda", "crater_depth_m", "bed_thickness_m", "C0",
+_SWEEP_METRICS = ["P_N", "Pa_N", "Pb_N", "lambda", "crater_depth_m", "measured_thickness_m", "C0",
                   "dS_m", "dt_peaks_s", "load_duration_s", "peak_plate_force_N",
                   "peak_plate_force_time_s", "reference_peak_N", "first_contact_time_s",
                   "max_overlap_ratio", "beads", "steps", "wall_time_s"]
@@ -141,15 +141,10 @@ def sweep_axes(frame: pd.DataFrame) -> list[str]:
     return columns[columns.index("id") + 1:columns.index("status")]
 
 
-def sweep_points(frame: pd.DataFrame, metric: str = "P_N") -> pd.DataFrame:
-    """The sweep's points over the bed seeds, as points.csv: per value of the other swept
-    fields, the mean, sample standard deviation (NaN for one run) and n of `metric` over the
-    runs that ended well."""
-    axes = [a for a in sweep_axes(frame) if a != "bed.seed"]
-    ok = frame[frame["status"] == "done"]
-    if not axes:
-        values = ok[metric]
-        return pd.DataFrame({"mean": [values.mean()], "sd": [values.std()],
-                             "n": [values.count()]})
-    return ok.groupby(axes)[metric].agg(["mean", "std", "count"]).rename(
-        columns={"std": "sd", "count": "n"}).reset_index()
+def read_points(folder: str | os.PathLike) -> pd.DataFrame:
+    """A sweep folder's points.csv, as dembuf computed it (the same rows as
+    Client.sweep_points() for a sweep on the daemon): one row per point, with the swept
+    values but bed.seed, `runs`, and per metric M its mean over the runs that ended well `M`,
+    their sample standard deviation `M_sd` (empty for one run) and their number `M_n`."""
+    return pd.read_csv(pathlib.Path(folder) / "points.csv", keep_default_na=False,
+                       na_values=[""])

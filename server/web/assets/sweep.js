@@ -34,10 +34,10 @@ function series(sweep, x, metric, scale) {
     if (!groups.has(key)) groups.set(key, { mean: xs.map(() => null), sd: xs.map(() => null) });
     const at = x.field === "" ? 0
       : x.numeric ? xs.indexOf(Number(point[x.field])) : x.values.indexOf(point[x.field]);
-    const m = point[metric];
-    if (at < 0 || !m) continue;
-    groups.get(key).mean[at] = m.mean * scale;
-    groups.get(key).sd[at] = m.sd === null ? null : m.sd * scale;
+    const mean = point[metric], sd = point[`${metric}_sd`];
+    if (at < 0 || mean === null) continue;
+    groups.get(key).mean[at] = mean * scale;
+    groups.get(key).sd[at] = sd === null ? null : sd * scale;
   }
   return { xs: xs.map((v) => (x.numeric ? v * x.scale : v)), groups };
 }
@@ -81,9 +81,11 @@ function plotMetric(name, container, sweep, x, metric, scale, yLabel) {
   charts[name] = entry;
 }
 
-function cell(m, format) {
-  if (!m) return el("td", { class: "num" }, "–");
-  return el("td", { class: "num" }, m.sd === null ? format(m.mean) : `${format(m.mean)} ± ${format(m.sd)}`);
+// A metric of a point (its mean, and its sd when there are two runs or more).
+function cell(point, metric, format) {
+  const mean = point[metric], sd = point[`${metric}_sd`];
+  if (mean === null) return el("td", { class: "num" }, "–");
+  return el("td", { class: "num" }, sd === null ? format(mean) : `${format(mean)} ± ${format(sd)}`);
 }
 
 async function refresh() {
@@ -96,12 +98,16 @@ async function refresh() {
   bar.update(finished ? "done" : "running",
     { stage: `${done} of ${sweep.jobs_total} done`, fraction: sweep.jobs_total ? done / sweep.jobs_total : 0 });
   document.body.dataset.done = done;
-  document.body.dataset.points = sweep.points.filter((p) => p.P_N).length;
+  document.body.dataset.points = sweep.points.filter((p) => p.P_N !== null).length;
   fill(document.getElementById("overview"), bar,
     el("dl", { class: "facts" },
       el("dt", {}, "owner"), el("dd", {}, sweep.owner),
       sweep.axes.map((a) => [el("dt", {}, a.field), el("dd", {}, a.values.join(", "))]),
-      el("dt", {}, "jobs"), el("dd", {}, Object.entries(sweep.jobs_by_state).map(([s, n]) => `${n} ${s}`).join(", "))));
+      el("dt", {}, "jobs"), el("dd", {}, Object.entries(sweep.jobs_by_state).map(([s, n]) => `${n} ${s}`).join(", ")),
+      // Hc only where P levels off; else the note says by how much it still changes.
+      sweep.critical_thickness ? [el("dt", {}, "Hc"), el("dd", {}, sweep.Hc_m !== null
+        ? `${sig(100 * sweep.Hc_m, 3)} cm (plateau P ${force(sweep.critical_thickness.plateau_P_N)})`
+        : sweep.critical_thickness.note)] : []));
 
   const swept = sweep.axes.filter((a) => a.field !== "bed.seed");
   // (a sweep of seeds only has one point)
@@ -115,9 +121,9 @@ async function refresh() {
     el("th", { class: "num" }, "crater depth"), el("th", { class: "num" }, "C0")));
   fill(pointsTable.tBodies[0], sweep.points.map((p) => el("tr", {},
     swept.map((a) => el("td", {}, p[a.field])),
-    el("td", { class: "num" }, p.P_N ? `${p.P_N.n} of ${p.runs}` : `0 of ${p.runs}`),
-    cell(p.P_N, force), cell(p.lambda, (v) => percent(v)),
-    cell(p.crater_depth_m, (v) => `${sig(100 * v, 3)} cm`), cell(p.C0, (v) => sig(v, 3)))));
+    el("td", { class: "num" }, `${p.P_N_n} of ${p.runs}`),
+    cell(p, "P_N", force), cell(p, "lambda", (v) => percent(v)),
+    cell(p, "crater_depth_m", (v) => `${sig(100 * v, 3)} cm`), cell(p, "C0", (v) => sig(v, 3)))));
 
   const jobsTable = document.getElementById("jobs");
   fill(jobsTable.tHead, el("tr", {}, el("th", { class: "num" }, "job"), sweep.axes.map((a) => el("th", {}, a.field)), el("th", {}, "state")));

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <string_view>
 
 #include "dembuf/study/files/run_output.h"
 
@@ -27,6 +28,39 @@ std::vector<std::size_t> PointAxes(const std::vector<SweepAxis>& axes) {
   return point_axes;
 }
 
+// The table of points on the terminal: the swept values, runs, and P, lambda, crater depth
+// and C0 as mean +- sd.
+void PrintPoints(const std::vector<SweepAxis>& axes, const nlohmann::json& points,
+                 std::FILE* table) {
+  const std::vector<std::size_t> point_axes = PointAxes(axes);
+  std::fprintf(table, "\n");
+  for (std::size_t a : point_axes) std::fprintf(table, "%-22s", axes[a].field.c_str());
+  std::fprintf(table, "%4s %22s %18s %16s %8s\n", "n", "P [N] mean +- sd", "lambda [%]",
+               "crater [cm]", "C0");
+  for (const nlohmann::json& point : points) {
+    for (std::size_t a : point_axes) {
+      const nlohmann::json& value = point[axes[a].field];
+      std::fprintf(table, "%-22s",
+                   (value.is_string() ? value.get<std::string>() : value.dump()).c_str());
+    }
+    auto cell = [&](const std::string& m, double scale) {
+      char text[48] = "-";
+      if (point[m].is_number() && point[m + "_sd"].is_number())
+        std::snprintf(text, sizeof text, "%.4g +- %.2g", point[m].get<double>() * scale,
+                      point[m + "_sd"].get<double>() * scale);
+      else if (point[m].is_number())
+        std::snprintf(text, sizeof text, "%.4g", point[m].get<double>() * scale);
+      return std::string(text);
+    };
+    std::fprintf(table, "%4zu %22s %18s %16s %8s\n", point["runs"].get<std::size_t>(),
+                 cell("P_N", 1).c_str(), cell("lambda", 100).c_str(),
+                 cell("crater_depth_m", 100).c_str(),
+                 point["C0"].is_number()
+                     ? NumberText(std::round(point["C0"].get<double>() * 1000) / 1000).c_str()
+                     : "-");
+  }
+}
+
 }  // namespace
 
 const std::vector<std::string>& SweepMetricNames() {
@@ -35,7 +69,7 @@ const std::vector<std::string>& SweepMetricNames() {
                                                  "Pb_N",
                                                  "lambda",
                                                  "crater_depth_m",
-                                                 "bed_thickness_m",
+                                                 "measured_thickness_m",
                                                  "C0",
                                                  "dS_m",
                                                  "dt_peaks_s",
@@ -124,6 +158,18 @@ std::string RunStatus(const SweepRunReport& run) {
   return run.ok ? "done" : "failed";
 }
 
+std::vector<std::string> SweepPointColumns(const std::vector<SweepAxis>& axes) {
+  std::vector<std::string> columns;
+  for (std::size_t a : PointAxes(axes)) columns.push_back(axes[a].field);
+  columns.push_back("runs");
+  for (const std::string& m : SweepMetricNames()) {
+    columns.push_back(m);
+    columns.push_back(m + "_sd");
+    columns.push_back(m + "_n");
+  }
+  return columns;
+}
+
 nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
                            const std::vector<SweepRunReport>& runs) {
   const std::vector<std::size_t> point_axes = PointAxes(axes);
@@ -135,28 +181,46 @@ nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
   }
   nlohmann::json point_list = nlohmann::json::array();
   for (const auto& [key, members] : points) {
-    nlohmann::json point;
+    nlohmann::json point = nlohmann::json::object();
     for (std::size_t k = 0; k < point_axes.size(); ++k)
       point[axes[point_axes[k]].field] = SweepValueJson(key[k]);
     point["runs"] = members.size();
-    for (const auto& m : SweepMetricNames()) {
+    for (const std::string& m : SweepMetricNames()) {
       std::vector<double> v;
       for (std::size_t j : members)
         if (runs[j].ok && runs[j].summary.contains(m) && runs[j].summary[m].is_number())
           v.push_back(runs[j].summary[m].get<double>());
-      if (v.empty()) continue;
       double mean = 0.0, var = 0.0;
       for (double x : v) mean += x / v.size();
       for (double x : v) var += (x - mean) * (x - mean);
-      // One run has no spread: its sd is left empty (null), not 0.
-      point[m] = {
-          {"mean", mean},
-          {"sd", v.size() > 1 ? nlohmann::json(std::sqrt(var / (v.size() - 1))) : nlohmann::json()},
-          {"n", v.size()}};
+      // No run: no mean; one run: no spread (null, not 0).
+      point[m] = v.empty() ? nlohmann::json() : nlohmann::json(mean);
+      point[m + "_sd"] =
+          v.size() > 1 ? nlohmann::json(std::sqrt(var / (v.size() - 1))) : nlohmann::json();
+      point[m + "_n"] = v.size();
     }
     point_list.push_back(point);
   }
   return point_list;
+}
+
+nlohmann::json SweepAggregates(const std::vector<SweepAxis>& axes,
+                               const std::vector<SweepRunReport>& runs) {
+  nlohmann::json aggregates = {{"points", SweepPoints(axes, runs)},
+                                {"point_columns", SweepPointColumns(axes)}};
+  const std::vector<std::size_t> point_axes = PointAxes(axes);
+  if (point_axes.size() != 1 || axes[point_axes[0]].field != "bed.thickness_m") return aggregates;
+  std::vector<std::pair<double, double>> h_to_p;
+  for (const nlohmann::json& point : aggregates["points"])
+    if (point["bed.thickness_m"].is_number() && point["P_N"].is_number())
+      h_to_p.push_back({point["bed.thickness_m"].get<double>(), point["P_N"].get<double>()});
+  std::sort(h_to_p.begin(), h_to_p.end());
+  const nlohmann::json hc = CriticalThickness(h_to_p);
+  if (!hc.is_null()) {
+    aggregates["Hc_m"] = hc["Hc_m"];
+    aggregates["critical_thickness"] = hc;
+  }
+  return aggregates;
 }
 
 nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
@@ -190,86 +254,57 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     failed += !r.ok;
   }
 
-  const std::vector<std::size_t> point_axes = PointAxes(axes);
-  const nlohmann::json point_list = SweepPoints(axes, runs);
-  std::vector<std::pair<double, double>> h_to_p;
-  // points.csv: one row per point, each metric's mean, sd and n (what the plots read).
+  const nlohmann::json aggregates = SweepAggregates(axes, runs);
+  // points.csv: the points' records, one row each (what the plots read).
+  const std::vector<std::string> columns = SweepPointColumns(axes);
   std::ofstream points_csv(dir / "points.csv");
   points_csv.precision(10);
-  for (std::size_t k = 0; k < point_axes.size(); ++k)
-    points_csv << (k ? "," : "") << axes[point_axes[k]].field;
-  for (const auto& m : SweepMetricNames())
-    points_csv << "," << m << "," << m << "_sd," << m << "_n";
+  for (std::size_t c = 0; c < columns.size(); ++c) points_csv << (c ? "," : "") << columns[c];
   points_csv << "\n";
-  std::fprintf(table, "\n");
-  for (std::size_t a : point_axes) std::fprintf(table, "%-22s", axes[a].field.c_str());
-  std::fprintf(table, "%4s %22s %18s %16s %8s\n", "n", "P [N] mean +- sd", "lambda [%]",
-               "crater [cm]", "C0");
-  for (const nlohmann::json& point : point_list) {
-    std::vector<std::string> key;
-    for (std::size_t a : point_axes) {
-      const nlohmann::json& value = point[axes[a].field];
-      key.push_back(value.is_string() ? value.get<std::string>() : value.dump());
-    }
-    // mean and sd (NaN for one run) of the metrics that have values
-    std::map<std::string, std::pair<double, double>> stats;
-    for (const auto& m : SweepMetricNames())
-      if (point.contains(m))
-        stats[m] = {point[m]["mean"].get<double>(), point[m]["sd"].is_null()
-                                                        ? std::numeric_limits<double>::quiet_NaN()
-                                                        : point[m]["sd"].get<double>()};
-    for (std::size_t k = 0; k < key.size(); ++k) points_csv << (k ? "," : "") << key[k];
-    for (const auto& m : SweepMetricNames()) {
-      if (stats.count(m)) {
-        points_csv << "," << stats[m].first << ",";
-        if (!std::isnan(stats[m].second)) points_csv << stats[m].second;
-        points_csv << "," << point[m]["n"].get<std::size_t>();
-      } else {
-        points_csv << ",,,0";
+  const std::size_t swept = PointAxes(axes).size();  // the first columns: swept values
+  for (const nlohmann::json& point : aggregates["points"]) {
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      const nlohmann::json& cell = point[columns[c]];
+      if (c) points_csv << ",";
+      if (cell.is_string()) {
+        points_csv << cell.get<std::string>();
+      } else if (cell.is_number_integer()) {
+        points_csv << cell.get<std::int64_t>();
+      } else if (cell.is_number() && c < swept) {
+        // A swept value exactly, in its shortest text: values 2e-14 apart stay apart.
+        char text[32];
+        points_csv << std::string_view(
+            text, std::to_chars(text, text + sizeof text, cell.get<double>()).ptr - text);
+      } else if (cell.is_number()) {
+        points_csv << cell.get<double>();
       }
     }
     points_csv << "\n";
-    for (const auto& k : key) std::fprintf(table, "%-22s", k.c_str());
-    auto ms = [&](const char* m, double scale) {
-      char buf[48];
-      if (!stats.count(m)) return std::string("-");
-      if (std::isnan(stats[m].second))
-        std::snprintf(buf, sizeof buf, "%.4g", stats[m].first * scale);
-      else
-        std::snprintf(buf, sizeof buf, "%.4g +- %.2g", stats[m].first * scale,
-                      stats[m].second * scale);
-      return std::string(buf);
-    };
-    std::fprintf(
-        table, "%4zu %22s %18s %16s %8s\n", point["runs"].get<std::size_t>(), ms("P_N", 1).c_str(),
-        ms("lambda", 100).c_str(), ms("crater_depth_m", 100).c_str(),
-        stats.count("C0") ? NumberText(std::round(stats["C0"].first * 1000) / 1000).c_str() : "-");
-    if (point_axes.size() == 1 && axes[point_axes[0]].field == "bed.thickness_m" &&
-        stats.count("P_N"))
-      h_to_p.push_back({std::stod(key[0]), stats["P_N"].first});
   }
-  std::sort(h_to_p.begin(), h_to_p.end());
+  PrintPoints(axes, aggregates["points"], table);
 
   nlohmann::json summary = {
       {"runs", runs.size()},
       {"failed", failed},
       {"axes", nlohmann::json::array()},
-      {"points", point_list},
+      {"points", aggregates["points"]},
+      {"point_columns", aggregates["point_columns"]},
   };
   summary.update(extra);
   for (const auto& axis : axes)
     summary["axes"].push_back({{"field", axis.field}, {"values", SweepValuesJson(axis.values)}});
-  if (!h_to_p.empty() && !summary.contains("critical_thickness")) {
-    const nlohmann::json hc = CriticalThickness(h_to_p);
-    if (!hc.is_null()) {
-      summary["Hc_m"] = hc["Hc_m"];
-      summary["critical_thickness"] = hc;
-      if (hc["reached"].get<bool>())
-        std::fprintf(table, "critical thickness Hc = %.2f cm (plateau P = %.4g N)\n",
-                     100 * hc["Hc_m"].get<double>(), hc["plateau_P_N"].get<double>());
-      else
-        std::fprintf(table, "%s\n", hc["note"].get<std::string>().c_str());
-    }
+  // Hc of the points, unless the sweep found its own (--find-hc).
+  if (aggregates.contains("critical_thickness") && !summary.contains("critical_thickness")) {
+    summary["Hc_m"] = aggregates["Hc_m"];
+    summary["critical_thickness"] = aggregates["critical_thickness"];
+  }
+  if (summary.contains("critical_thickness")) {
+    const nlohmann::json& hc = summary["critical_thickness"];
+    if (hc.value("reached", false))
+      std::fprintf(table, "critical thickness Hc = %.2f cm (plateau P = %.4g N)\n",
+                   100 * hc["Hc_m"].get<double>(), hc["plateau_P_N"].get<double>());
+    else if (hc.contains("note"))
+      std::fprintf(table, "%s\n", hc["note"].get<std::string>().c_str());
   }
   WriteFileAtomically(dir / "summary.json", summary.dump(2) + "\n");
   return summary;

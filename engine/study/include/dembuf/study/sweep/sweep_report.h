@@ -1,7 +1,9 @@
-// The files of a sweep: sweep.csv (one row per run), points.csv (mean, sd and n of each
-// metric over the runs that differ only in their bed seed; the sd is empty for one run),
-// summary.json (with the critical thickness Hc for a thickness sweep), and the table printed on
-// the terminal. Written the same way for a local sweep and for a sweep fetched from the daemon.
+// A sweep's aggregates and files. The aggregates (the points over the bed seeds and, for a
+// thickness sweep, Hc) are computed here once and served as they are by every door: the
+// folder's points.csv and summary.json, the daemon's GetSweep and /api/sweeps, the CLI's
+// --json and Python. The files: sweep.csv (one row per run), points.csv (one row per point),
+// summary.json and the table printed on the terminal, written the same way for a local sweep
+// and for a sweep fetched from the daemon.
 #pragma once
 
 #include <cstdint>
@@ -38,12 +40,23 @@ std::string RunStatus(const SweepRunReport& run);
 /// The summary fields a sweep tabulates, in column order.
 const std::vector<std::string>& SweepMetricNames();
 
-/// The sweep's points: the runs that differ only in their bed seed, each with the values of
-/// the other axes (by field name) and, per metric of SweepMetricNames, the mean, the sample
-/// standard deviation (null for one run) and n over the runs that ended well. Runs still
-/// missing or failed count in no metric, so a sweep under way has points of fewer runs.
+/// The columns of a sweep point, in order: the swept fields but bed.seed, `runs`, then per
+/// metric M of SweepMetricNames `M` (the mean), `M_sd` and `M_n`. points.csv's header.
+std::vector<std::string> SweepPointColumns(const std::vector<SweepAxis>& axes);
+
+/// The sweep's points: the runs that differ only in their bed seed, each one flat object of
+/// SweepPointColumns: the values of the other axes, the number of runs, and per metric the
+/// mean, the sample standard deviation (null for one run) and n over the runs that ended well
+/// (mean null and n 0 where none has it). Runs still missing or failed count in no metric, so
+/// a sweep under way has points of fewer runs.
 nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
                            const std::vector<SweepRunReport>& runs);
+
+/// {"points": SweepPoints, "point_columns": SweepPointColumns (their order)} and, for a sweep over bed.thickness_m alone (seeds aside) with
+/// three thicknesses or more, "Hc_m" and "critical_thickness" (CriticalThickness of the
+/// points' mean P).
+nlohmann::json SweepAggregates(const std::vector<SweepAxis>& axes,
+                               const std::vector<SweepRunReport>& runs);
 
 /// Hc: the plateau is the mean P of the points in the upper half of the thickness range, and
 /// a plateau only if P changes by at most 10% across that half; Hc is then the smallest
@@ -53,8 +66,8 @@ nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
 nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h_to_p);
 
 /// Writes dir/sweep.csv, dir/points.csv and dir/summary.json (the returned document, with
-/// `extra` merged in) and prints the table of points to `table`. A thickness sweep gets Hc by
-/// CriticalThickness unless `extra` brings its own "critical_thickness".
+/// `extra` merged in) and prints the table of points to `table`: SweepAggregates, whose Hc
+/// gives way to a "critical_thickness" that `extra` brings.
 nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                                 const std::vector<SweepAxis>& axes,
                                 const std::vector<SweepRunReport>& runs,

@@ -1,0 +1,30 @@
+// The store's records as the API's messages: one conversion for the gRPC service and the web
+// pages' JSON API (which serves api_json.h's JSON of these messages), so that both doors say
+// the same about a job or a sweep.
+#pragma once
+
+#include "dembuf/v1/dembuf.pb.h"
+#include "executor.h"
+#include "store.h"
+
+namespace dembuf::server {
+
+v1::JobState ToProto(JobState state);
+void FillProgress(const JobProgress& progress, v1::Progress* out);
+
+/// The job's message: its record, its progress (the running job's own, else its stored state's)
+/// and, with details, its scene, result files, prepared beds and summary. A damaged summary is
+/// left out and named as the job's error, or, with `damaged_summary_fails` (a fetch), thrown
+/// (DamagedData).
+void FillJob(Store& store, Executor& executor, const JobRecord& record, bool with_details,
+             v1::Job* out, bool damaged_summary_fails = false);
+
+/// The sweep's message; `with_aggregates` adds SweepAggregatesJson of its jobs.
+void FillSweep(Store& store, const SweepRecord& record, bool with_aggregates, v1::Sweep* out);
+
+/// The sweep's points and Hc over its jobs that ended well (the study layer's
+/// SweepAggregates; a job whose summary is damaged counts in no metric), as JSON text.
+std::string SweepAggregatesJson(const SweepRecord& record,
+                                const std::vector<SweepJobResult>& jobs);
+
+}  // namespace dembuf::server

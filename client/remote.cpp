@@ -800,10 +800,8 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   request.set_from_index(from_index);
   auto reader = stub->WatchJob(&context, request);
   const bool tty = !csv && isatty(fileno(stdout));
-  if (csv)
-    std::printf(
-        "index,t_s,plate_force_N,wall_force_z_N,proj_z_m,proj_vz_m_s,proj_force_z_N,"
-        "state\n");
+  // plate_force.csv's columns and cells, between the sample's index and the job's state.
+  if (csv) std::printf("index,%s,state\n", report::SampleCsvColumns().c_str());
   ForceTrace forces;
   v1::WatchJobResponse message;
   v1::JobState state = v1::JOB_STATE_UNSPECIFIED;
@@ -829,10 +827,8 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
       forces.Add(s.plate_force_n());
       last_t = s.t_s();
       if (csv)
-        std::printf("%lld,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s\n",
-                    static_cast<long long>(message.first_index() + k), s.t_s(), s.plate_force_n(),
-                    s.wall_force_z_n(), s.proj_z_m(), s.proj_vz_m_s(), s.proj_force_z_n(),
-                    api::StateText(state).c_str());
+        std::printf("%lld,%s,%s\n", static_cast<long long>(message.first_index() + k),
+                    report::SampleCsvCells(FromProto(s)).c_str(), api::StateText(state).c_str());
     }
     received += message.samples_size();
     const double force = forces.last();

@@ -162,6 +162,7 @@ wait_state "$job" done 120
 "$dembuf" status "$job" --json > "$work/status.json"
 "$dembuf" fetch "$job" --out "$work/fetched" --no-plots > /dev/null
 "$dembuf" server-info --json > "$work/info.json"
+"$dembuf" watch "$job" --csv > "$work/watch.csv"
 "$dembuf" server-info > "$work/info.txt"
 DEMBUF_HTTP=$(web_base "$work/dembufd.log") DEMBUF_PYTHON="$(dirname "$dembuf")/../python" \
   /usr/bin/python3 - "$work" "$job" <<'PY' || fail "JSON output"
@@ -218,6 +219,41 @@ assert mine[0]["peak_plate_force_N"] == fetched["peak_plate_force_N"], mine[0]
 assert mine[0]["progress"]["peak_plate_force_N"] == fetched["peak_plate_force_N"], mine[0]
 assert mine[0]["P_N"] == fetched["P_N"], mine[0]
 print("list, status and server-info --json agree with the text and the fetched files")
+
+# The live stream at every door, field by field: the gRPC watch (Python's samples and `watch
+# --csv`), the web pages' event stream and plate_force.csv have the same columns in the same
+# order (the web stream lacked proj_vz_m_s) and the same values.
+from dembuf.v1 import dembuf_pb2 as pb
+csv_lines = open(f"{work}/fetched/plate_force.csv").read().splitlines()
+columns = csv_lines[0].split(",")
+assert [f.name for f in pb.ForceSample.DESCRIPTOR.fields] == columns, columns
+assert list(dembuf.Sample._fields) == columns == dembuf.SERIES_COLUMNS, columns
+watch_lines = open(f"{work}/watch.csv").read().splitlines()
+assert watch_lines[0] == "index," + csv_lines[0] + ",state", watch_lines[0]
+assert len(watch_lines) == len(csv_lines), (len(watch_lines), len(csv_lines))
+for k, (w, c) in enumerate(zip(watch_lines[1:], csv_lines[1:])):
+    assert w == f"{k},{c},done", (k, w, c)
+with dembuf.connect() as daemon:
+    watched = list(daemon.watch(job))
+stream = {c: [] for c in columns}
+with urllib.request.urlopen(f"{os.environ['DEMBUF_HTTP']}/api/jobs/{job}/events") as events:
+    kind = None
+    for raw in events:
+        line = raw.decode().rstrip("\n")
+        if line.startswith("event: "):
+            kind = line[7:]
+        elif line.startswith("data: ") and kind == "samples":
+            batch = json.loads(line[6:])
+            assert list(batch)[1:] == columns, list(batch)
+            for c in columns:
+                stream[c] += batch[c]
+        elif line.startswith("data: ") and kind == "end":
+            break
+assert len(watched) == len(stream["t_s"]) == len(csv_lines) - 1
+for k, sample in enumerate(watched):
+    for c in columns:
+        assert getattr(sample, c) == stream[c][k], (k, c, getattr(sample, c), stream[c][k])
+print(f"the live stream: {len(watched)} samples of {len(columns)} columns alike at every door")
 PY
 
 # One sweep point at every door: status --sweep --json, /api/sweeps/ID, Python's

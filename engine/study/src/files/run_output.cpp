@@ -155,16 +155,20 @@ double SampleValue(const ImpactSample& sample, const SampleColumn& column) {
   return sample.*column.member;
 }
 
+std::string SampleCsvColumns() {
+  std::string text;
+  for (const SampleColumn& c : SampleColumns()) {
+    if (!text.empty()) text += ',';
+    text += c.name;
+  }
+  return text;
+}
+
 namespace {
 
 // plate_force.csv's first line, from the columns.
 const std::string& SampleCsvHeader() {
-  static const std::string header = [] {
-    std::string text;
-    for (const SampleColumn& c : SampleColumns())
-      text += (text.empty() ? "" : ",") + std::string(c.name);
-    return text + "\n";
-  }();
+  static const std::string header = SampleCsvColumns() + "\n";
   return header;
 }
 
@@ -194,6 +198,11 @@ SampleCsvWriter::SampleCsvWriter(std::filesystem::path path)
 void SampleCsvWriter::Write(const ImpactSample& s) {
   char line[256];
   m_out.write(line, SampleCsvRow(s, line));
+}
+
+std::string SampleCsvCells(const ImpactSample& sample) {
+  char line[256];
+  return std::string(line, SampleCsvRow(sample, line) - 1);
 }
 
 std::string SamplesToCsv(const std::vector<ImpactSample>& samples) {

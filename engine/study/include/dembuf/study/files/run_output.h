@@ -62,6 +62,10 @@ class SampleCsvWriter {
 
 /// Samples as the text of plate_force.csv.
 std::string SamplesToCsv(const std::vector<ImpactSample>& samples);
+/// plate_force.csv's header and one of its rows, without the line's end (`dembuf watch --csv`
+/// prints them between its index and state columns).
+std::string SampleCsvColumns();
+std::string SampleCsvCells(const ImpactSample& sample);
 
 /// Samples as bytes: rows of six little-endian doubles (the columns of plate_force.csv), exact
 /// to the bit. The daemon stores series so, and a cluster job streams them so.

@@ -23,9 +23,10 @@ namespace {
 
 // A JSON object sent as text (a summary, a sweep's aggregates): null when there is none or it
 // is not an object. A text past the bounds of JSON from outside throws InputLimitError.
-nlohmann::json ParsedObject(const std::string& text, const std::string& what) {
+nlohmann::json ParsedObject(const std::string& text, const std::string& what,
+                            std::size_t max_bytes = std::size_t{16} << 20) {
   if (text.empty()) return nullptr;
-  nlohmann::json object = ParseBoundedJson(text, what);
+  nlohmann::json object = ParseBoundedJson(text, what, max_bytes);
   return object.is_object() ? object : nlohmann::json();
 }
 
@@ -112,8 +113,9 @@ nlohmann::json SweepJson(const v1::Sweep& sweep, bool details) {
   // The study layer's aggregates as the daemon computed them: points (flat objects, the rows
   // of points.csv, whose header is point_columns), and Hc where there is one (null where the
   // sweep is not over the thickness alone).
-  const nlohmann::json aggregates = ParsedObject(
-      sweep.aggregates_json(), "sweep " + std::to_string(sweep.id()) + "'s aggregates_json");
+  const nlohmann::json aggregates =
+      ParsedObject(sweep.aggregates_json(),
+                   "sweep " + std::to_string(sweep.id()) + "'s aggregates_json", kMaxAggregatesBytes);
   const bool whole = aggregates.is_object() && aggregates.contains("points") &&
                      aggregates["points"].is_array();
   out["points"] = whole ? aggregates["points"] : nlohmann::json::array();

@@ -5,12 +5,17 @@
 // values are null, a job's summary is its summary.json object.
 #pragma once
 
+#include <cstddef>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "dembuf/v1/dembuf.pb.h"
 
 namespace dembuf::api {
+
+/// The largest aggregates_json taken from a server: a sweep of the daemon's most jobs
+/// (max_sweep_jobs 10,000) has points of about 15 MB.
+inline constexpr std::size_t kMaxAggregatesBytes = std::size_t{64} << 20;
 
 /// "queued", "preparing_bed", "running", "done", "failed", "cancelled".
 std::string StateText(v1::JobState state);

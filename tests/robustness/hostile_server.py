@@ -21,7 +21,7 @@ FILES = {
     6: [("snapshots.pvd", b"<VTKFile/>\n"),                  # what the API defines, in
         ("snapshots/peak/beads.vtp", b"<VTKFile/>\n")],      # path order
 }
-# Sweep id -> its jobs_total.
+# Sweep id -> its jobs_total (sweeps 3 to 5 below).
 JOBS_TOTAL = {1: -1, 2: 2_000_000_000}
 # Job 7's summary: JSON nested 100,000 deep (the client's JSON library recursed on it).
 DEEP_SUMMARY = "{\"a\": " * 100_000 + "1" + "}" * 100_000
@@ -93,6 +93,12 @@ class Hostile(pb_grpc.DembufServicer):
         if request.id == 3:  # one job, whose value is no value of its axis (an escape in it)
             sweep.jobs_total = 1
             sweep.axes.add(field="bed.thickness_m", values=["0.01"])
+        if request.id == 4:  # aggregates nested 100,000 deep
+            sweep.aggregates_json = DEEP_SUMMARY
+        if request.id == 5:  # an Hc note with escapes
+            sweep.aggregates_json = (
+                '{"points": [], "critical_thickness": {"reached": false, "Hc_m": null, '
+                '"note": "Hc ' + ESCAPES_JSON + ' not reached"}}')
         return sweep
 
     def ListJobs(self, request, context):

@@ -53,6 +53,13 @@ if grep -q "max_size\|bad_alloc" "$work/err"; then fail "a raw C++ message: $(ca
 expect_exit 1 "the server at $DEMBUF_SERVER sent job 7's summary_json: nested deeper than 64 levels" \
   "$dembuf" status 7 --json
 expect_exit 1 "job 7's summary_json: nested deeper than 64 levels" "$dembuf" status 7
+# A sweep's aggregates (its points and Hc) are bounded and printed as text.
+expect_exit 1 "the server at $DEMBUF_SERVER sent sweep 4's aggregates_json: nested deeper than 64 levels" \
+  "$dembuf" status --sweep 4 --json
+expect_exit 1 "the server at $DEMBUF_SERVER sent sweep 4's aggregates_json: nested deeper than 64 levels" \
+  "$dembuf" status --sweep 4
+"$dembuf" status --sweep 5 > "$work/sweep5" 2>&1 || fail "status --sweep 5: $(cat -v "$work/sweep5")"
+grep -q "^Hc ?\[2J?\]0;owned? not reached$" "$work/sweep5" || fail "the Hc note: $(cat -v "$work/sweep5")"
 # A watch of 20 million samples: the client kept every one (1.2 GB in 15 s from a fast server).
 "$dembuf" watch 8 > /dev/null 2> "$work/err" &
 watcher=$!
@@ -98,6 +105,7 @@ sys.path.insert(0, sys.argv[1])
 import dembuf
 client = dembuf.Client(sys.argv[2], owner="me")
 for call, words in [(lambda: client.job(7), "nested deeper than 64 levels"),
+                    (lambda: client.sweep_points(4), "nested deeper than 64 levels"),
                     (lambda: client.series(9), "announced 4611686018427387904 samples"),
                     (lambda: client.server_info(), "compressed answer")]:
     try:

@@ -123,10 +123,11 @@ def _typed(value: str):
     return value
 
 
-def _server_json(text: str, what: str) -> dict | None:
+def _server_json(text: str, what: str,
+                 max_bytes: int = frames.MAX_SUMMARY_BYTES) -> dict | None:
     """A JSON object a server sent as text (a summary, a sweep's aggregates); None for none."""
     try:
-        return frames.parse_summary(text, what) or None
+        return frames.parse_summary(text, what, max_bytes) or None
     except ValueError as e:
         raise DembufError("DATA_LOSS", f"the server sent {e}") from None
 
@@ -442,7 +443,8 @@ class Client:
         and per metric M its mean `M`, sample standard deviation `M_sd` (NaN for one run)
         and number `M_n` over the runs that ended well."""
         info = self._call(self._stub.GetSweep, pb.GetSweepRequest(id=sweep))
-        aggregates = _server_json(info.aggregates_json, f"sweep {sweep}'s aggregates_json")
+        aggregates = _server_json(info.aggregates_json, f"sweep {sweep}'s aggregates_json",
+                                  frames.MAX_AGGREGATES_BYTES)
         if not aggregates or not isinstance(aggregates.get("points"), list):
             raise DembufError("DATA_LOSS", f"the server sent sweep {sweep} without its points")
         columns = aggregates.get("point_columns") or []

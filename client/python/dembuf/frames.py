@@ -24,7 +24,8 @@ _SWEEP_METRICS = ["P_N", "Pa_N", "Pb_N", "lambda", "crater_depth_m", "measured_t
 
 # Bounds on what is read from a folder or an answer: a result is data, not trusted. A summary
 # nests four levels; JSON deeper than the C++ side's bound (kMaxJsonDepth) is refused.
-_MAX_SUMMARY_BYTES = 16 << 20
+MAX_SUMMARY_BYTES = 16 << 20
+MAX_AGGREGATES_BYTES = 64 << 20  # a sweep's points (api_json.h's kMaxAggregatesBytes)
 MAX_JSON_DEPTH = 64
 
 
@@ -72,11 +73,12 @@ def json_depth(text: str) -> int:
     return deepest
 
 
-def parse_summary(text: str, what: str) -> dict:
+def parse_summary(text: str, what: str, max_bytes: int = MAX_SUMMARY_BYTES) -> dict:
+    """A JSON object from outside (a summary, a sweep's aggregates), within the bounds."""
     if not text:
         return {}
-    if len(text) > _MAX_SUMMARY_BYTES:
-        raise ValueError(f"{what}: {len(text)} bytes, more than {_MAX_SUMMARY_BYTES}")
+    if len(text) > max_bytes:
+        raise ValueError(f"{what}: {len(text)} bytes, more than {max_bytes}")
     if json_depth(text) > MAX_JSON_DEPTH:
         raise ValueError(f"{what}: nested deeper than {MAX_JSON_DEPTH} levels")
     summary = json.loads(text)
@@ -108,8 +110,8 @@ def read_run(folder: str | os.PathLike) -> Run:
     summary_path = folder / "summary.json"
     summary = {}
     if summary_path.is_file():
-        if summary_path.stat().st_size > _MAX_SUMMARY_BYTES:
-            raise ValueError(f"{summary_path}: larger than {_MAX_SUMMARY_BYTES} bytes")
+        if summary_path.stat().st_size > MAX_SUMMARY_BYTES:
+            raise ValueError(f"{summary_path}: larger than {MAX_SUMMARY_BYTES} bytes")
         summary = parse_summary(summary_path.read_text(), str(summary_path))
     return Run(series=series, summary=summary, folder=folder)
 

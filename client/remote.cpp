@@ -19,6 +19,7 @@
 #include <sstream>
 #include <thread>
 
+#include "api_json.h"
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/bed/bed_formats.h"
 #include "dembuf/study/files/run_output.h"
@@ -31,7 +32,6 @@
 #include "exit_codes.h"
 #include "plots.h"
 #include "progress.h"
-#include "api_json.h"
 #include "remote_json.h"
 #include "scene_input.h"
 
@@ -488,7 +488,8 @@ grpc::Status WriteJobFiles(v1::Dembuf::Stub& stub, const Remote& remote,
   } else {
     report::WriteFileAtomically(
         dir / "failure.json",
-        nlohmann::json{{"state", api::StateText(job.state())}, {"error", job.error()}}.dump(2) + "\n");
+        nlohmann::json{{"state", api::StateText(job.state())}, {"error", job.error()}}.dump(2) +
+            "\n");
   }
   return grpc::Status::OK;
 }
@@ -596,7 +597,9 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   if (json) {
     const std::vector<std::int64_t> job_ids(response.job_ids().begin(), response.job_ids().end());
     std::printf("%s\n",
-                nlohmann::json{{"sweep", api::SweepJson(sweep, false)}, {"job_ids", job_ids}}.dump(2).c_str());
+                nlohmann::json{{"sweep", api::SweepJson(sweep, false)}, {"job_ids", job_ids}}
+                    .dump(2)
+                    .c_str());
     return 0;
   }
   std::printf("%lld\n", static_cast<long long>(sweep.id()));
@@ -687,6 +690,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   if (sweep) {
     v1::GetSweepRequest request;
     request.set_id(id);
+    request.set_aggregates(true);
     v1::Sweep s;
     const grpc::Status status = stub->GetSweep(&context, request, &s);
     if (!status.ok()) return Report(remote, status);
@@ -702,13 +706,15 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
          std::map<std::string, int>(s.jobs_by_state().begin(), s.jobs_by_state().end()))
       std::printf(", %s %d", Shown(state).c_str(), count);
     std::printf("\nbeds prepared: %d\n", s.beds_prepared());
+    // Hc as the server computed it: each part checked before it is read.
     const nlohmann::json view = ServerSweepJson(remote, s);
-    if (view["critical_thickness"].is_object()) {
-      const nlohmann::json& hc = view["critical_thickness"];
-      if (hc.value("reached", false) && hc["Hc_m"].is_number())
-        std::printf("critical thickness Hc = %.2f cm\n", 100 * hc["Hc_m"].get<double>());
-      else if (hc.contains("note") && hc["note"].is_string())
-        std::printf("%s\n", Shown(hc["note"].get<std::string>()).c_str());
+    const auto hc = view.find("critical_thickness");
+    if (hc != view.end() && hc->is_object()) {
+      const auto hc_m = hc->find("Hc_m"), reached = hc->find("reached"), note = hc->find("note");
+      if (reached != hc->end() && *reached == true && hc_m != hc->end() && hc_m->is_number())
+        std::printf("critical thickness Hc = %.2f cm\n", 100 * hc_m->get<double>());
+      else if (note != hc->end() && note->is_string())
+        std::printf("%s\n", Shown(note->get<std::string>()).c_str());
     }
     return 0;
   }
@@ -762,7 +768,7 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
         "%.3f\n",
         s.value("P_N", 0.0), force("Pa_N").c_str(), force("Pb_N").c_str(),
         100 * s.value("lambda", 0.0), 100 * s.value("crater_depth_m", 0.0),
-        100 * s.value("measured_thickness_m", 0.0), s.value("C0", 0.0));
+        100 * report::MeasuredThickness(s), s.value("C0", 0.0));
   }
   return ExitOfJob(j.state());
 }
@@ -834,8 +840,9 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
     const double force = forces.last();
     // The stage only where it says more than the state; an ended job's time is its last
     // sample's.
-    const std::string stage =
-        message.progress().stage() == api::StateText(state) ? "" : Shown(message.progress().stage());
+    const std::string stage = message.progress().stage() == api::StateText(state)
+                                  ? ""
+                                  : Shown(message.progress().stage());
     const double t = message.progress().sim_time_s() > 0 ? message.progress().sim_time_s() : last_t;
     char line[256];
     std::snprintf(
@@ -861,8 +868,8 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
   if (!status.ok()) return Report(remote, status);
   if (!csv && !tty && last_line != last_printed) std::printf("%s\n", last_line.c_str());
   if (!csv && state == v1::JOB_STATE_DONE) PrintFinalNumbers(*stub, remote, id);
-  Note("job %lld %s; %lld samples received\n", static_cast<long long>(id), api::StateText(state).c_str(),
-       static_cast<long long>(received));
+  Note("job %lld %s; %lld samples received\n", static_cast<long long>(id),
+       api::StateText(state).c_str(), static_cast<long long>(received));
   return Ended(state) ? ExitOfJob(state) : kExitRuntime;
 }
 
@@ -948,53 +955,56 @@ grpc::Status FetchJobResultFiles(v1::Dembuf::Stub& stub, const Remote& remote, c
   return grpc::Status::OK;
 }
 
-int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
-                bool plots, bool force) {
-  auto stub = Connect(remote);
-  const fs::path dir = out_dir;
-  std::error_code error;
-  if (fs::exists(dir) && !fs::is_empty(dir, error)) {
-    if (!force) {
-      std::fprintf(stderr,
-                   "dembuf: %s already exists and is not empty; choose another --out, or pass "
-                   "--force to replace an earlier fetch's files\n",
-                   dir.c_str());
-      return kExitBadInput;
-    }
-    // Only what a fetch writes: a job's files, or a sweep's tables, plots and runs.
-    report::RemoveRunOutputs(dir);
-    for (const char* name : {"sweep.csv", "points.csv", "runs"}) fs::remove_all(dir / name, error);
-    for (const auto& entry : fs::directory_iterator(dir, error))
-      if (entry.path().filename().string().rfind("sweep", 0) == 0) fs::remove(entry.path(), error);
+namespace {
+
+// A finished job's results (its summary and series' start), within ten minutes.
+grpc::Status FetchJobResults(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id,
+                             v1::FetchResultsResponse* result) {
+  grpc::ClientContext context;
+  Prepare(context, remote, 600);
+  v1::FetchResultsRequest request;
+  request.set_id(id);
+  return stub.FetchResults(&context, request, result);
+}
+
+// A job's values go into sweep.csv, points.csv and the table: each must be one of its axis's
+// values, which were checked as values of the field.
+bool HasValuesOfAxes(const v1::Job& job, const std::vector<SweepAxis>& axes) {
+  if (job.sweep_values_size() != static_cast<int>(axes.size())) return false;
+  for (int a = 0; a < job.sweep_values_size(); ++a) {
+    const std::vector<std::string>& allowed = axes[static_cast<std::size_t>(a)].values;
+    if (std::find(allowed.begin(), allowed.end(), job.sweep_values(a)) == allowed.end())
+      return false;
   }
-  auto fetch = [&](std::int64_t job_id, v1::FetchResultsResponse& result) {
-    grpc::ClientContext context;
-    Prepare(context, remote, 600);
-    v1::FetchResultsRequest request;
-    request.set_id(job_id);
-    return stub->FetchResults(&context, request, &result);
-  };
-  if (!sweep) {
-    v1::FetchResultsResponse result;
-    const grpc::Status status = fetch(id, result);
-    if (!status.ok()) return Report(remote, status);
-    if (const grpc::Status series = WriteJobFiles(*stub, remote, result, dir); !series.ok())
-      return Report(remote, series);
-    if (const grpc::Status files = FetchJobResultFiles(*stub, remote, result.job(), dir);
-        !files.ok())
-      return Report(remote, files);
-    std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
-                api::StateText(result.job().state()).c_str(), dir.c_str());
-    if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
-    return ExitOfJob(result.job().state());
-  }
+  return true;
+}
+
+// dembuf fetch ID: the job's folder.
+int FetchJob(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, const fs::path& dir,
+             bool plots) {
+  v1::FetchResultsResponse result;
+  const grpc::Status status = FetchJobResults(stub, remote, id, &result);
+  if (!status.ok()) return Report(remote, status);
+  if (const grpc::Status series = WriteJobFiles(stub, remote, result, dir); !series.ok())
+    return Report(remote, series);
+  if (const grpc::Status files = FetchJobResultFiles(stub, remote, result.job(), dir); !files.ok())
+    return Report(remote, files);
+  std::printf("job %lld (%s): wrote %s\n", static_cast<long long>(id),
+              api::StateText(result.job().state()).c_str(), dir.c_str());
+  if (plots && result.job().state() == v1::JOB_STATE_DONE) PlotIfPossible(dir);
+  return ExitOfJob(result.job().state());
+}
+
+// dembuf fetch --sweep ID: a run folder per finished job, and the sweep's tables.
+int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, const fs::path& dir,
+               bool plots) {
   v1::Sweep s;
   {
     grpc::ClientContext context;
     Prepare(context, remote);
     v1::GetSweepRequest request;
     request.set_id(id);
-    const grpc::Status status = stub->GetSweep(&context, request, &s);
+    const grpc::Status status = stub.GetSweep(&context, request, &s);
     if (!status.ok()) return Report(remote, status);
   }
   v1::ListJobsResponse jobs;
@@ -1004,7 +1014,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     v1::ListJobsRequest request;
     request.set_sweep_id(id);
     request.set_limit(100000);
-    const grpc::Status status = stub->ListJobs(&context, request, &jobs);
+    const grpc::Status status = stub.ListJobs(&context, request, &jobs);
     if (!status.ok()) return Report(remote, status);
   }
   // The server's names become file contents and plot labels here: only scene fields (and the
@@ -1039,14 +1049,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     report::SweepRunReport& run = runs[index];
     run.name = SafeFolderName(job.name(), job.id());
     run.id = job.id();
-    // A job's values go into sweep.csv, points.csv and the table: each must be one of its
-    // axis's values, which were checked as values of the field above.
-    bool values_ok = job.sweep_values_size() == static_cast<int>(axes.size());
-    for (int a = 0; values_ok && a < job.sweep_values_size(); ++a) {
-      const std::vector<std::string>& allowed = axes[static_cast<std::size_t>(a)].values;
-      values_ok = std::find(allowed.begin(), allowed.end(), job.sweep_values(a)) != allowed.end();
-    }
-    if (!values_ok) {
+    if (!HasValuesOfAxes(job, axes)) {
       std::fprintf(stderr,
                    "dembuf: the server at %s sent job %lld of sweep %lld with values that are "
                    "not its sweep's\n",
@@ -1062,12 +1065,12 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
       continue;
     }
     v1::FetchResultsResponse result;
-    const grpc::Status status = fetch(job.id(), result);
+    const grpc::Status status = FetchJobResults(stub, remote, job.id(), &result);
     if (!status.ok()) return Report(remote, status);
     const fs::path run_dir = dir / "runs" / SafeFolderName(job.name(), job.id());
-    if (const grpc::Status series = WriteJobFiles(*stub, remote, result, run_dir); !series.ok())
+    if (const grpc::Status series = WriteJobFiles(stub, remote, result, run_dir); !series.ok())
       return Report(remote, series);
-    if (const grpc::Status files = FetchJobResultFiles(*stub, remote, result.job(), run_dir);
+    if (const grpc::Status files = FetchJobResultFiles(stub, remote, result.job(), run_dir);
         !files.ok())
       return Report(remote, files);
     run.ok = result.job().state() == v1::JOB_STATE_DONE;
@@ -1087,6 +1090,31 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
               summary["failed"].get<int>() - pending, pending);
   if (plots) PlotIfPossible(dir);
   return pending == 0 && summary["failed"].get<int>() == 0 ? 0 : kExitFailed;
+}
+
+}  // namespace
+
+int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
+                bool plots, bool force) {
+  auto stub = Connect(remote);
+  const fs::path dir = out_dir;
+  std::error_code error;
+  if (fs::exists(dir) && !fs::is_empty(dir, error)) {
+    if (!force) {
+      std::fprintf(stderr,
+                   "dembuf: %s already exists and is not empty; choose another --out, or pass "
+                   "--force to replace an earlier fetch's files\n",
+                   dir.c_str());
+      return kExitBadInput;
+    }
+    // Only what a fetch writes: a job's files, or a sweep's tables, plots and runs.
+    report::RemoveRunOutputs(dir);
+    for (const char* name : {"sweep.csv", "points.csv", "runs"}) fs::remove_all(dir / name, error);
+    for (const auto& entry : fs::directory_iterator(dir, error))
+      if (entry.path().filename().string().rfind("sweep", 0) == 0) fs::remove(entry.path(), error);
+  }
+  return sweep ? FetchSweep(*stub, remote, id, dir, plots)
+               : FetchJob(*stub, remote, id, dir, plots);
 }
 
 int RemotePushBeds(const Remote& remote, const RemoteScene& remote_scene,

@@ -39,7 +39,7 @@ struct ListOptions {
   std::int64_t sweep = 0;
   int limit = 20;
   bool sweeps = false;  ///< list sweeps instead of jobs
-  bool json = false;    ///< print JSON (remote_json.h) instead of a table
+  bool json = false;    ///< print JSON (api_json.h) instead of a table
 };
 int RemoteList(const Remote& remote, const ListOptions& options);
 int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json);

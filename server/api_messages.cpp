@@ -31,8 +31,8 @@ void FillProgress(const JobProgress& p, v1::Progress* out) {
   out->set_peak_plate_force_n(p.peak_plate_force_N);
 }
 
-void FillJob(Store& store, Executor& executor, const JobRecord& r, bool with_details,
-             v1::Job* out, bool damaged_summary_fails) {
+void FillJob(Store& store, Executor& executor, const JobRecord& r, bool with_details, v1::Job* out,
+             bool damaged_summary_fails) {
   out->set_id(r.id);
   out->set_sweep_id(r.sweep_id);
   out->set_sweep_index(r.sweep_index);
@@ -92,6 +92,18 @@ void FillSweep(Store& store, const SweepRecord& r, bool with_aggregates, v1::Swe
   if (with_aggregates) out->set_aggregates_json(SweepAggregatesJson(r, store.SweepResults(r.id)));
 }
 
+bool FillSweepList(Store& store, const std::string& owner, int limit,
+                   google::protobuf::RepeatedPtrField<v1::Sweep>* out) {
+  std::int64_t bytes = 0;
+  for (const SweepRecord& sweep : store.ListSweeps(owner, limit)) {
+    v1::Sweep* message = out->Add();
+    FillSweep(store, sweep, false, message);
+    bytes += static_cast<std::int64_t>(message->ByteSizeLong());
+    if (bytes > kMaxListAnswerBytes) return false;
+  }
+  return true;
+}
+
 std::string SweepAggregatesJson(const SweepRecord& r, const std::vector<SweepJobResult>& jobs) {
   // The jobs as the sweep report's runs: done ones with their summaries.
   std::vector<report::SweepRunReport> runs;
@@ -99,9 +111,15 @@ std::string SweepAggregatesJson(const SweepRecord& r, const std::vector<SweepJob
     report::SweepRunReport run;
     run.values = job.sweep_values;
     run.values.resize(r.axes.size());  // (a damaged row cannot make the points fail)
+    run.state = StateName(job.state);
     if (job.state == JobState::kDone && !job.summary_json.empty()) {
-      run.summary = nlohmann::json::parse(job.summary_json, nullptr, /*allow_exceptions=*/false);
-      run.ok = run.summary.is_object();
+      // Only the metrics are kept: a sweep's summaries whole would be held at once.
+      const nlohmann::json summary =
+          nlohmann::json::parse(job.summary_json, nullptr, /*allow_exceptions=*/false);
+      run.ok = summary.is_object();
+      run.summary = nlohmann::json::object();
+      for (const std::string& m : report::SweepMetricNames())
+        if (run.ok && summary.contains(m)) run.summary[m] = summary[m];
     }
     runs.push_back(std::move(run));
   }

@@ -9,6 +9,10 @@
 
 namespace dembuf::server {
 
+/// The most a listing's answer (ListJobs, ListSweeps, the web API's lists) may hold: a longer
+/// one is refused, naming `limit`, before it is built (the clients take answers up to 128 MiB).
+inline constexpr std::int64_t kMaxListAnswerBytes = std::int64_t{64} << 20;
+
 v1::JobState ToProto(JobState state);
 void FillProgress(const JobProgress& progress, v1::Progress* out);
 
@@ -22,9 +26,13 @@ void FillJob(Store& store, Executor& executor, const JobRecord& record, bool wit
 /// The sweep's message; `with_aggregates` adds SweepAggregatesJson of its jobs.
 void FillSweep(Store& store, const SweepRecord& record, bool with_aggregates, v1::Sweep* out);
 
-/// The sweep's points and Hc over its jobs that ended well (the study layer's
-/// SweepAggregates; a job whose summary is damaged counts in no metric), as JSON text.
-std::string SweepAggregatesJson(const SweepRecord& record,
-                                const std::vector<SweepJobResult>& jobs);
+/// The newest `limit` sweeps of `owner` ("" for everyone's) into `out`, without aggregates;
+/// false, with no more added, once they would pass kMaxListAnswerBytes.
+bool FillSweepList(Store& store, const std::string& owner, int limit,
+                   google::protobuf::RepeatedPtrField<v1::Sweep>* out);
+
+/// The sweep's points and Hc (the study layer's SweepAggregates) over all its jobs, only those
+/// done counting in a metric (a job whose summary is damaged in none), as JSON text.
+std::string SweepAggregatesJson(const SweepRecord& record, const std::vector<SweepJobResult>& jobs);
 
 }  // namespace dembuf::server

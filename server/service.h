@@ -58,10 +58,6 @@ inline constexpr int kCallThreads = 8;
 inline constexpr std::size_t kCallsRunningPerUser = 2;
 inline constexpr std::size_t kCallsWaitingPerUser = 64;
 
-/// The most a listing's answer (ListJobs, ListSweeps) may hold: a longer one is refused,
-/// naming `limit`, before it is built (the clients take answers up to 128 MiB).
-inline constexpr std::int64_t kMaxListAnswerBytes = std::int64_t{64} << 20;
-
 class DembufService final : public DembufServiceBase {
  public:
   DembufService(Store& store, Executor& executor, const AccessPolicy& policy, ServiceInfo info,

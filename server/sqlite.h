@@ -78,8 +78,10 @@ class Statement {
   void BindOne(int index, const char* v) { BindOne(index, std::string_view(v)); }
   void BindOne(int index, std::nullopt_t);
   void BindOne(int index, const std::optional<double>& v) {
-    if (v) BindOne(index, *v);
-    else BindOne(index, std::nullopt);
+    if (v)
+      BindOne(index, *v);
+    else
+      BindOne(index, std::nullopt);
   }
   void BindOne(int index, Bytes v);
   friend class Database;

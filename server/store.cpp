@@ -177,24 +177,16 @@ ALTER TABLE jobs ADD COLUMN result_nonce TEXT NOT NULL DEFAULT '';
     R"sql(
 -- A finished job's peak plate force and P, from its summary as it ends, so that a listing
 -- shows them without reading summaries (NULL: not known). Jobs that ended before get them
--- here; a summary that is not JSON, or a value that is not a number, leaves NULL.
+-- at the upgrade (Store::AddMissingPeaksLocked), from summaries that match their checksums.
 ALTER TABLE jobs ADD COLUMN peak_plate_force_N REAL;
 ALTER TABLE jobs ADD COLUMN P_N REAL;
-UPDATE jobs SET
-  peak_plate_force_N = (
-    SELECT json_extract(summary_json, '$.peak_plate_force_N') FROM results
-    WHERE results.job_id = jobs.id AND json_valid(summary_json)
-      AND json_type(summary_json, '$.peak_plate_force_N') IN ('integer', 'real')),
-  P_N = (
-    SELECT json_extract(summary_json, '$.P_N') FROM results
-    WHERE results.job_id = jobs.id AND json_valid(summary_json)
-      AND json_type(summary_json, '$.P_N') IN ('integer', 'real'))
-WHERE state = 'done';
 )sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 // The version that added the checksums of summaries, whole series and result files.
 constexpr int kChecksumsVersion = 8;  // the eighth migration
+// The version that keeps a finished job's peak and P in its row.
+constexpr int kPeaksVersion = 11;
 
 nlohmann::json AxesToJson(const std::vector<SweepAxis>& axes) {
   nlohmann::json out = nlohmann::json::array();
@@ -217,6 +209,18 @@ void CheckSum(const std::string& data, const std::string& sha256, const std::str
 }
 
 constexpr std::int64_t kHashPieceBytes = 1 << 20;
+
+// A done job's peak plate force and P, as its row keeps them: numbers of its summary, else
+// not known.
+std::pair<std::optional<double>, std::optional<double>> PeakAndP(const std::string& summary_json) {
+  const nlohmann::json summary = nlohmann::json::parse(summary_json, nullptr, false);
+  auto number = [&](const char* key) -> std::optional<double> {
+    if (!summary.is_object() || !summary.contains(key) || !summary[key].is_number())
+      return std::nullopt;
+    return summary[key].get<double>();
+  };
+  return {number("peak_plate_force_N"), number("P_N")};
+}
 
 const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
@@ -314,6 +318,7 @@ Store::Store(const std::string& path, StoreOptions options) : m_options(options)
         HideTokensInCommandLinesLocked();
         AddMissingChecksumsLocked();
       }
+      if (v + 1 == kPeaksVersion) AddMissingPeaksLocked();
       t.Commit();
     }
   } catch (const StoreError& e) {
@@ -616,19 +621,14 @@ void Store::FinishJob(std::int64_t id, JobState state, const std::string& error,
       .Run();
   PutJobFilesLocked(id, results.files);
   FaultPoint("kill-during-result-write");  // the series is written, the job not yet done
-  // Its peak and P, for listings: numbers from its summary, else not known.
-  const nlohmann::json summary = nlohmann::json::parse(results.summary_json, nullptr, false);
-  auto number = [&](const char* key) -> std::optional<double> {
-    if (state != JobState::kDone || !summary.is_object() || !summary.contains(key) ||
-        !summary[key].is_number())
-      return std::nullopt;
-    return summary[key].get<double>();
-  };
+  // Its peak and P, for listings.
+  const auto [peak, p] = state == JobState::kDone
+                             ? PeakAndP(results.summary_json)
+                             : std::pair<std::optional<double>, std::optional<double>>();
   m_db->Prepare(
           "UPDATE jobs SET state = ?, error = ?, finished_at = ?, peak_plate_force_N = ?, "
           "P_N = ? WHERE id = ?")
-      .Bind(StateName(state), error, report::UtcNow(), number("peak_plate_force_N"),
-            number("P_N"), id)
+      .Bind(StateName(state), error, report::UtcNow(), peak, p, id)
       .Run();
   t.Commit();
 }
@@ -739,6 +739,29 @@ void Store::AddMissingChecksumsLocked() {
     m_db->Prepare("UPDATE job_files SET sha256 = ? WHERE job_id = ? AND path = ?")
         .Bind(JobFileSha256(id, path, /*locked=*/true), id, path)
         .Run();
+}
+
+void Store::AddMissingPeaksLocked() {
+  // Only from a summary that matches its checksum: a damaged one leaves them not known.
+  std::vector<std::pair<std::int64_t, std::string>> done;
+  Statement& s = m_db->Prepare(
+      "SELECT j.id, r.summary_json, r.summary_sha256 FROM jobs j JOIN results r "
+      "ON r.job_id = j.id WHERE j.state = 'done'");
+  s.Bind();
+  while (s.Step()) {
+    const std::string summary = s.Text(1);
+    try {
+      CheckSum(summary, s.Text(2), "the summary of job " + std::to_string(s.Int(0)));
+      done.push_back({s.Int(0), summary});
+    } catch (const DamagedData&) {
+    }
+  }
+  for (const auto& [id, summary] : done) {
+    const auto [peak, p] = PeakAndP(summary);
+    m_db->Prepare("UPDATE jobs SET peak_plate_force_N = ?, P_N = ? WHERE id = ?")
+        .Bind(peak, p, id)
+        .Run();
+  }
 }
 
 CheckReport Store::Check() {

@@ -336,6 +336,8 @@ class Store {
   void CheckJobFile(std::int64_t id, const std::string& path, bool locked);
   /// Checksums for the rows stored before the database had them (its upgrade).
   void AddMissingChecksumsLocked();
+  /// Done jobs of before the peaks version get their peak and P from intact summaries.
+  void AddMissingPeaksLocked();
   /// Any --token value in the command lines (and summaries) kept before version 8, hidden.
   void HideTokensInCommandLinesLocked();
   void AppendSeriesLocked(std::int64_t id, std::int64_t first,

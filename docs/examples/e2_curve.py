@@ -23,7 +23,7 @@ if pathlib.Path(source).is_dir():
 else:
     with dembuf.connect() as daemon:
         points = daemon.sweep_points(int(source))
-print(points[["bed.thickness_m", "runs", "P_N", "P_N_sd", "P_N_n"]].to_string(index=False))
+print(points[["bed.thickness_m", "P_N", "P_N_sd", "P_N_n"]].to_string(index=False))
 
 fig, ax = plt.subplots(figsize=(6, 4))
 ax.errorbar(points["bed.thickness_m"] * 100, points["P_N"] / 1e3, yerr=points["P_N_sd"] / 1e3,

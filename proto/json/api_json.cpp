@@ -38,7 +38,9 @@ std::vector<std::string> Strings(const google::protobuf::RepeatedPtrField<std::s
 nlohmann::json TextOrNull(const std::string& text) {
   return text.empty() ? nlohmann::json() : nlohmann::json(text);
 }
-nlohmann::json IdOrNull(std::int64_t id) { return id ? nlohmann::json(id) : nlohmann::json(); }
+nlohmann::json IdOrNull(std::int64_t id) {
+  return id ? nlohmann::json(id) : nlohmann::json();
+}
 
 }  // namespace
 
@@ -113,15 +115,15 @@ nlohmann::json SweepJson(const v1::Sweep& sweep, bool details) {
   // The study layer's aggregates as the daemon computed them: points (flat objects, the rows
   // of points.csv, whose header is point_columns), and Hc where there is one (null where the
   // sweep is not over the thickness alone).
-  const nlohmann::json aggregates =
-      ParsedObject(sweep.aggregates_json(),
-                   "sweep " + std::to_string(sweep.id()) + "'s aggregates_json", kMaxAggregatesBytes);
-  const bool whole = aggregates.is_object() && aggregates.contains("points") &&
-                     aggregates["points"].is_array();
-  out["points"] = whole ? aggregates["points"] : nlohmann::json::array();
-  out["point_columns"] = whole && aggregates.contains("point_columns")
-                             ? aggregates["point_columns"]
-                             : nlohmann::json::array();
+  const nlohmann::json aggregates = ParsedObject(
+      sweep.aggregates_json(), "sweep " + std::to_string(sweep.id()) + "'s aggregates_json",
+      kMaxAggregatesBytes);
+  const bool whole =
+      aggregates.is_object() && aggregates.contains("points") && aggregates["points"].is_array();
+  // (null where the server sent none: a daemon before aggregates)
+  out["points"] = whole ? aggregates["points"] : nlohmann::json();
+  out["point_columns"] = whole && aggregates.contains("point_columns") ? aggregates["point_columns"]
+                                                                       : nlohmann::json();
   out["Hc_m"] = whole && aggregates.contains("Hc_m") ? aggregates["Hc_m"] : nlohmann::json();
   out["critical_thickness"] = whole && aggregates.contains("critical_thickness")
                                   ? aggregates["critical_thickness"]

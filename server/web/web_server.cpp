@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "api_json.h"
+#include "api_messages.h"
 #include "auth.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/version.h"
@@ -318,8 +320,7 @@ class WebServer::Routes {
                                "\" must be queued, preparing_bed, running, done, failed or "
                                "cancelled"};
     }
-    // Everyone but an admin sees their own jobs only.
-    if (!caller.admin) filter.owner = AccessPolicy::OwnerFor(caller, "");
+    filter.owner = AccessPolicy::ListedOwner(caller, "");
     filter.with_scene = false;  // a listing shows no scene
     nlohmann::json jobs = nlohmann::json::array();
     for (const JobRecord& job : m_store.ListJobs(filter))
@@ -329,24 +330,16 @@ class WebServer::Routes {
 
   void ListSweeps(const Caller& caller, const Request& req, Response& res) {
     const int limit = static_cast<int>(ParamNumber(req, "limit", 100, 1, 1000));
+    // The sweeps as `dembuf list --sweeps --json` has them, from the same messages.
+    v1::ListSweepsResponse listed;
+    if (!FillSweepList(m_store, AccessPolicy::ListedOwner(caller, ""), limit,
+                       listed.mutable_sweeps()))
+      throw Refusal{400, "limit: the " + std::to_string(limit) +
+                             " newest sweeps would make an answer of more than " +
+                             std::to_string(kMaxListAnswerBytes >> 20) +
+                             " MiB; ask for fewer (limit)"};
     nlohmann::json sweeps = nlohmann::json::array();
-    for (const SweepRecord& sweep : m_store.ListSweeps(caller.admin ? "" : caller.name, limit)) {
-      nlohmann::json by_state = nlohmann::json::object();
-      int total = 0;
-      for (const auto& [state, count] : m_store.SweepStateCounts(sweep.id)) {
-        by_state[state] = count;
-        total += count;
-      }
-      nlohmann::json fields = nlohmann::json::array();
-      for (const SweepAxis& axis : sweep.axes) fields.push_back(axis.field);
-      sweeps.push_back({{"id", sweep.id},
-                        {"name", sweep.name},
-                        {"owner", sweep.owner},
-                        {"created_at", sweep.created_at},
-                        {"fields", fields},
-                        {"jobs_total", total},
-                        {"jobs_by_state", by_state}});
-    }
+    for (const v1::Sweep& sweep : listed.sweeps()) sweeps.push_back(api::SweepJson(sweep, false));
     SendJson(res, {{"sweeps", sweeps}});
   }
 

@@ -23,8 +23,8 @@ nlohmann::json JobJson(Store& store, Executor& executor, const JobRecord& job, b
 /// what the sweep's page adds: its jobs, each with its index, values and state.
 nlohmann::json SweepJson(Store& store, const SweepRecord& sweep);
 
-/// A batch of samples from index `first`, as JSON text of columns (`t_s`, `plate_force_N`,
-/// `wall_force_z_N`, `proj_z_m`, `proj_force_z_N`; every double exact, null if not finite).
+/// A batch of samples from index `first`, as JSON text of columns (plate_force.csv's, from
+/// report::SampleColumns(); every double exact, null if not finite).
 /// Written directly, not through a JSON tree: every open page encodes each sample, and this
 /// is several times cheaper.
 std::string SamplesJson(std::int64_t first, const std::vector<ImpactSample>& samples);

@@ -174,10 +174,11 @@ import json, sys
 hc = json.load(open(sys.argv[1]))["critical_thickness"]
 low, high = hc["bracket_m"]
 assert hc["method"] == "bisection" and low <= hc["search_ended_m"] <= high, hc
-assert high - low <= 0.002 and hc["Hc_sd_m"] > 0, hc
+assert high - low <= 0.002 and (hc["Hc_sd_m"] > 0 if hc["reached"] else hc["Hc_sd_m"] is None), hc
 assert len(hc["steps"]) == 2 + 2, hc["steps"]  # the ends, then 6 mm halved twice
 upper_start = hc["steps"][2]["mean_P_N"] / hc["plateau_P_N"] - 1  # the first midpoint, 7 mm
-assert hc["reached"] == (upper_start <= 0.10), hc
+assert hc["reached"] == (abs(upper_start) <= 0.10), hc
+assert abs(hc["upper_half_change"] + upper_start) < 1e-12, hc  # signed: negative, P falls
 assert hc["Hc_m"] == (hc["search_ended_m"] if hc["reached"] else None), hc
 assert hc["reached"] or hc["note"].startswith("Hc not reached in 0.4-1 cm (P still falls"), hc
 print("reached" if hc["reached"] else "not reached")
@@ -186,7 +187,7 @@ PY
 if [ "$(cat "$work/hc.check")" = reached ]; then
   grep -q "^Hc = " "$work/hc.log" || fail "find-hc printed no Hc"
 else
-  grep -q "^note: Hc not reached" "$work/hc.log" || fail "find-hc printed no reason"
+  grep -q "^Hc not reached in 0.4-1 cm" "$work/hc.log" || fail "find-hc printed no reason"
 fi
 if "$dembuf" sweep --find-hc 0.004:0.01 --vary projectile.mass_kg=1,2 2> "$work/err"; then
   fail "--find-hc with --vary"

@@ -54,15 +54,23 @@ TEST(HcSearch, NoHcWherePStillFallsOverTheUpperHalf) {
   const HcSearchResult r =
       FindCriticalThickness([](double h) { return std::vector<double>{SmoothP(h)}; }, o);
   EXPECT_FALSE(r.reached);
-  EXPECT_GT(r.upper_half_change, 0.10);
-  EXPECT_NEAR(r.upper_half_change, SmoothP(0.0085) / SmoothP(0.012) - 1.0, 1e-12);
+  EXPECT_LT(r.upper_half_change, -0.10);  // signed as the grid rule's: P falls
+  EXPECT_NEAR(r.upper_half_change, 1.0 - SmoothP(0.0085) / SmoothP(0.012), 1e-12);
   EXPECT_NE(r.note.find("Hc not reached in 0.5-1.2 cm (P still falls"), std::string::npos)
       << r.note;
+  // A P that dips and rises again by 30% towards the deep end has no plateau there either.
+  const HcSearchResult rising = FindCriticalThickness(
+      [](double h) {
+        return std::vector<double>{h < 0.0085 ? SmoothP(h) : 1000.0 * (1.0 + 100.0 * (h - 0.0085))};
+      },
+      o);
+  EXPECT_FALSE(rising.reached);
+  EXPECT_NE(rising.note.find("(P still rises"), std::string::npos) << rising.note;
   // The levelled curve of the first test reaches it.
   const HcSearchResult levelled =
       FindCriticalThickness([](double h) { return std::vector<double>{SmoothP(h)}; }, {});
   EXPECT_TRUE(levelled.reached);
-  EXPECT_LE(levelled.upper_half_change, 0.10);
+  EXPECT_GE(levelled.upper_half_change, -0.10);
 }
 
 // Seeds scatter P by +-5%: Hc's uncertainty widens to cover it, and the truth is inside

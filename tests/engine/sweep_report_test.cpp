@@ -99,8 +99,8 @@ TEST(SweepPoints, AreFlatRecordsOfThePointColumns) {
 TEST(SweepPoints, PointsCsvIsTheirRows) {
   const std::filesystem::path dir = test::TempPath("sweep");
   std::FILE* table = std::tmpfile();
-  const nlohmann::json summary =
-      WriteSweepReport(dir, kThicknessAndSeed, TwoThicknessesTwoSeeds(), nlohmann::json::object(), table);
+  const nlohmann::json summary = WriteSweepReport(dir, kThicknessAndSeed, TwoThicknessesTwoSeeds(),
+                                                  nlohmann::json::object(), table);
   std::fclose(table);
   std::ifstream csv(dir / "points.csv");
   std::string header, row;
@@ -110,9 +110,22 @@ TEST(SweepPoints, PointsCsvIsTheirRows) {
     wanted += (wanted.empty() ? "" : ",") + c;
   EXPECT_EQ(header, wanted);
   std::getline(csv, row);
-  EXPECT_EQ(row.substr(0, row.find(",,")), "0.01,2,4100,141.4213562,2");
+  // Every number exact (the JSON's double in its shortest text).
+  EXPECT_EQ(row.substr(0, row.find(",,")), "0.01,2,4100,141.4213562373095,2");
   // The summary's points are the same records.
   EXPECT_EQ(summary["points"], SweepPoints(kThicknessAndSeed, TwoThicknessesTwoSeeds()));
+}
+
+TEST(SweepPoints, AreInTheOrderOfTheirValues) {
+  // Speeds 2, 5 and 10 were ordered as text: 10, 2, 5 (a line plot zigzagged).
+  const std::vector<SweepAxis> axes = {{"projectile.speed_m_s", {"2", "5", "10"}}};
+  std::vector<SweepRunReport> runs(3);
+  for (int k = 0; k < 3; ++k) runs[k].values = {axes[0].values[k]};
+  const nlohmann::json points = SweepPoints(axes, runs);
+  ASSERT_EQ(points.size(), 3u);
+  EXPECT_EQ(points[0]["projectile.speed_m_s"], 2);
+  EXPECT_EQ(points[1]["projectile.speed_m_s"], 5);
+  EXPECT_EQ(points[2]["projectile.speed_m_s"], 10);
 }
 
 TEST(SweepAggregates, AThicknessSweepCarriesItsHc) {
@@ -134,6 +147,20 @@ TEST(SweepAggregates, AThicknessSweepCarriesItsHc) {
   EXPECT_EQ(aggregates["points"].size(), 17u);
   EXPECT_NEAR(aggregates["Hc_m"].get<double>(), 0.025, 1e-12);
   EXPECT_TRUE(aggregates["critical_thickness"]["reached"].get<bool>());
+  // While runs are still to come, no Hc: the thin beds run first, and the three thinnest
+  // levelled off would have given one over a range cut short.
+  std::vector<SweepRunReport> under_way = runs;
+  for (std::size_t k = 3; k < under_way.size(); ++k) {
+    under_way[k].ok = false;
+    under_way[k].summary = nullptr;
+    under_way[k].state = k == 3 ? "running" : "queued";
+  }
+  for (std::size_t k = 0; k < 3; ++k) under_way[k].summary = {{"P_N", 1000.0}};  // flat
+  const nlohmann::json partial = SweepAggregates(axes, under_way);
+  EXPECT_TRUE(partial["Hc_m"].is_null()) << partial["critical_thickness"].dump();
+  EXPECT_EQ(partial["critical_thickness"]["pending_runs"], 14);
+  EXPECT_NE(partial["critical_thickness"]["note"].get<std::string>().find("14 of 17 runs still"),
+            std::string::npos);
   // Not a thickness sweep alone: no Hc at all.
   EXPECT_FALSE(SweepAggregates(kThicknessAndSeed, TwoThicknessesTwoSeeds()).contains("Hc_m"));
 }

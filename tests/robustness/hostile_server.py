@@ -21,7 +21,7 @@ FILES = {
     6: [("snapshots.pvd", b"<VTKFile/>\n"),                  # what the API defines, in
         ("snapshots/peak/beads.vtp", b"<VTKFile/>\n")],      # path order
 }
-# Sweep id -> its jobs_total (sweeps 3 to 5 below).
+# Sweep id -> its jobs_total (sweeps 3 to 8 below).
 JOBS_TOTAL = {1: -1, 2: 2_000_000_000}
 # Job 7's summary: JSON nested 100,000 deep (the client's JSON library recursed on it).
 DEEP_SUMMARY = "{\"a\": " * 100_000 + "1" + "}" * 100_000
@@ -99,6 +99,12 @@ class Hostile(pb_grpc.DembufServicer):
             sweep.aggregates_json = (
                 '{"points": [], "critical_thickness": {"reached": false, "Hc_m": null, '
                 '"note": "Hc ' + ESCAPES_JSON + ' not reached"}}')
+        if request.id == 7:  # an Hc said reached, without its value
+            sweep.aggregates_json = '{"points": [], "critical_thickness": {"reached": true}}'
+        if request.id == 8:  # "reached" not a boolean
+            sweep.aggregates_json = '{"points": [], "critical_thickness": {"reached": 1, "Hc_m": 2}}'
+        if request.id == 6:  # points that are no table of numbers
+            sweep.aggregates_json = '{"points": [{"runs": "rm -rf"}], "point_columns": ["runs"]}'
         return sweep
 
     def ListJobs(self, request, context):

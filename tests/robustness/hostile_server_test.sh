@@ -60,6 +60,12 @@ expect_exit 1 "the server at $DEMBUF_SERVER sent sweep 4's aggregates_json: nest
   "$dembuf" status --sweep 4
 "$dembuf" status --sweep 5 > "$work/sweep5" 2>&1 || fail "status --sweep 5: $(cat -v "$work/sweep5")"
 grep -q "^Hc ?\[2J?\]0;owned? not reached$" "$work/sweep5" || fail "the Hc note: $(cat -v "$work/sweep5")"
+# An Hc said reached without its value, and one whose "reached" is no boolean: no Hc printed,
+# no crash (a missing key was read past the end of its map).
+for sweep in 7 8; do
+  "$dembuf" status --sweep $sweep > "$work/sweep$sweep" 2>&1 || fail "status --sweep $sweep: $(cat "$work/sweep$sweep")"
+  if grep -q "critical thickness" "$work/sweep$sweep"; then fail "sweep $sweep: $(cat "$work/sweep$sweep")"; fi
+done
 # A watch of 20 million samples: the client kept every one (1.2 GB in 15 s from a fast server).
 "$dembuf" watch 8 > /dev/null 2> "$work/err" &
 watcher=$!
@@ -106,6 +112,7 @@ import dembuf
 client = dembuf.Client(sys.argv[2], owner="me")
 for call, words in [(lambda: client.job(7), "nested deeper than 64 levels"),
                     (lambda: client.sweep_points(4), "nested deeper than 64 levels"),
+                    (lambda: client.sweep_points(6), "not a table of numbers"),
                     (lambda: client.series(9), "announced 4611686018427387904 samples"),
                     (lambda: client.server_info(), "compressed answer")]:
     try:

@@ -265,14 +265,15 @@ TEST_F(StoreTest, AFinishedJobsPeakAndPAreInItsRecord) {
     db.Execute(
         "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
         "PRAGMA user_version = 10");
-    db.Execute("UPDATE results SET summary_json = 'not json' WHERE job_id = " +
+    // A summary changed since it was stored (valid JSON, another P): its checksum fails.
+    db.Execute("UPDATE results SET summary_json = '{\"P_N\": 9999}' WHERE job_id = " +
                std::to_string(ids[2]));
   }
   Store store(path.string());
   EXPECT_EQ(store.GetJob(ids[0])->peak_plate_force_N, 3559.3);
   EXPECT_EQ(store.GetJob(ids[0])->P_N, 2500.5);
   EXPECT_FALSE(store.GetJob(ids[1])->P_N.has_value());
-  EXPECT_FALSE(store.GetJob(ids[2])->P_N.has_value());  // a damaged summary stops nothing
+  EXPECT_FALSE(store.GetJob(ids[2])->P_N.has_value());  // not taken from a damaged summary
 }
 
 // A listing reads no scenes and stops at its byte bound (100,000 jobs of long command lines

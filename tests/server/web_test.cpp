@@ -9,11 +9,11 @@
 #include <map>
 #include <thread>
 
+#include "api_messages.h"
 #include "config.h"
 #include "dembuf/study/files/run_output.h"
 #include "job_feed.h"
 #include "sessions.h"
-#include "api_messages.h"
 #include "store.h"
 #include "stream_limits.h"
 #include "web_views.h"
@@ -162,8 +162,8 @@ TEST_F(JobFeedTest, AQueuedJobWaitsAndAMissingOneIsNotFound) {
 }
 
 TEST_F(JobFeedTest, ASweepsPointsAreItsDoneJobsOverTheSeeds) {
-  SweepRecord sweep{0, "ada", "speeds",
-                    {{"projectile.speed_m_s", {"1", "2"}}, {"bed.seed", {"1", "2"}}}, ""};
+  SweepRecord sweep{
+      0, "ada", "speeds", {{"projectile.speed_m_s", {"1", "2"}}, {"bed.seed", {"1", "2"}}}, ""};
   std::vector<JobRecord> jobs(4);
   const std::vector<std::vector<std::string>> values = {
       {"1", "1"}, {"1", "2"}, {"2", "1"}, {"2", "2"}};
@@ -210,8 +210,8 @@ TEST_F(JobFeedTest, AJobsPeakIsItsSummarysOrElseTheRunningJobs) {
   auto live = std::make_shared<LiveJob>(id);
   live->SetState(JobState::kRunning);
   executor.live[id] = live;
-  EXPECT_TRUE(web::JobJson(*store, executor, *store->GetJob(id), false)["peak_plate_force_N"]
-                  .is_null());
+  EXPECT_TRUE(
+      web::JobJson(*store, executor, *store->GetJob(id), false)["peak_plate_force_N"].is_null());
   live->Append(Sample(100));
   EXPECT_EQ(web::JobJson(*store, executor, *store->GetJob(id), false)["peak_plate_force_N"],
             Sample(100).plate_force_N);

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import pwd
 import pathlib
@@ -127,7 +128,7 @@ def _server_json(text: str, what: str,
                  max_bytes: int = frames.MAX_SUMMARY_BYTES) -> dict | None:
     """A JSON object a server sent as text (a summary, a sweep's aggregates); None for none."""
     try:
-        return frames.parse_summary(text, what, max_bytes) or None
+        return frames.parse_json_object(text, what, max_bytes) or None
     except ValueError as e:
         raise DembufError("DATA_LOSS", f"the server sent {e}") from None
 
@@ -145,8 +146,10 @@ def _job_json(j, details: bool = True) -> dict:
         "command_line": j.command_line,
         "progress": {"stage": p.stage, "fraction": p.fraction, "sim_time_s": p.sim_time_s,
                      "steps": p.steps, "peak_plate_force_N": p.peak_plate_force_N},
-        "peak_plate_force_N": p.peak_plate_force_N if p.peak_plate_force_N > 0 else None,
-        "P_N": j.P_N if j.HasField("P_N") else None,
+        # (A number that is not finite is null, as in JSON.)
+        "peak_plate_force_N": (p.peak_plate_force_N if 0 < p.peak_plate_force_N < math.inf
+                               else None),
+        "P_N": j.P_N if j.HasField("P_N") and math.isfinite(j.P_N) else None,
         "slurm_job_id": j.slurm_job_id or None,
     } | ({
         "scene_toml": j.scene_toml, "scene_hash": j.scene_hash, "bed_hash": j.bed_hash,
@@ -426,7 +429,7 @@ class Client:
             if j.state == pb.JOB_STATE_DONE:
                 full = self._call(self._stub.GetJob, pb.GetJobRequest(id=j.id))
                 try:
-                    summary = frames.parse_summary(full.summary_json,
+                    summary = frames.parse_json_object(full.summary_json,
                                                    f"job {j.id}'s summary_json")
                 except ValueError as e:
                     raise DembufError("DATA_LOSS", f"the server sent {e}") from None
@@ -442,16 +445,21 @@ class Client:
         of a fetched sweep's points.csv (read_points): the swept values but bed.seed, `runs`,
         and per metric M its mean `M`, sample standard deviation `M_sd` (NaN for one run)
         and number `M_n` over the runs that ended well."""
-        info = self._call(self._stub.GetSweep, pb.GetSweepRequest(id=sweep))
+        info = self._call(self._stub.GetSweep, pb.GetSweepRequest(id=sweep, aggregates=True))
         aggregates = _server_json(info.aggregates_json, f"sweep {sweep}'s aggregates_json",
                                   frames.MAX_AGGREGATES_BYTES)
-        if not aggregates or not isinstance(aggregates.get("points"), list):
+        points = (aggregates or {}).get("points")
+        columns = (aggregates or {}).get("point_columns")
+        if not isinstance(points, list) or not isinstance(columns, list) or "runs" not in columns:
             raise DembufError("DATA_LOSS", f"the server sent sweep {sweep} without its points")
-        columns = aggregates.get("point_columns") or []
-        frame = pd.DataFrame(aggregates["points"], columns=columns)
-        # The counts and metrics as numbers, a value not known NaN, as read_points reads them.
-        for column in columns[columns.index("runs"):] if "runs" in columns else []:
-            frame[column] = pd.to_numeric(frame[column])
+        try:
+            frame = pd.DataFrame(points, columns=columns)
+            # The counts and metrics as numbers, a value not known NaN, as read_points has them.
+            for column in columns[columns.index("runs"):]:
+                frame[column] = pd.to_numeric(frame[column])
+        except (ValueError, TypeError) as e:
+            raise DembufError("DATA_LOSS", f"the server sent sweep {sweep}'s points "
+                              f"that are not a table of numbers: {e}") from None
         return frame
 
     def server_info(self) -> dict:

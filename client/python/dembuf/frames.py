@@ -73,7 +73,7 @@ def json_depth(text: str) -> int:
     return deepest
 
 
-def parse_summary(text: str, what: str, max_bytes: int = MAX_SUMMARY_BYTES) -> dict:
+def parse_json_object(text: str, what: str, max_bytes: int = MAX_SUMMARY_BYTES) -> dict:
     """A JSON object from outside (a summary, a sweep's aggregates), within the bounds."""
     if not text:
         return {}
@@ -112,7 +112,7 @@ def read_run(folder: str | os.PathLike) -> Run:
     if summary_path.is_file():
         if summary_path.stat().st_size > MAX_SUMMARY_BYTES:
             raise ValueError(f"{summary_path}: larger than {MAX_SUMMARY_BYTES} bytes")
-        summary = parse_summary(summary_path.read_text(), str(summary_path))
+        summary = parse_json_object(summary_path.read_text(), str(summary_path))
     return Run(series=series, summary=summary, folder=folder)
 
 
@@ -146,7 +146,8 @@ def sweep_axes(frame: pd.DataFrame) -> list[str]:
 def read_points(folder: str | os.PathLike) -> pd.DataFrame:
     """A sweep folder's points.csv, as dembuf computed it (the same rows as
     Client.sweep_points() for a sweep on the daemon): one row per point, with the swept
-    values but bed.seed, `runs`, and per metric M its mean over the runs that ended well `M`,
-    their sample standard deviation `M_sd` (empty for one run) and their number `M_n`."""
+    values but bed.seed, `runs` (however they ended), and per metric M, over the runs that
+    ended well: the mean `M`, the sample standard deviation `M_sd` (NaN for one run) and
+    their number `M_n`. A points.csv of a dembuf before `runs` has the metrics alone."""
     return pd.read_csv(pathlib.Path(folder) / "points.csv", keep_default_na=False,
                        na_values=[""])

@@ -53,7 +53,7 @@ async function refreshSweeps() {
       el("td", { class: "num" }, el("a", { href: `/sweeps/${sweep.id}` }, sweep.id)),
       el("td", {}, el("a", { href: `/sweeps/${sweep.id}` }, sweep.name)),
       el("td", { class: "hide-narrow" }, sweep.owner),
-      el("td", {}, sweep.fields.join(", ")),
+      el("td", {}, sweep.axes.map((a) => a.field).join(", ")),
       el("td", {}, bar),
       el("td", { class: "hide-narrow" }, when(sweep.created_at)));
   }));

@@ -127,7 +127,8 @@ function showResults(job) {
       figure("bare plate Pa0", force(s.reference_peak_N), s.reference_peak_N),
       figure("λ (buffer ratio)", percent(s.lambda), s.lambda),
       figure("crater depth", s.crater_depth_m === undefined ? "–" : `${sig(100 * s.crater_depth_m, 3)} cm`, s.crater_depth_m),
-      figure("bed H", `${sig(100 * s.measured_thickness_m, 3)} cm`, s.measured_thickness_m),
+      // (bed_thickness_m: a summary of an earlier dembuf)
+      figure("bed H", `${sig(100 * (s.measured_thickness_m ?? s.bed_thickness_m), 3)} cm`, s.measured_thickness_m ?? s.bed_thickness_m),
       figure("C0", sig(s.C0, 3), s.C0),
       figure("beads", (s.beads || 0).toLocaleString(), s.beads),
       figure("steps", (s.steps || 0).toLocaleString(), s.steps),

@@ -65,7 +65,7 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
   std::vector<std::string> warnings = SceneWarnings(scene);
   for (std::string& w : ResultWarnings(s)) warnings.push_back(std::move(w));
   nlohmann::json curve = nlohmann::json::array();
-  for (const auto& point : s.damping.restitution_curve)
+  for (const auto& point : s.contact_damping.restitution_curve)
     curve.push_back({{"speed_m_s", point.speed_m_s}, {"restitution", point.restitution}});
   nlohmann::json j = {
       {"dembuf_version", kVersion},
@@ -78,10 +78,10 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
       {"steps", s.steps},
       {"wall_time_s", s.wall_time_s},
       {"damping",
-       {{"A_s", s.damping.damping_A_s},
-        {"target_restitution", s.damping.target_restitution},
-        {"v_ref_m_s", s.damping.ref_speed_m_s},
-        {"e_at_vref", s.damping.restitution_at_ref},
+       {{"A_s", s.contact_damping.damping_A_s},
+        {"target_restitution", s.contact_damping.target_restitution},
+        {"v_ref_m_s", s.contact_damping.ref_speed_m_s},
+        {"e_at_vref", s.contact_damping.restitution_at_ref},
         {"restitution_vs_speed", curve}}},
       {"bed_surface_m", s.bed_surface_m},
       {"free_flight_s", s.free_flight_s},
@@ -136,6 +136,13 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
   j["first_contact_time_s"] =
       s.first_contact_time_s >= 0.0 ? nlohmann::json(s.first_contact_time_s) : nlohmann::json();
   return j;
+}
+
+double MeasuredThickness(const nlohmann::json& summary) {
+  for (const char* key : {"measured_thickness_m", "bed_thickness_m"})
+    if (summary.is_object() && summary.contains(key) && summary[key].is_number())
+      return summary[key].get<double>();
+  return 0.0;
 }
 
 std::span<const SampleColumn> SampleColumns() {

@@ -46,7 +46,7 @@ HcSearchResult FindCriticalThickness(const PeakForcesAt& peak_forces_at, const H
   HcPoint high = plateau;
   if (low.mean_N <= r.threshold_N) {
     r.reached = true;
-    r.upper_half_change = low.mean_N / plateau.mean_N - 1.0;
+    r.upper_half_change = 1.0 - low.mean_N / plateau.mean_N;
     r.hc_m = o.low_m;
     r.bracket_low_m = r.bracket_high_m = o.low_m;
     r.note =
@@ -82,13 +82,16 @@ HcSearchResult FindCriticalThickness(const PeakForcesAt& peak_forces_at, const H
              " steps with the bracket still wider than the tolerance";
   // The first midpoint is the upper half's start: P levelled off only if it is on the plateau.
   const HcPoint& upper_start = r.points.size() > 2 ? r.points[2] : low;
-  r.upper_half_change = upper_start.mean_N / plateau.mean_N - 1.0;
-  r.reached = upper_start.mean_N <= r.threshold_N;
+  // As the grid rule: P may change by at most the margin either way (a P that rises again
+  // towards the deep end has no plateau there either).
+  r.upper_half_change = 1.0 - upper_start.mean_N / plateau.mean_N;
+  r.reached = std::abs(r.upper_half_change) <= o.margin;
   if (!r.reached) {
     char note[160];
     std::snprintf(note, sizeof note,
-                  "Hc not reached in %.3g-%.3g cm (P still falls %.0f%% over the upper half)",
-                  100 * o.low_m, 100 * o.high_m, 100 * r.upper_half_change);
+                  "Hc not reached in %.3g-%.3g cm (P still %s %.0f%% over the upper half)",
+                  100 * o.low_m, 100 * o.high_m, r.upper_half_change < 0 ? "falls" : "rises",
+                  100 * std::abs(r.upper_half_change));
     r.note = note;
   }
   return r;

@@ -6,7 +6,6 @@
 #include <fstream>
 #include <limits>
 #include <map>
-#include <string_view>
 
 #include "dembuf/study/files/run_output.h"
 
@@ -27,6 +26,39 @@ std::vector<std::size_t> PointAxes(const std::vector<SweepAxis>& axes) {
     if (axes[a].field != "bed.seed") point_axes.push_back(a);
   return point_axes;
 }
+
+// A JSON value as a CSV cell: a number exactly, in its shortest text (swept values 2e-14
+// apart stay apart, and a reader gets the JSON's doubles); a text quoted where it holds a
+// comma, a quote or a line's end; null empty.
+std::string CsvCell(const nlohmann::json& value) {
+  if (value.is_number_integer()) return std::to_string(value.get<std::int64_t>());
+  if (value.is_number()) {
+    char text[32];
+    return std::string(text, std::to_chars(text, text + sizeof text, value.get<double>()).ptr);
+  }
+  if (!value.is_string()) return "";
+  const std::string text = value.get<std::string>();
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+// Points in the order of their values: numbers by value (2 before 10), text by characters,
+// a number before a text.
+struct ValuesOrder {
+  bool operator()(const std::vector<std::string>& a, const std::vector<std::string>& b) const {
+    for (std::size_t k = 0; k < std::min(a.size(), b.size()); ++k) {
+      const nlohmann::json x = SweepValueJson(a[k]), y = SweepValueJson(b[k]);
+      const bool x_number = x.is_number(), y_number = y.is_number();
+      if (x_number != y_number) return x_number;
+      if (x_number && x.get<double>() != y.get<double>()) return x.get<double>() < y.get<double>();
+      if (!x_number && a[k] != b[k]) return a[k] < b[k];
+      if (x_number && a[k] != b[k]) return a[k] < b[k];  // equal values, other texts (1, 1.0)
+    }
+    return a.size() < b.size();
+  }
+};
 
 // The table of points on the terminal: the swept values, runs, and P, lambda, crater depth
 // and C0 as mean +- sd.
@@ -173,7 +205,7 @@ std::vector<std::string> SweepPointColumns(const std::vector<SweepAxis>& axes) {
 nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
                            const std::vector<SweepRunReport>& runs) {
   const std::vector<std::size_t> point_axes = PointAxes(axes);
-  std::map<std::vector<std::string>, std::vector<std::size_t>> points;
+  std::map<std::vector<std::string>, std::vector<std::size_t>, ValuesOrder> points;
   for (std::size_t j = 0; j < runs.size(); ++j) {
     std::vector<std::string> key;
     for (std::size_t a : point_axes) key.push_back(runs[j].values.at(a));
@@ -207,9 +239,23 @@ nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
 nlohmann::json SweepAggregates(const std::vector<SweepAxis>& axes,
                                const std::vector<SweepRunReport>& runs) {
   nlohmann::json aggregates = {{"points", SweepPoints(axes, runs)},
-                                {"point_columns", SweepPointColumns(axes)}};
+                               {"point_columns", SweepPointColumns(axes)}};
   const std::vector<std::size_t> point_axes = PointAxes(axes);
   if (point_axes.size() != 1 || axes[point_axes[0]].field != "bed.thickness_m") return aggregates;
+  // Hc once the sweep has ended: the thin beds run first, and a range cut short may look flat.
+  const auto pending = std::count_if(runs.begin(), runs.end(), [](const SweepRunReport& run) {
+    return run.state == "queued" || run.state == "preparing_bed" || run.state == "running";
+  });
+  if (pending > 0) {
+    aggregates["Hc_m"] = nullptr;
+    aggregates["critical_thickness"] = {
+        {"Hc_m", nullptr},
+        {"reached", false},
+        {"pending_runs", pending},
+        {"note", "Hc when the sweep has ended: " + std::to_string(pending) + " of " +
+                     std::to_string(runs.size()) + " runs still to come"}};
+    return aggregates;
+  }
   std::vector<std::pair<double, double>> h_to_p;
   for (const nlohmann::json& point : aggregates["points"])
     if (point["bed.thickness_m"].is_number() && point["P_N"].is_number())
@@ -241,7 +287,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     const SweepRunReport& r = runs[j];
     csv << j << ",";
     if (r.id != 0) csv << r.id;
-    for (const auto& v : r.values) csv << "," << v;
+    for (const auto& v : r.values) csv << "," << CsvCell(v);
     csv << "," << RunStatus(r);
     for (const auto& m : SweepMetricNames()) {
       csv << ",";
@@ -258,27 +304,11 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   // points.csv: the points' records, one row each (what the plots read).
   const std::vector<std::string> columns = SweepPointColumns(axes);
   std::ofstream points_csv(dir / "points.csv");
-  points_csv.precision(10);
   for (std::size_t c = 0; c < columns.size(); ++c) points_csv << (c ? "," : "") << columns[c];
   points_csv << "\n";
-  const std::size_t swept = PointAxes(axes).size();  // the first columns: swept values
   for (const nlohmann::json& point : aggregates["points"]) {
-    for (std::size_t c = 0; c < columns.size(); ++c) {
-      const nlohmann::json& cell = point[columns[c]];
-      if (c) points_csv << ",";
-      if (cell.is_string()) {
-        points_csv << cell.get<std::string>();
-      } else if (cell.is_number_integer()) {
-        points_csv << cell.get<std::int64_t>();
-      } else if (cell.is_number() && c < swept) {
-        // A swept value exactly, in its shortest text: values 2e-14 apart stay apart.
-        char text[32];
-        points_csv << std::string_view(
-            text, std::to_chars(text, text + sizeof text, cell.get<double>()).ptr - text);
-      } else if (cell.is_number()) {
-        points_csv << cell.get<double>();
-      }
-    }
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      points_csv << (c ? "," : "") << CsvCell(point[columns[c]]);
     points_csv << "\n";
   }
   PrintPoints(axes, aggregates["points"], table);

@@ -45,6 +45,10 @@ double SampleValue(const ImpactSample& sample, const SampleColumn& column);
 nlohmann::json SummaryToJson(const ImpactSummary& summary, const Scene& scene,
                              const RunContext& run);
 
+/// The bed's measured height in a summary.json: `measured_thickness_m`, or in a summary of an
+/// earlier dembuf `bed_thickness_m`; 0 where neither is a number.
+double MeasuredThickness(const nlohmann::json& summary);
+
 /// Streams samples to CSV. Writes to NAME.partial and renames to NAME on Commit(), so that a
 /// file with the final name is always complete.
 class SampleCsvWriter {

@@ -2,7 +2,7 @@
 // (10%) of its plateau, found by bisection instead of read off a fixed grid.
 //
 // The plateau is P at the deepest thickness of the range (mean over seeds); the threshold is
-// (1 + margin) times it, which is lambda reaching 1 - (1 + margin)(1 - lambda_plateau). As
+// (1 + margin) times it, which is lambda reaching 1 - (1 + margin)(1 - lambda_plateau). Like
 // the grid rule, the deep end counts as a plateau only if P has levelled off: the first
 // midpoint (the upper half's start) must be within the margin, else Hc is "not reached". The
 // range's shallow end must lie above the threshold; then the bracket [low, high] is halved,
@@ -42,13 +42,14 @@ struct HcSearchResult {
   double threshold_N = 0.0;
   double bracket_low_m = 0.0, bracket_high_m = 0.0;
   /// Whether P levels off in the range, as the grid rule asks (report::CriticalThickness): P
-  /// at the upper half's start (the first midpoint) within the margin of the plateau, i.e.
-  /// Hc in the lower half. Where not, hc_m is where the search ended but no Hc to report.
+  /// at the upper half's start (the first midpoint) within the margin of the plateau either
+  /// way. Where not, hc_m is where the search ended but no Hc to report.
   bool reached = false;
-  /// P at the upper half's start over the plateau, less one (over the whole range when the
-  /// shallow end is already on the plateau).
+  /// How P changes across the upper half, as the grid rule's: 1 - P(upper half's start) /
+  /// plateau, negative where P still falls (across the whole range when the shallow end is
+  /// already on the plateau, or no midpoint was run).
   double upper_half_change = 0.0;
-  /// "" when Hc was bracketed; else why not ("P at the shallow end is already on the
+  /// "" when Hc was found; else why not ("P at the shallow end is already on the
   /// plateau", "Hc not reached in 0.5-1.2 cm (P still falls 45% over the upper half)", ...).
   std::string note;
   std::vector<HcPoint> points;  ///< in the order they were run

@@ -1,6 +1,6 @@
 // A sweep's aggregates and files. The aggregates (the points over the bed seeds and, for a
 // thickness sweep, Hc) are computed here once and served as they are by every door: the
-// folder's points.csv and summary.json, the daemon's GetSweep and /api/sweeps, the CLI's
+// folder's points.csv and summary.json, the daemon's GetSweep and /api/sweeps/ID, the CLI's
 // --json and Python. The files: sweep.csv (one row per run), points.csv (one row per point),
 // summary.json and the table printed on the terminal, written the same way for a local sweep
 // and for a sweep fetched from the daemon.
@@ -48,13 +48,14 @@ std::vector<std::string> SweepPointColumns(const std::vector<SweepAxis>& axes);
 /// SweepPointColumns: the values of the other axes, the number of runs, and per metric the
 /// mean, the sample standard deviation (null for one run) and n over the runs that ended well
 /// (mean null and n 0 where none has it). Runs still missing or failed count in no metric, so
-/// a sweep under way has points of fewer runs.
+/// a sweep under way has points of fewer runs. Points are in the order of their values,
+/// numbers by value (2, 5, 10), text by its characters.
 nlohmann::json SweepPoints(const std::vector<SweepAxis>& axes,
                            const std::vector<SweepRunReport>& runs);
 
-/// {"points": SweepPoints, "point_columns": SweepPointColumns (their order)} and, for a sweep over bed.thickness_m alone (seeds aside) with
-/// three thicknesses or more, "Hc_m" and "critical_thickness" (CriticalThickness of the
-/// points' mean P).
+/// {"points": SweepPoints, "point_columns": SweepPointColumns (their order)} and, for a sweep
+/// over bed.thickness_m alone (seeds aside) with three thicknesses or more that have a P,
+/// "Hc_m" and "critical_thickness" (CriticalThickness of the points' mean P).
 nlohmann::json SweepAggregates(const std::vector<SweepAxis>& axes,
                                const std::vector<SweepRunReport>& runs);
 
@@ -66,8 +67,8 @@ nlohmann::json SweepAggregates(const std::vector<SweepAxis>& axes,
 nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h_to_p);
 
 /// Writes dir/sweep.csv, dir/points.csv and dir/summary.json (the returned document, with
-/// `extra` merged in) and prints the table of points to `table`: SweepAggregates, whose Hc
-/// gives way to a "critical_thickness" that `extra` brings.
+/// `extra` merged in) and prints the table of points to `table`. The points and Hc are
+/// SweepAggregates'; a "critical_thickness" in `extra` (--find-hc's) replaces its Hc.
 nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                                 const std::vector<SweepAxis>& axes,
                                 const std::vector<SweepRunReport>& runs,

@@ -37,7 +37,7 @@ struct RunOptions {
   bool yes = false;           ///< run even past this machine's limits
   bool json = false;          ///< print the result as JSON on stdout, the rest on stderr
   std::string command_line;   ///< this program's arguments, for the results' provenance
-  std::string export_format;  ///< bed export: text, lammps or vtp
+  std::string export_format;  ///< bed export: a name of BedFormatNames()
   std::string export_out;     ///< bed export: the file
 };
 

@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "compare.h"
+#include "dembuf/study/files/bed_export.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "exit_codes.h"
@@ -87,11 +88,16 @@ void AddBedCommands(CLI::App& app, RunOptions& opt, CommandTable& commands) {
   bed_export->add_option("--bed-cache", opt.bed_cache, kBedCacheHelp);
   bed_export->add_flag("--source-only", opt.source_only,
                        "the settled source bed that the bed is cut from");
-  bed_export
-      ->add_option("--format", opt.export_format,
-                   "text (x y z radius, as bed.import reads), lammps (a data file for "
-                   "read_data, atom_style sphere) or vtp (VTK XML, for ParaView)")
-      ->check(CLI::IsMember({"text", "lammps", "vtp"}))
+  // The choices and their help from the one list of formats.
+  std::vector<std::string> formats;
+  std::string format_help;
+  for (const BedFormatName& f : BedFormatNames()) {
+    formats.emplace_back(f.name);
+    format_help +=
+        (format_help.empty() ? "" : ", ") + std::string(f.name) + " (" + std::string(f.help) + ")";
+  }
+  bed_export->add_option("--format", opt.export_format, format_help)
+      ->check(CLI::IsMember(formats))
       ->required();
   bed_export->add_option("--out", opt.export_out, "the file to write")->required();
   bed_export->add_flag("--force", opt.force, "replace the file if it exists");
@@ -147,7 +153,10 @@ int ListValues(const std::string& what) {
     for (const AccuracyPreset& a : AccuracyPresets())
       std::printf("%.*s\t%.*s\n", int(a.name.size()), a.name.data(), int(a.description.size()),
                   a.description.data());
-  if (what == "formats") std::printf("text\nlammps\nvtp\n");
+  if (what == "formats")
+    for (const BedFormatName& f : BedFormatNames())
+      std::printf("%.*s\t%.*s\n", int(f.name.size()), f.name.data(), int(f.help.size()),
+                  f.help.data());
   if (what != "fields") return 0;
   for (const SceneField& f : SceneFields()) {
     std::string range;

@@ -6,10 +6,12 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
+#include "dembuf/study/files/run_output.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "program.h"
 
@@ -318,12 +320,10 @@ std::string ForceChainScript(const fs::path& snap, const ChainStats& chains, dou
 
 // F(t) around the impact, in ms after the first contact and kN, with the peaks marked, and the
 // same impact on the bare plate (run for lambda) beside it when the run has a bed.
-std::vector<fs::path> PlotRun(const fs::path& dir) {
-  std::vector<fs::path> out;
-  const nlohmann::json s = ReadJson(dir / "summary.json");
+fs::path PlotForceCurve(const fs::path& dir, const nlohmann::json& s) {
   const double contact = Number(s, "first_contact_time_s", 0.0);
   const double end = Number(s, "end_time_s", contact + 0.02);
-  const double H = Number(s, "measured_thickness_m", 0.0);
+  const double H = report::MeasuredThickness(s);
   const double P = Number(s, "P_N", 0.0), P0 = Number(s, "reference_peak_N", 0.0);
   const fs::path bare = dir / "plate_force_bare.csv";
   const bool with_bare = H > 0.0 && HasRows(bare);
@@ -365,40 +365,46 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
                                  : "bare plate");
   gp << "\n";
   RunGnuplot(gp.str(), dir / "plate_force.gp");
-  out.push_back(dir / "plate_force.png");
+  return dir / "plate_force.png";
+}
 
-  // The projectile in the bed: its speed and how deep its lowest point is below the surface,
-  // with the times of Pb and Pa, which are where dS and dt are measured.
+// The projectile in the bed: its speed and how deep its lowest point is below the surface,
+// with the times of Pb and Pa, which are where dS and dt are measured. None for a bare plate.
+std::optional<fs::path> PlotProjectileInBed(const fs::path& dir, const nlohmann::json& s) {
+  const double contact = Number(s, "first_contact_time_s", 0.0);
+  const double end = Number(s, "end_time_s", contact + 0.02);
+  const double H = report::MeasuredThickness(s);
   const nlohmann::json scene = s.value("scene", nlohmann::json::object());
   const double radius =
       0.5 * Number(scene.value("projectile", nlohmann::json::object()), "diameter_m", 0.0);
-  if (H > 0.0 && radius > 0.0) {
-    std::ostringstream pj;
-    pj << kTerminal << "set output " << Q(dir / "projectile.png") << "\n"
-       << "set xlabel 'time after first contact [ms]'\nset ylabel 'projectile speed [m/s]'\n"
-       << "set y2label 'depth of its lowest point below the surface [cm]'\nset y2tics\n"
-       << "set ytics nomirror\nset yrange [0:*]\nset y2range [*:*] reverse\nset key top center\n"
-       << "set title " << Literal("the projectile in a " + ReportedCm(H) + " cm bed") << "\n"
-       << "set xrange [-0.5:" << (end - contact) * 1.12e3 << "]\n";
-    for (const char* peak : {"Pb", "Pa"}) {
-      const std::string key = std::string(peak) + "_time_s";
-      if (!s.contains(key) || !s[key].is_number()) continue;
-      const double t = (s[key].get<double>() - contact) * 1e3;
-      pj << "set arrow from " << t << ", graph 0 to " << t << ", graph 1 nohead dt 3 lc rgb "
-         << "'#808080'\nset label " << Literal(peak) << " at " << t
-         << ", graph 0.95 offset 0.4,0\n";
-    }
-    pj << "plot " << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact
-       << ")*1e3):(abs($5)) with lines lw 2 lc rgb '#1f4e9c' title 'speed', "
-       << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact << ")*1e3):((" << H
-       << "-($4-" << radius << "))*100) axes x1y2 with lines lw 1.5 dt 2 lc rgb '#c05000' "
-       << "title 'depth'\n";
-    RunGnuplot(pj.str(), dir / "projectile.gp");
-    out.push_back(dir / "projectile.png");
+  if (!(H > 0.0 && radius > 0.0)) return std::nullopt;
+  std::ostringstream pj;
+  pj << kTerminal << "set output " << Q(dir / "projectile.png") << "\n"
+     << "set xlabel 'time after first contact [ms]'\nset ylabel 'projectile speed [m/s]'\n"
+     << "set y2label 'depth of its lowest point below the surface [cm]'\nset y2tics\n"
+     << "set ytics nomirror\nset yrange [0:*]\nset y2range [*:*] reverse\nset key top center\n"
+     << "set title " << Literal("the projectile in a " + ReportedCm(H) + " cm bed") << "\n"
+     << "set xrange [-0.5:" << (end - contact) * 1.12e3 << "]\n";
+  for (const char* peak : {"Pb", "Pa"}) {
+    const std::string key = std::string(peak) + "_time_s";
+    if (!s.contains(key) || !s[key].is_number()) continue;
+    const double t = (s[key].get<double>() - contact) * 1e3;
+    pj << "set arrow from " << t << ", graph 0 to " << t << ", graph 1 nohead dt 3 lc rgb "
+       << "'#808080'\nset label " << Literal(peak) << " at " << t << ", graph 0.95 offset 0.4,0\n";
   }
+  pj << "plot " << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact
+     << ")*1e3):(abs($5)) with lines lw 2 lc rgb '#1f4e9c' title 'speed', "
+     << Q(dir / "plate_force.csv") << " every ::1 using (($1-" << contact << ")*1e3):((" << H
+     << "-($4-" << radius << "))*100) axes x1y2 with lines lw 1.5 dt 2 lc rgb '#c05000' "
+     << "title 'depth'\n";
+  RunGnuplot(pj.str(), dir / "projectile.gp");
+  return dir / "projectile.png";
+}
 
-  // Snapshots: force chains (a vertical slice through the axis and a top view), the
-  // contact-force PDF and the radial plate load.
+// The snapshots: force chains (a vertical slice through the axis and a top view), the
+// contact-force PDF, the radial plate load and the plate's map.
+std::vector<fs::path> PlotSnapshots(const fs::path& dir, const nlohmann::json& s) {
+  std::vector<fs::path> out;
   if (fs::is_directory(dir / "snapshots")) {
     const nlohmann::json scene = s.value("scene", nlohmann::json::object());
     const double radius =
@@ -462,8 +468,59 @@ std::vector<fs::path> PlotRun(const fs::path& dir) {
   return out;
 }
 
+// A run's plots: F(t), the projectile in the bed, and each snapshot's.
+std::vector<fs::path> PlotRun(const fs::path& dir) {
+  const nlohmann::json s = ReadJson(dir / "summary.json");
+  std::vector<fs::path> out = {PlotForceCurve(dir, s)};
+  if (const std::optional<fs::path> projectile = PlotProjectileInBed(dir, s))
+    out.push_back(*projectile);
+  for (const fs::path& plot : PlotSnapshots(dir, s)) out.push_back(plot);
+  return out;
+}
+
+// F(t) of every run of a sweep, aligned at first contact: a colour per point, its seeds
+// alike. None without a finished run.
+std::optional<fs::path> PlotSweepCurves(const fs::path& dir) {
+  std::ostringstream curves;
+  curves << kTerminal << "set output " << Q(dir / "sweep_curves.png") << "\n"
+         << "set xlabel 'time after first contact [ms]'\nset ylabel 'plate force [kN]'\n"
+         << "set title 'bottom-plate force, every seed (a colour per point)'\n"
+         << "set palette defined (0 '#440154', 0.33 '#31688e', 0.66 '#35b779', 1 '#e3a000')\n"
+         << "unset colorbox\nset xrange [-0.5:*]\nplot ";
+  bool first = true;
+  std::vector<fs::path> runs;
+  for (const auto& e : fs::directory_iterator(dir / "runs")) runs.push_back(e.path());
+  std::sort(runs.begin(), runs.end());
+  auto point_of = [](const fs::path& run) {
+    std::string point = run.filename().string();
+    point = point.substr(point.find('_') + 1);
+    return point.substr(0, point.rfind("_seed="));
+  };
+  std::map<std::string, int> colour;  // point -> its place along the palette
+  for (const fs::path& run : runs) colour.try_emplace(point_of(run), 0);
+  int place = 0;
+  for (auto& [point, k] : colour) k = place++;
+  // A colour per point along one palette (not the 8 line types, which repeat).
+  std::set<std::string> titled;
+  for (const fs::path& run : runs) {
+    if (!fs::exists(run / "summary.json")) continue;
+    const nlohmann::json s = ReadJson(run / "summary.json");
+    const std::string point = point_of(run);
+    const double t0 = Number(s, "first_contact_time_s", 0.0);
+    const double frac = colour.size() > 1 ? colour[point] / (colour.size() - 1.0) : 0.0;
+    curves << (first ? "" : ", ") << Q(run / "plate_force.csv") << " every ::1 using (($1-" << t0
+           << ")*1e3):($2/1e3) with lines lw 1.2 lc palette frac " << frac << " "
+           << (titled.insert(point).second ? "title " + Literal(point) : std::string("notitle"));
+    first = false;
+  }
+  curves << "\n";
+  if (first) return std::nullopt;
+  RunGnuplot(curves.str(), dir / "sweep_curves.gp");
+  return dir / "sweep_curves.png";
+}
+
 // A sweep over one field: P, Pa, Pb, lambda, crater depth, dS and dt against it, and the
-// F(t) curves of the first seed at each point, aligned at first contact.
+// F(t) curves of every run, aligned at first contact.
 std::vector<fs::path> PlotSweep(const fs::path& dir) {
   std::vector<fs::path> out;
   // The header, then the sweep's points. A metric is plotted only where some point has it (a
@@ -535,45 +592,7 @@ std::vector<fs::path> PlotSweep(const fs::path& dir) {
   for (const char* name : {"sweep_peaks.png", "sweep_lambda.png", "sweep_crater.png"})
     out.push_back(dir / name);
   if (two_peaks) out.push_back(dir / "sweep_ds_dt.png");
-
-  // F(t) of every run, aligned at first contact: a colour per point, its seeds alike.
-  std::ostringstream curves;
-  curves << kTerminal << "set output " << Q(dir / "sweep_curves.png") << "\n"
-         << "set xlabel 'time after first contact [ms]'\nset ylabel 'plate force [kN]'\n"
-         << "set title 'bottom-plate force, every seed (a colour per point)'\n"
-         << "set palette defined (0 '#440154', 0.33 '#31688e', 0.66 '#35b779', 1 '#e3a000')\n"
-         << "unset colorbox\nset xrange [-0.5:*]\nplot ";
-  bool first = true;
-  std::vector<fs::path> runs;
-  for (const auto& e : fs::directory_iterator(dir / "runs")) runs.push_back(e.path());
-  std::sort(runs.begin(), runs.end());
-  auto point_of = [](const fs::path& run) {
-    std::string point = run.filename().string();
-    point = point.substr(point.find('_') + 1);
-    return point.substr(0, point.rfind("_seed="));
-  };
-  std::map<std::string, int> colour;  // point -> its place along the palette
-  for (const fs::path& run : runs) colour.try_emplace(point_of(run), 0);
-  int place = 0;
-  for (auto& [point, k] : colour) k = place++;
-  // A colour per point along one palette (not the 8 line types, which repeat).
-  std::set<std::string> titled;
-  for (const fs::path& run : runs) {
-    if (!fs::exists(run / "summary.json")) continue;
-    const nlohmann::json s = ReadJson(run / "summary.json");
-    const std::string point = point_of(run);
-    const double t0 = Number(s, "first_contact_time_s", 0.0);
-    const double frac = colour.size() > 1 ? colour[point] / (colour.size() - 1.0) : 0.0;
-    curves << (first ? "" : ", ") << Q(run / "plate_force.csv") << " every ::1 using (($1-" << t0
-           << ")*1e3):($2/1e3) with lines lw 1.2 lc palette frac " << frac << " "
-           << (titled.insert(point).second ? "title " + Literal(point) : std::string("notitle"));
-    first = false;
-  }
-  curves << "\n";
-  if (!first) {
-    RunGnuplot(curves.str(), dir / "sweep_curves.gp");
-    out.push_back(dir / "sweep_curves.png");
-  }
+  if (const std::optional<fs::path> curves = PlotSweepCurves(dir)) out.push_back(*curves);
   return out;
 }
 

@@ -32,8 +32,8 @@ void PrintSummary(const ImpactSummary& s, const fs::path& dir) {
   std::printf("beads %zu, dt %.4g us (alpha %.3g of %.4g us), %lld steps, wall time %.2f s\n",
               s.beads, s.dt_s * 1e6, s.dt_s / s.critical_dt_s, s.critical_dt_s * 1e6,
               static_cast<long long>(s.steps), s.wall_time_s);
-  std::printf("damping A = %.4g s (e = %.4f at %.3g m/s)\n", s.damping.damping_A_s,
-              s.damping.restitution_at_ref, s.damping.ref_speed_m_s);
+  std::printf("damping A = %.4g s (e = %.4f at %.3g m/s)\n", s.contact_damping.damping_A_s,
+              s.contact_damping.restitution_at_ref, s.contact_damping.ref_speed_m_s);
   if (s.first_contact_time_s >= 0.0)
     std::printf("first contact at %.4f ms, impact speed %.4g m/s\n", s.first_contact_time_s * 1e3,
                 s.impact_speed_m_s);
@@ -140,7 +140,7 @@ ImpactSummary RunIntoFolder(const RunOptions& opt, const Scene& scene, BedCache&
   ProgressLine progress(stderr);
   JobControl control;
   control.context = report::RunStartingNow(opt.command_line);
-  control.cancel = &Interrupted();
+  control.steering.cancel = &Interrupted();
   control.on_bed_progress = [&](const BedProgress& p) { bed_progress.Update(p); };
   control.on_bed_ready = [&](const World& world) {
     for (const auto& [stage, count] : beds.prepared_counts())
@@ -149,7 +149,7 @@ ImpactSummary RunIntoFolder(const RunOptions& opt, const Scene& scene, BedCache&
     if (!world.bed.note.empty()) std::fprintf(stderr, "imported bed: %s\n", world.bed.note.c_str());
     phase.name = "impact";
   };
-  control.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
+  control.steering.on_progress = [&](const ImpactProgress& p) { progress.Update(p); };
   try {
     const ImpactSummary summary = RunJob(scene, beds, control, recorder);
     progress.Finish();

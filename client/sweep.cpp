@@ -65,7 +65,11 @@ nlohmann::json FinishedSummary(const fs::path& dir) {
   std::ifstream in{dir / "summary.json"};
   if (!in) return nullptr;
   nlohmann::json summary = nlohmann::json::parse(in, nullptr, false);
-  return summary.is_object() && summary.contains("scene") ? summary : nullptr;
+  if (!summary.is_object() || !summary.contains("scene")) return nullptr;
+  // A run of an earlier dembuf names its measured height bed_thickness_m.
+  if (!summary.contains("measured_thickness_m") && summary.contains("bed_thickness_m"))
+    summary["measured_thickness_m"] = report::MeasuredThickness(summary);
+  return summary;
 }
 
 // The runs of one sweep, run by the workers of one queue, each into its folder of runs/.
@@ -157,10 +161,10 @@ void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
     FolderRecorder recorder(dir, job.scene);
     JobControl control;
     control.context = report::RunStartingNow(m_options.command_line);
-    control.cancel = m_options.cancel;
-    control.threads = threads;
+    control.steering.cancel = m_options.cancel;
+    control.steering.threads = threads;
+    control.steering.on_progress = impact_progress;
     control.on_bed_progress = bed_progress;
-    control.on_progress = impact_progress;
     const ImpactSummary summary = RunJob(job.scene, m_beds, control, recorder);
     if (m_options.on_run_done) m_options.on_run_done(job, summary);
     result.summary = recorder.summary_json();
@@ -430,9 +434,9 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
       {"critical_thickness",
        {{"Hc_m", hc_m},
         {"reached", hc.reached},
-        {"upper_half_change", -hc.upper_half_change},
+        {"upper_half_change", hc.upper_half_change},
         {"search_ended_m", hc.hc_m},
-        {"Hc_sd_m", hc.hc_sd_m},
+        {"Hc_sd_m", hc.reached ? nlohmann::json(hc.hc_sd_m) : nlohmann::json()},
         {"seed_scatter_included", hc.seed_scatter_included},
         {"plateau_P_N", hc.plateau_N},
         {"threshold_P_N", hc.threshold_N},
@@ -440,7 +444,8 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
         {"method", "bisection"},
         {"rule",
          "the thickness where mean P falls to (1 + margin) times the plateau, the mean P "
-         "at the deep end of the range"},
+         "at the deep end of the range, which is a plateau only if P at the first midpoint (the "
+         "upper half's start) is within the margin of it"},
         {"margin", search.margin},
         {"range_m", {search.low_m, search.high_m}},
         {"tolerance_m", search.tolerance_m},
@@ -455,7 +460,8 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
         100 * hc.hc_m, 100 * hc.hc_sd_m, 100 * search.margin, hc.plateau_N, 100 * search.high_m,
         100 * hc.bracket_low_m, 100 * hc.bracket_high_m,
         hc.seed_scatter_included ? "seed scatter included" : "one seed: bracket width only");
-  if (!hc.note.empty()) std::printf("note: %s\n", hc.note.c_str());
+  // (A search that did not reach Hc has said why in the table's last line.)
+  if (hc.reached && !hc.note.empty()) std::printf("note: %s\n", hc.note.c_str());
   return failed;
 }
 

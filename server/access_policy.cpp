@@ -94,6 +94,13 @@ void AccessPolicy::Require(const Caller& caller, Action action, const std::strin
   throw AccessDenied(false, what + " belongs to " + owner);
 }
 
+std::string AccessPolicy::ListedOwner(const Caller& caller, const std::string& requested) {
+  if (caller.admin) return requested;
+  const std::string owner = OwnerFor(caller, requested);
+  Require(caller, Action::kList, owner, "owner: the list of " + owner);
+  return owner;
+}
+
 std::string AccessPolicy::OwnerFor(const Caller& caller, const std::string& requested,
                                    const std::string& field) {
   if (requested.empty() || requested == caller.name) return caller.name;

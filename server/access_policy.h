@@ -95,6 +95,11 @@ class AccessPolicy {
   static std::string OwnerFor(const Caller& caller, const std::string& requested,
                               const std::string& field = "owner");
 
+  /// Whose jobs and sweeps a listing shows, the one rule of every door's lists: an admin's,
+  /// everyone's ("") unless naming one; anyone else's, their own (naming another is refused,
+  /// as OwnerFor).
+  static std::string ListedOwner(const Caller& caller, const std::string& requested);
+
  private:
   /// The users as the store has them now, by token hash.
   void ReadUsers();

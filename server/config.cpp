@@ -40,20 +40,15 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
   LoadConfigText(text, path, config);
 }
 
-void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config) {
-  toml::value root;
-  try {
-    CheckTomlText(text, "configuration " + path, ConfigLimits());
-    std::istringstream in(text);
-    root = toml::parse(in, path);
-  } catch (const InputLimitError& e) {
-    throw ConfigError(e.what());
-  } catch (const std::exception& e) {
-    throw ConfigError("configuration " + path + ": " + e.what());
-  }
-  // Every setting once: its key and where it goes. A key not here is refused.
-  using Target = std::variant<std::string*, int*, bool*, double*, std::vector<std::string>*>;
-  const std::vector<std::pair<std::string, Target>> settings = {
+namespace {
+
+// Where a setting goes in ServerConfig.
+using ConfigTarget = std::variant<std::string*, int*, bool*, double*, std::vector<std::string>*>;
+using ConfigSetting = std::pair<std::string, ConfigTarget>;
+
+// Every setting once: its key and where it goes. A key not here is refused.
+std::vector<ConfigSetting> ConfigSettings(ServerConfig& config) {
+  return {
       {"listen", &config.listen},
       {"db", &config.db},
       {"workers", &config.workers},
@@ -96,6 +91,22 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
       {"slurm.dembuf", &config.slurm.dembuf},
       {"slurm.poll_s", &config.slurm.poll_s},
   };
+}
+
+}  // namespace
+
+void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config) {
+  toml::value root;
+  try {
+    CheckTomlText(text, "configuration " + path, ConfigLimits());
+    std::istringstream in(text);
+    root = toml::parse(in, path);
+  } catch (const InputLimitError& e) {
+    throw ConfigError(e.what());
+  } catch (const std::exception& e) {
+    throw ConfigError("configuration " + path + ": " + e.what());
+  }
+  const std::vector<ConfigSetting> settings = ConfigSettings(config);
   // The settings with their tables' names: [slurm] work_dir = ... is "slurm.work_dir".
   std::vector<std::pair<std::string, const toml::value*>> entries;
   for (const auto& [key, value] : root.as_table()) {
@@ -185,6 +196,43 @@ std::string HttpAddress(const std::string& http) {
   return address;
 }
 
+namespace {
+
+// The [slurm] table of a daemon that runs its jobs on a cluster.
+void ValidateSlurmConfig(const ServerConfig::Slurm& slurm) {
+  auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw ConfigError(what);
+  };
+  require(!slurm.work_dir.empty(),
+          "slurm.work_dir: give a folder every node of the cluster sees (jobs, beds, results)");
+  require(slurm.cpus_per_job >= 1 && slurm.cpus_per_job <= 1024,
+          "slurm.cpus_per_job: must be 1 to 1024, not " + std::to_string(slurm.cpus_per_job));
+  require(slurm.mem_per_job_mb >= 0 && slurm.mem_per_job_mb <= 16 << 20,
+          "slurm.mem_per_job_mb: must be 0 (from the estimate) to 16777216, not " +
+              std::to_string(slurm.mem_per_job_mb));
+  require(slurm.time_limit.empty() || slurm::ParseTimeLimit(slurm.time_limit),
+          "slurm.time_limit: \"" + slurm.time_limit +
+              "\" is not a Slurm time (MM, MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS; at "
+              "most a year) or \"\" (from the estimate)");
+  require(slurm.poll_s >= 0.1 && slurm.poll_s <= 600,
+          "slurm.poll_s: must be 0.1 to 600, not " + std::to_string(slurm.poll_s));
+  // Names and values reach sbatch as single arguments, never through a shell; still, a
+  // partition or account is one word of Slurm's.
+  for (const auto& [name, value] :
+       {std::pair{"slurm.partition", slurm.partition}, {"slurm.account", slurm.account}})
+    require(value.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                    "0123456789_-.,") == std::string::npos,
+            std::string(name) + ": \"" + value +
+                "\" is not a Slurm name (letters, digits, _ - . and commas)");
+  for (const std::string& arg : slurm.extra_args)
+    require(arg.rfind("--", 0) == 0 && arg.find('\n') == std::string::npos &&
+                arg.rfind("--wrap", 0) != 0,
+            "slurm.extra_args: \"" + arg +
+                "\" must be one sbatch option, written --name=value (not --wrap)");
+}
+
+}  // namespace
+
 void ValidateConfig(ServerConfig& config) {
   auto require = [](bool ok, const std::string& what) {
     if (!ok) throw ConfigError(what);
@@ -261,35 +309,7 @@ void ValidateConfig(ServerConfig& config) {
             std::string(name) + ": must be 0 (no limit) to 1e18, not " + std::to_string(value));
   require(config.executor == "threads" || config.executor == "slurm",
           "executor: \"" + config.executor + "\" must be \"threads\" or \"slurm\"");
-  if (config.executor == "slurm") {
-    const auto& slurm = config.slurm;
-    require(!slurm.work_dir.empty(),
-            "slurm.work_dir: give a folder every node of the cluster sees (jobs, beds, results)");
-    require(slurm.cpus_per_job >= 1 && slurm.cpus_per_job <= 1024,
-            "slurm.cpus_per_job: must be 1 to 1024, not " + std::to_string(slurm.cpus_per_job));
-    require(slurm.mem_per_job_mb >= 0 && slurm.mem_per_job_mb <= 16 << 20,
-            "slurm.mem_per_job_mb: must be 0 (from the estimate) to 16777216, not " +
-                std::to_string(slurm.mem_per_job_mb));
-    require(slurm.time_limit.empty() || slurm::ParseTimeLimit(slurm.time_limit),
-            "slurm.time_limit: \"" + slurm.time_limit +
-                "\" is not a Slurm time (MM, MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS; at "
-                "most a year) or \"\" (from the estimate)");
-    require(slurm.poll_s >= 0.1 && slurm.poll_s <= 600,
-            "slurm.poll_s: must be 0.1 to 600, not " + std::to_string(slurm.poll_s));
-    // Names and values reach sbatch as single arguments, never through a shell; still, a
-    // partition or account is one word of Slurm's.
-    for (const auto& [name, value] :
-         {std::pair{"slurm.partition", slurm.partition}, {"slurm.account", slurm.account}})
-      require(value.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                      "0123456789_-.,") == std::string::npos,
-              std::string(name) + ": \"" + value +
-                  "\" is not a Slurm name (letters, digits, _ - . and commas)");
-    for (const std::string& arg : slurm.extra_args)
-      require(arg.rfind("--", 0) == 0 && arg.find('\n') == std::string::npos &&
-                  arg.rfind("--wrap", 0) != 0,
-              "slurm.extra_args: \"" + arg +
-                  "\" must be one sbatch option, written --name=value (not --wrap)");
-  }
+  if (config.executor == "slurm") ValidateSlurmConfig(config.slurm);
   if (config.workers == kAutoWorkers) config.workers = std::min(256, dem::UsableCpus());
   if (config.threads_per_job == 0) {
     config.threads_per_job = std::max(1, dem::UsableCpus() / config.workers);

@@ -135,6 +135,19 @@ Status CheckOwner(const std::string& owner) {
   return problem.empty() ? Status::OK : Invalid("owner", problem);
 }
 
+// What every submission (a job, a sweep) passes first: whose name it is filed under (set in
+// `owner`), its name, the command line kept with it and its request id.
+template <class Request>
+Status CheckSubmission(const Caller& caller, const Request& request, std::string* owner) {
+  if (Status s = CheckOwner(request.owner()); !s.ok()) return s;
+  *owner = AccessPolicy::OwnerFor(caller, request.owner());
+  if (Status s = CheckLabel("name", request.name(), 200); !s.ok()) return s;
+  if (Status s = CheckLabel("command_line", request.command_line(), kMaxCommandLineBytes);
+      !s.ok())
+    return s;
+  return CheckRequestId(request.request_id());
+}
+
 std::optional<std::string> AuthorizationOf(const grpc::ServerContextBase* context) {
   const auto& metadata = context->client_metadata();
   const auto found = metadata.find("authorization");
@@ -316,13 +329,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
                                                    const v1::SubmitJobRequest* request,
                                                    v1::SubmitJobResponse* response) {
   return Serve("SubmitJob", context, [=, this](const Caller& caller) -> Status {
-    if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-    const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
-    if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
-    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLineBytes);
-        !s.ok())
-      return s;
-    if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
+    std::string owner;
+    if (Status s = CheckSubmission(caller, *request, &owner); !s.ok()) return s;
     // A request id the owner used before answers the retry, before the admission and again
     // as the job is filed (two copies admitted at once file it once).
     auto retried = [&](Status* retry) {
@@ -383,13 +391,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
                                                      const v1::SubmitSweepRequest* request,
                                                      v1::SubmitSweepResponse* response) {
   return Serve("SubmitSweep", context, [=, this](const Caller& caller) -> Status {
-    if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
-    const std::string owner = AccessPolicy::OwnerFor(caller, request->owner());
-    if (Status s = CheckLabel("name", request->name(), 200); !s.ok()) return s;
-    if (Status s = CheckLabel("command_line", request->command_line(), kMaxCommandLineBytes);
-        !s.ok())
-      return s;
-    if (Status s = CheckRequestId(request->request_id()); !s.ok()) return s;
+    std::string owner;
+    if (Status s = CheckSubmission(caller, *request, &owner); !s.ok()) return s;
     // As SubmitJob: a retry is answered before the admission and again as the sweep is filed.
     auto retried = [&](Status* retry) {
       return !request->request_id().empty() &&
@@ -481,7 +484,7 @@ grpc::ServerUnaryReactor* DembufService::GetSweep(grpc::CallbackServerContext* c
       return Status(StatusCode::NOT_FOUND, "id: no sweep " + std::to_string(request->id()));
     AccessPolicy::Require(caller, Action::kRead, sweep->owner,
                           "id: sweep " + std::to_string(sweep->id));
-    FillSweep(m_store, *sweep, /*with_aggregates=*/true, response);
+    FillSweep(m_store, *sweep, request->aggregates(), response);
     return Status::OK;
   });
 }
@@ -498,9 +501,7 @@ grpc::ServerUnaryReactor* DembufService::ListJobs(grpc::CallbackServerContext* c
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
     if (request->limit() < 0 || request->limit() > 100000)
       return Invalid("limit", "must be 0 (100) to 100000");
-    // An admin lists everyone's jobs unless naming an owner; anyone else their own.
-    filter.owner =
-        caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
+    filter.owner = AccessPolicy::ListedOwner(caller, request->owner());
     filter.sweep_id = request->sweep_id();
     filter.limit = request->limit() == 0 ? 100 : request->limit();
     filter.with_scene = false;
@@ -521,15 +522,10 @@ grpc::ServerUnaryReactor* DembufService::ListSweeps(grpc::CallbackServerContext*
     if (Status s = CheckOwner(request->owner()); !s.ok()) return s;
     if (request->limit() < 0 || request->limit() > 100000)
       return Invalid("limit", "must be 0 (100) to 100000");
-    const std::string owner =
-        caller.admin ? request->owner() : AccessPolicy::OwnerFor(caller, request->owner());
+    const std::string owner = AccessPolicy::ListedOwner(caller, request->owner());
     const int limit = request->limit() == 0 ? 100 : request->limit();
-    std::int64_t bytes = 0;
-    for (const SweepRecord& sweep : m_store.ListSweeps(owner, limit)) {
-      FillSweep(m_store, sweep, false, response->add_sweeps());
-      bytes += static_cast<std::int64_t>(response->sweeps().rbegin()->ByteSizeLong());
-      if (bytes > kMaxListAnswerBytes) return ListTooLarge(limit, "sweeps");
-    }
+    if (!FillSweepList(m_store, owner, limit, response->mutable_sweeps()))
+      return ListTooLarge(limit, "sweeps");
     return Status::OK;
   });
 }

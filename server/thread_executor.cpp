@@ -216,8 +216,8 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
     const Scene scene = SceneOfJob(m_store, *job);
     JobControl control;
     control.context = {job->command_line, m_options.host, started_at, "", 0};
-    control.cancel = &live->cancel;
-    control.threads = &live->threads;
+    control.steering.cancel = &live->cancel;
+    control.steering.threads = &live->threads;
     // One fraction over the whole job: the bed stages and the impact by their predicted time.
     std::vector<std::string> cached;
     const ResourceEstimate estimate = EstimateResources(scene);
@@ -232,10 +232,10 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
       m_store.SetState(id, JobState::kRunning);
       live->SetState(JobState::kRunning);
     };
-    control.on_progress = [&](const ImpactProgress& p) {
+    control.steering.on_progress = [&](const ImpactProgress& p) {
       live->SetProgress("impact", whole.WhileImpact(p), p.t_s, p.steps);
     };
-    control.progress_every_steps = kProgressEverySteps;
+    control.steering.progress_every_steps = kProgressEverySteps;
     const ImpactSummary summary = RunJob(scene, m_beds, control, recorder);
     live->End(JobState::kDone);
     m_log->info("job {}: done in {:.1f} s: P = {:.5g} N, lambda = {:.3f}", id,

@@ -100,7 +100,7 @@ TEST(PaperComparison, AnotherSceneGetsNoPaperNumbers) {
 // and the table says which: the strike peak Pb against the plateau it carries in the paper.
 TEST(PaperComparison, AVariantOfE2IsComparedAndNamed) {
   Scene damped = PresetScene("e2");
-  damped.damping.local_alpha = 0.5;
+  damped.bead_damping.local_alpha = 0.5;
   nlohmann::json run = E2Run(0.04, 2000, 0.85, damped);
   run["Pb_N"] = 1800.0;
   run["dt_peaks_s"] = 0.018;

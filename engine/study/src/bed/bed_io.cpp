@@ -25,6 +25,13 @@ namespace {
 constexpr double kSeparationTarget = 0.5 * kMaxRestingOverlap;
 constexpr int kSeparationPasses = 2000;
 
+// A number of a bed file's message, to six digits.
+std::string SixDigits(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", v);
+  return std::string(text);
+}
+
 std::string Percent(double ratio) {
   char text[32];
   std::snprintf(text, sizeof text, "%.3g%%", 100 * ratio);
@@ -241,16 +248,46 @@ std::string ImportedBed::Describe() const {
   return out.str();
 }
 
+namespace {
+
+// Where the file disagrees with the scene (its beads' densities, their sizes): said in the
+// bed's warnings, not silently replaced.
+void AddImportWarnings(const BeadRecords& records, const Scene& scene, ImportedBed& bed) {
+  const double rho = scene.material.density_kg_m3;
+  std::size_t other_density = 0;
+  double file_density = 0.0;
+  for (const BeadRecord& b : records.beads)
+    if (b.density_kg_m3 > 0.0 && std::abs(b.density_kg_m3 - rho) > 0.01 * rho) {
+      if (other_density++ == 0) file_density = b.density_kg_m3;
+    }
+  if (other_density > 0)
+    bed.warnings.push_back("bed.import: the file gives " + std::to_string(other_density) +
+                           " beads another density (" + SixDigits(file_density) +
+                           " kg/m^3 the first); the run gives every bead "
+                           "material.density_kg_m3 = " +
+                           SixDigits(rho) + " kg/m^3");
+  double r_min = bed.beads.radius[0], r_max = r_min;
+  for (double r : bed.beads.radius) {
+    r_min = std::min(r_min, r);
+    r_max = std::max(r_max, r);
+  }
+  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
+  if (2 * r_min < 0.99 * d_min || 2 * r_max > 1.01 * d_max)
+    bed.warnings.push_back("bed.import: the file's bead diameters, " + SixDigits(2e3 * r_min) +
+                           " to " + SixDigits(2e3 * r_max) +
+                           " mm, lie outside the scene's beads.diameter_min_m "
+                           "to diameter_max_m, " +
+                           SixDigits(1e3 * d_min) + " to " + SixDigits(1e3 * d_max) +
+                           " mm; the run uses the file's");
+}
+
+}  // namespace
+
 ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene& scene) {
   ImportedBed bed;
   const double R = scene.cylinder.radius_m;
   const BeadRecords records = ReadBeadRecords(in, name, scene.bed.import_units, kMaxBeads);
   bed.format = records.format;
-  auto number = [](double v) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.6g", v);
-    return std::string(text);
-  };
   // A bead too large for the container, read in metres, may be a file in another unit: the
   // unit that makes it fit is named.
   auto unit_hint = [&](double radius_m) -> std::string {
@@ -270,49 +307,24 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(r))
       fail("non-finite value");
     if (!(r >= kMinBeadRadius_m))
-      fail("radius " + number(r) + " m is below " + number(kMinBeadRadius_m) +
+      fail("radius " + SixDigits(r) + " m is below " + SixDigits(kMinBeadRadius_m) +
            " m, the smallest bead this model covers (finer powders are held by adhesion and the "
            "air, which it leaves out; a file in millimetres needs bed.import_units = \"mm\")");
     if (r >= 0.5 * R)
-      fail("radius " + number(r) + " m must be below half the cylinder's radius" + unit_hint(r));
+      fail("radius " + SixDigits(r) + " m must be below half the cylinder's radius" + unit_hint(r));
     // Outside the container: no overlap to accept or separate.
     if (std::hypot(x, y) + 0.5 * r > R)
-      fail("bead reaches outside the cylinder (radius " + number(R) + " m)" + unit_hint(r));
-    if (z < 0.5 * r) fail("bead reaches below the plate (its centre is at z = " + number(z) + ")");
+      fail("bead reaches outside the cylinder (radius " + SixDigits(R) + " m)" + unit_hint(r));
+    if (z < 0.5 * r)
+      fail("bead reaches below the plate (its centre is at z = " + SixDigits(z) + ")");
     if (z + r > scene.cylinder.height_m)
       fail("bead reaches above the side wall (cylinder.height_m = " +
-           number(scene.cylinder.height_m) + " m)");
+           SixDigits(scene.cylinder.height_m) + " m)");
     bed.beads.Add(dem::Vec3(x, y, z), r, scene.material.density_kg_m3);
     bed.lines.push_back(b.line);
   }
   if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
-  // Where the file disagrees with the scene: said, not silently replaced.
-  const double rho = scene.material.density_kg_m3;
-  std::size_t other_density = 0;
-  double file_density = 0.0;
-  for (const BeadRecord& b : records.beads)
-    if (b.density_kg_m3 > 0.0 && std::abs(b.density_kg_m3 - rho) > 0.01 * rho) {
-      if (other_density++ == 0) file_density = b.density_kg_m3;
-    }
-  if (other_density > 0)
-    bed.warnings.push_back("bed.import: the file gives " + std::to_string(other_density) +
-                           " beads another density (" + number(file_density) +
-                           " kg/m^3 the first); the run gives every bead "
-                           "material.density_kg_m3 = " +
-                           number(rho) + " kg/m^3");
-  double r_min = bed.beads.radius[0], r_max = r_min;
-  for (double r : bed.beads.radius) {
-    r_min = std::min(r_min, r);
-    r_max = std::max(r_max, r);
-  }
-  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
-  if (2 * r_min < 0.99 * d_min || 2 * r_max > 1.01 * d_max)
-    bed.warnings.push_back("bed.import: the file's bead diameters, " + number(2e3 * r_min) +
-                           " to " + number(2e3 * r_max) +
-                           " mm, lie outside the scene's beads.diameter_min_m "
-                           "to diameter_max_m, " +
-                           number(1e3 * d_min) + " to " + number(1e3 * d_max) +
-                           " mm; the run uses the file's");
+  AddImportWarnings(records, scene, bed);
 
   Measured m = MeasureOverlaps(bed.beads, R);
   if (!m.crowded.empty()) {

@@ -8,10 +8,17 @@
 
 namespace dembuf {
 
+std::span<const BedFormatName> BedFormatNames() {
+  static constexpr BedFormatName names[] = {
+      {BedFormat::kText, "text", "x y z radius, as bed.import reads"},
+      {BedFormat::kLammps, "lammps", "a data file for read_data, atom_style sphere"},
+      {BedFormat::kVtp, "vtp", "VTK XML, for ParaView"}};
+  return names;
+}
+
 std::optional<BedFormat> ParseBedFormat(std::string_view name) {
-  if (name == "text") return BedFormat::kText;
-  if (name == "lammps") return BedFormat::kLammps;
-  if (name == "vtp") return BedFormat::kVtp;
+  for (const BedFormatName& f : BedFormatNames())
+    if (f.name == name) return f.format;
   return std::nullopt;
 }
 

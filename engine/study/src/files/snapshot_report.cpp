@@ -20,9 +20,12 @@ bool IsSafeNameChar(char c) {
 }
 
 // The names of a snapshot's files (SnapshotFiles), in its folder.
-constexpr std::array<std::string_view, 7> kSnapshotFileNames = {
+constexpr std::array<std::string_view, kSnapshotFileCount> kSnapshotFileNames = {
     "snapshot.json",    "beads.vtp",     "contacts.vtp", "contacts.csv",
     "plate_radial.csv", "plate_map.csv", "force_pdf.csv"};
+static_assert(std::none_of(kSnapshotFileNames.begin(), kSnapshotFileNames.end(),
+                           [](std::string_view name) { return name.empty(); }),
+              "every snapshot file of kSnapshotFileCount is named");
 
 // A folder or file name of letters, digits, '.', '-' and '_', not hidden (no leading dot).
 std::string SafeLabel(const std::string& label) {

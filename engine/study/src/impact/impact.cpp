@@ -33,8 +33,9 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
   ContactSetup setup = MakeContactSetup(scene, min_radius);
   world.params = setup.params;
   // The impact's own: the bed was prepared (and is shared) without it.
-  world.params.bead_damping = {scene.damping.local_alpha, scene.damping.viscous_rate_per_s};
-  world.damping = setup.damping;
+  world.params.bead_damping = {scene.bead_damping.local_alpha,
+                               scene.bead_damping.viscous_rate_per_s};
+  world.contact_damping = setup.contact_damping;
   world.critical_dt_s = setup.critical_dt_s;
 
   if (scene.projectile.enabled) {
@@ -196,7 +197,7 @@ ImpactPass::ImpactPass(World world, const Scene& scene, const RunControl& contro
   m_summary.beads = m_sim.beads().size();
   m_summary.dt_s = world.params.dt_s;
   m_summary.critical_dt_s = world.critical_dt_s;
-  m_summary.damping = world.damping;
+  m_summary.contact_damping = world.contact_damping;
   m_summary.bed_surface_m = world.bed_surface_m;
   m_summary.bed = world.bed;
   m_sim.RefreshForces();
@@ -278,7 +279,7 @@ void ImpactPass::StartImpact() {
   m_peak_time = m_sim.time_s();
   m_loaded_until = m_sim.time_s();
   m_slow_speed = 0.01 * std::max(m_summary.impact_speed_m_s, 1e-3);
-  m_next_progress = m_control.progress_every_steps;
+  m_next_progress = m_control.steering.progress_every_steps;
   m_animate = m_control.on_frame && m_scene.output.animation_interval_s > 0.0;
   if (FrameDue(m_series_start)) TakeFrame();
 }
@@ -320,10 +321,10 @@ void ImpactPass::Record() {
     while (FrameDue(t)) ++m_frames;
   }
   // Every step: a step of a large bed takes milliseconds, a cancel must act within a second.
-  if (m_control.cancel && m_control.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+  if (m_control.steering.cancel && m_control.steering.cancel->load(std::memory_order_relaxed)) throw Cancelled();
   if (m_sim.steps() >= m_next_progress) {
-    m_next_progress += m_control.progress_every_steps;
-    if (m_control.on_progress) m_control.on_progress({t, m_t_end_estimate, m_sim.steps()});
+    m_next_progress += m_control.steering.progress_every_steps;
+    if (m_control.steering.on_progress) m_control.steering.on_progress({t, m_t_end_estimate, m_sim.steps()});
   }
 }
 
@@ -383,7 +384,7 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
       m_summary.end_reason = "reached time.end_s";
       break;
     }
-    if (m_control.threads) m_sim.LendThreads(m_control.threads->load(std::memory_order_relaxed));
+    if (m_control.steering.threads) m_sim.LendThreads(m_control.steering.threads->load(std::memory_order_relaxed));
     m_sim.Step();
     Record();
     if (const char* reason = EndReason()) {
@@ -391,7 +392,7 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
       break;
     }
   }
-  if (m_control.on_progress) m_control.on_progress({m_sim.time_s(), m_sim.time_s(), m_sim.steps()});
+  if (m_control.steering.on_progress) m_control.steering.on_progress({m_sim.time_s(), m_sim.time_s(), m_sim.steps()});
   if (found_peak_step) *found_peak_step = m_peak_at_step;
 
   m_summary.peak_plate_force_N = m_peak;
@@ -422,8 +423,9 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
   if (scene.output.snapshot_at_peak) {
     // The run is deterministic: a first pass finds the step of the peak, the second takes the
     // snapshot there.
-    RunControl quiet;
-    quiet.cancel = control.cancel;
+    RunControl quiet;  // cancelled and lent threads as the run, its progress not told twice
+    quiet.steering.cancel = control.steering.cancel;
+    quiet.steering.threads = control.steering.threads;
     std::int64_t peak_step = -1;
     RunPass(world, scene, quiet, -1, &peak_step);
     summary = RunPass(std::move(world), scene, control, peak_step, nullptr);
@@ -442,7 +444,8 @@ ImpactSummary RunImpact(World world, const Scene& scene, const RunControl& contr
     // long the scene's own run goes on (time.end_s).
     bare.time.end_s = 0.0;
     RunControl quiet;
-    quiet.cancel = control.cancel;
+    quiet.steering.cancel = control.steering.cancel;
+    quiet.steering.threads = control.steering.threads;
     quiet.compute_reference = false;
     quiet.on_sample = control.on_reference_sample;
     const ImpactSummary reference = RunImpact(bare, quiet);

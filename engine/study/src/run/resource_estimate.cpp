@@ -169,6 +169,43 @@ double GridCells(double container_m, double top_m, double min_radius, double max
   return across * across * up;
 }
 
+// The bytes of a run's output files and its memory at most, from its steps, samples,
+// snapshots and frames: an impact of `one_pass` steps, a bed up to `bed_top_m`.
+void EstimateBytes(const Scene& scene, double one_pass, double bed_top_m, double min_radius,
+                   double max_radius, ResourceEstimate& e) {
+  const bool projectile = scene.projectile.enabled;
+  const double plate_cells = std::pow(std::ceil(2.0 * scene.cylinder.radius_m / 0.01), 2);
+  e.output_bytes_max =
+      kRunFileBytes + e.samples_max * kBytesPerSample +
+      e.snapshots *
+          (e.impact_beads * kSnapshotFileBytesPerBead + plate_cells * kSnapshotFileBytesPerCell) +
+      e.animation_frames * ((e.impact_beads + 1) * report::kVtpBytesPerBead + kPvdBytesPerEntry);
+  // The bare-plate impact's samples (plate_force_bare.csv), over one impact window at most.
+  if (e.impact_beads > 0 && projectile)
+    e.output_bytes_max +=
+        (std::floor(scene.time.impact_window_s / scene.time.output_interval_s) + 2) *
+        kBytesPerSample;
+
+  double settling = 0.0, cached = 0.0;
+  for (const StageEstimate& s : e.stages) {
+    const double insertion = s.stage == "source" ? kInsertionBytesPerBead : 0.0;
+    settling = std::max(settling, s.beads * (kSimulationBytesPerBead + insertion));
+    cached += s.beads * kCachedBytesPerBead;
+  }
+  const double window_steps =
+      std::min(one_pass, std::ceil(scene.time.impact_window_s / e.dt_s) + 10);
+  const double impact =
+      e.impact_beads * kSimulationBytesPerBead +
+      (scene.output.snapshot_at_peak ? e.impact_beads * kCachedBytesPerBead : 0.0) +
+      window_steps * kSeriesBytesPerStep +
+      (e.snapshots + e.animation_frames > 0 ? e.impact_beads * kSnapshotBytesPerBead : 0.0);
+  const double grid = e.MaxBeads() > 0
+                          ? kGridBytesPerCell * GridCells(scene.cylinder.radius_m, bed_top_m,
+                                                          min_radius, max_radius)
+                          : 0.0;
+  e.memory_bytes_max = kProcessBytes + std::max(settling, impact) + cached + grid;
+}
+
 }  // namespace
 
 ResourceEstimate EstimateResources(const Scene& scene) {
@@ -248,36 +285,7 @@ ResourceEstimate EstimateResources(const Scene& scene) {
     e.animation_frames =
         std::min(std::floor(duration / scene.output.animation_interval_s) + 1, kMaxAnimationFrames);
 
-  const double plate_cells = std::pow(std::ceil(2.0 * scene.cylinder.radius_m / 0.01), 2);
-  e.output_bytes_max =
-      kRunFileBytes + e.samples_max * kBytesPerSample +
-      e.snapshots *
-          (e.impact_beads * kSnapshotFileBytesPerBead + plate_cells * kSnapshotFileBytesPerCell) +
-      e.animation_frames * ((e.impact_beads + 1) * report::kVtpBytesPerBead + kPvdBytesPerEntry);
-  // The bare-plate impact's samples (plate_force_bare.csv), over one impact window at most.
-  if (e.impact_beads > 0 && p.enabled)
-    e.output_bytes_max +=
-        (std::floor(scene.time.impact_window_s / scene.time.output_interval_s) + 2) *
-        kBytesPerSample;
-
-  double settling = 0.0, cached = 0.0;
-  for (const StageEstimate& s : e.stages) {
-    const double insertion = s.stage == "source" ? kInsertionBytesPerBead : 0.0;
-    settling = std::max(settling, s.beads * (kSimulationBytesPerBead + insertion));
-    cached += s.beads * kCachedBytesPerBead;
-  }
-  const double window_steps =
-      std::min(one_pass, std::ceil(scene.time.impact_window_s / e.dt_s) + 10);
-  const double impact =
-      e.impact_beads * kSimulationBytesPerBead +
-      (scene.output.snapshot_at_peak ? e.impact_beads * kCachedBytesPerBead : 0.0) +
-      window_steps * kSeriesBytesPerStep +
-      (e.snapshots + e.animation_frames > 0 ? e.impact_beads * kSnapshotBytesPerBead : 0.0);
-  const double grid = e.MaxBeads() > 0
-                          ? kGridBytesPerCell * GridCells(scene.cylinder.radius_m, bed_top_m,
-                                                          min_radius, max_radius)
-                          : 0.0;
-  e.memory_bytes_max = kProcessBytes + std::max(settling, impact) + cached + grid;
+  EstimateBytes(scene, one_pass, bed_top_m, min_radius, max_radius, e);
   return e;
 }
 

@@ -10,8 +10,8 @@ ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& contr
   if (context.started_at.empty()) context.started_at = report::UtcNow();
 
   BedRequest bed_request;
-  bed_request.cancel = control.cancel;
-  bed_request.threads = control.threads;
+  bed_request.cancel = control.steering.cancel;
+  bed_request.threads = control.steering.threads;
   bed_request.on_progress = control.on_bed_progress;
   World world = BuildWorld(scene, &beds, &bed_request);
   if (control.on_bed_ready) control.on_bed_ready(world);
@@ -25,10 +25,7 @@ ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& contr
     recorder.Files(paraview.AddSnapshot(snap));
   };
   impact.on_frame = [&](const ImpactSnapshot& frame) { recorder.Files(paraview.AddFrame(frame)); };
-  impact.on_progress = control.on_progress;
-  impact.progress_every_steps = control.progress_every_steps;
-  impact.cancel = control.cancel;
-  impact.threads = control.threads;
+  impact.steering = control.steering;
   impact.beds = &beds;
   impact.bed_request = &bed_request;
   const ImpactSummary summary = RunImpact(std::move(world), scene, impact);

@@ -31,9 +31,9 @@ ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
   const double d_mean = scene.beads.MeanDiameter();
   const double bead_mass = scene.MeanBeadMass();
   const double kn_ref = 4.0 / 3.0 * pair_moduli.e_star * std::sqrt(0.25 * d_mean);
-  setup.damping = dem::CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s, kn_ref,
-                                        0.5 * bead_mass);
-  const double A = setup.damping.damping_A_s;
+  setup.contact_damping = dem::CalibrateDamping(mat.restitution, mat.restitution_ref_speed_m_s,
+                                                kn_ref, 0.5 * bead_mass);
+  const double A = setup.contact_damping.damping_A_s;
 
   dem::WorldParams& wp = setup.params;
   wp.container = {scene.cylinder.radius_m, scene.cylinder.height_m};

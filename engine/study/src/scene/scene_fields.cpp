@@ -180,11 +180,11 @@ std::vector<SceneField> ImpactFields() {
       {"damping.local_alpha", "",
        "local damping of every bead's motion in the impact: a force -alpha |F| sign(v) per degree "
        "of freedom (as PFC's); 0 = none, as the paper states its model",
-       Shapes::kImpact, DEMBUF_FIELD(damping.local_alpha), 0.0, 1.0, false, true},
+       Shapes::kImpact, DEMBUF_FIELD(bead_damping.local_alpha), 0.0, 1.0, false, true},
       {"damping.viscous_rate_per_s", "1/s",
        "viscous background damping of every bead's motion in the impact: -rate m v and -rate I w; "
        "0 = none",
-       Shapes::kImpact, DEMBUF_FIELD(damping.viscous_rate_per_s), 0.0, 1e5},
+       Shapes::kImpact, DEMBUF_FIELD(bead_damping.viscous_rate_per_s), 0.0, 1e5},
 
       {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
        Shapes::kSourceBed, DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
@@ -565,7 +565,10 @@ Scene LoadSceneText(const std::string& text, const std::string& name, const Scen
   return LoadScene(text, name, "", base);
 }
 
-void ValidateScene(const Scene& scene) {
+namespace {
+
+// Each field within its own range, or among its choices.
+void CheckFieldRanges(const Scene& scene) {
   Scene copy = scene;  // the field accessors take a mutable scene
   for (const auto& f : FieldTable()) {
     if (auto* get = std::get_if<double& (*)(Scene&)>(&f.ref)) {
@@ -580,21 +583,11 @@ void ValidateScene(const Scene& scene) {
       for (double v : (*getl)(copy)) CheckRange(f, v, FormatNumber(v));
     }
   }
+}
 
+// The projectile fits in the cylinder, starts above the bed and gets there.
+void CheckProjectile(const Scene& scene) {
   auto fail = [](const char* field, const std::string& why) { throw SceneError(field, why); };
-  const auto& b = scene.beads;
-  if (b.diameter_min_m > b.diameter_max_m)
-    fail("beads.diameter_min_m",
-         FormatNumber(b.diameter_min_m) +
-             " exceeds beads.diameter_max_m = " + FormatNumber(b.diameter_max_m));
-  if (b.diameter_max_m >= scene.cylinder.radius_m)
-    fail("beads.diameter_max_m",
-         FormatNumber(b.diameter_max_m) +
-             " must be smaller than cylinder.radius_m = " + FormatNumber(scene.cylinder.radius_m));
-  if (scene.bed.thickness_m >= scene.cylinder.height_m)
-    fail("bed.thickness_m",
-         FormatNumber(scene.bed.thickness_m) +
-             " must be below cylinder.height_m = " + FormatNumber(scene.cylinder.height_m));
   const auto& p = scene.projectile;
   if (p.enabled) {
     if (p.diameter_m >= 2.0 * scene.cylinder.radius_m)
@@ -623,13 +616,20 @@ void ValidateScene(const Scene& scene) {
       fail("projectile.speed_m_s",
            FormatShort(p.speed_m_s) + " m/s with gravity_m_s2 = " +
                FormatShort(scene.gravity_m_s2) + ": the projectile reaches the bed after " +
-               FormatShort(flight) + " s; at most 1000 s" +
+               FormatShort(flight) + " s; at most " +
+               std::to_string(static_cast<long long>(kMaxFlightTime_s)) +
                " s (raise the speed or gravity, lower projectile.height_m, or set time.end_s)");
   } else if (scene.time.end_s == 0.0) {
     fail("time.end_s",
          "0 (automatic) needs a projectile: the automatic end waits for its impact; set "
          "time.end_s > 0 when projectile.enabled = false");
   }
+}
+
+// The bed can be prepared: its loose column fits under the wall, and soft settling keeps the
+// pour's overlaps small.
+void CheckBedPreparation(const Scene& scene) {
+  auto fail = [](const char* field, const std::string& why) { throw SceneError(field, why); };
   if (scene.bed.thickness_m > 0.0 && scene.bed.import.empty()) {
     const SourcePlan plan = PlanSourceBed(scene);
     if (plan.column_top_m > scene.cylinder.height_m)
@@ -655,6 +655,28 @@ void ValidateScene(const Scene& scene) {
                FormatShort(100.0 * kMaxSoftOverlap) +
                "% (lower bed.soft_settling; 0 = automatic, 1 = off)");
   }
+}
+
+}  // namespace
+
+void ValidateScene(const Scene& scene) {
+  CheckFieldRanges(scene);
+  auto fail = [](const char* field, const std::string& why) { throw SceneError(field, why); };
+  const auto& b = scene.beads;
+  if (b.diameter_min_m > b.diameter_max_m)
+    fail("beads.diameter_min_m",
+         FormatNumber(b.diameter_min_m) +
+             " exceeds beads.diameter_max_m = " + FormatNumber(b.diameter_max_m));
+  if (b.diameter_max_m >= scene.cylinder.radius_m)
+    fail("beads.diameter_max_m",
+         FormatNumber(b.diameter_max_m) +
+             " must be smaller than cylinder.radius_m = " + FormatNumber(scene.cylinder.radius_m));
+  if (scene.bed.thickness_m >= scene.cylinder.height_m)
+    fail("bed.thickness_m",
+         FormatNumber(scene.bed.thickness_m) +
+             " must be below cylinder.height_m = " + FormatNumber(scene.cylinder.height_m));
+  CheckProjectile(scene);
+  CheckBedPreparation(scene);
   if (const double interval = scene.output.animation_interval_s; interval > 0.0) {
     // The impact lasts until time.end_s, or at most the impact window after the first contact.
     const double impact_s = scene.time.end_s > 0.0 ? scene.time.end_s : scene.time.impact_window_s;

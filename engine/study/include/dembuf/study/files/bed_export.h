@@ -8,6 +8,7 @@
 #pragma once
 
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -18,7 +19,16 @@ namespace dembuf {
 
 enum class BedFormat { kText, kLammps, kVtp };
 
-/// "text", "lammps" or "vtp"; nullopt for another name.
+/// The formats a bed is exported in, by name: the one list the CLI's choices, its help and
+/// its completion are made of.
+struct BedFormatName {
+  BedFormat format;
+  std::string_view name;  ///< "text", "lammps", "vtp"
+  std::string_view help;
+};
+std::span<const BedFormatName> BedFormatNames();
+
+/// The format of a name of BedFormatNames; nullopt for another name.
 std::optional<BedFormat> ParseBedFormat(std::string_view name);
 
 /// The bed in that format. `scene` gives the container (the LAMMPS box) and names the bed in

@@ -13,6 +13,7 @@
 // daemon stores them with the job; both give the same bytes.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -29,7 +30,10 @@ struct ResultFile {
   std::string data;
 };
 
-/// The files of one snapshot, under "snapshots/<label>/".
+/// How many files one snapshot has (what a reader of a run folder may expect of it).
+inline constexpr std::size_t kSnapshotFileCount = 7;
+
+/// The files of one snapshot, under "snapshots/<label>/": kSnapshotFileCount of them.
 std::vector<ResultFile> SnapshotFiles(const ImpactSnapshot& snap, double cylinder_radius_m,
                                       double bead_diameter_m);
 

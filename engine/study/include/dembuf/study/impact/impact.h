@@ -1,6 +1,6 @@
 // One impact run from a Scene: build the world (materials, calibrated damping, time step, bed,
 // projectile), fly the projectile analytically to just above the bed, integrate the impact and
-// report. This is what the CLI's local mode and the daemon's workers call.
+// report. RunJob (run/run_job.h) calls it for a local run, a sweep's run and a daemon's job.
 #pragma once
 
 #include <atomic>
@@ -38,7 +38,7 @@ struct World {
   dem::ParticleState beads;
   std::vector<dem::ContactHistoryEntry> history;  ///< the bed's tangential springs
   std::optional<dem::RigidSphere> projectile;  ///< at its start position (centre H1 above the bed)
-  dem::DampingCalibration damping;
+  dem::DampingCalibration contact_damping;
   double critical_dt_s = 0.0;  ///< eq. 6
   double bed_surface_m = 0.0;  ///< height of the bed surface (0 without beads)
   BedSummary bed;
@@ -85,12 +85,21 @@ struct ImpactProgress {
   std::int64_t steps;
 };
 
-/// How the caller watches and steers a run.
-struct RunControl {
-  std::function<void(const ImpactSample&)> on_sample;  ///< every time.output_interval_s
-  std::function<void(const ImpactProgress&)> on_progress;
+/// How a caller steers a run and hears how far it is: one part of the impact's RunControl and
+/// of RunJob's JobControl alike.
+struct RunSteering {
+  const std::atomic<bool>* cancel = nullptr;  ///< checked every step; the run throws Cancelled
+  /// How many engine threads the run may use now, read every step (null: the default).
+  /// Results do not depend on it.
+  const std::atomic<int>* threads = nullptr;
+  std::function<void(const ImpactProgress&)> on_progress;  ///< while the impact runs
   std::int64_t progress_every_steps = 4096;
-  const std::atomic<bool>* cancel = nullptr;               ///< checked every step; throws Cancelled
+};
+
+/// How the caller watches and steers an impact.
+struct RunControl {
+  RunSteering steering;
+  std::function<void(const ImpactSample&)> on_sample;      ///< every time.output_interval_s
   std::function<void(const ImpactSnapshot&)> on_snapshot;  ///< scene.output snapshots
   /// Animation frames, every output.animation_interval_s of the impact (the beads' states,
   /// no contacts), labelled "frame_00000", "frame_00001", ...
@@ -101,9 +110,6 @@ struct RunControl {
   std::function<void(const ImpactSample&)> on_reference_sample;
   BedCache* beds = nullptr;  ///< where beds are found or stored (a private cache when null)
   const BedRequest* bed_request = nullptr;
-  /// When set: how many engine threads the impact may use now, read every step (0: the
-  /// default). Results do not depend on it.
-  const std::atomic<int>* threads = nullptr;
 };
 
 struct ImpactSummary {
@@ -115,7 +121,7 @@ struct ImpactSummary {
   std::int64_t steps = 0;  ///< integrated steps (the analytic free flight takes none)
   int threads = 0;         ///< the engine threads of the impact's last step (dem/threads.h)
   double wall_time_s = 0.0;
-  dem::DampingCalibration damping;
+  dem::DampingCalibration contact_damping;
   double bed_surface_m = 0.0;
   double free_flight_s = 0.0;          ///< time covered analytically
   double first_contact_time_s = -1.0;  ///< -1: the projectile never touched anything

@@ -42,19 +42,16 @@ struct JobControl {
   /// Who asked and where it runs; RunJob sets started_at (when empty), finished_at and the
   /// threads the impact ran on at its end.
   report::RunContext context;
-  const std::atomic<bool>* cancel = nullptr;  ///< checked every step; RunJob throws Cancelled
-  /// How many engine threads the run may use now, read as it goes (null: OpenMP's default).
-  const std::atomic<int>* threads = nullptr;
+  /// Cancel, threads and the impact's progress: handed to the beds and the impact as they are.
+  RunSteering steering;
   std::function<void(const BedProgress&)> on_bed_progress;  ///< while a bed is prepared
   /// The bed is ready (found or prepared) and the impact starts.
   std::function<void(const World&)> on_bed_ready;
-  std::function<void(const ImpactProgress&)> on_progress;  ///< while the impact runs
-  std::int64_t progress_every_steps = 4096;
 };
 
 /// Runs `scene` with beds from `beds`, recording into `recorder`. Throws SceneError for a bad
 /// scene, SimulationError for a run (or a bed) that became unstable, Cancelled when
-/// control.cancel is raised, and whatever the recorder throws (a full disk, say).
+/// control.steering.cancel is raised, and whatever the recorder throws (a full disk, say).
 ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& control,
                      RunRecorder& recorder);
 

@@ -11,7 +11,7 @@ namespace dembuf {
 /// The contact constants, container, gravity and time step of a scene (no bodies yet).
 struct ContactSetup {
   dem::WorldParams params;
-  dem::DampingCalibration damping;
+  dem::DampingCalibration contact_damping;
   double critical_dt_s = 0.0;  ///< eq. 6 for the smallest bead
 };
 

@@ -155,7 +155,7 @@ inline constexpr double kMaxAnimationFrames = 1000;
 /// Damping of the beads' own motion during the impact, besides their contacts' (dem::BeadDamping,
 /// docs/model.md "Particle damping"): not in the paper's model, off by default. Bed preparation
 /// is not damped: a bed is the same with or without it.
-struct DampingSpec {
+struct BeadDampingSpec {
   double local_alpha = 0.0;         ///< local (non-viscous) damping coefficient, 0 <= alpha < 1
   double viscous_rate_per_s = 0.0;  ///< viscous background damping rate
 };
@@ -167,7 +167,7 @@ struct Scene {
   BeadSpec beads;
   BedSpec bed;
   ProjectileSpec projectile;
-  DampingSpec damping;
+  BeadDampingSpec bead_damping;  ///< scene fields damping.*
   TimeSpec time;
   OutputSpec output;
   double gravity_m_s2 = 9.81;

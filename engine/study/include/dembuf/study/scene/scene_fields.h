@@ -1,6 +1,7 @@
-// The table of scene fields: one entry per dotted name, with its unit, help text and allowed
-// range. Scene files, `--set` overrides, `scene --print` and validation all go through it, so
-// a field is declared once.
+// The table of scene fields: one entry per dotted name, with its unit, help text, allowed
+// range and what it shapes. Scene files, `--set` overrides, `scene --print`, validation and
+// the bed cache keys go through it. A field's value lives in Scene and its wire form in the
+// API's Scene message; tests check that every row of the table reaches both and back.
 #pragma once
 
 #include <cstdint>

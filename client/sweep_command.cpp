@@ -66,8 +66,8 @@ int SweepCommand(const RunOptions& opt) {
     hc_search = ParseHcRange(opt.find_hc);
   }
   for (const auto& spec : opt.vary) sweep.axes.push_back(ParseSweepAxis(spec));
-  if (opt.seeds < 1 || opt.seeds > 1000)
-    throw SceneError("--seeds", std::to_string(opt.seeds) + " is out of range: 1 to 1000");
+  if (const std::string problem = SweepSeedsProblem(opt.seeds); !problem.empty())
+    throw SceneError("--seeds", problem);
   if (opt.jobs < 0 || opt.jobs > 256)
     throw SceneError("--jobs", std::to_string(opt.jobs) +
                                    " is out of range: 1 to 256, or 0 for one per usable CPU");

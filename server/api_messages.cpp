@@ -5,22 +5,29 @@
 
 namespace dembuf::server {
 
-v1::JobState ToProto(JobState s) {
-  switch (s) {
-    case JobState::kQueued:
-      return v1::JOB_STATE_QUEUED;
-    case JobState::kPreparingBed:
-      return v1::JOB_STATE_PREPARING_BED;
-    case JobState::kRunning:
-      return v1::JOB_STATE_RUNNING;
-    case JobState::kDone:
-      return v1::JOB_STATE_DONE;
-    case JobState::kFailed:
-      return v1::JOB_STATE_FAILED;
-    case JobState::kCancelled:
-      return v1::JOB_STATE_CANCELLED;
-  }
+namespace {
+
+// The store's job states and the API's, in one table both ways.
+constexpr std::pair<JobState, v1::JobState> kStates[] = {
+    {JobState::kQueued, v1::JOB_STATE_QUEUED},
+    {JobState::kPreparingBed, v1::JOB_STATE_PREPARING_BED},
+    {JobState::kRunning, v1::JOB_STATE_RUNNING},
+    {JobState::kDone, v1::JOB_STATE_DONE},
+    {JobState::kFailed, v1::JOB_STATE_FAILED},
+    {JobState::kCancelled, v1::JOB_STATE_CANCELLED}};
+
+}  // namespace
+
+v1::JobState ToProto(JobState state) {
+  for (const auto& [ours, theirs] : kStates)
+    if (ours == state) return theirs;
   return v1::JOB_STATE_UNSPECIFIED;
+}
+
+std::optional<JobState> FromProto(v1::JobState state) {
+  for (const auto& [ours, theirs] : kStates)
+    if (theirs == state) return ours;
+  return std::nullopt;
 }
 
 void FillProgress(const JobProgress& p, v1::Progress* out) {

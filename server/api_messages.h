@@ -3,6 +3,11 @@
 // the same about a job or a sweep.
 #pragma once
 
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
 #include "dembuf/v1/dembuf.pb.h"
 #include "executor.h"
 #include "store.h"
@@ -13,7 +18,9 @@ namespace dembuf::server {
 /// one is refused, naming `limit`, before it is built (the clients take answers up to 128 MiB).
 inline constexpr std::int64_t kMaxListAnswerBytes = std::int64_t{64} << 20;
 
+/// A job state in the API and back (nullopt for UNSPECIFIED or a state not known).
 v1::JobState ToProto(JobState state);
+std::optional<JobState> FromProto(v1::JobState state);
 void FillProgress(const JobProgress& progress, v1::Progress* out);
 
 /// The job's message: its record, its progress (the running job's own, else its stored state's)

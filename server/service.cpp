@@ -77,25 +77,6 @@ Status ListTooLarge(int limit, const char* what) {
                 "field=limit");
 }
 
-std::optional<JobState> FromProto(v1::JobState s) {
-  switch (s) {
-    case v1::JOB_STATE_QUEUED:
-      return JobState::kQueued;
-    case v1::JOB_STATE_PREPARING_BED:
-      return JobState::kPreparingBed;
-    case v1::JOB_STATE_RUNNING:
-      return JobState::kRunning;
-    case v1::JOB_STATE_DONE:
-      return JobState::kDone;
-    case v1::JOB_STATE_FAILED:
-      return JobState::kFailed;
-    case v1::JOB_STATE_CANCELLED:
-      return JobState::kCancelled;
-    default:
-      return std::nullopt;
-  }
-}
-
 void FillSample(const ImpactSample& s, v1::ForceSample* out) {
   out->set_t_s(s.t_s);
   out->set_plate_force_n(s.plate_force_N);
@@ -142,8 +123,7 @@ Status CheckSubmission(const Caller& caller, const Request& request, std::string
   if (Status s = CheckOwner(request.owner()); !s.ok()) return s;
   *owner = AccessPolicy::OwnerFor(caller, request.owner());
   if (Status s = CheckLabel("name", request.name(), 200); !s.ok()) return s;
-  if (Status s = CheckLabel("command_line", request.command_line(), kMaxCommandLineBytes);
-      !s.ok())
+  if (Status s = CheckLabel("command_line", request.command_line(), kMaxCommandLineBytes); !s.ok())
     return s;
   return CheckRequestId(request.request_id());
 }
@@ -204,8 +184,7 @@ Status DembufService::CheckStoredQuota(const std::string& owner, double more_byt
   return Status(StatusCode::RESOURCE_EXHAUSTED,
                 "owner: " + owner + " stores " + Megabytes(static_cast<double>(stored)) +
                     " of results and job records, and these jobs may add up to " +
-                    Megabytes(more_bytes) +
-                    ": more than the quota of " +
+                    Megabytes(more_bytes) + ": more than the quota of " +
                     Megabytes(static_cast<double>(m_info.quota_stored_bytes)) +
                     " per user (quota_stored_mb); delete what is no longer needed (dembuf delete "
                     "JOB, or --sweep SWEEP)",
@@ -404,8 +383,10 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
     }
     if (request->axes().empty() && request->seeds() <= 1)
       return Invalid("axes", "a sweep needs at least one axis or seeds > 1");
-    if (request->seeds() < 0 || request->seeds() > 1000)
-      return Invalid("seeds", std::to_string(request->seeds()) + " is out of range: 1 to 1000");
+    // (0, the field's default, is one seed)
+    const int seeds = request->seeds() == 0 ? 1 : request->seeds();
+    if (const std::string problem = SweepSeedsProblem(seeds); !problem.empty())
+      return Invalid("seeds", problem);
     SweepRecord sweep;
     std::vector<JobRecord> jobs;
     const std::string command_line = KeptCommandLine(context, request->command_line());
@@ -723,7 +704,8 @@ grpc::ServerUnaryReactor* DembufService::FetchResults(grpc::CallbackServerContex
     std::optional<JobRecord> job;
     if (Status s = FinishedJobOfCaller(caller, request->id(), &job); !s.ok()) return s;
     // A damaged summary fails the fetch (DATA_LOSS) rather than coming back empty.
-    FillJob(m_store, m_executor, *job, true, response->mutable_job(), /*damaged_summary_fails=*/true);
+    FillJob(m_store, m_executor, *job, true, response->mutable_job(),
+            /*damaged_summary_fails=*/true);
     const std::int64_t length = m_store.ResultSeriesLength(job->id);
     response->set_series_length(length);
     // A short series comes with the answer; a long one is streamed (FetchSeries).

@@ -15,6 +15,9 @@ bare=(--set bed.thickness_m=0)
 expect_exit 2 "projectile.speed_m_s: varied twice" "$dembuf" sweep "${bare[@]}" \
   --vary projectile.speed_m_s=1,2 --vary projectile.speed_m_s=3,4 --out "$work/twice"
 [ ! -e "$work/twice" ] || fail "a refused sweep created its folder"
+# The seeds rule, one for every door (SweepSeedsProblem): here, and the daemon's below.
+expect_exit 2 "\-\-seeds: 1001 is out of range: 1 to 1000" "$dembuf" sweep "${bare[@]}" \
+  --vary projectile.speed_m_s=1,2 --seeds 1001 --out "$work/seeds"
 expect_exit 2 "projectile.speed_m_s: the value 1.0 is given twice" "$dembuf" sweep "${bare[@]}" \
   --vary projectile.speed_m_s=1,1.0 --out "$work/same"
 
@@ -76,6 +79,15 @@ with dembuf.connect() as daemon:
             assert e.code == "INVALID_ARGUMENT" and why in e.message, (name, e)
         else:
             raise SystemExit(f"the daemon took the name {name!r}")
+    for seeds in (-3, 1001):
+        try:
+            daemon.submit_sweep({"projectile.speed_m_s": [1, 2]}, seeds=seeds,
+                                set=["bed.thickness_m=0"])
+        except dembuf.DembufError as e:
+            assert e.code == "INVALID_ARGUMENT" and \
+                f"seeds: {seeds} is out of range: 1 to 1000" in e.message, (seeds, e)
+        else:
+            raise SystemExit(f"the daemon took {seeds} seeds")
 PY
   fail "the daemon's name checks"
 stop_daemon

@@ -56,6 +56,15 @@ class JobFeedTest : public testing::Test {
     for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(path.string() + suffix);
     store = std::make_unique<Store>(path.string(), StoreOptions{1000, 0});
   }
+  /// A job that runs, its live part known to the executor.
+  std::pair<std::int64_t, std::shared_ptr<LiveJob>> AddRunningJob() {
+    const std::int64_t id = AddJob();
+    store->MarkStarted(id, JobState::kRunning, "host", "0.1.0");
+    auto live = std::make_shared<LiveJob>(id);
+    live->SetState(JobState::kRunning);
+    executor.live[id] = live;
+    return {id, live};
+  }
   std::int64_t AddJob() {
     JobRecord job;
     job.owner = "ada";
@@ -97,11 +106,9 @@ TEST_F(JobFeedTest, AnEndedJobIsReadInPiecesToItsEnd) {
 }
 
 TEST_F(JobFeedTest, ARunningJobIsReadFromTheStoreThenLiveThenToItsEnd) {
-  const std::int64_t id = AddJob();
-  store->MarkStarted(id, JobState::kRunning, "host", "0.1.0");
-  auto live = std::make_shared<LiveJob>(id);
-  live->SetState(JobState::kRunning);
-  executor.live[id] = live;
+  const auto running = AddRunningJob();
+  const std::int64_t id = running.first;
+  const std::shared_ptr<LiveJob> live = running.second;
   // 1500 samples: the first 1000 already stored by the worker, the rest still in memory.
   for (int k = 0; k < 1500; ++k) live->Append(Sample(k));
   auto [first, unstored] = live->UnstoredSamples();
@@ -205,11 +212,9 @@ TEST_F(JobFeedTest, ASweepsPointsAreItsDoneJobsOverTheSeeds) {
 }
 
 TEST_F(JobFeedTest, AJobsPeakIsItsSummarysOrElseTheRunningJobs) {
-  const std::int64_t id = AddJob();
-  store->MarkStarted(id, JobState::kRunning, "host", "0.1.0");
-  auto live = std::make_shared<LiveJob>(id);
-  live->SetState(JobState::kRunning);
-  executor.live[id] = live;
+  const auto running = AddRunningJob();
+  const std::int64_t id = running.first;
+  const std::shared_ptr<LiveJob> live = running.second;
   EXPECT_TRUE(
       web::JobJson(*store, executor, *store->GetJob(id), false)["peak_plate_force_N"].is_null());
   live->Append(Sample(100));

@@ -113,13 +113,18 @@ SweepAxis ParseSweepAxis(const std::string& spec) {
   return MakeSweepAxis(parts.field, parts.values, parts.range);
 }
 
+std::string SweepSeedsProblem(int seeds) {
+  if (seeds >= 1 && seeds <= kMaxSweepSeeds) return "";
+  return std::to_string(seeds) + " is out of range: 1 to " + std::to_string(kMaxSweepSeeds);
+}
+
 std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
                                     std::int64_t first_seed) {
   if (std::any_of(axes.begin(), axes.end(),
                   [](const SweepAxis& a) { return a.field == "bed.seed"; }))
     return axes;
-  if (seeds < 1 || seeds > 1000)
-    throw SceneError("seeds", std::to_string(seeds) + " is out of range: must be 1 to 1000");
+  if (const std::string problem = SweepSeedsProblem(seeds); !problem.empty())
+    throw SceneError("seeds", problem);
   SweepAxis seed{"bed.seed", {}};
   for (int s = 0; s < seeds; ++s) seed.values.push_back(std::to_string(first_seed + s));
   axes.push_back(std::move(seed));

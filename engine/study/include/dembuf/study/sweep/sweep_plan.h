@@ -39,8 +39,14 @@ SweepAxis ParseSweepAxis(const std::string& spec);
 SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>& values,
                         const std::string& range);
 
+/// The most bed seeds a sweep runs of each point: the rule of `dembuf sweep --seeds` and of the
+/// daemon's SubmitSweep alike.
+inline constexpr int kMaxSweepSeeds = 1000;
+/// "" for a number of seeds a sweep may run, else why not ("2000 is out of range: 1 to 1000").
+std::string SweepSeedsProblem(int seeds);
+
 /// Adds the axis bed.seed = first_seed .. first_seed + seeds - 1 unless bed.seed is already
-/// varied. Throws SceneError unless 1 <= seeds <= 1000.
+/// varied. Throws SceneError (seeds) where SweepSeedsProblem says why not.
 std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
                                     std::int64_t first_seed = 1);
 

@@ -76,7 +76,7 @@ EXAMPLES
   echo ".br"
   echo "Accuracies (--accuracy): $("$program" scene --list accuracies | cut -f1 | tr '\n' ' ')"
   echo ".br"
-  echo "Bed formats (bed export --format): $("$program" scene --list formats | tr '\n' ' ')"
+  echo "Bed formats (bed export --format): $("$program" scene --list formats | cut -f1 | tr '\n' ' ')"
 }
 
 describe "$dembuf" dembuf "DEM simulation of impacts on granular buffer layers" '.TP

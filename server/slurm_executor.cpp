@@ -61,9 +61,9 @@ constexpr std::uint64_t kMaxSamplesAtEnd = 1 << 20;
 
 // Result files read back from a job's folder at most: a server job takes at most
 // kMaxServerSnapshots snapshots of report::SnapshotFiles' files each and their .pvd,
-// kMaxAnimationFrames frames and theirs, and the bare-plate series.
+// kMaxAnimationFrames frames and theirs, container.vtp, and the bare-plate series.
 constexpr std::size_t kMaxResultFiles = report::kSnapshotFileCount * kMaxServerSnapshots + 1 +
-                                        static_cast<std::size_t>(kMaxAnimationFrames) + 1 + 1;
+                                        static_cast<std::size_t>(kMaxAnimationFrames) + 1 + 1 + 1;
 
 // The whole samples of a job's samples.bin from sample `from` on, at most `most` of them (a
 // sample written half is left for the next look).

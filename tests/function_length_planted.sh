@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The function-length check can fail: on a planted source tree it must refuse a function of
-# 101 lines (in a namespace, and a member defined in its class), pass one of 100, and refuse an
+# 101 lines (in a namespace, a member defined in its class, a template), pass one of 100, and refuse an
 # exception whose function has become short. Braces in strings, comments and character
 # literals must not count.
 # Usage: function_length_planted.sh SOURCE_DIR
@@ -33,6 +33,12 @@ if python3 "$check" "$work" > "$work/out"; then fail "a member of 101 lines pass
 grep -q "client/member.h:3 Member: 101 lines" "$work/out" || fail "not named: $(cat "$work/out")"
 rm "$work/client/member.h"
 
+# A template of `class` parameters is a function too (its `class` was taken for a scope).
+{ echo "template <class E, typename F>"; function_of Templated 101; } > "$work/engine/templated.cpp"
+if python3 "$check" "$work" > "$work/out"; then fail "a template function of 101 lines passed"; fi
+grep -q "engine/templated.cpp:2 Templated: 101 lines" "$work/out" || fail "not named: $(cat "$work/out")"
+rm "$work/engine/templated.cpp"
+
 # An exception that no longer holds is refused too: the copy of the tree has the named
 # functions short.
 mkdir -p "$work/engine/core/src"
@@ -40,4 +46,4 @@ function_of RebuildPairList 20 > "$work/engine/core/src/neighbor_list.cpp"
 if python3 "$check" "$work" > "$work/out"; then fail "a stale exception passed"; fi
 grep -q "the exception engine/core/src/neighbor_list.cpp RebuildPairList is no longer over" "$work/out" ||
   fail "stale exception not named: $(cat "$work/out")"
-echo "function length: a planted long function and member, and a stale exception, are refused"
+echo "function length: a planted long function, member and template, and a stale exception, are refused"

@@ -49,7 +49,8 @@ for page in dembuf dembufd; do
     fail "$page.1 does not render: $(cat "$work/$page.err")"
 done
 for text in "--find-hc" "--json" "DEMBUF_PROGRESS_S" "SIGTERM" "Usage: dembuf run" "EXAMPLES" \
-  "SCENE FIELDS" "bed.thickness_m" "[m] [0 to 10]: settled bed thickness H" "Presets (--preset): e1"; do
+  "SCENE FIELDS" "bed.thickness_m" "[m] [0 to 10]: settled bed thickness H" "Presets (--preset): e1" \
+  "Bed formats (bed export --format): text lammps vtp"; do
   grep -qF -- "$text" "$work/dembuf.txt" || fail "dembuf.1 lacks $text"
 done
 grep -qF -- "token-create" "$work/dembufd.txt" || fail "dembufd.1 lacks token-create"

@@ -321,10 +321,12 @@ void ImpactPass::Record() {
     while (FrameDue(t)) ++m_frames;
   }
   // Every step: a step of a large bed takes milliseconds, a cancel must act within a second.
-  if (m_control.steering.cancel && m_control.steering.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+  if (m_control.steering.cancel && m_control.steering.cancel->load(std::memory_order_relaxed))
+    throw Cancelled();
   if (m_sim.steps() >= m_next_progress) {
     m_next_progress += m_control.steering.progress_every_steps;
-    if (m_control.steering.on_progress) m_control.steering.on_progress({t, m_t_end_estimate, m_sim.steps()});
+    if (m_control.steering.on_progress)
+      m_control.steering.on_progress({t, m_t_end_estimate, m_sim.steps()});
   }
 }
 
@@ -384,7 +386,8 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
       m_summary.end_reason = "reached time.end_s";
       break;
     }
-    if (m_control.steering.threads) m_sim.LendThreads(m_control.steering.threads->load(std::memory_order_relaxed));
+    if (m_control.steering.threads)
+      m_sim.LendThreads(m_control.steering.threads->load(std::memory_order_relaxed));
     m_sim.Step();
     Record();
     if (const char* reason = EndReason()) {
@@ -392,7 +395,8 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
       break;
     }
   }
-  if (m_control.steering.on_progress) m_control.steering.on_progress({m_sim.time_s(), m_sim.time_s(), m_sim.steps()});
+  if (m_control.steering.on_progress)
+    m_control.steering.on_progress({m_sim.time_s(), m_sim.time_s(), m_sim.steps()});
   if (found_peak_step) *found_peak_step = m_peak_at_step;
 
   m_summary.peak_plate_force_N = m_peak;

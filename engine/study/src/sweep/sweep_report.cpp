@@ -281,7 +281,6 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   csv << ",status";
   for (const auto& m : SweepMetricNames()) csv << "," << m;
   csv << ",run_dir,error\n";
-  csv.precision(10);
   int failed = 0;
   for (std::size_t j = 0; j < runs.size(); ++j) {
     const SweepRunReport& r = runs[j];
@@ -289,14 +288,12 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     if (r.id != 0) csv << r.id;
     for (const auto& v : r.values) csv << "," << CsvCell(v);
     csv << "," << RunStatus(r);
-    for (const auto& m : SweepMetricNames()) {
-      csv << ",";
-      if (r.ok && r.summary.contains(m) && r.summary[m].is_number())
-        csv << r.summary[m].get<double>();
-    }
-    std::string error = r.error;
-    std::replace(error.begin(), error.end(), '"', '\'');
-    csv << ",runs/" << r.name << ",\"" << error << "\"\n";
+    // Every cell as points.csv's: numbers exact, a text quoted where it must be.
+    for (const auto& m : SweepMetricNames())
+      csv << ","
+          << (r.ok && r.summary.contains(m) && r.summary[m].is_number() ? CsvCell(r.summary[m])
+                                                                        : "");
+    csv << "," << CsvCell("runs/" + r.name) << "," << CsvCell(r.error) << "\n";
     failed += !r.ok;
   }
 

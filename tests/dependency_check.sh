@@ -56,12 +56,13 @@ if [ -n "$strays" ]; then
   echo "$strays"
   status=1
 fi
-# Files of study as nodes, "a includes b" as edges (a header and its source are one node):
+# Files of study as nodes, "a includes b" as edges (a header and its source are one node; a
+# file in a room's subfolder is a node of its room):
 # tsort names a loop when the includes go round.
 edges=$(cd "$root/$study" && grep -rHoE --include='*.h' --include='*.cpp' \
           '^[[:space:]]*#[[:space:]]*include[[:space:]]*"dembuf/study/[a-z_]+/[a-z_0-9]+\.h"' \
           include src |
-        sed -E 's|^(include/dembuf/study/\|src/)([a-z_]+/[a-z_0-9]+)\.(h\|cpp):.*"dembuf/study/([a-z_]+/[a-z_0-9]+)\.h"|\2 \4|' |
+        sed -E 's|^(include/dembuf/study/\|src/)([a-z_]+)/([a-z_]+/)*([a-z_0-9]+)\.(h\|cpp):.*"dembuf/study/([a-z_]+/[a-z_0-9]+)\.h"|\2/\4 \6|' |
         awk '$1 != $2' | sort -u)
 if ! loop=$(echo "$edges" | tsort 2>&1 >/dev/null) || [ -n "$loop" ]; then
   echo "FAIL: an include cycle inside engine/study:"

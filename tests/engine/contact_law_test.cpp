@@ -1,6 +1,6 @@
-// The contact law alone (ApplyContactLaw, the one copy every contact goes through), without
-// the engine: a head-on elastic collision integrated with it against Hertz's closed form, and
-// the Coulomb cap and the tangent-plane history on single calls.
+// The contact law alone (its parts' arithmetic, ResolveContact, the one copy every contact goes
+// through), without the engine: a head-on elastic collision integrated with it against Hertz's
+// closed form, and the Coulomb cap and the tangent-plane history on single calls.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -28,15 +28,11 @@ TEST(ContactLaw, ElasticHeadOnCollisionMatchesHertzWithinHalfAPercent) {
 
   // The relative motion m* x'' = -Fn(x, x') by velocity Verlet, 20,000 steps a contact.
   const double h = hertz.duration / 20000.0;
-  dem::ContactLawInput c{};
-  c.nz = 1.0;
-  c.r_star = 0.5 * radius;
+  const double r_star = 0.5 * radius;
   double x = 0.0, u = v, t = 0.0, peak_force = 0.0, peak_overlap = 0.0;
   auto force = [&](double overlap, double rate) {
     if (overlap <= 0.0) return 0.0;
-    c.overlap = overlap;
-    c.approach_rate = rate;
-    return dem::ApplyContactLaw<false>(c, p, h).normal;
+    return dem::HertzNormal::Force(overlap, rate, r_star, p);
   };
   double f = force(x, u);
   while (!(x <= 0.0 && u < 0.0) && t < 2.0 * hertz.duration) {
@@ -56,29 +52,35 @@ TEST(ContactLaw, ElasticHeadOnCollisionMatchesHertzWithinHalfAPercent) {
 
 TEST(ContactLaw, NeverPullsAndCapsTheSpringAtCoulomb) {
   const dem::PairParams p = GlassPair(2.5e-6, 0.5);
-  dem::ContactLawInput c{};
+  // The law with friction, as the force pass runs it.
+  using Friction =
+      dem::Effects<dem::Parts::Bit<dem::HertzNormal>() | dem::Parts::Bit<dem::MindlinTangential>()>;
+  auto law = [&](const dem::ContactLane& c, double dt) {
+    return dem::ResolveContact<Friction>(c, {p, 0.0, dt});
+  };
+  dem::ContactLane c{};
   c.nz = 1.0;
   c.overlap = 1e-6;
   c.r_star = 1.125e-3;
   // Parting fast: the damping term exceeds the elastic one, and the force is clamped at 0.
   c.approach_rate = -10.0;
-  EXPECT_EQ((dem::ApplyContactLaw<true>(c, p, 1e-6).normal), 0.0);
+  EXPECT_EQ(law(c, 1e-6).normal, 0.0);
 
   // At rest with a long stored spring in the tangent plane: the force is capped at mu Fn and
   // the spring shortened to what the cap supports.
   c.approach_rate = 0.0;
   c.hx = 1e-3;
-  const dem::ContactLawOutput out = dem::ApplyContactLaw<true>(c, p, 1e-6);
-  const double tangential = std::hypot(out.tx, out.ty, out.tz);
+  const dem::ContactResult out = law(c, 1e-6);
+  const double tangential = std::hypot(out.fx, out.fy, out.fz - out.normal);
   EXPECT_NEAR(tangential, 0.5 * out.normal, 1e-12 * out.normal);
   const double ks_x = p.ks_per_sqrt_r * std::sqrt(c.r_star) * std::sqrt(c.overlap);
   EXPECT_NEAR(out.hx, 0.5 * out.normal / ks_x, 1e-12 * out.hx);
 
   // A history with a normal part is turned into the tangent plane with its length kept.
-  dem::ContactLawInput tilted = c;
+  dem::ContactLane tilted = c;
   tilted.hx = 3e-9;
   tilted.hz = 4e-9;
-  const dem::ContactLawOutput turned = dem::ApplyContactLaw<true>(tilted, p, 0.0);
+  const dem::ContactResult turned = law(tilted, 0.0);
   EXPECT_EQ(turned.hz, 0.0);
   EXPECT_NEAR(turned.hx, 5e-9, 1e-21);
 }

@@ -87,7 +87,9 @@ int ExpectTheLawsForcesPairByPair(dem::ParticleState beads) {
                                     dem::EffectiveRadius(b.radius[i], b.radius[j]));
       dem::Vec3 history = dem::Vec3::Zero();
       const dem::detail::ContactOutcome out =
-          dem::detail::Resolve<true>(g, ai, aj, law, dt, history);
+          dem::detail::Resolve<dem::Effects<dem::Parts::Bit<dem::HertzNormal>() |
+                                            dem::Parts::Bit<dem::MindlinTangential>()>>(
+              g, ai, aj, law, dt, history);
       force[i] += out.force;
       force[j] -= out.force;
       torque[i] += out.torque_i;

@@ -73,15 +73,21 @@ void ExpectSameBits(const dem::Vec3& batched, const dem::Vec3& reference, const 
   }
 }
 
-// The scalar law (Resolve) for these effects.
+// The contact parts of a world with friction and rolling resistance or without.
+PartMask ContactParts(bool friction, bool rolling) {
+  return Parts::Bit<HertzNormal>() | (friction ? Parts::Bit<MindlinTangential>() : 0) |
+         (rolling ? Parts::Bit<RollingResistance>() : 0);
+}
+
+// The vector form of the law (Resolve) for these parts.
 ContactOutcome ScalarLaw(bool friction, bool rolling, const dem::ContactGeometry& g, double ai,
                          double aj, const dem::PairParams& params, double dt, dem::Vec3& shear,
                          const RollingPair& pair) {
-  if (friction)
-    return rolling ? Resolve<true, true>(g, ai, aj, params, dt, shear, pair)
-                   : Resolve<true, false>(g, ai, aj, params, dt, shear, pair);
-  return rolling ? Resolve<false, true>(g, ai, aj, params, dt, shear, pair)
-                 : Resolve<false, false>(g, ai, aj, params, dt, shear, pair);
+  ContactOutcome out;
+  WithEffects<Stage::kContact>(ContactParts(friction, rolling), [&]<class E>(E) {
+    out = Resolve<E>(g, ai, aj, params, dt, shear, pair);
+  });
+  return out;
 }
 
 // Glass beads' masses for the radii.
@@ -122,10 +128,8 @@ void CompareWithScalarLaw(bool friction, bool rolling) {
                                c.radius.data(),
                                mass.data(),
                                c.shear.front().data(),
-                               params,
-                               kRollingFriction,
-                               dt};
-  ResolvePairBatch(friction, rolling, inputs, batch);
+                               {params, kRollingFriction, dt}};
+  ResolvePairBatch(ContactParts(friction, rolling), inputs, batch);
   int rolling_limited = 0, rolling_stopped = 0;
 
   int sliding = 0, sticking_with_history = 0, clamped = 0;
@@ -253,9 +257,7 @@ void CompareWallsWithScalarLaw(bool friction, bool rolling) {
                                radius.data(),
                                mass.data(),
                                shear_by_slot.front().data(),
-                               params,
-                               kRollingFriction,
-                               dt,
+                               {params, kRollingFriction, dt},
                                box};
 
   int clamped = 0, sliding = 0;
@@ -267,7 +269,7 @@ void CompareWallsWithScalarLaw(bool friction, bool rolling) {
       batch.bead[batch.size] = k;
       batch.slot[batch.size++] = kCount - 1 - k;
     }
-    ResolveWallBatch(friction, rolling, wall, inputs, batch);
+    ResolveWallBatch(ContactParts(friction, rolling), wall, inputs, batch);
 
     for (std::size_t c = 0; c < batch.size; ++c) {
       const int k = static_cast<int>(batch.bead[c]);

@@ -32,41 +32,49 @@ inline double LeverArm(double radius, double overlap) {
   return radius - 0.5 * overlap;
 }
 
-/// What rolling resistance reads of a contact besides its geometry: the bodies' relative
-/// angular velocity w_i - w_j (w_i for a wall), the pair's inertia 1 / (1/I_i + 1/I_j) (I_i for
-/// a wall) and mu_r.
+/// What rolling resistance (a part that reads spin) reads of a contact besides its geometry:
+/// the bodies' relative angular velocity w_i - w_j (w_i for a wall), the pair's inertia
+/// 1 / (1/I_i + 1/I_j) (I_i for a wall) and mu_r.
 struct RollingPair {
   Vec3 w_rel = Vec3::Zero();
   double inertia = 0.0;
   double mu_r = 0.0;
 };
 
-/// Applies the law to a contact of geometry c between sphere i (lever arm ai) and body j
-/// (lever arm aj; a wall uses aj = 0, which gives it no torque): the normal and tangential
-/// forces and, with kRolling, the rolling resistance torque (on i, its opposite on j). The
-/// contact loops' lanes (pair_batch.cpp) do the same operations in the same order.
-template <bool kFriction, bool kRolling = false>
+/// Applies the contact parts of E to a contact of geometry c between sphere i (lever arm ai)
+/// and body j (lever arm aj; a wall uses aj = 0, which gives it no torque): the contact in
+/// ContactLane's form, the parts' arithmetic (ResolveContact, the one copy the force pass's
+/// lanes run too), and the forces and torques as vectors. `shear` is the contact's history,
+/// advanced in place.
+template <class E>
 inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, const PairParams& p,
                               double dt, Vec3& shear, const RollingPair& rolling = {}) {
-  const ContactForce f = HertzMindlinForce<kFriction>(c, p, dt, shear);
-  ContactOutcome out;
-  out.normal = f.normal;
-  if constexpr (kFriction) {
-    out.force = f.normal * c.normal + f.tangential;
-    const Vec3 arm = c.normal.cross(f.tangential);  // both torques are -a (n x Ft)
-    out.torque_i = -ai * arm;
-    out.torque_j = -aj * arm;
-  } else {
-    out.force = f.normal * c.normal;
-    out.torque_i = out.torque_j = Vec3::Zero();
+  ContactLane lane{};
+  lane.nx = c.normal.x();
+  lane.ny = c.normal.y();
+  lane.nz = c.normal.z();
+  lane.overlap = c.overlap;
+  lane.approach_rate = c.approach_rate;
+  lane.r_star = c.r_star;
+  if constexpr (E::kSlip) {
+    lane.sx = c.slip_velocity.x();
+    lane.sy = c.slip_velocity.y();
+    lane.sz = c.slip_velocity.z();
+    lane.hx = shear.x();
+    lane.hy = shear.y();
+    lane.hz = shear.z();
   }
-  if constexpr (kRolling) {
-    const Vec3 torque = RollingResistanceTorque(c.normal, rolling.w_rel, f.normal, c.r_star,
-                                                rolling.mu_r, rolling.inertia, dt);
-    out.torque_i += torque;
-    out.torque_j -= torque;
+  if constexpr (E::kSpin) {
+    lane.wx = rolling.w_rel.x();
+    lane.wy = rolling.w_rel.y();
+    lane.wz = rolling.w_rel.z();
+    lane.inertia = rolling.inertia;
   }
-  return out;
+  lane.ai = ai;
+  lane.aj = aj;
+  const ContactResult r = ResolveContact<E>(lane, {p, rolling.mu_r, dt});
+  if constexpr (E::kHistory) shear = Vec3(r.hx, r.hy, r.hz);
+  return {Vec3(r.fx, r.fy, r.fz), Vec3(r.tix, r.tiy, r.tiz), Vec3(r.tjx, r.tjy, r.tjz), r.normal};
 }
 
 /// Side-wall contact of a sphere (centre x, radius r) inside the container: true when it

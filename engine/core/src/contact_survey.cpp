@@ -92,8 +92,8 @@ std::vector<ContactSnapshot> Simulation::Contacts() const {
       m_params, m_beads, m_projectile, *m_impl,
       [&](BodyId a, BodyId other, const Vec3& n, double overlap, const Vec3& v_rel, double ra,
           double r_star, const PairParams& p, const Vec3& shear, const Vec3& x_a) {
-        const double fn = HertzNormalForce(overlap, -v_rel.dot(n), r_star, p);
-        const Vec3 ft = StoredSpringForce(overlap, r_star, p, shear);
+        const double fn = HertzNormal::Force(overlap, -v_rel.dot(n), r_star, p);
+        const Vec3 ft = MindlinTangential::StoredSpringForce(overlap, r_star, p, shear);
         out.push_back({a, other, x_a - detail::LeverArm(ra, overlap) * n, fn * n + ft, fn});
       });
   return out;

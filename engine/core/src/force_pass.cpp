@@ -7,7 +7,6 @@
 
 #include "block_schedule.h"
 #include "contact_kernels.h"
-#include "effects.h"
 
 namespace dembuf::dem::detail {
 
@@ -20,6 +19,22 @@ void ClearSprings(std::vector<Vec3>& history, std::size_t first, std::size_t las
   std::fill_n(Components(history) + 3 * first, 3 * (last - first), 0.0);
 }
 
+// What the contact parts read of the world for a kind of pair (part.h).
+ContactConstants ConstantsOf(const WorldParams& params, const PairParams& pair) {
+  return {pair, params.rolling_friction, params.dt_s};
+}
+
+// What the pair batches read.
+PairBatchInputs PairInputs(const WorldParams& params, ParticleState& b, PairList& pairs) {
+  return {Components(b.position),
+          Components(b.velocity),
+          Components(b.angular_velocity),
+          b.radius.data(),
+          b.mass.data(),
+          Components(pairs.shear),
+          ConstantsOf(params, params.sphere_pair)};
+}
+
 // Pair forces of the beads of block [begin, end), in batches of the list's entries
 // (pair_batch.h): the touching pairs are picked out, the law resolves them in one vectorized
 // loop, and the results go to the beads in list order. Entries apart lose their history.
@@ -30,10 +45,7 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
   if (begin == end) return;  // (a system without beads may have no list at all)
   const std::uint32_t* offsets = pairs.offsets.data();
   const std::uint32_t* partners = pairs.partners.data();
-  const PairBatchInputs inputs{
-      Components(b.position), Components(b.velocity),  Components(b.angular_velocity),
-      b.radius.data(),        b.mass.data(),           Components(pairs.shear),
-      params.sphere_pair,     params.rolling_friction, params.dt_s};
+  const PairBatchInputs inputs = PairInputs(params, b, pairs);
   // One flat loop over the entries (not beads, then their entries): no loop exit per bead to
   // mispredict.
   const std::uint32_t stop = offsets[end];
@@ -71,11 +83,11 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
     batch.size = n;
 
     // 2. The contact law, vectorized.
-    ResolvePairBatch(E::kFriction, E::kRolling, inputs, batch);
+    ResolvePairBatch(E::kParts, inputs, batch);
 
     // 2b. The law has read the touching entries' springs: the batch's are cleared, and the
     // touching ones get their new springs below.
-    if constexpr (E::kFriction) ClearSprings(pairs.shear, first, last);
+    if constexpr (E::kHistory) ClearSprings(pairs.shear, first, last);
 
     // 3. Forces and torques to both beads, in list order; the histories back to the list.
     // A bead's entries are consecutive and name it only as their bead (partners differ from
@@ -113,7 +125,7 @@ void PairForces(const WorldParams& params, ParticleState& b, PairList& pairs, Pa
           torque[j] +=
               Vec3(out.torque_partner[0][c], out.torque_partner[1][c], out.torque_partner[2][c]);
         }
-        if constexpr (E::kFriction)
+        if constexpr (E::kHistory)
           shear[entry[c]] = Vec3(out.shear[0][c], out.shear[1][c], out.shear[2][c]);
         deepest.NoteOverlap(out.overlap[c], std::min(radius[i], radius[j]), i, j);
       }
@@ -159,20 +171,18 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
                                    b.radius.data(),
                                    b.mass.data(),
                                    Components(history),
-                                   params.sphere_wall,
-                                   params.rolling_friction,
-                                   params.dt_s,
+                                   ConstantsOf(params, params.sphere_wall),
                                    box};
-      ResolveWallBatch(E::kFriction, E::kRolling, wall, inputs, batch);
+      ResolveWallBatch(E::kParts, wall, inputs, batch);
       // The law has read the touching beads' springs: the batch's are cleared, and the
       // touching ones get their new springs below.
-      if constexpr (E::kFriction) ClearSprings(history, first, last);
+      if constexpr (E::kHistory) ClearSprings(history, first, last);
       for (std::size_t c = 0; c < n; ++c) {
         const std::uint32_t i = batch.bead[c];
         b.force[i] += Vec3(batch.force[0][c], batch.force[1][c], batch.force[2][c]);
         if constexpr (E::kRotate)
           b.torque[i] += Vec3(batch.torque[0][c], batch.torque[1][c], batch.torque[2][c]);
-        if constexpr (E::kFriction)
+        if constexpr (E::kHistory)
           history[batch.slot[c]] = Vec3(batch.shear[0][c], batch.shear[1][c], batch.shear[2][c]);
         if (plate)
           obs.plate_force_N += batch.normal_force[c];
@@ -199,8 +209,7 @@ int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulat
     const ContactGeometry c =
         MakeGeometry(normal, overlap, p.velocity, arm * p.angular_velocity, r);
     const RollingPair rolling{p.angular_velocity, p.Inertia(), params.rolling_friction};
-    const auto out = Resolve<E::kFriction, E::kRolling>(c, arm, 0.0, params.sphere_wall,
-                                                        params.dt_s, shear, rolling);
+    const auto out = Resolve<E>(c, arm, 0.0, params.sphere_wall, params.dt_s, shear, rolling);
     p.force += out.force;
     p.torque += out.torque_i;
     return out;
@@ -211,7 +220,7 @@ int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulat
     obs.plate_force_N += resolve(Vec3::UnitZ(), plate_overlap, s.walls.projectile_plate).normal;
     cond.NoteOverlap(plate_overlap, r, kProjectile, kPlate);
     ++touching;
-  } else if constexpr (E::kFriction) {
+  } else if constexpr (E::kHistory) {
     s.walls.projectile_plate.setZero();
   }
   double overlap;
@@ -220,7 +229,7 @@ int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulat
     obs.wall_force_z_N += resolve(n, overlap, s.walls.projectile_side).force.z();
     cond.NoteOverlap(overlap, r, kProjectile, kSideWall);
     ++touching;
-  } else if constexpr (E::kFriction) {
+  } else if constexpr (E::kHistory) {
     s.walls.projectile_side.setZero();
   }
   return touching;
@@ -241,7 +250,7 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
     const double dist2 = d.squaredNorm();
     Vec3& h = near.shear[k];
     if (dist2 >= rsum * rsum) {
-      if constexpr (E::kFriction) h.setZero();
+      if constexpr (E::kHistory) h.setZero();
       continue;
     }
     const double dist = std::sqrt(dist2);
@@ -249,14 +258,13 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
     const Vec3 normal = d * (1.0 / dist);
     const double ap = LeverArm(p.radius, overlap), aj = LeverArm(rj, overlap);
     const Vec3 w_arm =
-        E::kFriction ? Vec3(ap * p.angular_velocity + aj * b.angular_velocity[j]) : Vec3::Zero();
+        E::kSlip ? Vec3(ap * p.angular_velocity + aj * b.angular_velocity[j]) : Vec3::Zero();
     const double r_star = EffectiveRadius(p.radius, rj);
     const ContactGeometry c =
         MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, r_star);
     const RollingPair rolling{p.angular_velocity - b.angular_velocity[j],
                               1.0 / (1.0 / p.Inertia() + b.InvInertia(j)), params.rolling_friction};
-    const auto out =
-        Resolve<E::kFriction, E::kRolling>(c, ap, aj, params.sphere_pair, params.dt_s, h, rolling);
+    const auto out = Resolve<E>(c, ap, aj, params.sphere_pair, params.dt_s, h, rolling);
     p.force += out.force;
     p.torque += out.torque_i;
     b.force[j] -= out.force;
@@ -267,7 +275,7 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
   return contacts;
 }
 
-// The force pass for one set of effects: bead pairs (blocks of layers, swept as
+// The force pass for one set of contact parts: bead pairs (blocks of layers, swept as
 // block_schedule.h says), container contacts of the beads near the walls (each thread a run of
 // blocks), then the projectile (one body, serial). Observables and conditions are summed per
 // block and merged in block order, so the result does not depend on the thread count.
@@ -358,8 +366,9 @@ void ForcePass(const WorldParams& params, ParticleState& b, std::optional<RigidS
 void ComputeForcePass(const WorldParams& params, ParticleState& beads,
                       std::optional<RigidSphere>& projectile, Simulation::Impl& s,
                       StepObservables& obs, bool forces_cleared) {
-  WithEffects(s.friction, s.rolling,
-              [&]<class E>(E) { ForcePass<E>(params, beads, projectile, s, obs, forces_cleared); });
+  WithEffects<Stage::kContact>(s.active_parts, [&]<class E>(E) {
+    ForcePass<E>(params, beads, projectile, s, obs, forces_cleared);
+  });
 }
 
 }  // namespace dembuf::dem::detail

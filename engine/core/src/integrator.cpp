@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
+#include <utility>
 
 #include "vector_copies.h"
 
@@ -35,42 +37,31 @@ struct Velocity {
   double x, y, z;
 };
 
-// The sign of a velocity component: 0 for a bead at rest in it (PFC's convention), so that local
-// damping neither pushes a resting bead nor needs a branch.
-DEMBUF_ALWAYS_INLINE double Sign(double v) {
-  return static_cast<double>(v > 0.0) - static_cast<double>(v < 0.0);
-}
-
-// One component's acceleration with damping: the unbalanced force `f` (gravity in it), the
-// velocity `v` before the kick, the inverse mass and the mass.
-DEMBUF_ALWAYS_INLINE double DampedAcceleration(double f, double v, double inv_m, double m,
-                                               const BeadDamping& d) {
-  return inv_m * (f - d.local_alpha * std::abs(f) * Sign(v) - d.viscous_rate_per_s * m * v);
-}
-
 // Half kicks of bead i with its current forces: v += dt/2 a (and w += dt/2 alpha when it
-// rotates), done kHalves times. Two are the last step's closing half kick and this step's
-// opening one. Component by component, the operations of the Eigen expressions
+// rotates, E::kRotate), done kHalves times. Two are the last step's closing half kick and this
+// step's opening one. Component by component, the operations of the Eigen expressions
 // v += half * (f / m + g) and w += half / I * t, in their order. A bead with inv_mass 0 is held
 // in place: neither its contacts nor gravity move or turn it. With kClear, the force (and
 // torque) is set to zero once read: the force pass that follows the drift then need not clear
 // it in a pass of its own.
 //
-// With kDamp, the beads' own damping acts in every kick, from the velocity before it: the two
-// halves of a fused kick are then PFC's leapfrog step v(t + dt/2) = v(t - dt/2) + dt (F + F_d)/m.
-template <bool kRotate, int kHalves, bool kClear, bool kDamp = false>
+// A motion part that sets the acceleration (AccelerationPart, e.g. the beads' own damping)
+// gives it from the unbalanced force (gravity in it) and the velocity before the kick.
+template <class E, int kHalves, bool kClear>
 DEMBUF_ALWAYS_INLINE Velocity KickBead(const Kinematics& k, long i, double half, const Vec3& g,
-                                       const BeadDamping& damping = {}) {
+                                       const AccelerationParams& shaping) {
+  using Shaping = AccelerationPart<E>;
+  constexpr bool kShaped = !std::is_void_v<Shaping>;
   const double inv_m = k.inv_mass[i];
   const bool held = inv_m == 0.0;
   double* f = k.force + 3 * i;
   double* v = k.velocity + 3 * i;
   double dvx, dvy, dvz;
-  if constexpr (kDamp) {
+  if constexpr (kShaped) {
     const double m = held ? 0.0 : k.mass[i];
-    dvx = half * DampedAcceleration(f[0] + m * g.x(), v[0], inv_m, m, damping);
-    dvy = half * DampedAcceleration(f[1] + m * g.y(), v[1], inv_m, m, damping);
-    dvz = half * DampedAcceleration(f[2] + m * g.z(), v[2], inv_m, m, damping);
+    dvx = half * Shaping::Acceleration(f[0] + m * g.x(), v[0], inv_m, m, shaping);
+    dvy = half * Shaping::Acceleration(f[1] + m * g.y(), v[1], inv_m, m, shaping);
+    dvz = half * Shaping::Acceleration(f[2] + m * g.z(), v[2], inv_m, m, shaping);
   } else {
     dvx = half * (inv_m * f[0] + (held ? 0.0 : g.x()));
     dvy = half * (inv_m * f[1] + (held ? 0.0 : g.y()));
@@ -86,18 +77,18 @@ DEMBUF_ALWAYS_INLINE Velocity KickBead(const Kinematics& k, long i, double half,
   v[0] = u.x;
   v[1] = u.y;
   v[2] = u.z;
-  if constexpr (kRotate) {
+  if constexpr (E::kRotate) {
     const double inv_inertia = ParticleState::InverseSphereInertia(k.mass[i], k.radius[i]);
     const double s = held ? 0.0 : half * inv_inertia;
     double* t = k.torque + 3 * i;
     double* w = k.angular_velocity + 3 * i;
     double dwx, dwy, dwz;
-    if constexpr (kDamp) {
+    if constexpr (kShaped) {
       const double inertia = held ? 0.0 : 1.0 / inv_inertia;
       const double h = held ? 0.0 : half;
-      dwx = h * DampedAcceleration(t[0], w[0], inv_inertia, inertia, damping);
-      dwy = h * DampedAcceleration(t[1], w[1], inv_inertia, inertia, damping);
-      dwz = h * DampedAcceleration(t[2], w[2], inv_inertia, inertia, damping);
+      dwx = h * Shaping::Acceleration(t[0], w[0], inv_inertia, inertia, shaping);
+      dwy = h * Shaping::Acceleration(t[1], w[1], inv_inertia, inertia, shaping);
+      dwz = h * Shaping::Acceleration(t[2], w[2], inv_inertia, inertia, shaping);
     } else {
       dwx = s * t[0];
       dwy = s * t[1];
@@ -115,11 +106,11 @@ DEMBUF_ALWAYS_INLINE Velocity KickBead(const Kinematics& k, long i, double half,
 
 // One half kick of beads [first, last): the closing one left pending when something reads
 // the beads between steps (CompleteKick), not one of the step's hot loops.
-template <bool kRotate, bool kDamp>
+template <class E>
 void Kick(const Kinematics& k, long first, long last, double half, const Vec3& g,
-          const BeadDamping& damping) {
+          const AccelerationParams& shaping) {
 #pragma omp simd
-  for (long i = first; i < last; ++i) KickBead<kRotate, 1, false, kDamp>(k, i, half, g, damping);
+  for (long i = first; i < last; ++i) KickBead<E, 1, false>(k, i, half, g, shaping);
 }
 
 // What the drift of a block of beads saw: the largest squared displacement since the last list
@@ -136,7 +127,7 @@ struct DriftInputs {
   Vec3 g;
   const float* reference;  // positions at the last list build
   Container box;
-  BeadDamping damping;
+  AccelerationParams shaping;  // the parameters of a part that sets the acceleration
 };
 
 // The opening half kick (after the last step's closing one: kHalves = 2) and the drift of beads
@@ -144,7 +135,7 @@ struct DriftInputs {
 // the whole step 9% slower), their forces and torques cleared for the next force pass. `k`
 // and `in` are copies: through references, every store to the arrays might change them for
 // the compiler, which would load them again after it and not vectorize the loop.
-template <bool kRotate, int kHalves, bool kDamp = false>
+template <class E, int kHalves>
 DEMBUF_ALWAYS_INLINE DriftWatch KickAndDrift(const Kinematics k, long first, long last,
                                              const DriftInputs in) {
   const double dt = in.dt;
@@ -153,7 +144,7 @@ DEMBUF_ALWAYS_INLINE DriftWatch KickAndDrift(const Kinematics k, long first, lon
   long count = 0;
 #pragma omp simd reduction(max : disp2) reduction(+ : count)
   for (long i = first; i < last; ++i) {
-    const Velocity v = KickBead<kRotate, kHalves, true, kDamp>(k, i, in.half, in.g, in.damping);
+    const Velocity v = KickBead<E, kHalves, true>(k, i, in.half, in.g, in.shaping);
     double* x = k.position + 3 * i;
     x[0] += dt * v.x;
     x[1] += dt * v.y;
@@ -168,36 +159,22 @@ DEMBUF_ALWAYS_INLINE DriftWatch KickAndDrift(const Kinematics k, long first, lon
   return {disp2, count};
 }
 
-DEMBUF_VECTOR_COPIES(DriftWatch, KickAndDriftRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<true, 1>(k, first, last, in)))
-DEMBUF_VECTOR_COPIES(DriftWatch, KickTwiceAndDriftRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<true, 2>(k, first, last, in)))
-DEMBUF_VECTOR_COPIES(DriftWatch, KickAndDriftNotRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<false, 1>(k, first, last, in)))
-DEMBUF_VECTOR_COPIES(DriftWatch, KickTwiceAndDriftNotRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<false, 2>(k, first, last, in)))
-
-// With damping (a scene that asks for it; not a hot path of the paper's model): one copy
-// each, rotating or not, the closing half kick fused or not.
-DEMBUF_VECTOR_COPIES(DriftWatch, DampedKickAndDriftRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<true, 1, true>(k, first, last, in)))
-DEMBUF_VECTOR_COPIES(DriftWatch, DampedKickTwiceAndDriftRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<true, 2, true>(k, first, last, in)))
-DEMBUF_VECTOR_COPIES(DriftWatch, DampedKickAndDriftNotRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<false, 1, true>(k, first, last, in)))
-DEMBUF_VECTOR_COPIES(DriftWatch, DampedKickTwiceAndDriftNotRotating,
-                     (const Kinematics k, long first, long last, const DriftInputs& in),
-                     (KickAndDrift<false, 2, true>(k, first, last, in)))
+// For each instance of the motion parts (parts.h), the closing half kick fused or not, each
+// compiled for several instruction sets.
+DEMBUF_VECTOR_COPIES_OF(DriftWatch, KickOnceAndDrift,
+                        (const Kinematics k, long first, long last, const DriftInputs& in),
+                        (KickAndDrift<E, 1>(k, first, last, in)))
+DEMBUF_VECTOR_COPIES_OF(DriftWatch, KickTwiceAndDrift,
+                        (const Kinematics k, long first, long last, const DriftInputs& in),
+                        (KickAndDrift<E, 2>(k, first, last, in)))
 
 Vec3 Gravity(const WorldParams& params) {
   return Vec3(0.0, 0.0, -params.gravity_m_s2);
+}
+
+// The parameters of the part that may set the kicks' acceleration, as the world has them.
+AccelerationParams ShapingParams(const WorldParams& params) {
+  return AccelerationPart<Effects<~PartMask{0}>>::ParamsOf(params);
 }
 
 }  // namespace
@@ -207,24 +184,16 @@ DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleS
   const double dt = params.dt_s;
   const DriftInputs in{0.5 * dt,         dt,
                        Gravity(params),  s.lists.reference_position.data(),
-                       params.container, params.bead_damping};
+                       params.container, ShapingParams(params)};
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
-  const bool rotate = s.Rotating();
-  // The copies for this CPU (vector_copies.h), chosen at the first call.
-  static const auto once_rotating = DEMBUF_PICK_COPY(KickAndDriftRotating);
-  static const auto twice_rotating = DEMBUF_PICK_COPY(KickTwiceAndDriftRotating);
-  static const auto once_still = DEMBUF_PICK_COPY(KickAndDriftNotRotating);
-  static const auto twice_still = DEMBUF_PICK_COPY(KickTwiceAndDriftNotRotating);
-  static const auto damped_once_rotating = DEMBUF_PICK_COPY(DampedKickAndDriftRotating);
-  static const auto damped_twice_rotating = DEMBUF_PICK_COPY(DampedKickTwiceAndDriftRotating);
-  static const auto damped_once_still = DEMBUF_PICK_COPY(DampedKickAndDriftNotRotating);
-  static const auto damped_twice_still = DEMBUF_PICK_COPY(DampedKickTwiceAndDriftNotRotating);
-  const auto pass = params.bead_damping.Any()
-                        ? (rotate ? (closing ? damped_twice_rotating : damped_once_rotating)
-                                  : (closing ? damped_twice_still : damped_once_still))
-                        : (rotate ? (closing ? twice_rotating : once_rotating)
-                                  : (closing ? twice_still : once_still));
+  // The instances for this CPU (vector_copies.h), chosen at the first call.
+  static const auto once = InstanceTable<Stage::kMotion>(
+      []<class E>(E) { return DEMBUF_PICK_COPY_OF(KickOnceAndDrift, E); });
+  static const auto twice = InstanceTable<Stage::kMotion>(
+      []<class E>(E) { return DEMBUF_PICK_COPY_OF(KickTwiceAndDrift, E); });
+  const std::size_t instance = detail::InstanceIndex<Stage::kMotion>(s.active_parts);
+  const auto pass = (closing ? twice : once)[instance];
   DriftWatch watch;
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
@@ -254,22 +223,14 @@ void HalfKickBeads(const WorldParams& params, ParticleState& b, const Simulation
   const Vec3 g = Gravity(params);
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
-  const bool rotate = s.Rotating();
+  const AccelerationParams shaping = ShapingParams(params);
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();
-    const auto [first, last] = s.blocks.shares.Part(n, thread, team);
-    const BeadDamping& damping = params.bead_damping;
-    if (damping.Any()) {
-      if (rotate)
-        Kick<true, true>(k, first, last, half, g, damping);
-      else
-        Kick<false, true>(k, first, last, half, g, damping);
-    } else if (rotate) {
-      Kick<true, false>(k, first, last, half, g, damping);
-    } else {
-      Kick<false, false>(k, first, last, half, g, damping);
-    }
+    const std::pair<long, long> share = s.blocks.shares.Part(n, thread, team);
+    WithEffects<Stage::kMotion>(s.active_parts, [&]<class E>(E) {
+      Kick<E>(k, share.first, share.second, half, g, shaping);
+    });
   }
 }
 

@@ -21,96 +21,57 @@ struct LawResults {
 // is summed into the observables).
 enum class Partner { kBead, kWall };
 
-// One contact's geometry, as MakeGeometry takes it: unit normal n (towards the bead), overlap,
-// relative velocity v (bead minus partner), w_arm = ai w_bead + aj w_partner, lever arms.
-struct LaneGeometry {
-  double nx, ny, nz, overlap;
-  double vx, vy, vz;
-  double wx, wy, wz;
-  double r_star, ai, aj;
-  // Rolling resistance's inputs (RollingPair): w_bead - w_partner, the pair's inertia.
-  double rwx, rwy, rwz, inertia;
-};
-
-// Contact c (one lane of a vectorized loop): the slip from MakeGeometry's expression, the law
-// itself (ApplyContactLaw, the one copy of it), then forces and torques as Resolve makes them,
-// component by component in the same operation order, so the same bits. Its history before
-// this step is history[3 k .. 3 k + 2] (indexed here, not through a pointer to it: that form
-// gathers).
-template <bool kFriction, bool kRolling, Partner kPartner>
-inline __attribute__((always_inline)) void ResolveLane(const LaneGeometry& g, const PairParams& p,
-                                                       double mu_r, double dt,
+// Contact c (one lane of a vectorized loop): the slip from MakeGeometry's expression, then the
+// contact parts of E (ResolveContact, the one copy of their arithmetic), whose results go to
+// the batch's arrays. The lane `g` has the geometry, the lever arms and, for parts that read
+// spin, w_bead - w_partner and the pair's inertia; `w_arm` = ai w_bead + aj w_partner. The
+// contact's history before this step is history[3 k .. 3 k + 2] (indexed here, not through a
+// pointer to it: that form gathers). `g` is the loop's own, completed here: a copy of it kept
+// GCC 12 from vectorizing the loop at all (1.6 times slower with friction).
+template <class E, Partner kPartner>
+inline __attribute__((always_inline)) void ResolveLane(ContactLane& g, const double (&w_arm)[3],
+                                                       const double (&v)[3],
+                                                       const ContactConstants& constants,
                                                        const double* history, std::size_t k,
                                                        const LawResults& out, std::size_t c) {
   const double nx = g.nx, ny = g.ny, nz = g.nz;
-  ContactLawInput in;
-  in.nx = nx;
-  in.ny = ny;
-  in.nz = nz;
-  in.overlap = g.overlap;
-  in.approach_rate = -(g.vx * nx + g.vy * ny + g.vz * nz);
-  in.r_star = g.r_star;
-  if constexpr (kFriction) {
-    const double approach = in.approach_rate;
-    in.sx = (g.vx + approach * nx) - (g.wy * nz - g.wz * ny);
-    in.sy = (g.vy + approach * ny) - (g.wz * nx - g.wx * nz);
-    in.sz = (g.vz + approach * nz) - (g.wx * ny - g.wy * nx);
-    in.hx = history[3 * k];
-    in.hy = history[3 * k + 1];
-    in.hz = history[3 * k + 2];
+  g.approach_rate = -(v[0] * nx + v[1] * ny + v[2] * nz);
+  if constexpr (E::kSlip) {
+    const double approach = g.approach_rate;
+    g.sx = (v[0] + approach * nx) - (w_arm[1] * nz - w_arm[2] * ny);
+    g.sy = (v[1] + approach * ny) - (w_arm[2] * nx - w_arm[0] * nz);
+    g.sz = (v[2] + approach * nz) - (w_arm[0] * ny - w_arm[1] * nx);
+    g.hx = history[3 * k];
+    g.hy = history[3 * k + 1];
+    g.hz = history[3 * k + 2];
   } else {
-    in.sx = in.sy = in.sz = in.hx = in.hy = in.hz = 0.0;
+    g.sx = g.sy = g.sz = g.hx = g.hy = g.hz = 0.0;
   }
-  const ContactLawOutput law = ApplyContactLaw<kFriction>(in, p, dt);
-  const double fn = law.normal;
-  if constexpr (kPartner == Partner::kWall) out.normal_force[c] = fn;
-  double tix = 0.0, tiy = 0.0, tiz = 0.0, tjx = 0.0, tjy = 0.0, tjz = 0.0;
-  if constexpr (!kFriction) {
-    out.fx[c] = fn * nx;
-    out.fy[c] = fn * ny;
-    out.fz[c] = fn * nz;
-  } else {
-    const double tx = law.tx, ty = law.ty, tz = law.tz;
-    out.hx[c] = law.hx;
-    out.hy[c] = law.hy;
-    out.hz[c] = law.hz;
-    out.fx[c] = fn * nx + tx;
-    out.fy[c] = fn * ny + ty;
-    out.fz[c] = fn * nz + tz;
-    // Both torques are -a (n x Ft).
-    const double mx = ny * tz - nz * ty, my = nz * tx - nx * tz, mz = nx * ty - ny * tx;
-    tix = -g.ai * mx;
-    tiy = -g.ai * my;
-    tiz = -g.ai * mz;
-    tjx = -g.aj * mx;
-    tjy = -g.aj * my;
-    tjz = -g.aj * mz;
+  const ContactResult r = ResolveContact<E>(g, constants);
+  if constexpr (kPartner == Partner::kWall) out.normal_force[c] = r.normal;
+  out.fx[c] = r.fx;
+  out.fy[c] = r.fy;
+  out.fz[c] = r.fz;
+  if constexpr (E::kHistory) {
+    out.hx[c] = r.hx;
+    out.hy[c] = r.hy;
+    out.hz[c] = r.hz;
   }
-  if constexpr (kRolling) {
-    const RollingOutput rolling = ApplyRollingResistance(
-        {nx, ny, nz, g.rwx, g.rwy, g.rwz, fn, g.r_star, g.inertia}, mu_r, dt);
-    tix = tix + rolling.tx;
-    tiy = tiy + rolling.ty;
-    tiz = tiz + rolling.tz;
-    tjx = tjx - rolling.tx;
-    tjy = tjy - rolling.ty;
-    tjz = tjz - rolling.tz;
-  }
-  if constexpr (kFriction || kRolling) {
-    out.tix[c] = tix;
-    out.tiy[c] = tiy;
-    out.tiz[c] = tiz;
+  if constexpr (E::kRotate) {
+    out.tix[c] = r.tix;
+    out.tiy[c] = r.tiy;
+    out.tiz[c] = r.tiz;
     if constexpr (kPartner == Partner::kBead) {
-      out.tjx[c] = tjx;
-      out.tjy[c] = tjy;
-      out.tjz[c] = tjz;
+      out.tjx[c] = r.tjx;
+      out.tjy[c] = r.tjy;
+      out.tjz[c] = r.tjz;
     }
   }
 }
 
 // Bead pairs, one contact per loop iteration (the loop vectorizes: gathers of both beads'
 // state, vector square roots and divisions, masks for the law's branches).
-template <bool kFriction, bool kRolling>
+template <class E>
 inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in,
                                                        PairBatch& batch) {
   const std::uint32_t* bead = batch.bead.data();
@@ -136,10 +97,8 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
   const double* radius = in.radius;
   const double* mass = in.mass;
   const double* shear = in.shear;
-  // Copies: the stores to the result arrays could otherwise alias them.
-  const PairParams params = in.params;
-  const double mu_r = in.rolling_friction;
-  const double dt = in.dt;
+  // A copy: the stores to the result arrays could otherwise alias it.
+  const ContactConstants constants = in.constants;
   const std::size_t n = batch.size;
 
 #pragma omp simd
@@ -150,7 +109,7 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
                  dz = x[3 * i + 2] - x[3 * j + 2];
     const double ri = radius[i], rj = radius[j];
     const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
-    LaneGeometry g;
+    ContactLane g;
     g.overlap = (ri + rj) - dist;
     const double inv_dist = 1.0 / dist;
     g.nx = dx * inv_dist;
@@ -158,33 +117,30 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
     g.nz = dz * inv_dist;
     g.ai = ri - 0.5 * g.overlap;
     g.aj = rj - 0.5 * g.overlap;
-    g.vx = v[3 * i] - v[3 * j];
-    g.vy = v[3 * i + 1] - v[3 * j + 1];
-    g.vz = v[3 * i + 2] - v[3 * j + 2];
-    if constexpr (kFriction) {
-      g.wx = g.ai * w[3 * i] + g.aj * w[3 * j];
-      g.wy = g.ai * w[3 * i + 1] + g.aj * w[3 * j + 1];
-      g.wz = g.ai * w[3 * i + 2] + g.aj * w[3 * j + 2];
-    } else {
-      g.wx = g.wy = g.wz = 0.0;
-    }
+    const double v_rel[3] = {v[3 * i] - v[3 * j], v[3 * i + 1] - v[3 * j + 1],
+                             v[3 * i + 2] - v[3 * j + 2]};
+    double w_arm[3] = {0.0, 0.0, 0.0};
+    if constexpr (E::kSlip)
+      for (int d = 0; d < 3; ++d) w_arm[d] = g.ai * w[3 * i + d] + g.aj * w[3 * j + d];
     g.r_star = EffectiveRadius(ri, rj);
-    if constexpr (kRolling) {
-      g.rwx = w[3 * i] - w[3 * j];
-      g.rwy = w[3 * i + 1] - w[3 * j + 1];
-      g.rwz = w[3 * i + 2] - w[3 * j + 2];
+    if constexpr (E::kSpin) {
+      g.wx = w[3 * i] - w[3 * j];
+      g.wy = w[3 * i + 1] - w[3 * j + 1];
+      g.wz = w[3 * i + 2] - w[3 * j + 2];
       g.inertia = 1.0 / (ParticleState::InverseSphereInertia(mass[i], ri) +
                          ParticleState::InverseSphereInertia(mass[j], rj));
+    } else {
+      g.wx = g.wy = g.wz = g.inertia = 0.0;
     }
     overlap_out[c] = g.overlap;
-    ResolveLane<kFriction, kRolling, Partner::kBead>(g, params, mu_r, dt, shear, entry[c], out, c);
+    ResolveLane<E, Partner::kBead>(g, w_arm, v_rel, constants, shear, entry[c], out, c);
   }
 }
 
-// Beads against the plate (kOnPlate) or the side wall, one contact per loop iteration, as
-// the projectile's contacts with them are resolved: the wall does not move and takes no torque (aj
-// = 0).
-template <bool kFriction, bool kRolling, bool kOnPlate>
+// Beads against the plate (kOnPlate) or the side wall, one contact per loop iteration, as the
+// projectile's contacts with them are resolved: the wall does not move and takes no torque
+// (aj = 0).
+template <class E, bool kOnPlate>
 inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs& in,
                                                            WallBatch& batch) {
   const std::uint32_t* bead = batch.bead.data();
@@ -210,9 +166,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
   const double* mass = in.mass;
   const double* shear = in.shear;
   // Copies: the stores to the result arrays could otherwise alias them.
-  const PairParams params = in.params;
-  const double mu_r = in.rolling_friction;
-  const double dt = in.dt;
+  const ContactConstants constants = in.constants;
   const Container box = in.box;
   const std::size_t n = batch.size;
 
@@ -220,7 +174,7 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
   for (std::size_t c = 0; c < n; ++c) {
     const std::size_t i = bead[c];
     const double r = radius[i];
-    LaneGeometry g;
+    ContactLane g;
     if constexpr (kOnPlate) {
       g.overlap = Container::PlateOverlap(x[3 * i + 2], r);
       g.nx = 0.0;
@@ -234,74 +188,48 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
     }
     g.ai = r - 0.5 * g.overlap;
     g.aj = 0.0;
-    g.vx = v[3 * i];
-    g.vy = v[3 * i + 1];
-    g.vz = v[3 * i + 2];
-    g.wx = g.ai * w[3 * i];
-    g.wy = g.ai * w[3 * i + 1];
-    g.wz = g.ai * w[3 * i + 2];
+    const double v_rel[3] = {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
+    const double w_arm[3] = {g.ai * w[3 * i], g.ai * w[3 * i + 1], g.ai * w[3 * i + 2]};
     g.r_star = r;
-    if constexpr (kRolling) {
-      g.rwx = w[3 * i];
-      g.rwy = w[3 * i + 1];
-      g.rwz = w[3 * i + 2];
+    if constexpr (E::kSpin) {
+      g.wx = w[3 * i];
+      g.wy = w[3 * i + 1];
+      g.wz = w[3 * i + 2];
       g.inertia = 1.0 / ParticleState::InverseSphereInertia(mass[i], r);
+    } else {
+      g.wx = g.wy = g.wz = g.inertia = 0.0;
     }
     overlap_out[c] = g.overlap;
-    ResolveLane<kFriction, kRolling, Partner::kWall>(g, params, mu_r, dt, shear, slot[c], out, c);
+    ResolveLane<E, Partner::kWall>(g, w_arm, v_rel, constants, shear, slot[c], out, c);
   }
 }
 
-// One copy of each kind of contact for each set of effects (friction, rolling), each compiled
-// for several instruction sets.
-#define DEMBUF_PAIR_COPY(name, friction, rolling)                                 \
-  DEMBUF_VECTOR_COPIES(void, name, (const PairBatchInputs& in, PairBatch& batch), \
-                       (ResolveBody<friction, rolling>(in, batch)))
-#define DEMBUF_WALL_COPY(name, friction, rolling, plate)                          \
-  DEMBUF_VECTOR_COPIES(void, name, (const WallBatchInputs& in, WallBatch& batch), \
-                       (ResolveWallBody<friction, rolling, plate>(in, batch)))
-DEMBUF_PAIR_COPY(ResolvePairs, false, false)
-DEMBUF_PAIR_COPY(ResolvePairsFriction, true, false)
-DEMBUF_PAIR_COPY(ResolvePairsRolling, false, true)
-DEMBUF_PAIR_COPY(ResolvePairsFrictionRolling, true, true)
-DEMBUF_WALL_COPY(ResolvePlate, false, false, true)
-DEMBUF_WALL_COPY(ResolvePlateFriction, true, false, true)
-DEMBUF_WALL_COPY(ResolvePlateRolling, false, true, true)
-DEMBUF_WALL_COPY(ResolvePlateFrictionRolling, true, true, true)
-DEMBUF_WALL_COPY(ResolveSide, false, false, false)
-DEMBUF_WALL_COPY(ResolveSideFriction, true, false, false)
-DEMBUF_WALL_COPY(ResolveSideRolling, false, true, false)
-DEMBUF_WALL_COPY(ResolveSideFrictionRolling, true, true, false)
-#undef DEMBUF_PAIR_COPY
-#undef DEMBUF_WALL_COPY
-
-// The copy for these effects, of four in the order (none, friction, rolling, both).
-template <class F>
-F Pick(bool friction, bool rolling, const F (&copies)[4]) {
-  return copies[(friction ? 1 : 0) + (rolling ? 2 : 0)];
-}
+// Each kind of contact for each instance of the contact parts (parts.h), each compiled for
+// several instruction sets.
+DEMBUF_VECTOR_COPIES_OF(void, ResolvePairs, (const PairBatchInputs& in, PairBatch& batch),
+                        (ResolveBody<E>(in, batch)))
+DEMBUF_VECTOR_COPIES_OF(void, ResolvePlate, (const WallBatchInputs& in, WallBatch& batch),
+                        (ResolveWallBody<E, true>(in, batch)))
+DEMBUF_VECTOR_COPIES_OF(void, ResolveSide, (const WallBatchInputs& in, WallBatch& batch),
+                        (ResolveWallBody<E, false>(in, batch)))
 
 }  // namespace
 
-// Each calls the copy for this CPU (vector_copies.h), chosen at the first call.
-void ResolveWallBatch(bool friction, bool rolling, BodyId wall, const WallBatchInputs& in,
-                      WallBatch& batch) {
-  using Copy = void (*)(const WallBatchInputs&, WallBatch&);
-  static const Copy plate[4] = {
-      DEMBUF_PICK_COPY(ResolvePlate), DEMBUF_PICK_COPY(ResolvePlateFriction),
-      DEMBUF_PICK_COPY(ResolvePlateRolling), DEMBUF_PICK_COPY(ResolvePlateFrictionRolling)};
-  static const Copy side[4] = {DEMBUF_PICK_COPY(ResolveSide), DEMBUF_PICK_COPY(ResolveSideFriction),
-                               DEMBUF_PICK_COPY(ResolveSideRolling),
-                               DEMBUF_PICK_COPY(ResolveSideFrictionRolling)};
-  Pick(friction, rolling, wall == kPlate ? plate : side)(in, batch);
+// Each calls the instance for the world's parts in the copy for this CPU (vector_copies.h),
+// chosen at the first call.
+void ResolveWallBatch(PartMask active, BodyId wall, const WallBatchInputs& in, WallBatch& batch) {
+  static const auto plate = InstanceTable<Stage::kContact>(
+      []<class E>(E) { return DEMBUF_PICK_COPY_OF(ResolvePlate, E); });
+  static const auto side = InstanceTable<Stage::kContact>(
+      []<class E>(E) { return DEMBUF_PICK_COPY_OF(ResolveSide, E); });
+  const std::size_t instance = detail::InstanceIndex<Stage::kContact>(active);
+  (wall == kPlate ? plate : side)[instance](in, batch);
 }
 
-void ResolvePairBatch(bool friction, bool rolling, const PairBatchInputs& in, PairBatch& batch) {
-  using Copy = void (*)(const PairBatchInputs&, PairBatch&);
-  static const Copy copies[4] = {
-      DEMBUF_PICK_COPY(ResolvePairs), DEMBUF_PICK_COPY(ResolvePairsFriction),
-      DEMBUF_PICK_COPY(ResolvePairsRolling), DEMBUF_PICK_COPY(ResolvePairsFrictionRolling)};
-  Pick(friction, rolling, copies)(in, batch);
+void ResolvePairBatch(PartMask active, const PairBatchInputs& in, PairBatch& batch) {
+  static const auto copies = InstanceTable<Stage::kContact>(
+      []<class E>(E) { return DEMBUF_PICK_COPY_OF(ResolvePairs, E); });
+  copies[detail::InstanceIndex<Stage::kContact>(active)](in, batch);
 }
 
 }  // namespace dembuf::dem::detail

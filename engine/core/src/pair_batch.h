@@ -2,8 +2,8 @@
 // list entries first (without a branch per entry), then resolves all of them in one loop that
 // the compiler vectorizes (gathers, vector sqrt and division, masks for the two friction
 // branches), then adds the results to the beads in list order. Each contact goes through
-// ApplyContactLaw, the law's one copy, and gets Resolve's forces and torques (same operations
-// in the same order, no fused multiply-add); the sums are taken in the same order as a
+// ResolveContact (parts.h), the one copy of the contact parts' arithmetic that Resolve runs for
+// every other contact too (same operations in the same order, no fused multiply-add); the sums are taken in the same order as a
 // contact-by-contact loop, so batching changes no bit of a result.
 #pragma once
 
@@ -12,6 +12,7 @@
 #include <cstdint>
 
 #include "dembuf/core/contact_law.h"
+#include "dembuf/core/parts/parts.h"
 #include "dembuf/core/particles.h"
 
 namespace dembuf::dem::detail {
@@ -46,18 +47,15 @@ struct PairBatchInputs {
   const double* velocity;
   const double* angular_velocity;
   const double* radius;
-  const double* mass;   ///< read with rolling resistance (the beads' inertia)
+  const double* mass;   ///< read by parts that read spin (the beads' inertia)
   const double* shear;  ///< per list entry, 3 doubles
-  PairParams params;
-  double rolling_friction;  ///< mu_r
-  double dt;
+  ContactConstants constants;
 };
 
-/// Resolves the contacts of `batch`, filling its result arrays (the advanced histories too),
-/// with the law's parts the effects ask for: friction (tangential springs) and rolling
-/// resistance (its torques join the friction's). Compiled for several instruction sets (the
-/// widest the CPU has is chosen at load time).
-void ResolvePairBatch(bool friction, bool rolling, const PairBatchInputs& in, PairBatch& batch);
+/// Resolves the contacts of `batch` with the contact parts `active` (parts.h), filling its
+/// result arrays (the advanced histories too). Compiled for every instance of the contact
+/// parts and several instruction sets (the widest the CPU has is chosen at load time).
+void ResolvePairBatch(PartMask active, const PairBatchInputs& in, PairBatch& batch);
 
 /// Contacts of beads with the plate or the side wall, batched like the pairs: the beads that
 /// touch (picked out beforehand), where each one's history is (`slot`), and the law's result
@@ -78,17 +76,14 @@ struct WallBatchInputs {
   const double* velocity;
   const double* angular_velocity;
   const double* radius;
-  const double* mass;   ///< read with rolling resistance (the beads' inertia)
+  const double* mass;   ///< read by parts that read spin (the beads' inertia)
   const double* shear;  ///< per history slot, 3 doubles: a bead's history with this wall
-  PairParams params;
-  double rolling_friction;  ///< mu_r
-  double dt;
+  ContactConstants constants;
   Container box;
 };
 
 /// Resolves the contacts of `batch` with the plate or the side wall (the same arithmetic as
 /// the projectile's contacts with them, so the same bits), filling its result arrays.
-void ResolveWallBatch(bool friction, bool rolling, BodyId wall, const WallBatchInputs& in,
-                      WallBatch& batch);
+void ResolveWallBatch(PartMask active, BodyId wall, const WallBatchInputs& in, WallBatch& batch);
 
 }  // namespace dembuf::dem::detail

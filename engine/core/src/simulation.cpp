@@ -38,9 +38,8 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   s.lists.skin = params.skin_fraction * 2.0 * s.lists.min_radius;
   s.lists.near_gap =
       std::min(s.lists.skin, detail::NeighbourLists::kNearGapDiameters * 2.0 * s.lists.min_radius);
-  // Friction needs the tangential history and rotation; a frictionless scene skips both.
-  s.friction = params.sphere_pair.friction > 0.0 || params.sphere_wall.friction > 0.0;
-  s.rolling = params.rolling_friction > 0.0;
+  // The physics parts this world calls for (parts.h): each stage runs the instance of them.
+  s.active_parts = Parts::Active(params);
   s.pending_history = history;
   s.parallel = m_beads.size() >= kParallelMinBeads;
   ApplyThreads();
@@ -149,7 +148,7 @@ void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
   CompleteKick();  // with the forces and rotation of the old friction
   m_params.sphere_pair.friction = sphere_pair;
   m_params.sphere_wall.friction = sphere_wall;
-  m_impl->friction = sphere_pair > 0.0 || sphere_wall > 0.0;
+  m_impl->active_parts = Parts::Active(m_params);
   m_impl->forces_valid = false;
 }
 

@@ -149,11 +149,11 @@ struct Simulation::Impl {
   // Saved histories (a loaded bed, reordered or removed beads), applied at the next list build.
   std::vector<ContactHistoryEntry> pending_history;
   std::vector<std::uint32_t> origin;  // Simulation::BeadOrigins
-  // The effects of this world (effects.h): each kernel is compiled once per set of them.
-  bool friction = false;
-  bool rolling = false;
-  // Beads turn when something gives them a torque.
-  bool Rotating() const { return friction || rolling; }
+  // The physics parts this world calls for (parts.h): each kernel is compiled once per set of
+  // its stage's parts, and picks its instance from these.
+  PartMask active_parts = 0;
+  // Beads turn when a part gives them torques.
+  bool Rotating() const { return (active_parts & detail::kRotatingParts) != 0; }
   detail::StepConditions conditions;  // what went wrong in the last pass
   bool forces_valid = false;
   int threads = 1;

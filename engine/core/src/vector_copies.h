@@ -1,5 +1,5 @@
 // Hot loops compiled once per x86 instruction set. The library is built for x86-64-v2 (every
-// x86 machine of the last decade); DEMBUF_VECTOR_COPIES defines a function three times, for
+// x86 machine of the last decade); DEMBUF_VECTOR_COPIES_OF defines a function three times, for
 // AVX-512, AVX2 and that baseline, and PickCopy takes the one chosen once, when the first
 // simulation is made: the widest the CPU has, or a narrower one named by the environment
 // variable DEMBUF_VECTOR_COPY (avx512, avx2 or portable), so that the tests can compare the
@@ -42,18 +42,22 @@ F* PickCopy(F* avx512, F* avx2, F* portable) {
 #define DEMBUF_TARGET_AVX2
 #endif
 
-/// Defines `name`Avx512, `name`Avx2 and `name`Portable, returning `type`: each evaluates
-/// `body` (a call of an always-inlined function) compiled for its instruction set.
-#define DEMBUF_VECTOR_COPIES(type, name, params, body) \
-  DEMBUF_TARGET_AVX512 type name##Avx512 params {      \
-    return body;                                       \
-  }                                                    \
-  DEMBUF_TARGET_AVX2 type name##Avx2 params {          \
-    return body;                                       \
-  }                                                    \
-  type name##Portable params {                         \
-    return body;                                       \
+/// Defines the function templates `name`Avx512<E>, `name`Avx2<E> and `name`Portable<E>, for a
+/// set of effects E (parts.h), returning `type`: each evaluates `body` (a call of an
+/// always-inlined function) compiled for its instruction set.
+#define DEMBUF_VECTOR_COPIES_OF(type, name, params, body) \
+  template <class E>                                      \
+  DEMBUF_TARGET_AVX512 type name##Avx512 params {         \
+    return body;                                          \
+  }                                                       \
+  template <class E>                                      \
+  DEMBUF_TARGET_AVX2 type name##Avx2 params {             \
+    return body;                                          \
+  }                                                       \
+  template <class E>                                      \
+  type name##Portable params {                            \
+    return body;                                          \
   }
 
-/// The copy of a function defined by DEMBUF_VECTOR_COPIES that this process runs.
-#define DEMBUF_PICK_COPY(name) PickCopy(name##Avx512, name##Avx2, name##Portable)
+/// The copy of a function template defined by DEMBUF_VECTOR_COPIES_OF, for effects E.
+#define DEMBUF_PICK_COPY_OF(name, E) PickCopy(name##Avx512<E>, name##Avx2<E>, name##Portable<E>)

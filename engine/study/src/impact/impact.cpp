@@ -9,6 +9,7 @@
 #include "dembuf/core/time_step.h"
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/part_fields.h"
 #include "dembuf/study/scene/scene_fields.h"
 
 namespace dembuf {
@@ -33,8 +34,7 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
   ContactSetup setup = MakeContactSetup(scene, min_radius);
   world.params = setup.params;
   // The impact's own: the bed was prepared (and is shared) without it.
-  world.params.bead_damping = {scene.bead_damping.local_alpha,
-                               scene.bead_damping.viscous_rate_per_s};
+  SetBeadDamping(scene, world.params);
   world.contact_damping = setup.contact_damping;
   world.critical_dt_s = setup.critical_dt_s;
 

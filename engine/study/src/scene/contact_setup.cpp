@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "dembuf/core/time_step.h"
+#include "dembuf/study/scene/part_fields.h"
 
 namespace dembuf {
 
@@ -39,7 +40,7 @@ ContactSetup MakeContactSetup(const Scene& scene, double min_radius_m) {
   wp.container = {scene.cylinder.radius_m, scene.cylinder.height_m};
   wp.sphere_pair = dem::MakePairParams(pair_moduli, A, mat.friction_bead_bead);
   wp.sphere_wall = dem::MakePairParams(wall_moduli, A, mat.friction_bead_wall);
-  wp.rolling_friction = mat.rolling_friction;
+  SetRollingResistance(scene, wp);
   wp.gravity_m_s2 = scene.gravity_m_s2;
   setup.critical_dt_s = dem::CriticalTimeStep(min_radius_m, mat.density_kg_m3,
                                               mat.youngs_modulus_Pa, mat.poisson_ratio);

@@ -16,12 +16,11 @@
 #include "dembuf/study/scene/contact_setup.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/text/text_limits.h"
+#include "scene/field_row.h"
 
 namespace dembuf {
 namespace {
 
-// A captureless lambda returning a reference to one Scene member, as a function pointer.
-#define DEMBUF_FIELD(member) +[](Scene& s) -> decltype(auto) { return (s.member); }
 
 constexpr double kUnbounded = 1e300;
 
@@ -45,7 +44,7 @@ bool IsRegularFile(const std::string& path) {
 // catch unit slips (millimetres typed as metres, GPa typed as Pa). The table in three parts:
 // the container, the beads' material and sizes.
 std::vector<SceneField> WorldFields() {
-  return {
+  std::vector<SceneField> fields = {
       {"gravity_m_s2", "m/s^2", "gravitational acceleration, downward", Shapes::kSourceBed, DEMBUF_FIELD(gravity_m_s2),
        0.0, 1000.0},
 
@@ -60,17 +59,11 @@ std::vector<SceneField> WorldFields() {
        Shapes::kSourceBed, DEMBUF_FIELD(material.youngs_modulus_Pa), 0.0, 1e13, true},
       {"material.poisson_ratio", "", "Poisson ratio nu of beads and projectile",
        Shapes::kSourceBed, DEMBUF_FIELD(material.poisson_ratio), 0.0, 0.5, false, true},
-      {"material.restitution", "", "restitution e of two mean beads meeting at the reference speed",
-       Shapes::kSourceBed, DEMBUF_FIELD(material.restitution), 0.0, 1.0, true},
-      {"material.restitution_ref_speed_m_s", "m/s", "impact speed at which e is calibrated",
-       Shapes::kSourceBed, DEMBUF_FIELD(material.restitution_ref_speed_m_s), 0.0, 1000.0, true},
-      {"material.friction_bead_bead", "", "mu_pp, bead-bead and projectile-bead friction",
-       Shapes::kFrictionBed, DEMBUF_FIELD(material.friction_bead_bead), 0.0, 10.0},
-      {"material.friction_bead_wall", "", "mu_pw, friction with plate and wall (beads, projectile)",
-       Shapes::kSourceBed, DEMBUF_FIELD(material.friction_bead_wall), 0.0, 10.0},
-      {"material.rolling_friction", "",
-       "mu_r, rolling resistance of every contact in the impact (0 = none, as the paper)",
-       Shapes::kImpact, DEMBUF_FIELD(material.rolling_friction), 0.0, 1.0},
+  };
+  // The physics parts' rows (field_row.h), in the table's order.
+  for (const auto& part : {HertzNormalFields(), MindlinTangentialFields(), RollingResistanceFields()})
+    fields.insert(fields.end(), part.begin(), part.end());
+  fields.insert(fields.end(), {
       {"material.shear_stiffness",
        "",
        "G* formula: paper = G/(2(1-nu)) (kt/kn = 2), mindlin = G/(2(2-nu))",
@@ -92,7 +85,8 @@ std::vector<SceneField> WorldFields() {
        Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_min_m), 0.0, 1.0, true},
       {"beads.diameter_max_m", "m", "largest bead diameter (uniform distribution)",
        Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_max_m), 0.0, 1.0, true},
-  };
+  });
+  return fields;
 }
 
 // how the bed is made or imported.
@@ -163,7 +157,7 @@ std::vector<SceneField> BedFields() {
 
 // the projectile, the run's times and its output.
 std::vector<SceneField> ImpactFields() {
-  return {
+  std::vector<SceneField> fields = {
       {"projectile.enabled", "", "drop a projectile", Shapes::kImpact, DEMBUF_FIELD(projectile.enabled)},
       {"projectile.diameter_m", "m", "projectile diameter D", Shapes::kImpact, DEMBUF_FIELD(projectile.diameter_m),
        0.0, 10.0, true},
@@ -176,16 +170,10 @@ std::vector<SceneField> ImpactFields() {
       {"projectile.offset_m", "m",
        "horizontal distance of the drop line from the axis (radius - diameter/2 grazes the wall)",
        Shapes::kImpact, DEMBUF_FIELD(projectile.offset_m), 0.0, 100.0},
-
-      {"damping.local_alpha", "",
-       "local damping of every bead's motion in the impact: a force -alpha |F| sign(v) per degree "
-       "of freedom (as PFC's); 0 = none, as the paper states its model",
-       Shapes::kImpact, DEMBUF_FIELD(bead_damping.local_alpha), 0.0, 1.0, false, true},
-      {"damping.viscous_rate_per_s", "1/s",
-       "viscous background damping of every bead's motion in the impact: -rate m v and -rate I w; "
-       "0 = none",
-       Shapes::kImpact, DEMBUF_FIELD(bead_damping.viscous_rate_per_s), 0.0, 1e5},
-
+  };
+  const std::vector<SceneField> damping = BeadDampingFields();
+  fields.insert(fields.end(), damping.begin(), damping.end());
+  fields.insert(fields.end(), {
       {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
        Shapes::kSourceBed, DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
       {"time.end_s", "s", "end time; 0 = stop when the impact is over", Shapes::kImpact, DEMBUF_FIELD(time.end_s),
@@ -210,7 +198,8 @@ std::vector<SceneField> ImpactFields() {
        "spacing of animation frames of the beads during the impact (frames/, for ParaView); "
        "0 = none",
        Shapes::kOutput, DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
-  };
+  });
+  return fields;
 }
 
 const std::vector<SceneField>& FieldTable() {
@@ -222,7 +211,6 @@ const std::vector<SceneField>& FieldTable() {
   return table;
 }
 
-#undef DEMBUF_FIELD
 
 std::string FormatNumber(double v) {
   char buf[64];

@@ -17,29 +17,16 @@ namespace dembuf::dem {
 /// thread whatever SetThreads says.
 inline constexpr std::size_t kParallelMinBeads = 1024;
 
-/// Constants of the world, fixed for a run.
-/// Damping of the beads' own motion, besides their contacts' (docs/model.md, "Particle
-/// damping"); off by default, and then the integrator is compiled without it. On each degree of
-/// freedom of each bead (translation and rotation):
-///   local (non-viscous, as PFC's): a force -alpha |F| sign(v), F the bead's unbalanced force
-///     (contacts and gravity) and v its velocity; a torque -alpha |T| sign(w);
-///   viscous background: a force -rate m v, a torque -rate I w.
-/// The projectile is not damped: its speed at the bed is the scene's.
-struct BeadDamping {
-  double local_alpha = 0.0;         ///< 0 <= alpha < 1
-  double viscous_rate_per_s = 0.0;  ///< >= 0; the speed of a free bead decays as exp(-rate t)
-  bool Any() const { return local_alpha > 0.0 || viscous_rate_per_s > 0.0; }
-};
-
+/// Constants of the world, fixed for a run. The physics parts' parameters are among them
+/// (parts/parts.h lists the parts; each one's On says which of these call for it).
 struct WorldParams {
   Container container;
   PairParams sphere_pair;  ///< bead-bead and projectile-bead
   PairParams sphere_wall;  ///< bead and projectile against plate and side wall
-  /// Rolling resistance mu_r of every contact (RollingResistanceTorque); 0: none, and then the
-  /// kernels are compiled without it.
+  /// Rolling resistance mu_r of every contact (parts/rolling_resistance.h); 0: none.
   double rolling_friction = 0.0;
   double gravity_m_s2 = 9.81;
-  BeadDamping bead_damping;
+  BeadDamping bead_damping;  ///< parts/bead_damping.h; off by default
   double dt_s = 1e-6;
   /// Neighbor-list skin as a fraction of the smallest bead diameter. Wide, because the force
   /// pass checks only the pairs within a much smaller gap (PairList's near part): a wider skin

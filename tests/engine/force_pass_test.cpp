@@ -89,7 +89,7 @@ int ExpectTheLawsForcesPairByPair(dem::ParticleState beads) {
       const dem::detail::ContactOutcome out =
           dem::detail::Resolve<dem::Effects<dem::Parts::Bit<dem::HertzNormal>() |
                                             dem::Parts::Bit<dem::MindlinTangential>()>>(
-              g, ai, aj, law, dt, history);
+              g, ai, aj, {law, 0.0, dt}, history);
       force[i] += out.force;
       force[j] -= out.force;
       torque[i] += out.torque_i;

@@ -73,6 +73,10 @@ void ExpectSameBits(const dem::Vec3& batched, const dem::Vec3& reference, const 
   }
 }
 
+// Rolling resistance mu_r of the tests with it: a tenth of a radius, so that both of its
+// limits (mu_r R* Fn, and the torque that stops the rolling within a step) are met.
+constexpr double kRollingFriction = 0.1;
+
 // The contact parts of a world with friction and rolling resistance or without.
 PartMask ContactParts(bool friction, bool rolling) {
   return Parts::Bit<HertzNormal>() | (friction ? Parts::Bit<MindlinTangential>() : 0) |
@@ -82,10 +86,10 @@ PartMask ContactParts(bool friction, bool rolling) {
 // The vector form of the law (Resolve) for these parts.
 ContactOutcome ScalarLaw(bool friction, bool rolling, const dem::ContactGeometry& g, double ai,
                          double aj, const dem::PairParams& params, double dt, dem::Vec3& shear,
-                         const RollingPair& pair) {
+                         const SpinPair& pair) {
   ContactOutcome out;
   WithEffects<Stage::kContact>(ContactParts(friction, rolling), [&]<class E>(E) {
-    out = Resolve<E>(g, ai, aj, params, dt, shear, pair);
+    out = Resolve<E>(g, ai, aj, {params, kRollingFriction, dt}, shear, pair);
   });
   return out;
 }
@@ -96,10 +100,6 @@ std::vector<double> Masses(const std::vector<double>& radius) {
   for (double r : radius) mass.push_back(2500.0 * 4.0 / 3.0 * 3.14159265358979 * r * r * r);
   return mass;
 }
-
-// Rolling resistance mu_r of the tests with it: a tenth of a radius, so that both of its
-// limits (mu_r R* Fn, and the torque that stops the rolling within a step) are met.
-constexpr double kRollingFriction = 0.1;
 
 void CompareWithScalarLaw(bool friction, bool rolling) {
   // A full batch but one: not a multiple of any vector width, so the loop's tail runs too.
@@ -146,10 +146,9 @@ void CompareWithScalarLaw(bool friction, bool rolling) {
     const dem::ContactGeometry g =
         MakeGeometry(normal, overlap, c.velocity[i] - c.velocity[j], w_arm, c.r_star[k]);
     dem::Vec3 shear = c.shear[k];
-    const RollingPair pair{c.angular_velocity[i] - c.angular_velocity[j],
-                           1.0 / (ParticleState::InverseSphereInertia(mass[i], c.radius[i]) +
-                                  ParticleState::InverseSphereInertia(mass[j], c.radius[j])),
-                           kRollingFriction};
+    const SpinPair pair{c.angular_velocity[i] - c.angular_velocity[j],
+                        1.0 / (ParticleState::InverseSphereInertia(mass[i], c.radius[i]) +
+                               ParticleState::InverseSphereInertia(mass[j], c.radius[j]))};
     const ContactOutcome out = ScalarLaw(friction, rolling, g, ai, aj, params, dt, shear, pair);
     if (rolling && out.normal > 0.0) {
       dem::Vec3 spring = c.shear[k];  // (the call above advanced `shear`)
@@ -283,9 +282,8 @@ void CompareWallsWithScalarLaw(bool friction, bool rolling) {
       const dem::ContactGeometry g =
           MakeGeometry(normal, overlap, velocity[k], arm * angular_velocity[k], r);
       dem::Vec3 history = shear[k];
-      const RollingPair pair{angular_velocity[k],
-                             1.0 / ParticleState::InverseSphereInertia(mass[k], r),
-                             kRollingFriction};
+      const SpinPair pair{angular_velocity[k],
+                          1.0 / ParticleState::InverseSphereInertia(mass[k], r)};
       const ContactOutcome out =
           ScalarLaw(friction, rolling, g, arm, 0.0, params, dt, history, pair);
       clamped += out.normal == 0.0;

@@ -29,13 +29,13 @@ WorldParams World(double friction, double rolling, double local_alpha) {
 }
 
 TEST(Parts, AWorldCallsForThePartsItsParametersTurnOn) {
-  EXPECT_EQ(Parts::Active(World(0.0, 0.0, 0.0)), kHertz) << "the law's base alone";
-  EXPECT_EQ(Parts::Active(World(0.5, 0.0, 0.0)), kHertz | kMindlin | kRotation);
-  EXPECT_EQ(Parts::Active(World(0.0, 0.1, 0.0)), kHertz | kRolling | kRotation);
-  EXPECT_EQ(Parts::Active(World(0.0, 0.0, 0.2)), kHertz | kDamping) << "damping turns nothing";
+  EXPECT_EQ(ActiveParts(World(0.0, 0.0, 0.0)), kHertz) << "the law's base alone";
+  EXPECT_EQ(ActiveParts(World(0.5, 0.0, 0.0)), kHertz | kMindlin | kRotation);
+  EXPECT_EQ(ActiveParts(World(0.0, 0.1, 0.0)), kHertz | kRolling | kRotation);
+  EXPECT_EQ(ActiveParts(World(0.0, 0.0, 0.2)), kHertz | kDamping) << "damping turns nothing";
   WorldParams wall_friction = World(0.0, 0.0, 0.0);
   wall_friction.sphere_wall.friction = 0.3;
-  EXPECT_EQ(Parts::Active(wall_friction), kHertz | kMindlin | kRotation);
+  EXPECT_EQ(ActiveParts(wall_friction), kHertz | kMindlin | kRotation);
 }
 
 TEST(Parts, BodiesTurnExactlyWhenAPartGivesThemTorques) {
@@ -43,7 +43,7 @@ TEST(Parts, BodiesTurnExactlyWhenAPartGivesThemTorques) {
     WorldParams w = World(world & 1 ? 0.5 : 0.0, world & 2 ? 0.1 : 0.0, world & 4 ? 0.2 : 0.0);
     w.bead_damping.viscous_rate_per_s = world & 8 ? 10.0 : 0.0;
     w.sphere_wall.friction = world & 16 ? 0.3 : 0.0;
-    const PartMask active = Parts::Active(w);
+    const PartMask active = ActiveParts(w);
     EXPECT_EQ((active & kRotation) != 0, (active & detail::kTurningParts) != 0)
         << "world " << world;
   }

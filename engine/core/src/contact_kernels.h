@@ -32,13 +32,12 @@ inline double LeverArm(double radius, double overlap) {
   return radius - 0.5 * overlap;
 }
 
-/// What rolling resistance (a part that reads spin) reads of a contact besides its geometry:
-/// the bodies' relative angular velocity w_i - w_j (w_i for a wall), the pair's inertia
-/// 1 / (1/I_i + 1/I_j) (I_i for a wall) and mu_r.
-struct RollingPair {
+/// What the parts that read spin (kReadsSpin) read of a contact besides its geometry: the
+/// bodies' relative angular velocity w_i - w_j (w_i for a wall) and the pair's inertia
+/// 1 / (1/I_i + 1/I_j) (I_i for a wall).
+struct SpinPair {
   Vec3 w_rel = Vec3::Zero();
   double inertia = 0.0;
-  double mu_r = 0.0;
 };
 
 /// Applies the contact parts of E to a contact of geometry c between sphere i (lever arm ai)
@@ -47,8 +46,9 @@ struct RollingPair {
 /// lanes run too), and the forces and torques as vectors. `shear` is the contact's history,
 /// advanced in place.
 template <class E>
-inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, const PairParams& p,
-                              double dt, Vec3& shear, const RollingPair& rolling = {}) {
+inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj,
+                              const ContactConstants& constants, Vec3& shear,
+                              const SpinPair& spin = {}) {
   ContactLane lane{};
   lane.nx = c.normal.x();
   lane.ny = c.normal.y();
@@ -65,14 +65,14 @@ inline ContactOutcome Resolve(const ContactGeometry& c, double ai, double aj, co
     lane.hz = shear.z();
   }
   if constexpr (E::kSpin) {
-    lane.wx = rolling.w_rel.x();
-    lane.wy = rolling.w_rel.y();
-    lane.wz = rolling.w_rel.z();
-    lane.inertia = rolling.inertia;
+    lane.wx = spin.w_rel.x();
+    lane.wy = spin.w_rel.y();
+    lane.wz = spin.w_rel.z();
+    lane.inertia = spin.inertia;
   }
   lane.ai = ai;
   lane.aj = aj;
-  const ContactResult r = ResolveContact<E>(lane, {p, rolling.mu_r, dt});
+  const ContactResult r = ResolveContact<E>(lane, constants);
   if constexpr (E::kHistory) shear = Vec3(r.hx, r.hy, r.hz);
   return {Vec3(r.fx, r.fy, r.fz), Vec3(r.tix, r.tiy, r.tiz), Vec3(r.tjx, r.tjy, r.tjz), r.normal};
 }

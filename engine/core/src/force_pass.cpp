@@ -208,8 +208,8 @@ int ProjectileContainerForces(const WorldParams& params, RigidSphere& p, Simulat
     const double arm = LeverArm(r, overlap);
     const ContactGeometry c =
         MakeGeometry(normal, overlap, p.velocity, arm * p.angular_velocity, r);
-    const RollingPair rolling{p.angular_velocity, p.Inertia(), params.rolling_friction};
-    const auto out = Resolve<E>(c, arm, 0.0, params.sphere_wall, params.dt_s, shear, rolling);
+    const SpinPair spin{p.angular_velocity, p.Inertia()};
+    const auto out = Resolve<E>(c, arm, 0.0, ConstantsOf(params, params.sphere_wall), shear, spin);
     p.force += out.force;
     p.torque += out.torque_i;
     return out;
@@ -262,9 +262,9 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
     const double r_star = EffectiveRadius(p.radius, rj);
     const ContactGeometry c =
         MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, r_star);
-    const RollingPair rolling{p.angular_velocity - b.angular_velocity[j],
-                              1.0 / (1.0 / p.Inertia() + b.InvInertia(j)), params.rolling_friction};
-    const auto out = Resolve<E>(c, ap, aj, params.sphere_pair, params.dt_s, h, rolling);
+    const SpinPair spin{p.angular_velocity - b.angular_velocity[j],
+                        1.0 / (1.0 / p.Inertia() + b.InvInertia(j))};
+    const auto out = Resolve<E>(c, ap, aj, ConstantsOf(params, params.sphere_pair), h, spin);
     p.force += out.force;
     p.torque += out.torque_i;
     b.force[j] -= out.force;

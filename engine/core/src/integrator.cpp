@@ -172,11 +172,6 @@ Vec3 Gravity(const WorldParams& params) {
   return Vec3(0.0, 0.0, -params.gravity_m_s2);
 }
 
-// The parameters of the part that may set the kicks' acceleration, as the world has them.
-AccelerationParams ShapingParams(const WorldParams& params) {
-  return AccelerationPart<Effects<~PartMask{0}>>::ParamsOf(params);
-}
-
 }  // namespace
 
 DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleState& b,
@@ -184,7 +179,7 @@ DriftReport KickAndDriftBeads(const WorldParams& params, bool closing, ParticleS
   const double dt = params.dt_s;
   const DriftInputs in{0.5 * dt,         dt,
                        Gravity(params),  s.lists.reference_position.data(),
-                       params.container, ShapingParams(params)};
+                       params.container, AccelerationParamsOf(params)};
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
   // The instances for this CPU (vector_copies.h), chosen at the first call.
@@ -223,7 +218,7 @@ void HalfKickBeads(const WorldParams& params, ParticleState& b, const Simulation
   const Vec3 g = Gravity(params);
   const long n = static_cast<long>(b.size());
   const Kinematics k = BeadKinematics(b);
-  const AccelerationParams shaping = ShapingParams(params);
+  const AccelerationParams shaping = AccelerationParamsOf(params);
 #pragma omp parallel num_threads(s.threads) if (s.parallel)
   {
     const int team = omp_get_num_threads(), thread = omp_get_thread_num();

@@ -39,7 +39,7 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   s.lists.near_gap =
       std::min(s.lists.skin, detail::NeighbourLists::kNearGapDiameters * 2.0 * s.lists.min_radius);
   // The physics parts this world calls for (parts.h): each stage runs the instance of them.
-  s.active_parts = Parts::Active(params);
+  s.active_parts = ActiveParts(params);
   s.pending_history = history;
   s.parallel = m_beads.size() >= kParallelMinBeads;
   ApplyThreads();
@@ -148,7 +148,7 @@ void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
   CompleteKick();  // with the forces and rotation of the old friction
   m_params.sphere_pair.friction = sphere_pair;
   m_params.sphere_wall.friction = sphere_wall;
-  m_impl->active_parts = Parts::Active(m_params);
+  m_impl->active_parts = ActiveParts(m_params);
   m_impl->forces_valid = false;
 }
 

@@ -23,8 +23,6 @@ struct BeadDamping {
 
 struct LocalViscousDamping {
   static constexpr Stage kStage = Stage::kMotion;
-  static constexpr bool kAlwaysOn = false;
-  static constexpr bool kTurnsBodies = false;
   /// It sets a kick's acceleration (a motion stage has at most one such part).
   static constexpr bool kShapesAcceleration = true;
   using Params = BeadDamping;

@@ -13,15 +13,6 @@ namespace dembuf::dem {
 struct HertzNormal {
   static constexpr Stage kStage = Stage::kContact;
   static constexpr bool kAlwaysOn = true;
-  static constexpr bool kTurnsBodies = false;
-  static constexpr bool kReadsSlip = false;
-  static constexpr bool kKeepsHistory = false;
-  static constexpr bool kReadsSpin = false;
-  template <class World>
-  static bool On(const World&) {
-    return true;
-  }
-
   /// The normal force along n: the first part of the list, it sets what the others add to.
   /// 6 flops and one square root.
   static DEMBUF_ALWAYS_INLINE void Lane(const ContactLane& c, const ContactConstants& k,

@@ -16,11 +16,9 @@ namespace dembuf::dem {
 
 struct MindlinTangential {
   static constexpr Stage kStage = Stage::kContact;
-  static constexpr bool kAlwaysOn = false;
   static constexpr bool kTurnsBodies = true;
   static constexpr bool kReadsSlip = true;
   static constexpr bool kKeepsHistory = true;
-  static constexpr bool kReadsSpin = false;
   /// (A template: WorldParams holds the parts' parameters, so it is defined after them.)
   template <class World>
   static bool On(const World& w) {

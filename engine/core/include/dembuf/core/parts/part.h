@@ -7,12 +7,16 @@
 //
 // A part is a struct with
 //   kStage            the stage whose kernels run it (Stage below);
-//   kAlwaysOn         true for the law's base, which every world has (no bit in the dispatch);
 //   On(params)        whether a world calls for it (read once, when a simulation is made);
+// the traits that are true of it (one it does not declare is false, detail:: below):
+//   kAlwaysOn         the law's base, which every world has (it needs no On, and no kernel
+//                     is compiled without it);
 //   kTurnsBodies      it gives torques, so the beads must turn;
 //   kReadsSlip        it reads the contact's slip velocity and tangential history;
 //   kKeepsHistory     it advances that history (and the lists must keep it);
 //   kReadsSpin        it reads the bodies' relative angular velocity and the pair's inertia;
+//   kShapesAcceleration  (motion) it sets a kick's acceleration, from its Params (ParamsOf);
+//   kFollowsTurningParts (motion) it is on exactly when a part that turns bodies is;
 // and its arithmetic: a contact part's Lane (ContactLane in, ContactResult added to), a motion
 // part's Acceleration. The kernels ask for what the parts read and write (the k* traits), never
 // for a part by name, so that a new part reading what the others read needs no kernel changed.
@@ -36,6 +40,26 @@ enum class Stage {
 #else
 #define DEMBUF_ALWAYS_INLINE inline
 #endif
+
+namespace detail {
+// A trait a part does not declare is false.
+#define DEMBUF_PART_TRAIT(name)             \
+  template <class P>                        \
+  constexpr bool name() {                   \
+    if constexpr (requires { P::k##name; }) \
+      return P::k##name;                    \
+    else                                    \
+      return false;                         \
+  }
+DEMBUF_PART_TRAIT(AlwaysOn)
+DEMBUF_PART_TRAIT(TurnsBodies)
+DEMBUF_PART_TRAIT(ReadsSlip)
+DEMBUF_PART_TRAIT(KeepsHistory)
+DEMBUF_PART_TRAIT(ReadsSpin)
+DEMBUF_PART_TRAIT(ShapesAcceleration)
+DEMBUF_PART_TRAIT(FollowsTurningParts)
+#undef DEMBUF_PART_TRAIT
+}  // namespace detail
 
 /// One contact at this instant, component by component (the form of a vector lane): n points
 /// from the other body to this one; `overlap` > 0; `approach_rate` = d(overlap)/dt. The slip s

@@ -23,34 +23,14 @@ namespace dembuf::dem {
 
 /// Beads turn: the kicks integrate their torques and angular velocities. Not a mechanism of its
 /// own but what the parts that give torques (kTurnsBodies) need of the motion stage, so it is on
-/// exactly when one of them is (PartList::Active); a world without them integrates no rotation.
+/// exactly when one of them is (ActiveParts); a world without them integrates no rotation.
 struct BodyRotation {
   static constexpr Stage kStage = Stage::kMotion;
-  static constexpr bool kAlwaysOn = false;
   static constexpr bool kFollowsTurningParts = true;
 };
 
 /// A set of parts, one bit each in the order of the list.
 using PartMask = std::uint32_t;
-
-namespace detail {
-// A trait a part does not declare is false.
-#define DEMBUF_PART_TRAIT(name)             \
-  template <class P>                        \
-  constexpr bool name() {                   \
-    if constexpr (requires { P::k##name; }) \
-      return P::k##name;                    \
-    else                                    \
-      return false;                         \
-  }
-DEMBUF_PART_TRAIT(TurnsBodies)
-DEMBUF_PART_TRAIT(ReadsSlip)
-DEMBUF_PART_TRAIT(KeepsHistory)
-DEMBUF_PART_TRAIT(ReadsSpin)
-DEMBUF_PART_TRAIT(ShapesAcceleration)
-DEMBUF_PART_TRAIT(FollowsTurningParts)
-#undef DEMBUF_PART_TRAIT
-}  // namespace detail
 
 template <class... P>
 struct PartList {
@@ -72,22 +52,22 @@ struct PartList {
     ((bits |= trait(std::type_identity<P>{}) ? PartMask{1} << index : 0, ++index), ...);
     return bits;
   }
-  /// The parts a world calls for: each part's On, the law's base always, and BodyRotation when
-  /// a part that turns bodies is on.
+  /// The parts whose own switch is on in a world: the law's base always, the others by On.
   template <class World>
-  static PartMask Active(const World& world) {
+  static PartMask Switched(const World& world) {
     PartMask bits = 0, index = 0;
-    (
-        [&] {
-          if constexpr (requires { P::On(world); })
-            if (P::kAlwaysOn || P::On(world)) bits |= PartMask{1} << index;
-          ++index;
-        }(),
-        ...);
-    if (bits & BitsWhere([]<class Q>(std::type_identity<Q>) { return detail::TurnsBodies<Q>(); }))
-      bits |= BitsWhere(
-          []<class Q>(std::type_identity<Q>) { return detail::FollowsTurningParts<Q>(); });
+    ((bits |= (detail::AlwaysOn<P>() || CalledFor<P>(world)) ? PartMask{1} << index : 0, ++index),
+     ...);
     return bits;
+  }
+
+ private:
+  template <class Q, class World>
+  static bool CalledFor(const World& world) {
+    if constexpr (requires { Q::On(world); })
+      return Q::On(world);
+    else
+      return false;
   }
 };
 
@@ -102,13 +82,13 @@ namespace detail {
   Parts::BitsWhere([]<class P>(std::type_identity<P>) { return expression; })
 
 constexpr PartMask kTurningParts = DEMBUF_PARTS_WHERE(detail::TurnsBodies<P>());
-constexpr PartMask kRotatingParts =
-    kTurningParts | DEMBUF_PARTS_WHERE(detail::FollowsTurningParts<P>());
+constexpr PartMask kFollowingParts = DEMBUF_PARTS_WHERE(detail::FollowsTurningParts<P>());
+constexpr PartMask kRotatingParts = kTurningParts | kFollowingParts;
 constexpr PartMask kSlipReadingParts = DEMBUF_PARTS_WHERE(detail::ReadsSlip<P>());
 constexpr PartMask kHistoryKeepingParts = DEMBUF_PARTS_WHERE(detail::KeepsHistory<P>());
 constexpr PartMask kSpinReadingParts = DEMBUF_PARTS_WHERE(detail::ReadsSpin<P>());
 constexpr PartMask kAccelerationShapingParts = DEMBUF_PARTS_WHERE(detail::ShapesAcceleration<P>());
-constexpr PartMask kAlwaysOnParts = DEMBUF_PARTS_WHERE(P::kAlwaysOn);
+constexpr PartMask kAlwaysOnParts = DEMBUF_PARTS_WHERE(detail::AlwaysOn<P>());
 template <Stage S>
 constexpr PartMask kPartsOfStage = DEMBUF_PARTS_WHERE(P::kStage == S);
 #undef DEMBUF_PARTS_WHERE
@@ -150,6 +130,14 @@ constexpr std::size_t InstanceIndex(PartMask active) {
 
 }  // namespace detail
 
+/// The parts a world calls for: those switched on, and BodyRotation when a part that turns
+/// bodies is on.
+template <class World>
+PartMask ActiveParts(const World& world) {
+  const PartMask switched = Parts::Switched(world);
+  return switched | ((switched & detail::kTurningParts) ? detail::kFollowingParts : 0);
+}
+
 /// A set of parts as a type: what a kernel instance is compiled for. The kernels ask what the
 /// parts need (kRotate, kSlip, ...), not which parts they are.
 template <PartMask kMask>
@@ -182,8 +170,13 @@ struct AccelerationPartOf<E, PartList<P, Rest...>> {
 template <class E>
 using AccelerationPart = typename AccelerationPartOf<E>::type;
 
-/// The parameters of the part that may set the kicks' acceleration (whichever instance runs).
-using AccelerationParams = typename AccelerationPart<Effects<~PartMask{0}>>::Params;
+/// The part of the list that may set the kicks' acceleration, its parameters, and a world's.
+using AccelerationShaper = AccelerationPart<Effects<~PartMask{0}>>;
+using AccelerationParams = typename AccelerationShaper::Params;
+template <class World>
+AccelerationParams AccelerationParamsOf(const World& world) {
+  return AccelerationShaper::ParamsOf(world);
+}
 
 /// The Effects of instance k of stage S.
 template <Stage S, std::size_t k>

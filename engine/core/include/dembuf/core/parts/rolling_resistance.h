@@ -12,10 +12,7 @@ namespace dembuf::dem {
 
 struct RollingResistance {
   static constexpr Stage kStage = Stage::kContact;
-  static constexpr bool kAlwaysOn = false;
   static constexpr bool kTurnsBodies = true;
-  static constexpr bool kReadsSlip = false;
-  static constexpr bool kKeepsHistory = false;
   static constexpr bool kReadsSpin = true;
   /// mu_r is the world's (WorldParams::rolling_friction), the same for every contact.
   template <class World>

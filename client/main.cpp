@@ -6,14 +6,15 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
-#include "commands.h"
 #include "dembuf/study/files/provenance.h"
 #include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/text/text_limits.h"
 #include "dembuf/study/version.h"
-#include "exit_codes.h"
-#include "progress.h"
+#include "local/commands.h"
+#include "remote/remote_commands.h"
+#include "terminal/exit_codes.h"
+#include "terminal/progress.h"
 
 using namespace dembuf;
 using namespace dembuf::cli;
@@ -52,7 +53,7 @@ int main(int argc, char** argv) {
       ->excludes(quiet_flag);
   app.footer(kExitCodesHelp);
 
-  RunOptions options;
+  CommandOptions options;
   // A token given on the command line is not kept with the jobs and results it asks for.
   options.command_line = report::ShellCommandLine(argc, argv, {"--token"});
   CommandTable commands;

@@ -7,7 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
-#include "daemon.h"
+#include "process/daemon.h"
 
 using namespace dembuf::server;
 

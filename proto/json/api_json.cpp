@@ -62,7 +62,7 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
       {"error", TextOrNull(job.error())},
       {"sweep_id", IdOrNull(job.sweep_id())},
       {"sweep_index", job.sweep_index()},
-      {"sweep_values", report::SweepValuesJson(Strings(job.sweep_values()))},
+      {"sweep_values", SweepValuesJson(Strings(job.sweep_values()))},
       {"attempts", job.attempts()},
       {"created_at", TextOrNull(job.created_at())},
       {"started_at", TextOrNull(job.started_at())},
@@ -96,7 +96,7 @@ nlohmann::json SweepJson(const v1::Sweep& sweep, bool details) {
   for (const v1::SweepAxis& axis : sweep.axes()) {
     const SceneField* field = FindSceneField(axis.field());
     axes.push_back({{"field", axis.field()},
-                    {"values", report::SweepValuesJson(Strings(axis.values()))},
+                    {"values", SweepValuesJson(Strings(axis.values()))},
                     {"unit", field ? std::string(field->unit) : ""},
                     {"help", field ? std::string(field->help) : ""}});
   }

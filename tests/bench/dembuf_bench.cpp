@@ -54,8 +54,8 @@
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/sweep/local_sweep.h"
 #include "dembuf/study/sweep/sweep_plan.h"
-#include "sweep.h"
 
 using namespace dembuf;
 namespace fs = std::filesystem;
@@ -765,7 +765,7 @@ void BenchSweep(const Options& opt, nlohmann::json& report) {
       opt.sweep_seeds, opt.sweep_seeds > 1 ? "s" : "", opt.sweep_accuracy.c_str(), changes.c_str(),
       jobs);
   std::fflush(stdout);
-  cli::SweepOptions sweep;
+  SweepOptions sweep;
   sweep.axes = {ParseSweepAxis("bed.thickness_m=0:0.08:0.005")};
   sweep.seeds = opt.sweep_seeds;
   sweep.jobs = jobs;
@@ -800,7 +800,7 @@ void BenchSweep(const Options& opt, nlohmann::json& report) {
     step_stages.pair_sorts += summary.stage_times.pair_sorts;
   };
   const auto start = std::chrono::steady_clock::now();
-  const int failed = cli::RunSweep(e2, sweep, empty_store);
+  const int failed = RunSweep(e2, sweep, empty_store);
   const double seconds = Seconds(std::chrono::steady_clock::now() - start);
   fs::remove_all(scratch);
   std::printf("  E2 sweep (%s, %d seed%s): %.0f s wall, %d failed runs\n",

@@ -42,6 +42,18 @@ PY
   > /dev/null || fail "bed export text"
 "$dembuf" bed export "${small[@]}" --bed-cache "$work/beds" --format text --out "$work/bed.txt" \
   > /dev/null 2>&1 && fail "bed export replaced a file without --force"
+# A bad scene is named as such, whether or not --out exists; an empty --out is refused.
+for out in "$work/bed.txt" "$work/new.txt" ""; do
+  status=0
+  message=$("$dembuf" bed export "${small[@]}" --set beads.no_such_field=1 --bed-cache "$work/beds" \
+    --format text --out "$out" 2>&1 > /dev/null) || status=$?
+  [ "$status" = 2 ] && grep -q "no_such_field" <<<"$message" ||
+    fail "bed export of a bad scene to '$out': exit $status, $message"
+done
+status=0
+message=$("$dembuf" bed export "${small[@]}" --bed-cache "$work/beds" --format text --out "" \
+  2>&1 > /dev/null) || status=$?
+[ "$status" = 2 ] && grep -q -- "--out" <<<"$message" || fail "an empty --out: exit $status, $message"
 "$dembuf" bed export "${small[@]}" --set bed.import="$work/bed.txt" --bed-cache "$work/beds" \
   --format text --out "$work/again.txt" > /dev/null || fail "bed export of the imported bed"
 # (The imported bed relaxes before it is used: a settled bed's beads move by micrometres.)

@@ -20,15 +20,14 @@ nlohmann::json E2Run(double h, double p, double lambda, Scene scene = PresetScen
           {"impact_speed_m_s", 5.513}};
 }
 
-const report::ComparisonRow* Find(const report::Comparison& c, const std::string& quantity,
-                                  double h) {
+const ComparisonRow* Find(const Comparison& c, const std::string& quantity, double h) {
   for (const auto& row : c.rows)
     if (row.quantity == quantity && std::abs(row.h_m - h) < 1e-9) return &row;
   return nullptr;
 }
 
 TEST(PaperComparison, SeedsAroundThePapersNumberAreWithinRange) {
-  const auto c = report::CompareWithPaper(
+  const auto c = CompareWithPaper(
       {E2Run(0.008, 6000, 0.45), E2Run(0.008, 6500, 0.52), E2Run(0.008, 7000, 0.55)});
   ASSERT_TRUE(c.is_paper_e2);
   const auto* p = Find(c, "P_N", 0.008);
@@ -47,15 +46,15 @@ TEST(PaperComparison, SeedsAroundThePapersNumberAreWithinRange) {
 }
 
 TEST(PaperComparison, ARunOutsideTheSpreadIsFlagged) {
-  const auto c = report::CompareWithPaper(
+  const auto c = CompareWithPaper(
       {E2Run(0.008, 4000, 0.70), E2Run(0.008, 4500, 0.66), E2Run(0.008, 5000, 0.63)});
   const auto* p = Find(c, "P_N", 0.008);
   ASSERT_NE(p, nullptr);
   ASSERT_TRUE(p->paper_within_range);
   EXPECT_FALSE(*p->paper_within_range);  // 6.73 kN is above all three
-  EXPECT_NE(report::ComparisonTable(c).find("NO: outside"), std::string::npos);
+  EXPECT_NE(ComparisonTable(c).find("NO: outside"), std::string::npos);
   // One run has no range: nothing is claimed either way.
-  const auto one = report::CompareWithPaper({E2Run(0.008, 4000, 0.70)});
+  const auto one = CompareWithPaper({E2Run(0.008, 4000, 0.70)});
   EXPECT_FALSE(Find(one, "P_N", 0.008)->paper_within_range);
   EXPECT_TRUE(std::isnan(Find(one, "P_N", 0.008)->sd));
 }
@@ -64,7 +63,7 @@ TEST(PaperComparison, TheFitsBetweenThePeaksAndTheBarePlate) {
   nlohmann::json thick = E2Run(0.04, 2000, 0.85);
   thick["dS_m"] = 0.03;
   thick["dt_peaks_s"] = 0.02;
-  const auto c = report::CompareWithPaper({E2Run(0.0, 13380, 0.0), thick});
+  const auto c = CompareWithPaper({E2Run(0.0, 13380, 0.0), thick});
   EXPECT_NEAR(Find(c, "P_N", 0.0)->deviation, 13380.0 / 13460.0 - 1.0, 1e-12);
   // dS = 0.91 H - 0.32 = 3.32 cm; dt above 3.5 cm = 10.36 H - 21.61 = 19.83 ms (H = 4 cm).
   EXPECT_NEAR(Find(c, "dS_m", 0.04)->paper, 0.0332, 1e-12);
@@ -73,7 +72,7 @@ TEST(PaperComparison, TheFitsBetweenThePeaksAndTheBarePlate) {
 }
 
 TEST(PaperComparison, HcWithItsUncertainty) {
-  const auto c = report::CompareWithPaper({E2Run(0.03, 2000, 0.85)}, 0.025, 0.002);
+  const auto c = CompareWithPaper({E2Run(0.03, 2000, 0.85)}, 0.025, 0.002);
   const auto* hc = Find(c, "Hc_m", 0.0);
   ASSERT_NE(hc, nullptr);
   EXPECT_NEAR(hc->deviation, 0.25, 1e-12);
@@ -83,7 +82,7 @@ TEST(PaperComparison, HcWithItsUncertainty) {
 TEST(PaperComparison, AnotherSceneGetsNoPaperNumbers) {
   Scene other = PresetScene("e2");
   other.material.friction_bead_bead = 0.2;
-  const auto c = report::CompareWithPaper({E2Run(0.008, 6500, 0.5, other)});
+  const auto c = CompareWithPaper({E2Run(0.008, 6500, 0.5, other)});
   EXPECT_FALSE(c.is_paper_e2);
   EXPECT_TRUE(c.rows.empty());
   ASSERT_EQ(c.differs.size(), 1u);
@@ -93,7 +92,7 @@ TEST(PaperComparison, AnotherSceneGetsNoPaperNumbers) {
   knobs.time.alpha = 0.05;
   knobs.bed.seed = 7;
   knobs.bed.cut = "tops";
-  EXPECT_TRUE(report::CompareWithPaper({E2Run(0.008, 6500, 0.5, knobs)}).is_paper_e2);
+  EXPECT_TRUE(CompareWithPaper({E2Run(0.008, 6500, 0.5, knobs)}).is_paper_e2);
 }
 
 // A variant of E2 (a mechanism the paper's model does not state) is compared with the paper,
@@ -104,7 +103,7 @@ TEST(PaperComparison, AVariantOfE2IsComparedAndNamed) {
   nlohmann::json run = E2Run(0.04, 2000, 0.85, damped);
   run["Pb_N"] = 1800.0;
   run["dt_peaks_s"] = 0.018;
-  const auto c = report::CompareWithPaper({run});
+  const auto c = CompareWithPaper({run});
   ASSERT_TRUE(c.is_paper_e2);
   EXPECT_TRUE(c.differs.empty());
   ASSERT_EQ(c.variant.size(), 1u);
@@ -113,25 +112,24 @@ TEST(PaperComparison, AVariantOfE2IsComparedAndNamed) {
   ASSERT_NE(pb, nullptr);
   EXPECT_NEAR(pb->paper, 13460 * 0.16, 1e-9);
   EXPECT_NEAR(pb->deviation, 1800 / (13460 * 0.16) - 1, 1e-12);
-  EXPECT_NE(report::ComparisonTable(c).find("does not state: damping.local_alpha = 0.5"),
+  EXPECT_NE(ComparisonTable(c).find("does not state: damping.local_alpha = 0.5"),
             std::string::npos);
-  EXPECT_NE(report::ComparisonCsv(c).find("variant,,,\"damping.local_alpha = 0.5\""),
-            std::string::npos);
+  EXPECT_NE(ComparisonCsv(c).find("variant,,,\"damping.local_alpha = 0.5\""), std::string::npos);
   // Beads four times as dense: the control of the study, a variant too.
   Scene heavy = PresetScene("e2");
   heavy.material.density_kg_m3 *= 4;
-  EXPECT_TRUE(report::CompareWithPaper({E2Run(0.04, 2000, 0.85, heavy)}).is_paper_e2);
+  EXPECT_TRUE(CompareWithPaper({E2Run(0.04, 2000, 0.85, heavy)}).is_paper_e2);
 }
 
 // A run made before a scene field existed lacks it in its summary: it had the field's default.
 TEST(PaperComparison, ARunWithoutALaterFieldHadItsDefault) {
   nlohmann::json older = E2Run(0.008, 6500, 0.5);
   older["scene"].erase("damping");
-  EXPECT_TRUE(report::CompareWithPaper({older}).is_paper_e2);
+  EXPECT_TRUE(CompareWithPaper({older}).is_paper_e2);
   // A field whose default is not E2's still differs when it is missing.
   nlohmann::json no_projectile = E2Run(0.008, 6500, 0.5);
   no_projectile["scene"]["projectile"].erase("height_m");
-  const auto c = report::CompareWithPaper({no_projectile});
+  const auto c = CompareWithPaper({no_projectile});
   EXPECT_FALSE(c.is_paper_e2);
   ASSERT_EQ(c.differs.size(), 1u);
   EXPECT_EQ(c.differs[0], "projectile.height_m");
@@ -139,14 +137,13 @@ TEST(PaperComparison, ARunWithoutALaterFieldHadItsDefault) {
 
 // E2 runs at a thickness the paper gives no number for: the table says which thicknesses do.
 TEST(PaperComparison, AnEmptyTableSaysWhichThicknessesTheFiguresAreAt) {
-  const auto c = report::CompareWithPaper({E2Run(0.003, 9000, 0.3)});
+  const auto c = CompareWithPaper({E2Run(0.003, 9000, 0.3)});
   EXPECT_TRUE(c.is_paper_e2);
   EXPECT_TRUE(c.rows.empty());
-  EXPECT_NE(report::ComparisonTable(c).find("no paper number at these runs' thicknesses: the "
-                                            "paper gives P at 0 and 0.8 cm"),
+  EXPECT_NE(ComparisonTable(c).find("no paper number at these runs' thicknesses: the "
+                                    "paper gives P at 0 and 0.8 cm"),
             std::string::npos);
-  EXPECT_EQ(report::ComparisonTable(report::CompareWithPaper({E2Run(0.008, 6500, 0.5)}))
-                .find("no paper number"),
+  EXPECT_EQ(ComparisonTable(CompareWithPaper({E2Run(0.008, 6500, 0.5)})).find("no paper number"),
             std::string::npos);
 }
 
@@ -158,7 +155,7 @@ TEST(PaperComparison, HertzPeakFromTheEnergyBalance) {
   const double e_star = e / (2 * (1 - nu * nu));
   const double k = 4.0 / 3.0 * e_star * std::sqrt(r);
   const double x = std::pow(0.5 * m * v * v / (0.4 * k), 0.4);
-  const double f = report::HertzImpactPeak(m, r, v, e, nu, e, nu);
+  const double f = HertzImpactPeak(m, r, v, e, nu, e, nu);
   EXPECT_NEAR(f, k * std::pow(x, 1.5), 1e-9 * f);
   EXPECT_NEAR(f, 13.5e3, 0.01 * 13.5e3);
 }
@@ -168,7 +165,7 @@ TEST(PaperComparison, HertzPeakFromTheEnergyBalance) {
 TEST(PaperComparison, ASceneWithoutItsPartsIsRefused) {
   nlohmann::json bare = E2Run(0.02, 6000, 0.5);
   bare["scene"] = {{"bed", {{"thickness_m", 0.02}}}};
-  EXPECT_THROW(report::CompareWithPaper({bare}), std::runtime_error);
+  EXPECT_THROW(CompareWithPaper({bare}), std::runtime_error);
 }
 
 // The reference Hertz peak is the scene's: it changed with the set of runs given (their
@@ -177,8 +174,8 @@ TEST(PaperComparison, TheHertzPeakIsTheScenesWhicheverRunsAreGiven) {
   nlohmann::json thin = E2Run(0.008, 6000, 0.45), thick = E2Run(0.04, 3000, 0.8);
   thin["impact_speed_m_s"] = 5.40;
   thick["impact_speed_m_s"] = 5.55;
-  const double one = report::CompareWithPaper({thin}).hertz_peak_N;
-  EXPECT_DOUBLE_EQ(report::CompareWithPaper({thin, thick}).hertz_peak_N, one);
+  const double one = CompareWithPaper({thin}).hertz_peak_N;
+  EXPECT_DOUBLE_EQ(CompareWithPaper({thin, thick}).hertz_peak_N, one);
   // E2: 0.3 kg, 5 cm across, 5 m/s with its centre 30 cm above the surface (27.5 cm of fall):
   // 5.51 m/s at first contact.
   const Scene e2 = PresetScene("e2");
@@ -186,8 +183,8 @@ TEST(PaperComparison, TheHertzPeakIsTheScenesWhicheverRunsAreGiven) {
   const double v =
       std::sqrt(e2.projectile.speed_m_s * e2.projectile.speed_m_s + 2.0 * e2.gravity_m_s2 * fall);
   const double e = e2.material.youngs_modulus_Pa, nu = e2.material.poisson_ratio;
-  EXPECT_DOUBLE_EQ(one, report::HertzImpactPeak(e2.projectile.mass_kg,
-                                                0.5 * e2.projectile.diameter_m, v, e, nu, e, nu));
+  EXPECT_DOUBLE_EQ(
+      one, HertzImpactPeak(e2.projectile.mass_kg, 0.5 * e2.projectile.diameter_m, v, e, nu, e, nu));
 }
 
 }  // namespace

@@ -1,9 +1,13 @@
 // The run queue a local sweep's workers and the daemon's share: order, the bed rule, the
-// sharing of cores, and the ways a run leaves or re-enters the queue.
+// sharing of cores, and the ways a run leaves or re-enters the queue; and its pool of workers
+// (QueueWorkers).
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -172,6 +176,88 @@ TEST(RunQueue, ACancelFlagEndsAWaitingWorker) {
     EXPECT_EQ(queue.Next(Into(threads)), std::nullopt);
   });
   cancel = true;  // as a signal handler sets it: no wake-up, the queue looks within a second
+}
+
+// The pool runs every run once, tells the queue of each end, and says a run has ended only
+// once the queue no longer counts it (and so writes no more to its threads).
+TEST(QueueWorkers, ARunEndsOnlyOnceTheQueueNoLongerCountsIt) {
+  BedCache beds;
+  RunQueue queue(beds, 1);
+  for (RunQueue::Id id = 1; id <= 3; ++id) queue.Push(id, {});
+  queue.Close();
+  std::atomic<int> threads{0};
+  std::vector<RunQueue::Id> ran;
+  QueueWorkers::Work work;
+  work.start = [&](RunQueue::Id, int) { return &threads; };
+  work.run = [&](RunQueue::Id id, int worker, const std::atomic<int>* given) {
+    EXPECT_EQ(worker, 0);
+    EXPECT_EQ(given, &threads);
+    EXPECT_EQ(queue.running(), 1u);
+    ran.push_back(id);
+    return QueueWorkers::RunEnd::kDone;
+  };
+  work.ended = [&](RunQueue::Id, int) { EXPECT_EQ(queue.running(), 0u); };
+  QueueWorkers workers(queue, 1, std::move(work));
+  workers.Join();
+  EXPECT_EQ(ran, (std::vector<RunQueue::Id>{1, 2, 3}));
+}
+
+// What `start` hands out may go as the run ends: many workers, each run's counter freed in
+// `ended`, while the others' starts and ends share the cores again (the sanitizer builds see a
+// write to a counter already freed).
+TEST(QueueWorkers, ARunsThreadCounterMayGoWhenItHasEnded) {
+  BedCache beds;
+  RunQueue queue(beds, 4);
+  constexpr int kRuns = 2000;
+  for (RunQueue::Id id = 0; id < kRuns; ++id) queue.Push(id, {});
+  queue.Close();
+  std::mutex mutex;
+  std::map<RunQueue::Id, std::unique_ptr<std::atomic<int>>> counters;
+  std::atomic<int> runs{0};
+  QueueWorkers::Work work;
+  work.start = [&](RunQueue::Id id, int) {
+    std::lock_guard lock(mutex);
+    return (counters[id] = std::make_unique<std::atomic<int>>(0)).get();
+  };
+  work.run = [&](RunQueue::Id, int, const std::atomic<int>* threads) {
+    EXPECT_GE(threads->load(), 1);
+    ++runs;
+    return QueueWorkers::RunEnd::kDone;
+  };
+  work.ended = [&](RunQueue::Id id, int) {
+    std::lock_guard lock(mutex);
+    counters.erase(id);
+  };
+  QueueWorkers(queue, 4, std::move(work)).Join();
+  EXPECT_EQ(runs, kRuns);
+  EXPECT_TRUE(counters.empty());
+  EXPECT_EQ(queue.running(), 0u);
+}
+
+// A run its worker puts back keeps its turn and is not told done: it runs again, and the queue
+// ends empty.
+TEST(QueueWorkers, ARequeuedRunRunsAgain) {
+  BedCache beds;
+  RunQueue queue(beds, 1);
+  queue.Push(7, {});
+  queue.Push(8, {});
+  queue.Close();
+  std::atomic<int> threads{0};
+  std::vector<RunQueue::Id> ran;
+  QueueWorkers::Work work;
+  work.start = [&](RunQueue::Id, int) { return &threads; };
+  work.run = [&](RunQueue::Id id, int, const std::atomic<int>*) {
+    ran.push_back(id);
+    if (id == 7 && ran.size() == 1) {
+      queue.Requeue(id);
+      return QueueWorkers::RunEnd::kRequeued;
+    }
+    return QueueWorkers::RunEnd::kDone;
+  };
+  QueueWorkers(queue, 1, std::move(work)).Join();
+  EXPECT_EQ(ran, (std::vector<RunQueue::Id>{7, 7, 8}));
+  EXPECT_EQ(queue.running(), 0u);
+  EXPECT_EQ(queue.queued(), 0u);
 }
 
 }  // namespace

@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <string>
 
-#include "admission.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/v1/dembuf.pb.h"
+#include "doors/admission.h"
 #include "google/protobuf/stubs/logging.h"
 
 // Protobuf logs every string that is not UTF-8 (and refuses the message): silence it.

@@ -1,6 +1,6 @@
 // The CallPool (call_pool.h): users take turns, one user's heavy calls leave threads for the
 // others, and one user's flood waits behind itself within its bound.
-#include "call_pool.h"
+#include "doors/call_pool.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The daemon's configuration: the example a lab installs (deploy/dembufd.toml) states the
 // defaults of server/config.h, but for the three settings the service sets itself; a default
 // changed in one place and not the other fails here.
-#include "config.h"
+#include "process/config.h"
 
 #include <gtest/gtest.h>
 

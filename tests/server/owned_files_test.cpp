@@ -14,7 +14,7 @@
 #include "../engine/temp_path.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
-#include "owned_files.h"
+#include "store/owned_files.h"
 
 namespace dembuf::server {
 namespace {

@@ -7,11 +7,11 @@
 #include <filesystem>
 
 #include "../engine/temp_path.h"
-#include "config.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
-#include "program.h"
-#include "slurm.h"
+#include "dembuf/study/spawn/program.h"
+#include "jobs/slurm.h"
+#include "process/config.h"
 
 namespace dembuf::server {
 namespace {

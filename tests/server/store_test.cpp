@@ -9,13 +9,13 @@
 #include <map>
 #include <sstream>
 
-#include "admission.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/text/sha256.h"
-#include "scene_request.h"
-#include "store.h"
+#include "doors/admission.h"
+#include "doors/scene_request.h"
+#include "store/store.h"
 
 namespace dembuf::server {
 namespace {
@@ -537,7 +537,7 @@ TEST_F(StoreTest, BedFilesMakeRoomButKeepThoseAQueuedJobImports) {
   std::map<std::string, std::string> sha;
   auto file = [&](const std::string& name) {
     const std::string data = std::string(999, 'x') + name;
-    sha[name] = report::Sha256Hex(data);
+    sha[name] = Sha256Hex(data);
     return BedFile{"alice", sha[name], "bed.txt", std::make_shared<const std::string>(data)};
   };
   EXPECT_TRUE(store.PutBedFile(file("a"), 2500));
@@ -559,6 +559,47 @@ TEST_F(StoreTest, BedFilesMakeRoomButKeepThoseAQueuedJobImports) {
   EXPECT_FALSE(store.GetBedFile("alice", sha["b"]));
   EXPECT_TRUE(store.GetBedFile("alice", sha["c"]));
   EXPECT_TRUE(store.GetBedFile("bob", sha["d"]) == std::nullopt);  // by owner
+}
+
+// The connection's one way to change the database: a Write not committed leaves nothing.
+TEST_F(StoreTest, AWriteNotCommittedIsRolledBack) {
+  Connection connection(path.string(), {});
+  {
+    Connection::Writing db = connection.Write();
+    db->Execute("CREATE TABLE t (x INTEGER)");
+    db.Commit();
+  }
+  {
+    Connection::Writing db = connection.Write();
+    db->Execute("INSERT INTO t VALUES (1)");
+  }  // (an exception would leave it so)
+  {
+    Connection::Writing db = connection.Write();
+    db->Execute("INSERT INTO t VALUES (2)");
+    db.Commit();
+  }
+  Connection::Reading db = connection.Read();
+  Statement& rows = db->Prepare("SELECT group_concat(x) FROM t");
+  rows.Bind();
+  ASSERT_TRUE(rows.Step());
+  EXPECT_EQ(rows.Text(0), "2");
+  rows.Run();
+}
+
+// Making room and keeping the new file are one change: a file the database refuses (here a
+// blob past its length limit) leaves the older files that would have made way for it.
+TEST_F(StoreTest, ABedFileThatCannotBeKeptRemovesNoOther) {
+  StoreOptions small;
+  small.max_blob_bytes = 1500;
+  Store store(path.string(), small);
+  auto file = [](std::size_t bytes, char fill) {
+    const std::string data(bytes, fill);
+    return BedFile{"alice", Sha256Hex(data), "bed.txt", std::make_shared<const std::string>(data)};
+  };
+  const BedFile kept = file(1000, 'a');
+  ASSERT_TRUE(store.PutBedFile(kept, 2000));
+  EXPECT_ANY_THROW(store.PutBedFile(file(1600, 'b'), 2000));  // "kept" would make way
+  EXPECT_TRUE(store.GetBedFile("alice", kept.sha256));
 }
 
 TEST_F(StoreTest, BedsRoundTripExactly) {

@@ -9,14 +9,14 @@
 #include <map>
 #include <thread>
 
-#include "api_messages.h"
-#include "config.h"
 #include "dembuf/study/files/run_output.h"
-#include "job_feed.h"
-#include "sessions.h"
-#include "store.h"
-#include "stream_limits.h"
-#include "web_views.h"
+#include "doors/api_messages.h"
+#include "doors/stream_limits.h"
+#include "doors/web/sessions.h"
+#include "doors/web/web_views.h"
+#include "jobs/job_feed.h"
+#include "process/config.h"
+#include "store/store.h"
 
 namespace dembuf::server {
 namespace {

@@ -377,14 +377,14 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
 
 std::string ImportContentSha256(const Scene& scene) {
   if (!scene.bed.import_sha256.empty()) return scene.bed.import_sha256;
-  if (scene.bed.import_bytes) return report::Sha256Hex(*scene.bed.import_bytes);
+  if (scene.bed.import_bytes) return Sha256Hex(*scene.bed.import_bytes);
   std::error_code error;
   if (!std::filesystem::is_regular_file(scene.bed.import, error))
     throw SceneError("bed.import",
                      "file \"" + scene.bed.import + "\" does not exist or is not a file");
   std::ifstream in(scene.bed.import, std::ios::binary);
   if (!in) throw SceneError("bed.import", "cannot read \"" + scene.bed.import + "\"");
-  report::Sha256Stream digest;
+  Sha256Stream digest;
   char block[1 << 16];
   while (in.read(block, sizeof block) || in.gcount() > 0)
     digest.Add(std::string_view(block, static_cast<std::size_t>(in.gcount())));

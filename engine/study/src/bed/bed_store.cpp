@@ -97,7 +97,7 @@ std::string BedContentSha256(const PreparedBed& bed) {
   const std::string bytes = SerializeBed(bed);
   constexpr std::string_view kDataLine = "\ndata\n";
   const std::size_t data = bytes.find(kDataLine);
-  return report::Sha256Hex(std::string_view(bytes).substr(data + kDataLine.size()));
+  return Sha256Hex(std::string_view(bytes).substr(data + kDataLine.size()));
 }
 
 PreparedBed ParseBed(const std::string& bytes, const std::string& name) {

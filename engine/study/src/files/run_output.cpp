@@ -277,24 +277,31 @@ void SampleStreamWriter::Close() {
 }
 
 const std::vector<std::string>& RunOutputNames() {
-  static const std::vector<std::string> names = {"summary.json",
-                                                 "failure.json",
-                                                 "incomplete.json",
-                                                 "plate_force.csv",
-                                                 "plate_force.csv.partial",
+  static const std::vector<std::string> names = {run_files::kSummary,
+                                                 run_files::kFailure,
+                                                 run_files::kIncomplete,
+                                                 run_files::kPlateForce,
+                                                 run_files::kPlateForcePartial,
                                                  "plate_force.png",
                                                  "plate_force.svg",
-                                                 "plate_force_bare.csv",
+                                                 run_files::kPlateForceBare,
                                                  "plate_force.gp",
                                                  "snapshots",
                                                  "snapshots.pvd",
                                                  "frames",
                                                  "frames.pvd",
                                                  "container.vtp",
-                                                 "scene.toml",
+                                                 run_files::kScene,
                                                  "job.json",
-                                                 "log.txt"};
+                                                 run_files::kLog};
   return names;
+}
+
+bool IsRunFolder(const std::filesystem::path& dir) {
+  for (const char* name : {run_files::kSummary, run_files::kScene, run_files::kFailure,
+                           run_files::kIncomplete, run_files::kPlateForcePartial})
+    if (std::filesystem::is_regular_file(std::filesystem::symlink_status(dir / name))) return true;
+  return false;
 }
 
 void RemoveRunOutputs(const std::filesystem::path& dir) {

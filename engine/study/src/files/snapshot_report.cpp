@@ -208,14 +208,17 @@ bool IsSafeResultPath(std::string_view path) {
 }
 
 const std::vector<std::string>& ResultFileRoots() {
-  static const std::vector<std::string> roots = {"plate_force_bare.csv", "snapshots",
-                                                 "snapshots.pvd",        "frames",
-                                                 "frames.pvd",           "container.vtp"};
+  static const std::vector<std::string> roots = {run_files::kPlateForceBare,
+                                                 "snapshots",
+                                                 "snapshots.pvd",
+                                                 "frames",
+                                                 "frames.pvd",
+                                                 "container.vtp"};
   return roots;
 }
 
 bool IsResultFileName(std::string_view path) {
-  if (path == "plate_force_bare.csv" || path == "snapshots.pvd" || path == "frames.pvd" ||
+  if (path == run_files::kPlateForceBare || path == "snapshots.pvd" || path == "frames.pvd" ||
       path == "container.vtp")
     return true;
   constexpr std::string_view kSnapshots = "snapshots/", kFrames = "frames/", kVtp = ".vtp";

@@ -12,12 +12,12 @@ FolderRecorder::FolderRecorder(std::filesystem::path dir, const Scene& scene,
       m_result_nonce(std::move(result_nonce)) {
   std::filesystem::create_directories(m_dir);
   // What ran, in a file that runs it again.
-  report::WriteFileAtomically(m_dir / "scene.toml", report::SceneText(scene));
+  report::WriteFileAtomically(m_dir / report::run_files::kScene, report::SceneText(scene));
 }
 
 void FolderRecorder::Sample(const ImpactSample& sample) {
   if (!m_csv) {
-    m_csv.emplace(m_dir / "plate_force.csv");
+    m_csv.emplace(m_dir / report::run_files::kPlateForce);
     if (!m_stream_path.empty()) m_stream.emplace(m_stream_path);
   }
   m_csv->Write(sample);
@@ -33,19 +33,21 @@ void FolderRecorder::Files(const std::vector<report::ResultFile>& files) {
 }
 
 void FolderRecorder::Finished(const ImpactSummary&, const nlohmann::json& summary_json) {
-  if (!m_csv) m_csv.emplace(m_dir / "plate_force.csv");  // a run without samples: the header
+  if (!m_csv)
+    m_csv.emplace(m_dir / report::run_files::kPlateForce);  // a run without samples: the header
   m_csv->Commit();
   if (!m_bare.empty())
-    report::WriteFileAtomically(m_dir / "plate_force_bare.csv", report::SamplesToCsv(m_bare));
+    report::WriteFileAtomically(m_dir / report::run_files::kPlateForceBare,
+                                report::SamplesToCsv(m_bare));
   if (m_stream) m_stream->Close();
   if (m_result_nonce.empty()) {
-    report::WriteFileAtomically(m_dir / "summary.json", summary_json.dump(2) + "\n");
+    report::WriteFileAtomically(m_dir / report::run_files::kSummary, summary_json.dump(2) + "\n");
   } else {
     nlohmann::json proven = summary_json;
     proven[report::kResultNonceKey] = m_result_nonce;
-    report::WriteFileAtomically(m_dir / "summary.json", proven.dump(2) + "\n");
+    report::WriteFileAtomically(m_dir / report::run_files::kSummary, proven.dump(2) + "\n");
   }
-  report::WriteFileAtomically(m_dir / "log.txt", report::RunLogText(summary_json));
+  report::WriteFileAtomically(m_dir / report::run_files::kLog, report::RunLogText(summary_json));
   m_summary = summary_json;
 }
 

@@ -11,7 +11,7 @@
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/scene/presets.h"
 
-namespace dembuf::report {
+namespace dembuf {
 
 namespace {
 
@@ -137,8 +137,8 @@ double HertzImpactPeak(double mass_kg, double radius_m, double speed_m_s, double
 Comparison CompareWithPaper(const std::vector<nlohmann::json>& summaries,
                             std::optional<double> hc_m, double hc_sd_m) {
   Comparison c;
-  const nlohmann::json e2 = SceneToJson(PresetScene("e2"));
-  const nlohmann::json defaults = SceneToJson(Scene{});
+  const nlohmann::json e2 = report::SceneToJson(PresetScene("e2"));
+  const nlohmann::json defaults = report::SceneToJson(Scene{});
   std::set<std::string> differs;
   std::map<double, std::vector<const nlohmann::json*>> by_thickness;
   for (const nlohmann::json& s : summaries) {
@@ -280,4 +280,4 @@ std::string ComparisonCsv(const Comparison& c) {
   return out.str();
 }
 
-}  // namespace dembuf::report
+}  // namespace dembuf

@@ -1,5 +1,7 @@
 #include "dembuf/study/sweep/run_queue.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <vector>
 
@@ -167,6 +169,22 @@ std::size_t RunQueue::queued() const {
 std::size_t RunQueue::running() const {
   std::lock_guard lock(m_mutex);
   return m_running.size();
+}
+
+QueueWorkers::QueueWorkers(RunQueue& queue, int workers, Work work)
+    : m_queue(queue), m_work(std::move(work)) {
+  for (int worker = 0; worker < workers; ++worker)
+    m_threads.emplace_back([this, worker] { Loop(worker); });
+}
+
+void QueueWorkers::Loop(int worker) {
+  omp_set_num_threads(m_work.omp_threads);  // a per-thread setting
+  std::atomic<int>* threads = nullptr;
+  while (const std::optional<RunQueue::Id> id = m_queue.Next(
+             [&](RunQueue::Id started) { return threads = m_work.start(started, worker); })) {
+    if (m_work.run(*id, worker, threads) == RunEnd::kDone) m_queue.Done(*id);
+    if (m_work.ended) m_work.ended(*id, worker);
+  }
 }
 
 }  // namespace dembuf

@@ -9,7 +9,7 @@
 
 #include "dembuf/study/files/run_output.h"
 
-namespace dembuf::report {
+namespace dembuf {
 
 namespace {
 
@@ -275,7 +275,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                                 const nlohmann::json& extra, std::FILE* table) {
   std::filesystem::create_directories(dir);
   // sweep.csv: one row per run.
-  std::ofstream csv(dir / "sweep.csv");
+  std::ofstream csv(dir / sweep_files::kTable);
   csv << "run,id";
   for (const auto& axis : axes) csv << "," << axis.field;
   csv << ",status";
@@ -300,7 +300,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   const nlohmann::json aggregates = SweepAggregates(axes, runs);
   // points.csv: the points' records, one row each (what the plots read).
   const std::vector<std::string> columns = SweepPointColumns(axes);
-  std::ofstream points_csv(dir / "points.csv");
+  std::ofstream points_csv(dir / sweep_files::kPoints);
   for (std::size_t c = 0; c < columns.size(); ++c) points_csv << (c ? "," : "") << columns[c];
   points_csv << "\n";
   for (const nlohmann::json& point : aggregates["points"]) {
@@ -308,7 +308,7 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
       points_csv << (c ? "," : "") << CsvCell(point[columns[c]]);
     points_csv << "\n";
   }
-  PrintPoints(axes, aggregates["points"], table);
+  if (table) PrintPoints(axes, aggregates["points"], table);
 
   nlohmann::json summary = {
       {"runs", runs.size()},
@@ -333,8 +333,8 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
     else if (hc.contains("note"))
       std::fprintf(table, "%s\n", hc["note"].get<std::string>().c_str());
   }
-  WriteFileAtomically(dir / "summary.json", summary.dump(2) + "\n");
+  report::WriteFileAtomically(dir / sweep_files::kSummary, summary.dump(2) + "\n");
   return summary;
 }
 
-}  // namespace dembuf::report
+}  // namespace dembuf

@@ -4,7 +4,7 @@
 
 #include <stdexcept>
 
-namespace dembuf::report {
+namespace dembuf {
 
 struct Sha256Stream::Context {
   EVP_MD_CTX* evp = EVP_MD_CTX_new();
@@ -43,4 +43,4 @@ std::string Sha256Hex(std::string_view bytes) {
   return hash.Hex();
 }
 
-}  // namespace dembuf::report
+}  // namespace dembuf

@@ -1,5 +1,6 @@
-// The files of a run: plate_force.csv (the sampled series) and summary.json. The same writer
-// serves a local run and results fetched from the daemon.
+// The files of a run: the names of a run folder's files (run_files), plate_force.csv (the
+// sampled series), summary.json and the writers of both. The same writers serve a local run
+// and results fetched from the daemon.
 #pragma once
 
 #include <chrono>
@@ -101,6 +102,25 @@ class SampleStreamWriter {
 /// summary.json and failure.json under kResultNonceKey. A result without it is not taken.
 inline constexpr const char* kResultNonceVariable = "DEMBUF_RESULT_NONCE";
 inline constexpr const char* kResultNonceKey = "result_nonce";
+
+/// A run folder's files, named here only: what writes a run folder (the folder recorder, the
+/// CLI's failure reports, a fetch) and what reads one back (a local sweep, the Slurm executor,
+/// plots) say these names.
+namespace run_files {
+inline constexpr const char* kScene = "scene.toml";
+inline constexpr const char* kSummary = "summary.json";
+inline constexpr const char* kFailure = "failure.json";
+inline constexpr const char* kIncomplete = "incomplete.json";
+inline constexpr const char* kPlateForce = "plate_force.csv";
+/// The series while the run writes it (renamed to kPlateForce at its end).
+inline constexpr const char* kPlateForcePartial = "plate_force.csv.partial";
+inline constexpr const char* kPlateForceBare = "plate_force_bare.csv";
+inline constexpr const char* kLog = "log.txt";
+}  // namespace run_files
+
+/// Whether `dir` holds a run's files (its scene, summary, failure or interruption report, or
+/// its series being written), not something else's; links are not followed.
+bool IsRunFolder(const std::filesystem::path& dir);
 
 /// The files and folders a run writes into its folder (results, failure or interruption
 /// reports, plots, snapshots), so that replacing a run removes all of the run before and

@@ -41,7 +41,7 @@ struct HcSearchResult {
   double plateau_N = 0.0;
   double threshold_N = 0.0;
   double bracket_low_m = 0.0, bracket_high_m = 0.0;
-  /// Whether P levels off in the range, as the grid rule asks (report::CriticalThickness): P
+  /// Whether P levels off in the range, as the grid rule asks (CriticalThickness): P
   /// at the upper half's start (the first midpoint) within the margin of the plateau either
   /// way. Where not, hc_m is where the search ended but no Hc to report.
   bool reached = false;

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-namespace dembuf::report {
+namespace dembuf {
 
 /// One quantity at one bed thickness, dembuf's runs against the paper.
 struct ComparisonRow {
@@ -60,4 +60,4 @@ double HertzImpactPeak(double mass_kg, double radius_m, double speed_m_s, double
 std::string ComparisonTable(const Comparison& comparison);
 std::string ComparisonCsv(const Comparison& comparison);
 
-}  // namespace dembuf::report
+}  // namespace dembuf

@@ -15,7 +15,18 @@
 
 #include "dembuf/study/sweep/sweep_plan.h"
 
-namespace dembuf::report {
+namespace dembuf {
+
+/// A sweep folder's files besides its runs' folders (runs/NAME, run folders), named here only.
+namespace sweep_files {
+inline constexpr const char* kRuns = "runs";
+inline constexpr const char* kTable = "sweep.csv";    ///< a row per run
+inline constexpr const char* kPoints = "points.csv";  ///< a row per point: mean and spread
+inline constexpr const char* kSummary = "summary.json";
+inline constexpr const char* kIncomplete = "incomplete.json";  ///< a sweep interrupted
+/// What makes the folder's runs one sweep (SweepFolderKey, local_sweep.h).
+inline constexpr const char* kKey = "sweep_scene.json";
+}  // namespace sweep_files
 
 /// One run of the sweep and how it ended.
 struct SweepRunReport {
@@ -67,11 +78,11 @@ nlohmann::json SweepAggregates(const std::vector<SweepAxis>& axes,
 nlohmann::json CriticalThickness(const std::vector<std::pair<double, double>>& h_to_p);
 
 /// Writes dir/sweep.csv, dir/points.csv and dir/summary.json (the returned document, with
-/// `extra` merged in) and prints the table of points to `table`. The points and Hc are
-/// SweepAggregates'; a "critical_thickness" in `extra` (--find-hc's) replaces its Hc.
+/// `extra` merged in) and prints the table of points to `table` (null: nowhere). The points and Hc
+/// are SweepAggregates'; a "critical_thickness" in `extra` (--find-hc's) replaces its Hc.
 nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                                 const std::vector<SweepAxis>& axes,
                                 const std::vector<SweepRunReport>& runs,
                                 const nlohmann::json& extra, std::FILE* table);
 
-}  // namespace dembuf::report
+}  // namespace dembuf

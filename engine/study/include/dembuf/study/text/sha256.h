@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-namespace dembuf::report {
+namespace dembuf {
 
 /// The SHA-256 of the bytes, as 64 hex digits (OpenSSL's).
 std::string Sha256Hex(std::string_view bytes);
@@ -27,4 +27,4 @@ class Sha256Stream {
   std::unique_ptr<Context> m_context;
 };
 
-}  // namespace dembuf::report
+}  // namespace dembuf

@@ -1,0 +1,88 @@
+#include "doors/admission.h"
+
+#include <algorithm>
+
+#include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/scene_fields.h"
+#include "doors/scene_request.h"
+
+namespace dembuf::server {
+
+namespace {
+
+// One answer for every path a request names, so that it tells nothing of the daemon's disk.
+constexpr const char* kReadsNoFiles =
+    "the server reads no files of its own; a bed file goes with the request, and a sweep "
+    "cannot vary it (dembuf submit and sweep send the file bed.import names)";
+
+void AdmitBedImport(const Scene& scene, const std::optional<BedFile>& sent) {
+  if (scene.bed.import.empty()) return;
+  if (!sent || !scene.bed.import_bytes || scene.bed.import != sent->name)
+    throw SceneError("bed.import", kReadsNoFiles);
+}
+
+void AdmitSnapshots(const Scene& scene) {
+  // Their bytes are bounded by the estimate (quota_output_mb); their number here, so that many
+  // tiny snapshots cannot flood the store with rows.
+  const std::size_t snapshots = scene.output.snapshot_times_s.size() +
+                                scene.output.snapshot_after_contact_s.size() +
+                                (scene.output.snapshot_at_peak ? 1 : 0);
+  if (snapshots > kMaxServerSnapshots)
+    throw SceneError(
+        scene.output.snapshot_times_s.size() > scene.output.snapshot_after_contact_s.size()
+            ? "output.snapshot_times_s"
+            : "output.snapshot_after_contact_s",
+        std::to_string(snapshots) + " snapshots; a server job takes at most " +
+            std::to_string(kMaxServerSnapshots));
+}
+
+}  // namespace
+
+ResourceEstimate AdmitScene(const Scene& scene, const std::optional<BedFile>& sent,
+                            const ResourceLimits& limits) {
+  // The bed file first: nothing below may look a path up.
+  AdmitBedImport(scene, sent);
+  ValidateScene(scene);
+  AdmitSnapshots(scene);
+  ResourceEstimate estimate = EstimateResources(scene);
+  CheckResources(estimate, limits, scene, "this server's");
+  return estimate;
+}
+
+AdmittedJob AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& sent,
+                     const ResourceLimits& limits) {
+  AdmittedJob job{ResolveSceneSpec(spec, sent)};
+  job.output_bytes = AdmitScene(job.scene, sent, limits).output_bytes_max;
+  return job;
+}
+
+void CheckSweepShape(const v1::SubmitSweepRequest& request) {
+  if (request.axes().empty() && request.seeds() <= 1)
+    throw SceneError("axes", "a sweep needs at least one axis or seeds > 1");
+  const int seeds = request.seeds() == 0 ? 1 : request.seeds();
+  if (const std::string problem = SweepSeedsProblem(seeds); !problem.empty())
+    throw SceneError("seeds", problem);
+  CheckSweepAxes(request);
+}
+
+AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optional<BedFile>& sent,
+                         const ResourceLimits& limits, std::size_t max_runs,
+                         const std::function<bool()>& cancelled) {
+  CheckSweepShape(request);
+  const int seeds = request.seeds() == 0 ? 1 : request.seeds();  // (0, the default, is one)
+  const Scene base = ResolveSceneSpec(request.base(), sent);
+  AdmittedSweep sweep;
+  for (const auto& axis : request.axes()) {
+    const std::vector<std::string> values(axis.values().begin(), axis.values().end());
+    sweep.axes.push_back(MakeSweepAxis(axis.field(), values, axis.range()));
+  }
+  sweep.axes = WithSeedAxis(sweep.axes, seeds, base.bed.seed);
+  // Each run as soon as its axes are set: before anything looks at what they name.
+  sweep.runs = ExpandSweep(base, sweep.axes, max_runs, [&](const Scene& run) {
+    if (cancelled && cancelled()) throw Cancelled();  // no work for a caller who left
+    sweep.output_bytes += AdmitScene(run, sent, limits).output_bytes_max;
+  });
+  return sweep;
+}
+
+}  // namespace dembuf::server

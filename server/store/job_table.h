@@ -1,0 +1,66 @@
+// The jobs the daemon keeps: their records and states, the request ids that filed them
+// (submissions) and their events, a table of the store (store.h).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "store/connection.h"
+#include "store/records.h"
+
+namespace dembuf::server {
+
+/// Inserts a job's row (in the caller's transaction) and sets its id and creation time: for
+/// the tables that file jobs (a job alone, a sweep's jobs).
+void InsertJob(Database& db, JobRecord& job);
+/// Notes (in the caller's transaction) that `owner`'s request id filed this job or sweep, for
+/// FindSubmission; nothing for an empty request id.
+void RecordSubmission(Database& db, const std::string& owner, const std::string& request_id,
+                      const Submission& filed, const std::string& at);
+
+/// Jobs, their submissions and events.
+class JobTable {
+ public:
+  /// Adds one job; sets its id. A `request_id` as for AddSweep.
+  void AddJob(JobRecord& job, const std::string& request_id = "");
+  /// The job or sweep `owner` filed with this request id, if any.
+  std::optional<Submission> FindSubmission(const std::string& owner, const std::string& request_id);
+  std::optional<JobRecord> GetJob(std::int64_t id);
+  /// The newest jobs the filter takes; `over_max_bytes`, when given, says whether the listing
+  /// stopped at filter.max_bytes.
+  std::vector<JobRecord> ListJobs(const JobFilter& filter, bool* over_max_bytes = nullptr);
+  int CountQueued();
+  int CountQueuedBy(const std::string& owner);
+  /// Queued jobs, oldest first.
+  std::vector<JobRecord> QueuedJobs();
+  /// Jobs queued, preparing or running, oldest first.
+  std::vector<JobRecord> UnfinishedJobs();
+  /// A worker took the job: state, start time, host and code version, one more attempt; the
+  /// samples of an earlier attempt are dropped.
+  void MarkStarted(std::int64_t id, JobState state, const std::string& host,
+                   const std::string& code_version);
+  void SetState(std::int64_t id, JobState state, const std::string& error = "");
+  void SetSlurmId(std::int64_t id, std::int64_t slurm_id);
+  /// Keeps the nonce given to the job's Slurm job (the Slurm executor), before it is submitted.
+  void SetResultNonce(std::int64_t id, const std::string& nonce);
+  /// Notes that the job's user asked to cancel it.
+  void RequestCancel(std::int64_t id);
+  /// At start: jobs left preparing or running by a daemon that died go back to the queue,
+  /// with a note, unless this is the second time (they may be what killed it): those fail.
+  InterruptedJobs RequeueInterrupted(const std::string& reason);
+  /// Appends to the provenance log.
+  void LogEvent(std::int64_t job_id, const std::string& message);
+
+ protected:
+  explicit JobTable(Connection& connection) : m_connection(connection) {}
+  /// Before checksums (schema version 8), a client could leave its token in a kept command
+  /// line: the upgrade hides it, in the jobs' rows and in the summaries that repeat it.
+  static void HideTokensInCommandLines(Database& db);
+
+ private:
+  Connection& m_connection;
+};
+
+}  // namespace dembuf::server

@@ -304,9 +304,14 @@ bool DembufService::AnswerRetry(const std::string& owner, const std::string& req
   return true;
 }
 
-Status DembufService::FileSubmission(const std::string& owner,
-                                     const std::function<bool(Status*)>& retried,
+Status DembufService::FileSubmission(const std::string& owner, const std::string& request_id,
+                                     v1::SubmitJobResponse* job_answer,
+                                     v1::SubmitSweepResponse* sweep_answer,
                                      const std::function<Filing()>& admit, Filing& filed) {
+  auto retried = [&](Status* retry) {
+    return !request_id.empty() &&
+           AnswerRetry(owner, request_id, sweep_answer != nullptr, job_answer, sweep_answer, retry);
+  };
   {
     std::lock_guard lock(m_submissions);
     if (Status retry; retried(&retry)) return retry;
@@ -351,10 +356,6 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
   return Serve("SubmitJob", context, [=, this](const Caller& caller) -> Status {
     std::string owner;
     if (Status s = CheckSubmission(caller, *request, &owner); !s.ok()) return s;
-    auto retried = [&](Status* retry) {
-      return !request->request_id().empty() &&
-             AnswerRetry(owner, request->request_id(), false, response, nullptr, retry);
-    };
     auto admit = [&] {
       const AdmittedJob admitted =
           AdmitJob(request->scene(), BedFileOf(request->scene(), owner), m_info.job_limits);
@@ -373,7 +374,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
       return filing;
     };
     Filing filed;
-    if (Status s = FileSubmission(owner, retried, admit, filed); !s.ok() || filed.jobs.empty())
+    if (Status s = FileSubmission(owner, request->request_id(), response, nullptr, admit, filed);
+        !s.ok() || filed.jobs.empty())
       return s;
     const JobRecord& job = filed.jobs.front();
     m_log->info("job {} submitted by {}: {}", job.id, job.owner, job.name);
@@ -389,10 +391,6 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
   return Serve("SubmitSweep", context, [=, this](const Caller& caller) -> Status {
     std::string owner;
     if (Status s = CheckSubmission(caller, *request, &owner); !s.ok()) return s;
-    auto retried = [&](Status* retry) {
-      return !request->request_id().empty() &&
-             AnswerRetry(owner, request->request_id(), true, nullptr, response, retry);
-    };
     SweepRecord sweep;
     auto admit = [&] {
       CheckSweepShape(*request);  // before the bed file it names is looked up
@@ -424,7 +422,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
       return filing;
     };
     Filing filed;
-    if (Status s = FileSubmission(owner, retried, admit, filed); !s.ok() || filed.jobs.empty())
+    if (Status s = FileSubmission(owner, request->request_id(), nullptr, response, admit, filed);
+        !s.ok() || filed.jobs.empty())
       return s;
     m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, filed.jobs.size());
     FillSweep(m_store, sweep, false, response->mutable_sweep());

@@ -140,13 +140,15 @@ class DembufService final : public DembufServiceBase {
     std::function<void(std::vector<JobRecord>& jobs)> store;
   };
   /// The one path of SubmitJob and SubmitSweep, once the request's labels are checked. A retry
-  /// (`retried`: the owner's request id filed before, answered) is looked for before the
-  /// admission and again as the jobs are filed, so that two copies admitted at once file them
-  /// once; `admit` makes the Filing (its SceneError, ResourceError and Cancelled answered
-  /// here); then, under m_submissions, the quotas, the executor's room and the store. Returns
-  /// the answer's status and, in `filed`, what was filed (no jobs: a retry was answered).
-  grpc::Status FileSubmission(const std::string& owner,
-                              const std::function<bool(grpc::Status*)>& retried,
+  /// (the owner's request id filed before: answered into `job_answer` or `sweep_answer`, the
+  /// one of the request's kind) is looked for before the admission and again as the jobs are
+  /// filed, so that two copies admitted at once file them once; `admit` makes the Filing (its
+  /// SceneError, ResourceError and Cancelled answered here); then, under m_submissions, the
+  /// quotas, the executor's room and the store. Returns the answer's status and, in `filed`,
+  /// what was filed (no jobs: a retry was answered).
+  grpc::Status FileSubmission(const std::string& owner, const std::string& request_id,
+                              v1::SubmitJobResponse* job_answer,
+                              v1::SubmitSweepResponse* sweep_answer,
                               const std::function<Filing()>& admit, Filing& filed);
   /// The caller's bed file a scene spec names (SceneSpec.bed_file), or none when it names
   /// none. Throws SceneError naming bed_file when the owner sent no such file.

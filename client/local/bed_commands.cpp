@@ -60,7 +60,13 @@ int PrepareBedCommand(const CommandOptions& opt) {
 
 int ExportBedCommand(const CommandOptions& opt) {
   const Scene scene = ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
+  // What the file cannot be is said before the bed is prepared (which may take minutes).
   if (opt.export_out.empty()) throw SceneError("--out", "give the file to write");
+  const fs::path out(opt.export_out);
+  if (fs::is_directory(out)) throw SceneError("--out", opt.export_out + " is a folder");
+  if (const fs::path folder = out.parent_path(); !folder.empty() && !fs::is_directory(folder))
+    throw SceneError(
+        "--out", "no folder " + folder.string() + " to write " + out.filename().string() + " into");
   if (fs::exists(opt.export_out) && !opt.force) {
     std::fprintf(stderr, "dembuf: error: %s exists; choose another --out or pass --force\n",
                  opt.export_out.c_str());

@@ -1,7 +1,8 @@
 // The daemon's one connection to its database, shared by the store's tables (store.h). One
 // thread at a time uses it: a table reads through Read and changes through Write, one
 // transaction that is rolled back unless committed, so that no table takes the lock or opens
-// a transaction by hand.
+// a transaction by hand. (The one exception is the Store's constructor: its migrations run in
+// transactions of their own under Read(), beside pragmas that a transaction may not hold.)
 #pragma once
 
 #include <memory>

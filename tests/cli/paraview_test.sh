@@ -54,6 +54,14 @@ status=0
 message=$("$dembuf" bed export "${small[@]}" --bed-cache "$work/beds" --format text --out "" \
   2>&1 > /dev/null) || status=$?
 [ "$status" = 2 ] && grep -q -- "--out" <<<"$message" || fail "an empty --out: exit $status, $message"
+# A file that cannot be written is refused before the bed is prepared (an empty cache stays so).
+for out in "$work/no-folder/bed.txt" "$work"; do
+  status=0
+  message=$("$dembuf" bed export "${small[@]}" --bed-cache "$work/empty-cache" --format text \
+    --out "$out" --force 2>&1 > /dev/null) || status=$?
+  [ "$status" = 2 ] && grep -q -- "--out" <<<"$message" || fail "--out $out: exit $status, $message"
+  [ -z "$(ls -A "$work/empty-cache" 2> /dev/null)" ] || fail "--out $out: a bed was prepared first"
+done
 "$dembuf" bed export "${small[@]}" --set bed.import="$work/bed.txt" --bed-cache "$work/beds" \
   --format text --out "$work/again.txt" > /dev/null || fail "bed export of the imported bed"
 # (The imported bed relaxes before it is used: a settled bed's beads move by micrometres.)

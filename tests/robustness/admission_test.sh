@@ -10,8 +10,8 @@
 #   once per run. Now one refusal for both, and the daemon never opens the path.
 # - A scene file naming its bed file, submitted with the file, was refused unless the daemon's
 #   own folder held a file of that name.
-# - A sweep of one run naming an unsent bed file was refused for the file, after a look-up;
-#   now for being no sweep, before it.
+# - A sweep of too many axes naming an unsent bed file was refused for the file, after a
+#   look-up; now for its axes, before it.
 # Usage: admission_test.sh DEMBUF DEMBUFD
 . "$(dirname "$0")/lib.sh" "$1" "$2"
 python_dir=$(dirname "$dembuf")/../python
@@ -71,10 +71,14 @@ words = {refused(stub.SubmitJob, pb.SubmitJobRequest(scene=pb.SceneSpec(
     scene_toml=scene, set=[f"bed.import={path}"])), path) for path in
     [f"{work}/existing", f"{work}/missing", "/etc/hostname"]}
 assert len(words) == 1 and words.pop().startswith(refusal), words
-# A sweep of one run is refused for what it is before the bed file it names is looked up.
-why = refused(stub.SubmitSweep, pb.SubmitSweepRequest(base=pb.SceneSpec(
-    scene_toml=scene, bed_file="0" * 64)), "a sweep without axes naming an unsent file")
+# A sweep's shape is refused before the bed file it names is looked up: no axis, or more
+# axes than a sweep may have.
+unsent = pb.SceneSpec(scene_toml=scene, bed_file="0" * 64)
+why = refused(stub.SubmitSweep, pb.SubmitSweepRequest(base=unsent), "a sweep without axes")
 assert why.startswith("axes: a sweep needs at least one axis"), why
+axes = [pb.SweepAxis(field="bed.seed", values=["1"]) for _ in range(17)]
+why = refused(stub.SubmitSweep, pb.SubmitSweepRequest(base=unsent, axes=axes), "17 axes")
+assert why.startswith("axes: 17 axes; at most 16"), why
 # A scene file that names its bed file, sent with it: accepted (the daemon looks for nothing).
 job = stub.SubmitJob(pb.SubmitJobRequest(scene=pb.SceneSpec(
     scene_toml=scene.replace("[bed]\n", '[bed]\nimport = "somewhere/bed.txt"\n'),

@@ -199,13 +199,17 @@ void ResultTable::AddMissingChecksums(Database& db) {
   Statement& list = db.Prepare("SELECT job_id, path FROM job_files WHERE sha256 = ''");
   list.Bind();
   while (list.Step()) files.push_back({list.Int(0), list.Text(1)});
-  for (const auto& [id, path] : files)
+  // (No structured bindings: the lambdas capture the names, which clang 14 refuses for them.)
+  for (const auto& file : files) {
+    const std::int64_t id = file.first;
+    const std::string& path = file.second;
     db.Prepare("UPDATE job_files SET sha256 = ? WHERE job_id = ? AND path = ?")
         .Bind(FileSha256([&](std::int64_t offset) {
                 return ReadJobFilePieceIn(db, id, path, offset, kHashPieceBytes);
               }),
               id, path)
         .Run();
+  }
 }
 
 void ResultTable::AddMissingPeaks(Database& db) {
@@ -277,7 +281,9 @@ void ResultTable::CheckResults(Database& db, CheckReport& report) {
   Statement& list = db.Prepare("SELECT job_id, path FROM job_files ORDER BY job_id, path");
   list.Bind();
   while (list.Step()) files.push_back({list.Int(0), list.Text(1)});
-  for (const auto& [id, path] : files) {
+  for (const auto& file : files) {
+    const std::int64_t id = file.first;
+    const std::string& path = file.second;
     ++report.files;
     try {
       CheckJobFile(id, path, JobFileChecksumIn(db, id, path), [&](std::int64_t offset) {

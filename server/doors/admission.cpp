@@ -56,6 +56,8 @@ AdmittedJob AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& se
   return job;
 }
 
+namespace {
+
 void CheckSweepShape(const v1::SubmitSweepRequest& request) {
   if (request.axes().empty() && request.seeds() <= 1)
     throw SceneError("axes", "a sweep needs at least one axis or seeds > 1");
@@ -65,10 +67,14 @@ void CheckSweepShape(const v1::SubmitSweepRequest& request) {
   CheckSweepAxes(request);
 }
 
-AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optional<BedFile>& sent,
+}  // namespace
+
+AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request,
+                         const std::function<std::optional<BedFile>()>& sent_file,
                          const ResourceLimits& limits, std::size_t max_runs,
                          const std::function<bool()>& cancelled) {
   CheckSweepShape(request);
+  const std::optional<BedFile> sent = sent_file();
   const int seeds = request.seeds() == 0 ? 1 : request.seeds();  // (0, the default, is one)
   const Scene base = ResolveSceneSpec(request.base(), sent);
   AdmittedSweep sweep;

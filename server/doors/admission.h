@@ -41,18 +41,18 @@ AdmittedJob AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& se
                      const ResourceLimits& limits);
 
 /// A sweep's axes (its seeds among them) and runs from its request, every run admitted as it
-/// will run: at most `max_runs` of them. `sent` is the bed file its base names, if any.
+/// will run: at most `max_runs` of them.
 struct AdmittedSweep {
   std::vector<SweepAxis> axes;
   std::vector<SweepRun> runs;
   double output_bytes = 0.0;  ///< what their results may store at most, in all
 };
-/// A sweep's shape, checked before anything it names is read: an axis or more than one seed
-/// (SweepSeedsProblem: 1 to 1000; 0 is one), and the axes' limits (CheckSweepAxes). Throws
-/// SceneError. AdmitSweep asks it first; SubmitSweep before it looks up the base's bed file.
-void CheckSweepShape(const v1::SubmitSweepRequest& request);
-/// `cancelled`, when given, is asked before each run: true throws Cancelled (the caller left).
-AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request, const std::optional<BedFile>& sent,
+/// The sweep's shape is checked first, before anything it names is read: an axis or more than
+/// one seed (SweepSeedsProblem: 1 to 1000; 0 is one), and the axes' limits (CheckSweepAxes).
+/// Only then is `sent_file` asked for the bed file its base names (if any). `cancelled`, when
+/// given, is asked before each run: true throws Cancelled (the caller left).
+AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request,
+                         const std::function<std::optional<BedFile>()>& sent_file,
                          const ResourceLimits& limits, std::size_t max_runs,
                          const std::function<bool()>& cancelled = {});
 

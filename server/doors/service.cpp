@@ -393,11 +393,10 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
     if (Status s = CheckSubmission(caller, *request, &owner); !s.ok()) return s;
     SweepRecord sweep;
     auto admit = [&] {
-      CheckSweepShape(*request);  // before the bed file it names is looked up
-      const AdmittedSweep admitted =
-          AdmitSweep(*request, BedFileOf(request->base(), owner), m_info.job_limits,
-                     static_cast<std::size_t>(m_info.max_sweep_jobs),
-                     [context] { return context->IsCancelled(); });
+      const AdmittedSweep admitted = AdmitSweep(
+          *request, [&] { return BedFileOf(request->base(), owner); }, m_info.job_limits,
+          static_cast<std::size_t>(m_info.max_sweep_jobs),
+          [context] { return context->IsCancelled(); });
       sweep.owner = owner;
       sweep.name = request->name().empty() ? "sweep" : request->name();
       sweep.axes = admitted.axes;

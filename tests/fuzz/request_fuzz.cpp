@@ -22,7 +22,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!request.ParseFromArray(data, static_cast<int>(size))) return 0;
   try {
     // A small limit keeps each input fast; the limit itself is what is being exercised.
-    dembuf::server::AdmitSweep(request, std::nullopt, dembuf::ResourceLimits{}, 64);
+    dembuf::server::AdmitSweep(
+        request, [] { return std::optional<dembuf::server::BedFile>(); }, dembuf::ResourceLimits{},
+        64);
   } catch (const dembuf::SceneError& e) {
     if (std::string(e.what()).empty()) __builtin_trap();
   } catch (const dembuf::ResourceError& e) {

@@ -128,7 +128,10 @@ void CompareWithScalarLaw(bool friction, bool rolling) {
                                c.radius.data(),
                                mass.data(),
                                c.shear.front().data(),
-                               {params, kRollingFriction, dt}};
+                               {params, kRollingFriction, dt},
+                               nullptr,  // one species: no table read
+                               nullptr,
+                               0};
   ResolvePairBatch(ContactParts(friction, rolling), inputs, batch);
   int rolling_limited = 0, rolling_stopped = 0;
 
@@ -257,7 +260,9 @@ void CompareWallsWithScalarLaw(bool friction, bool rolling) {
                                mass.data(),
                                shear_by_slot.front().data(),
                                {params, kRollingFriction, dt},
-                               box};
+                               box,
+                               nullptr,  // one species: no table read
+                               nullptr};
 
   int clamped = 0, sliding = 0;
   for (const dem::BodyId wall : {dem::kPlate, dem::kSideWall}) {

@@ -97,6 +97,8 @@ void ReorderBeads(ParticleState& b, Simulation::Impl& s, const std::vector<std::
   Permute(b.radius, order);
   Permute(b.mass, order);
   Permute(b.inv_mass, order);
+  Permute(b.species, order);
+  Permute(b.layer, order);
   Permute(s.origin, order);
 }
 

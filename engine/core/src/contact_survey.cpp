@@ -29,6 +29,18 @@ std::vector<ContactHistoryEntry> Simulation::ExportHistory() const {
 
 namespace {
 
+// The constants of the pairs of a bead of species `a` with one of `b`, with a wall and with the
+// projectile: the species table's when the world has several.
+const PairParams& BeadPair(const WorldParams& params, Species a, Species b) {
+  return params.species.count > 1 ? params.species.BeadPair(a, b) : params.sphere_pair;
+}
+const PairParams& BeadWall(const WorldParams& params, Species a) {
+  return params.species.count > 1 ? params.species.bead_wall[a] : params.sphere_wall;
+}
+const PairParams& ProjectileBead(const WorldParams& params, Species b) {
+  return params.species.count > 1 ? params.species.projectile_bead[b] : params.sphere_pair;
+}
+
 // Every contact of the current state, with its geometry, for the few places that look at
 // contacts outside the force kernel (snapshots, energy). visit(a, b, n, overlap, v_rel,
 // radius_a, r_star, params, shear, x_a) with a and b as in ContactSnapshot.
@@ -44,38 +56,38 @@ void VisitContacts(const WorldParams& params, const ParticleState& b,
         const double rsum = b.radius[i] + b.radius[j], dist = d.norm();
         if (dist >= rsum) continue;
         visit(i, j, Vec3(d / dist), rsum - dist, Vec3(b.velocity[i] - b.velocity[j]), b.radius[i],
-              EffectiveRadius(b.radius[i], b.radius[j]), params.sphere_pair, s.lists.pairs.shear[k],
-              b.position[i]);
+              EffectiveRadius(b.radius[i], b.radius[j]),
+              BeadPair(params, b.species[i], b.species[j]), s.lists.pairs.shear[k], b.position[i]);
       }
   }
   auto walls = [&](BodyId id, const Vec3& x, const Vec3& v, double r, const Vec3& plate,
-                   const Vec3& wall) {
+                   const Vec3& wall, const PairParams& with_wall) {
     if (const double overlap = Container::PlateOverlap(x.z(), r); overlap > 0.0)
-      visit(id, kPlate, Vec3(Vec3::UnitZ()), overlap, v, r, r, params.sphere_wall, plate, x);
+      visit(id, kPlate, Vec3(Vec3::UnitZ()), overlap, v, r, r, with_wall, plate, x);
     double overlap;
     Vec3 n;
     if (detail::SideWallContact(params.container, x, r, overlap, n))
-      visit(id, kSideWall, n, overlap, v, r, r, params.sphere_wall, wall, x);
+      visit(id, kSideWall, n, overlap, v, r, r, with_wall, wall, x);
   };
   // Only the near-container beads keep wall histories (in near_container order, by id).
   const Vec3 none = Vec3::Zero();
   for (std::uint32_t i = 0, c = 0; i < b.size(); ++i) {
     const bool kept = c < s.walls.plate.size() && s.lists.near_container[c] == i;
     walls(i, b.position[i], b.velocity[i], b.radius[i], kept ? s.walls.plate[c] : none,
-          kept ? s.walls.side[c] : none);
+          kept ? s.walls.side[c] : none, BeadWall(params, b.species[i]));
     c += kept;
   }
   if (projectile) {
     const RigidSphere& p = *projectile;
     walls(kProjectile, p.position, p.velocity, p.radius, s.walls.projectile_plate,
-          s.walls.projectile_side);
+          s.walls.projectile_side, params.sphere_wall);
     for (std::size_t k = 0; k < s.lists.near_projectile.beads.size(); ++k) {
       const std::uint32_t j = s.lists.near_projectile.beads[k];
       const Vec3 d = p.position - b.position[j];
       const double rsum = p.radius + b.radius[j], dist = d.norm();
       if (dist >= rsum) continue;
       visit(kProjectile, j, Vec3(d / dist), rsum - dist, Vec3(p.velocity - b.velocity[j]), p.radius,
-            EffectiveRadius(p.radius, b.radius[j]), params.sphere_pair,
+            EffectiveRadius(p.radius, b.radius[j]), ProjectileBead(params, b.species[j]),
             s.lists.near_projectile.shear[k], p.position);
     }
   }

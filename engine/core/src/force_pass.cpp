@@ -32,7 +32,10 @@ PairBatchInputs PairInputs(const WorldParams& params, ParticleState& b, PairList
           b.radius.data(),
           b.mass.data(),
           Components(pairs.shear),
-          ConstantsOf(params, params.sphere_pair)};
+          ConstantsOf(params, params.sphere_pair),
+          b.species.data(),
+          params.species.bead_pair.data(),
+          static_cast<std::size_t>(params.species.count)};
 }
 
 // Pair forces of the beads of block [begin, end), in batches of the list's entries
@@ -172,7 +175,9 @@ void ContainerForces(const WorldParams& params, ParticleState& b, Simulation::Im
                                    b.mass.data(),
                                    Components(history),
                                    ConstantsOf(params, params.sphere_wall),
-                                   box};
+                                   box,
+                                   b.species.data(),
+                                   params.species.bead_wall.data()};
       ResolveWallBatch(E::kParts, wall, inputs, batch);
       // The law has read the touching beads' springs: the batch's are cleared, and the
       // touching ones get their new springs below.
@@ -264,7 +269,9 @@ int ProjectileBeadForces(const WorldParams& params, RigidSphere& p, ParticleStat
         MakeGeometry(normal, overlap, p.velocity - b.velocity[j], w_arm, r_star);
     const SpinPair spin{p.angular_velocity - b.angular_velocity[j],
                         1.0 / (1.0 / p.Inertia() + b.InvInertia(j))};
-    const auto out = Resolve<E>(c, ap, aj, ConstantsOf(params, params.sphere_pair), h, spin);
+    const PairParams& pair =
+        E::kSpecies ? params.species.projectile_bead[b.species[j]] : params.sphere_pair;
+    const auto out = Resolve<E>(c, ap, aj, ConstantsOf(params, pair), h, spin);
     p.force += out.force;
     p.torque += out.torque_i;
     b.force[j] -= out.force;

@@ -133,7 +133,13 @@ inline __attribute__((always_inline)) void ResolveBody(const PairBatchInputs& in
       g.wx = g.wy = g.wz = g.inertia = 0.0;
     }
     overlap_out[c] = g.overlap;
-    ResolveLane<E, Partner::kBead>(g, w_arm, v_rel, constants, shear, entry[c], out, c);
+    if constexpr (E::kSpecies) {
+      ContactConstants pair = constants;
+      pair.pair = in.pair_table[in.species_count * in.species[i] + in.species[j]];
+      ResolveLane<E, Partner::kBead>(g, w_arm, v_rel, pair, shear, entry[c], out, c);
+    } else {
+      ResolveLane<E, Partner::kBead>(g, w_arm, v_rel, constants, shear, entry[c], out, c);
+    }
   }
 }
 
@@ -200,7 +206,13 @@ inline __attribute__((always_inline)) void ResolveWallBody(const WallBatchInputs
       g.wx = g.wy = g.wz = g.inertia = 0.0;
     }
     overlap_out[c] = g.overlap;
-    ResolveLane<E, Partner::kWall>(g, w_arm, v_rel, constants, shear, slot[c], out, c);
+    if constexpr (E::kSpecies) {
+      ContactConstants pair = constants;
+      pair.pair = in.wall_table[in.species[i]];
+      ResolveLane<E, Partner::kWall>(g, w_arm, v_rel, pair, shear, slot[c], out, c);
+    } else {
+      ResolveLane<E, Partner::kWall>(g, w_arm, v_rel, constants, shear, slot[c], out, c);
+    }
   }
 }
 

@@ -50,6 +50,11 @@ struct PairBatchInputs {
   const double* mass;   ///< read by parts that read spin (the beads' inertia)
   const double* shear;  ///< per list entry, 3 doubles
   ContactConstants constants;
+  /// Read by the instances with species (SpeciesPairs): each bead's species, and the table of
+  /// the pairs' constants, row by the bead's species, column by its partner's.
+  const Species* species;
+  const PairParams* pair_table;
+  std::size_t species_count;
 };
 
 /// Resolves the contacts of `batch` with the contact parts `active` (parts.h), filling its
@@ -80,6 +85,9 @@ struct WallBatchInputs {
   const double* shear;  ///< per history slot, 3 doubles: a bead's history with this wall
   ContactConstants constants;
   Container box;
+  /// Read by the instances with species: each bead's species and its constants with the walls.
+  const Species* species;
+  const PairParams* wall_table;
 };
 
 /// Resolves the contacts of `batch` with the plate or the side wall (the same arithmetic as

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 
 #include "bead_lists.h"
 #include "force_pass.h"
@@ -18,6 +19,27 @@
 #include "vector_copies.h"
 
 namespace dembuf::dem {
+
+namespace {
+
+// A table of the species' pairs the size its count asks, and beads all of a species in it (a
+// state made without species or layers, bead by bead, is of species 0 in layer 0).
+void CheckSpecies(const SpeciesTable& table, ParticleState& beads) {
+  if (beads.species.empty()) beads.species.assign(beads.size(), 0);
+  if (beads.layer.empty()) beads.layer.assign(beads.size(), 0);
+  if (beads.species.size() != beads.size() || beads.layer.size() != beads.size())
+    throw std::invalid_argument("Simulation: a species and a layer for each bead");
+  const auto count = static_cast<std::size_t>(table.count);
+  if (table.count < 1 || table.count > 256 ||
+      (table.count > 1 &&
+       (table.bead_pair.size() != count * count || table.bead_wall.size() != count ||
+        table.projectile_bead.size() != count)))
+    throw std::invalid_argument("Simulation: a species table of count^2, count and count pairs");
+  for (const Species kind : beads.species)
+    if (kind >= count) throw std::invalid_argument("Simulation: a bead of no species in the table");
+}
+
+}  // namespace
 
 Simulation::Simulation(const WorldParams& params, ParticleState beads,
                        std::optional<RigidSphere> projectile,
@@ -29,6 +51,7 @@ Simulation::Simulation(const WorldParams& params, ParticleState beads,
   // The hot loops' copy is chosen here, where a bad DEMBUF_VECTOR_COPY can be refused with an
   // exception, not at their first call inside a parallel loop.
   detail::ChosenVectorCopy();
+  CheckSpecies(m_params.species, m_beads);
   Impl& s = *m_impl;
   if (m_beads.size() > 0) {
     auto [lo, hi] = std::minmax_element(m_beads.radius.begin(), m_beads.radius.end());
@@ -152,6 +175,17 @@ void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
   m_impl->forces_valid = false;
 }
 
+void Simulation::SetPairConstants(const WorldParams& from) {
+  if (from.species.count != m_params.species.count)
+    throw std::invalid_argument("SetPairConstants: another number of species");
+  CompleteKick();  // with the forces and rotation of the old constants
+  m_params.sphere_pair = from.sphere_pair;
+  m_params.sphere_wall = from.sphere_wall;
+  m_params.species = from.species;
+  m_impl->active_parts = ActiveParts(m_params);
+  m_impl->forces_valid = false;
+}
+
 void Simulation::ZeroBeadVelocities() {
   m_kick_pending = false;  // it would only have changed velocities set to zero here
   std::fill(m_beads.velocity.begin(), m_beads.velocity.end(), Vec3::Zero());
@@ -200,7 +234,7 @@ std::size_t Simulation::MemoryBytes() const {
   const ParticleState& b = m_beads;
   std::size_t sum = Bytes(b.position) + Bytes(b.velocity) + Bytes(b.angular_velocity) +
                     Bytes(b.force) + Bytes(b.torque) + Bytes(b.radius) + Bytes(b.mass) +
-                    Bytes(b.inv_mass);
+                    Bytes(b.inv_mass) + Bytes(b.species) + Bytes(b.layer);
   const Impl& s = *m_impl;
   const detail::NeighbourLists& l = s.lists;
   sum += l.grid.MemoryBytes() + Bytes(l.pairs.offsets) + Bytes(l.pairs.partners) +

@@ -7,7 +7,8 @@
 //
 // so the restitution coefficient is a function e(g) of one number. Calibration integrates that
 // collision and root-finds g for the requested e; A then follows for the reference pair and
-// speed. The same A serves every pair, so e falls slowly with impact speed (e(v) via g ~ v^(1/5)).
+// speed. The same A serves every pair of one material (each kind of pair of several species has
+// its own), so e falls slowly with impact speed (e(v) via g ~ v^(1/5)).
 #pragma once
 
 #include <vector>

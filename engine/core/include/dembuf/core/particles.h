@@ -7,6 +7,7 @@
 #include <numbers>
 #include <vector>
 
+#include "dembuf/core/parts/species_pairs.h"
 #include "dembuf/core/vec.h"
 
 namespace dembuf::dem {
@@ -34,6 +35,11 @@ struct ParticleState {
   /// 0 holds a bead in place: it neither moves nor turns, its mass still enters its contacts
   /// with free beads, and two held beads do not touch (their contact could move nothing).
   std::vector<double> inv_mass;
+  /// Which of the world's species each bead is (WorldParams::species); all 0 for one species.
+  std::vector<Species> species;
+  /// The bed layer each bead was poured in (0 for a bed of one layer): carried with the bead
+  /// wherever it goes, never read by the steps.
+  std::vector<std::uint8_t> layer;
 
   std::size_t size() const { return position.size(); }
 
@@ -42,7 +48,8 @@ struct ParticleState {
   static double InverseSphereInertia(double m, double r) { return 1.0 / (0.4 * m * r * r); }
 
   /// Appends a bead at rest.
-  void Add(const Vec3& x, double r, double density_kg_m3) {
+  void Add(const Vec3& x, double r, double density_kg_m3, Species kind = 0,
+           std::uint8_t in_layer = 0) {
     double m = density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
     position.push_back(x);
     velocity.push_back(Vec3::Zero());
@@ -52,6 +59,8 @@ struct ParticleState {
     radius.push_back(r);
     mass.push_back(m);
     inv_mass.push_back(1.0 / m);
+    species.push_back(kind);
+    layer.push_back(in_layer);
   }
 
   /// Appends bead i of `from` with every property as it is.
@@ -64,6 +73,8 @@ struct ParticleState {
     radius.push_back(from.radius[i]);
     mass.push_back(from.mass[i]);
     inv_mass.push_back(from.inv_mass[i]);
+    species.push_back(from.species[i]);
+    layer.push_back(from.layer[i]);
   }
 
   /// Kinetic energy of bead i, translation and rotation [J].

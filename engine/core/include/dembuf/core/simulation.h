@@ -23,6 +23,9 @@ struct WorldParams {
   Container container;
   PairParams sphere_pair;  ///< bead-bead and projectile-bead
   PairParams sphere_wall;  ///< bead and projectile against plate and side wall
+  /// Beads of several species (parts/species_pairs.h): every kind of pair's constants. A world
+  /// of one species (count 1, the default) uses sphere_pair and sphere_wall alone.
+  SpeciesTable species;
   /// Rolling resistance mu_r of every contact (parts/rolling_resistance.h); 0: none.
   double rolling_friction = 0.0;
   double gravity_m_s2 = 9.81;
@@ -121,8 +124,12 @@ class Simulation {
   /// Kinetic energy of the beads only (translation + rotation), cheap.
   double BeadKineticEnergy() const;
 
-  /// Changes the friction coefficients (e.g. a slow ramp after settling).
+  /// Changes the friction coefficients (e.g. a slow ramp after settling) of a world of one
+  /// species.
   void SetFriction(double sphere_pair, double sphere_wall);
+  /// Changes the constants of every kind of pair (sphere_pair, sphere_wall and species) to
+  /// those of `from`, which must have as many species (a friction ramp of several species).
+  void SetPairConstants(const WorldParams& from);
 
   /// Stops every bead (velocities and spins to zero), keeping positions and springs.
   void ZeroBeadVelocities();

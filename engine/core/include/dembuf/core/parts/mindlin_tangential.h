@@ -22,7 +22,8 @@ struct MindlinTangential {
   /// (A template: WorldParams holds the parts' parameters, so it is defined after them.)
   template <class World>
   static bool On(const World& w) {
-    return w.sphere_pair.friction > 0.0 || w.sphere_wall.friction > 0.0;
+    return w.sphere_pair.friction > 0.0 || w.sphere_wall.friction > 0.0 ||
+           (w.species.count > 1 && w.species.AnyFriction());
   }
 
   /// The tangential force, added to the normal one; its torques -a (n x Ft) on both bodies

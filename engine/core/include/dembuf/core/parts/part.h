@@ -17,6 +17,8 @@
 //   kReadsSpin        it reads the bodies' relative angular velocity and the pair's inertia;
 //   kShapesAcceleration  (motion) it sets a kick's acceleration, from its Params (ParamsOf);
 //   kFollowsTurningParts (motion) it is on exactly when a part that turns bodies is;
+//   kPicksPairConstants  (contact) it picks each contact's PairParams by the bodies' species
+//                     (it has no Lane: it changes what the others read);
 // and its arithmetic: a contact part's Lane (ContactLane in, ContactResult added to), a motion
 // part's Acceleration. The kernels ask for what the parts read and write (the k* traits), never
 // for a part by name, so that a new part reading what the others read needs no kernel changed.
@@ -58,6 +60,7 @@ DEMBUF_PART_TRAIT(KeepsHistory)
 DEMBUF_PART_TRAIT(ReadsSpin)
 DEMBUF_PART_TRAIT(ShapesAcceleration)
 DEMBUF_PART_TRAIT(FollowsTurningParts)
+DEMBUF_PART_TRAIT(PicksPairConstants)
 #undef DEMBUF_PART_TRAIT
 }  // namespace detail
 

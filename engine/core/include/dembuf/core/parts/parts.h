@@ -18,6 +18,7 @@
 #include "dembuf/core/parts/hertz_normal.h"
 #include "dembuf/core/parts/mindlin_tangential.h"
 #include "dembuf/core/parts/rolling_resistance.h"
+#include "dembuf/core/parts/species_pairs.h"
 
 namespace dembuf::dem {
 
@@ -72,8 +73,8 @@ struct PartList {
 };
 
 /// The model's parts, in the order their arithmetic runs within a stage.
-using Parts =
-    PartList<HertzNormal, MindlinTangential, RollingResistance, BodyRotation, LocalViscousDamping>;
+using Parts = PartList<HertzNormal, MindlinTangential, RollingResistance, SpeciesPairs,
+                       BodyRotation, LocalViscousDamping>;
 
 namespace detail {
 
@@ -89,6 +90,7 @@ constexpr PartMask kHistoryKeepingParts = DEMBUF_PARTS_WHERE(detail::KeepsHistor
 constexpr PartMask kSpinReadingParts = DEMBUF_PARTS_WHERE(detail::ReadsSpin<P>());
 constexpr PartMask kAccelerationShapingParts = DEMBUF_PARTS_WHERE(detail::ShapesAcceleration<P>());
 constexpr PartMask kAlwaysOnParts = DEMBUF_PARTS_WHERE(detail::AlwaysOn<P>());
+constexpr PartMask kPairPickingParts = DEMBUF_PARTS_WHERE(detail::PicksPairConstants<P>());
 template <Stage S>
 constexpr PartMask kPartsOfStage = DEMBUF_PARTS_WHERE(P::kStage == S);
 #undef DEMBUF_PARTS_WHERE
@@ -153,6 +155,8 @@ struct Effects {
   static constexpr bool kHistory = (kMask & detail::kHistoryKeepingParts) != 0;
   /// The relative angular velocities and the pairs' inertia are read.
   static constexpr bool kSpin = (kMask & detail::kSpinReadingParts) != 0;
+  /// Each contact reads its kind of pair's constants by the bodies' species (SpeciesTable).
+  static constexpr bool kSpecies = (kMask & detail::kPairPickingParts) != 0;
   /// A part sets the kicks' acceleration.
   static constexpr bool kShapedAcceleration = (kMask & detail::kAccelerationShapingParts) != 0;
 };
@@ -187,7 +191,9 @@ using StageEffects = Effects<detail::InstanceParts<S>(k)>;
 template <class E, class P>
 DEMBUF_ALWAYS_INLINE void ResolvePart(const ContactLane& c, const ContactConstants& k,
                                       ContactResult& r) {
-  if constexpr (P::kStage == Stage::kContact && E::template kHas<P>) P::Lane(c, k, r);
+  if constexpr (P::kStage == Stage::kContact && !detail::PicksPairConstants<P>() &&
+                E::template kHas<P>)
+    P::Lane(c, k, r);
 }
 template <class E, class... P>
 DEMBUF_ALWAYS_INLINE ContactResult ResolveParts(PartList<P...>, const ContactLane& c,

@@ -699,12 +699,29 @@ void BenchSteps(const Options& opt, nlohmann::json& report) {
   waiting.projectile->velocity.setZero();
   const Timing projectile_above = Best(repeats, [&] { return TimeSteps(waiting, opt.steps, 1); });
   const Timing no_projectile = Best(repeats, [&] { return TimeSteps(world, opt.steps, 1, false); });
+  // Two species on the same bed and step: every other bead of a glass 20% stiffer, so that
+  // every contact gathers its kind of pair's constants (SpeciesPairs) and the motion is the
+  // impact's. (Steel shot's own cost is mostly its shorter step: docs/performance.md.)
+  Scene two_species_scene = scene;
+  two_species_scene.layers[0].fraction2 = 0.5;
+  two_species_scene.species[0] = {.name = "stiffer glass",
+                                  .density_kg_m3 = scene.material.density_kg_m3,
+                                  .youngs_modulus_Pa = 1.2 * scene.material.youngs_modulus_Pa,
+                                  .poisson_ratio = scene.material.poisson_ratio};
+  World two_species = world;
+  two_species.params = MakeContactSetup(two_species_scene, 0.5 * scene.beads.diameter_min_m).params;
+  two_species.params.dt_s = world.params.dt_s;
+  for (std::size_t i = 0; i < two_species.beads.size(); ++i)
+    two_species.beads.species[i] = static_cast<dem::Species>(i % 2);
+  const Timing species = Best(repeats, [&] { return TimeSteps(two_species, opt.steps, 1); });
   PrintRow("everything (impact)", ours);
+  PrintRow("two species, mixed (constants by pair)", species, ours.NsPerBeadStep());
   PrintRow("without friction (no history, no rotation)", no_friction, ours.NsPerBeadStep());
   PrintRow("bed at rest, projectile above it", projectile_above);
   PrintRow("bed at rest, no projectile", no_projectile, projectile_above.NsPerBeadStep());
   std::printf("\n");
   report["effects"] = {{"full", TimingJson(ours)},
+                       {"two_species", TimingJson(species)},
                        {"no_friction", TimingJson(no_friction)},
                        {"rest_projectile_above", TimingJson(projectile_above)},
                        {"rest_no_projectile", TimingJson(no_projectile)}};

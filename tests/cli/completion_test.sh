@@ -32,7 +32,7 @@ if complete_words "$dembuf" list --st | grep -qx -- --out; then fail "list offer
 complete_words "$dembufd" --ht | grep -qx -- --http || fail "dembufd --ht<Tab> lacks --http"
 complete_words "$dembufd" token | grep -qx token-create || fail "dembufd token<Tab>"
 # The values: presets, accuracies, formats and scene fields (they completed nothing).
-[ "$(complete_words "$dembuf" run --preset e | tr '\n' ' ')" = "e1 e2 e2-heavy-beads e2-local-damping e2-viscous-damping e3 e4 e5 " ] ||
+[ "$(complete_words "$dembuf" run --preset e | tr '\n' ' ')" = "e1 e2 e2-heavy-beads e2-local-damping e2-steel-mix e2-steel-under-glass e2-viscous-damping e3 e4 e5 " ] ||
   fail "dembuf run --preset e<Tab>: $(complete_words "$dembuf" run --preset e)"
 complete_words "$dembuf" run --accuracy "" | grep -qx draft || fail "--accuracy <Tab> lacks draft"
 complete_words "$dembuf" bed export --format "" | grep -qx lammps || fail "--format <Tab> lacks lammps"

@@ -740,9 +740,11 @@ Scene Changed(const Scene& scene, const SceneField& field) {
         } else if constexpr (std::is_same_v<T, bool>) {
           value = !value;
         } else if constexpr (std::is_same_v<T, std::string>) {
-          if (field.choices.empty()) {  // bed.import: another file, by its content
+          if (field.name == "bed.import") {  // another file, by its content
             value = "other.txt";
             other.bed.import_bytes = std::make_shared<const std::string>("0 0 0.0012 0.0011\n");
+          } else if (field.choices.empty()) {  // a name
+            value += "x";
           } else {
             value = std::string(value == field.choices[0] ? field.choices[1] : field.choices[0]);
           }
@@ -757,15 +759,20 @@ Scene Changed(const Scene& scene, const SceneField& field) {
 // The keys of every bed stage come from the field table's column: each field of the table,
 // changed in turn, moves exactly the keys of the stages it shapes and of those after them. A
 // new field says what it shapes (the column has no default), and this test holds it to it.
+// (The scenes have every species and layer in use, so that every field acts in them.)
 TEST(BedKeys, EveryFieldMovesTheKeysOfTheStagesItShapes) {
   using enum Shapes;
   Scene prepared = SmallBedScene();
   prepared.bed.source_thickness_m = 0.03;  // H 5% up or down is cut from the same source bed
+  prepared.layers[0] = {.thickness_m = 0.004, .fraction2 = 0.3};
+  prepared.layers[1] = {.thickness_m = 0.003, .fraction3 = 0.2};
   Scene imported = SmallBedScene();
   imported.bed.import = "bed.txt";
   imported.bed.import_bytes = std::make_shared<const std::string>("0 0 0.0011 0.0011\n");
+  imported.bed.import_types = 3;
   const BedStageKeys prepared_keys = BedKeys(prepared), imported_keys = BedKeys(imported);
   for (const SceneField& field : SceneFields()) {
+    ASSERT_TRUE(!field.in_use || (field.in_use(prepared) && field.in_use(imported))) << field.name;
     const Shapes s = field.shapes;
     if (s != kImportedBed) {  // a bed file's fields shape only an imported bed
       const BedStageKeys keys = BedKeys(Changed(prepared, field));
@@ -780,6 +787,36 @@ TEST(BedKeys, EveryFieldMovesTheKeysOfTheStagesItShapes) {
               s == kSourceBed || s == kFrictionBed || s == kImportedBed)
         << field.name;
   }
+}
+
+// A field that does not act in a scene (a species no layer mixes in) is left out of its keys:
+// a bed of one species keeps the keys it had before there were species.
+TEST(BedKeys, AFieldNotInUseMovesNoKey) {
+  const Scene one = SmallBedScene();
+  const BedStageKeys keys = BedKeys(one);
+  int unused = 0;
+  for (const SceneField& field : SceneFields()) {
+    if (!field.in_use || field.in_use(one)) continue;
+    ++unused;
+    const Scene other = Changed(one, field);
+    // A layer's thickness or fraction set makes a bed of layers or species: another bed.
+    if (field.in_use(other)) {
+      EXPECT_NE(BedKeys(other).source, keys.source) << field.name;
+      continue;
+    }
+    const BedStageKeys changed = BedKeys(other);
+    EXPECT_EQ(changed.source, keys.source) << field.name;
+    EXPECT_EQ(changed.cut, keys.cut) << field.name;
+    EXPECT_EQ(changed.friction, keys.friction) << field.name;
+  }
+  EXPECT_GT(unused, 20);  // the species' and the layers' rows
+  // Mixing species 2 in puts its rows in use, and moves the keys.
+  Scene mixed = one;
+  mixed.layers[0].fraction2 = 0.2;
+  EXPECT_NE(BedKeys(mixed).source, keys.source);
+  Scene denser = mixed;
+  denser.species[0].density_kg_m3 *= 1.1;
+  EXPECT_NE(BedKeys(denser).source, BedKeys(mixed).source);
 }
 
 TEST(BedKeys, AutomaticValuesAndBedFilesAreKeyedAsWhatTheyResolveTo) {

@@ -58,15 +58,18 @@ dem::ParticleState ClusteredBeads(const Scene& scene, bool lone_layer = false) {
   return beads;
 }
 
-// One force pass over `beads` against the law applied pair by pair over all pairs; returns how
-// many beads touch nothing.
-int ExpectTheLawsForcesPairByPair(dem::ParticleState beads) {
-  const Scene scene;
+// One force pass over `beads` against the law applied pair by pair over all pairs, each with
+// its kind of pair's constants (the scene's species); returns how many beads touch nothing.
+int ExpectTheLawsForcesPairByPair(dem::ParticleState beads, const Scene& scene = Scene{}) {
   const World world = BuildWorld(scene);
   dem::Simulation sim(world.params, std::move(beads), std::nullopt);
   sim.RefreshForces();  // the first pass: every history starts at zero
   const dem::ParticleState& b = sim.beads();
-  const dem::PairParams& law = world.params.sphere_pair;
+  const dem::SpeciesTable& species = world.params.species;
+  auto law_of = [&](std::size_t i, std::size_t j) -> const dem::PairParams& {
+    return species.count > 1 ? species.BeadPair(b.species[i], b.species[j])
+                             : world.params.sphere_pair;
+  };
   const double dt = world.params.dt_s;
 
   std::vector<dem::Vec3> force(b.size(), dem::Vec3::Zero()), torque(b.size(), dem::Vec3::Zero());
@@ -89,7 +92,7 @@ int ExpectTheLawsForcesPairByPair(dem::ParticleState beads) {
       const dem::detail::ContactOutcome out =
           dem::detail::Resolve<dem::Effects<dem::Parts::Bit<dem::HertzNormal>() |
                                             dem::Parts::Bit<dem::MindlinTangential>()>>(
-              g, ai, aj, {law, 0.0, dt}, history);
+              g, ai, aj, {law_of(i, j), 0.0, dt}, history);
       force[i] += out.force;
       force[j] -= out.force;
       torque[i] += out.torque_i;
@@ -125,6 +128,33 @@ int ExpectTheLawsForcesPairByPair(dem::ParticleState beads) {
 TEST(ForcePass, EveryBeadGetsTheLawsForcesSummedOverAllItsContacts) {
   const Scene scene;
   EXPECT_GT(ExpectTheLawsForcesPairByPair(ClusteredBeads(scene)), 300);
+}
+
+// Beads of three species of distinct materials, mixed: each contact of the vectorized pass
+// takes its kind of pair's constants (the table's row and column the right way round).
+TEST(ForcePass, EachContactOfSeveralSpeciesGetsItsPairsLaw) {
+  Scene scene;
+  scene.layers[0].fraction2 = 0.3;
+  scene.layers[0].fraction3 = 0.3;
+  scene.species[0].restitution = 0.5;
+  scene.species[0].friction_bead_bead = 0.2;
+  scene.species[1] = {.name = "rubber",
+                      .density_kg_m3 = 1100.0,
+                      .youngs_modulus_Pa = 5e7,
+                      .poisson_ratio = 0.45,
+                      .restitution = 0.6,
+                      .friction_bead_bead = 0.9};
+  scene.pairs.friction_1_3 = 0.05;
+  dem::ParticleState beads = ClusteredBeads(scene);
+  for (std::size_t i = 0; i < beads.size(); ++i) beads.species[i] = (i * 7 / 3) % 3;
+  EXPECT_GT(ExpectTheLawsForcesPairByPair(beads, scene), 300);
+  const World world = BuildWorld(scene);
+  ASSERT_EQ(world.params.species.count, 3);
+  // Distinct constants for each kind: a table read the wrong way would be seen.
+  EXPECT_NE(world.params.species.BeadPair(0, 1).friction,
+            world.params.species.BeadPair(0, 2).friction);
+  EXPECT_NE(world.params.species.BeadPair(1, 2).kn_per_sqrt_r,
+            world.params.species.BeadPair(0, 2).kn_per_sqrt_r);
 }
 
 // Some 300 beads in a row without entries inside one block and one batch: the force pass must

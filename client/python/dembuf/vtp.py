@@ -88,7 +88,8 @@ def _piece(path: pathlib.Path) -> tuple[ET.Element, _File]:
 def read_vtp(path: str | os.PathLike) -> pd.DataFrame:
     """The points of a dembuf .vtp (beads.vtp, frames/frame_NNNNN.vtp, an exported bed): one
     row per body with x_m, y_m, z_m and the point arrays (radius_m, velocity_m_s as vx, vy,
-    vz, id, force_N as fx, fy, fz); the projectile is the row with id -1. A contacts.vtp's
+    vz, id, species (1, 2, 3 as the scene numbers them), force_N as fx, fy, fz); the
+    projectile is the row with id -1 (species 0). A contacts.vtp's
     contacts are its lines: read_contacts_vtp."""
     path = pathlib.Path(path)
     piece, file = _piece(path)

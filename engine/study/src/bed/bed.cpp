@@ -1,6 +1,7 @@
 #include "dembuf/study/bed/bed.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include "dembuf/study/scene/contact_setup.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/scene/species.h"
 #include "dembuf/study/text/content_hash.h"
 
 namespace dembuf {
@@ -61,13 +63,14 @@ std::string CutVersions() {
          std::to_string(kSurfaceCutVersion) + "\n";
 }
 
-// A stage's key text: its procedures' versions, then every field whose value shapes one of
-// `stages` (the field table's column), exact number texts, in the table's order.
+// A stage's key text: its procedures' versions, then every field in use whose value shapes one
+// of `stages` (the field table's column), exact number texts, in the table's order.
 std::string KeyText(const Scene& resolved, std::initializer_list<Shapes> stages,
                     const std::string& versions) {
   std::string text = "dembuf bed\n" + versions;
   for (const SceneField& field : SceneFields())
-    if (std::find(stages.begin(), stages.end(), field.shapes) != stages.end())
+    if (std::find(stages.begin(), stages.end(), field.shapes) != stages.end() &&
+        (!field.in_use || field.in_use(resolved)))
       text += std::string(field.name) + "=" + FormatSceneField(resolved, field) + "\n";
   return text;
 }
@@ -467,13 +470,19 @@ PreparedBed Finish(dem::Simulation& sim, const Scene& scene, const std::string& 
   return bed;
 }
 
+// Every bead pair's friction (of every pair of species) to `friction`; the walls' as they are.
+void SetBeadFriction(dem::WorldParams& params, double friction) {
+  params.sphere_pair.friction = friction;
+  for (dem::PairParams& pair : params.species.bead_pair) pair.friction = friction;
+}
+
 // A simulation of a bed with the scene's contact law and bead friction `friction`.
 dem::Simulation BedSimulation(const Scene& scene, dem::ParticleState beads,
                               std::vector<dem::ContactHistoryEntry> history, double friction) {
-  double min_radius = 0.5 * scene.beads.diameter_min_m;
+  double min_radius = 0.5 * SmallestDiameter(scene);
   for (double r : beads.radius) min_radius = std::min(min_radius, r);
   ContactSetup setup = MakeContactSetup(scene, min_radius);
-  setup.params.sphere_pair.friction = friction;
+  SetBeadFriction(setup.params, friction);
   // Beds settle without rolling resistance, so that it leaves their cache keys alone: it only
   // dissipates, and a bed at rest stays at rest when the impact switches it on.
   setup.params.rolling_friction = 0.0;
@@ -508,6 +517,7 @@ Scene SettlingScene(const Scene& scene) {
   Scene soft = scene;
   soft.material.youngs_modulus_Pa /= softening;
   soft.walls.youngs_modulus_Pa /= softening;
+  for (SpeciesSpec& species : soft.species) species.youngs_modulus_Pa /= softening;
   return soft;
 }
 
@@ -533,7 +543,62 @@ double SettleBed(dem::Simulation& sim, const Scene& scene, const std::string& st
                           {.quench = true, .local = scene.bed.local_settling});
 }
 
+void InsertLayerBeads(const Scene& scene, const LayerPlan& layer, std::uint8_t layer_index,
+                      Uniform& uniform, dem::ParticleState& beads, const BedRequest& request);
+
+// A source bed of layers (LayerSpec), poured in turn from the plate up: each layer's beads
+// inserted above the layers below, the whole bed settled (SettleBed), and each layer but the
+// last cut at its top and relaxed as a cut bed is, so that the next one lies on a surface where
+// the layer was asked to end. The last layer is poured to the source's thickness and cut to H
+// with the bed (PrepareCut), as a bed of one layer is.
+PreparedBed PrepareLayeredSource(const Scene& scene, const std::string& hash,
+                                 const BedRequest& request) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  const SourcePlan plan = PlanSourceBed(scene);
+  Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
+  dem::ParticleState beads;
+  std::vector<dem::ContactHistoryEntry> history;
+  std::optional<dem::Simulation> sim;
+  double t = 0.0, insert_time = 0.0;
+  for (std::size_t layer = 0; layer < plan.layers.size(); ++layer) {
+    const auto insert_start = std::chrono::steady_clock::now();
+    InsertLayerBeads(scene, plan.layers[layer], static_cast<std::uint8_t>(layer), uniform, beads,
+                     request);
+    insert_time +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - insert_start).count();
+    const double clock = sim ? sim->time_s() : 0.0;
+    const std::int64_t steps = sim ? sim->steps() : 0;
+    sim.emplace(BedSimulation(SettlingScene(scene), std::move(beads), std::move(history),
+                              scene.bed.prep_friction));
+    sim->SetClock(clock, steps);
+    const std::string name = "settling layer " + std::to_string(layer + 1);
+    t += SettleBed(*sim, scene, name, request);
+    if (layer + 1 < plan.layers.size()) {
+      const std::vector<bool> keep =
+          CutMask(sim->beads(), scene.cylinder.radius_m, plan.layers[layer].top_m, scene.bed.cut);
+      sim->RemoveBeads([&](std::size_t i) { return keep[i]; });
+      t += SettleToRest(*sim, scene, "relaxing layer " + std::to_string(layer + 1) + "'s cut",
+                        request, scene.bed.max_settle_s, scene.bed.settle_tolerance, {},
+                        {.quench = scene.bed.quench_cut_relaxation,
+                         .local = scene.bed.local_settling,
+                         .quench_beads = QuenchesCutBeads(scene)});
+    }
+    beads = sim->beads();
+    std::fill(beads.velocity.begin(), beads.velocity.end(), dem::Vec3::Zero());
+    std::fill(beads.angular_velocity.begin(), beads.angular_velocity.end(), dem::Vec3::Zero());
+    history = sim->ExportHistory();
+  }
+  PreparedBed bed = Finish(*sim, scene, hash, "source", t, wall_start);
+  bed.insert_time_s = insert_time;
+  if (bed.surface_m < scene.bed.thickness_m)
+    throw dem::SimulationError("the settled bed is only " + std::to_string(bed.surface_m) +
+                                   " m thick, less than bed.thickness_m",
+                               sim->steps(), sim->time_s());
+  return bed;
+}
+
 PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const BedRequest& request) {
+  if (LayerCount(scene) > 1) return PrepareLayeredSource(scene, hash, request);
   const auto wall_start = std::chrono::steady_clock::now();
   dem::ParticleState inserted = InsertSourceBeads(scene, request);
   const double insert_time =
@@ -569,13 +634,19 @@ PreparedBed PrepareFriction(const Scene& scene, const PreparedBed& cut, const st
                             const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
   dem::Simulation sim = BedSimulation(scene, &cut, cut.beads, scene.bed.prep_friction);
-  const double mu0 = scene.bed.prep_friction, mu1 = scene.material.friction_bead_bead;
+  const double mu0 = scene.bed.prep_friction;
   const double ramp = scene.bed.friction_ramp_s;
-  const double wall_mu = scene.material.friction_bead_wall;
-  // Linear in time from the preparation friction to the study's, then relax.
+  // The study's friction of every pair.
+  const dem::WorldParams target = MakeContactSetup(scene, 0.5 * SmallestDiameter(scene)).params;
+  // Linear in time from the preparation friction to the study's, each pair to its own, then
+  // relax.
   auto before_step = [&](dem::Simulation& s, double t) {
     const double f = ramp > 0.0 ? std::min(t / ramp, 1.0) : 1.0;
-    s.SetFriction(mu0 + f * (mu1 - mu0), wall_mu);
+    dem::WorldParams now = s.params();
+    now.sphere_pair.friction = mu0 + f * (target.sphere_pair.friction - mu0);
+    for (std::size_t k = 0; k < now.species.bead_pair.size(); ++k)
+      now.species.bead_pair[k].friction = mu0 + f * (target.species.bead_pair[k].friction - mu0);
+    s.SetPairConstants(now);
   };
   const double tolerance = scene.bed.friction_settle_tolerance > 0.0
                                ? scene.bed.friction_settle_tolerance
@@ -612,8 +683,8 @@ BedStageKeys BedKeys(const Scene& scene) {
   using enum Shapes;
   BedStageKeys keys;
   if (!scene.bed.import.empty()) {
-    keys.import = ContentHash(KeyText(r, {kSourceBed, kFrictionBed, kImportedBed},
-                                      SourceVersions() + "imported\n"));
+    keys.import = ContentHash(
+        KeyText(r, {kSourceBed, kFrictionBed, kImportedBed}, SourceVersions() + "imported\n"));
     return keys;
   }
   keys.source = ContentHash(KeyText(r, {kSourceBed}, SourceVersions()));
@@ -711,21 +782,29 @@ void CheckPreparedBed(const PreparedBed& bed, const Scene& scene) {
   const dem::ParticleState& b = bed.beads;
   if (b.size() == 0) fail("it holds no beads");
   const double R = scene.cylinder.radius_m;
-  const double r_min = 0.5 * scene.beads.diameter_min_m, r_max = 0.5 * scene.beads.diameter_max_m;
+  const double r_max = 0.5 * LargestDiameter(scene);
   constexpr double kRounding = 1e-9;  // relative: the doubles of another machine's sums
+  const int species = SpeciesCount(scene);
+  if (b.species.size() != b.size()) fail("it gives no species for some of its beads");
   double weight = 0.0;
   for (std::size_t i = 0; i < b.size(); ++i) {
     const double r = b.radius[i];
     const dem::Vec3& x = b.position[i];
     const std::string bead = "bead " + std::to_string(i + 1);
-    if (!x.allFinite() || !std::isfinite(r) || r < r_min * (1 - kRounding) ||
-        r > r_max * (1 + kRounding))
+    if (b.species[i] >= species || !SpeciesInBed(scene, b.species[i]))
+      fail(bead + " is of species " + std::to_string(b.species[i] + 1) +
+           ", which the scene's bed does not mix in");
+    const SpeciesMaterial m = SpeciesOf(scene, b.species[i]);
+    const double r_lo = 0.5 * m.diameter_min_m, r_hi = 0.5 * m.diameter_max_m;
+    if (!x.allFinite() || !std::isfinite(r) || r < r_lo * (1 - kRounding) ||
+        r > r_hi * (1 + kRounding))
       fail(bead + " has radius " + FormatNumber(r) + " m, outside the scene's " +
-           FormatNumber(r_min) + " to " + FormatNumber(r_max) + " m (or a position not a number)");
-    const double mass = scene.material.density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+           FormatNumber(r_lo) + " to " + FormatNumber(r_hi) + " m for " + m.name +
+           " (or a position not a number)");
+    const double mass = m.density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
     if (std::abs(b.mass[i] - mass) > kRounding * mass)
       fail(bead + " weighs " + FormatNumber(b.mass[i]) + " kg, not the scene's density's " +
-           FormatNumber(mass) + " kg");
+           FormatNumber(mass) + " kg for " + m.name);
     // A resting contact overlaps by at most kMaxRestingOverlap of a radius (bed_io.h).
     const double slack = kMaxRestingOverlap * r;
     if (x.z() < r - slack || std::hypot(x.x(), x.y()) > R - r + slack)
@@ -847,6 +926,33 @@ std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radiu
   return mask(thickness - below_surface <= above_surface - thickness ? below : above);
 }
 
+std::vector<LayerSummary> MeasureLayers(const dem::ParticleState& beads, const Scene& scene) {
+  const int layers = LayerCount(scene), species = SpeciesCount(scene);
+  const double R = scene.cylinder.radius_m;
+  std::vector<LayerSummary> out(static_cast<std::size_t>(layers));
+  double bottom = 0.0;
+  for (int k = 0; k < layers; ++k) {
+    LayerSummary& layer = out[k];
+    layer.beads.assign(static_cast<std::size_t>(species), 0);
+    dem::ParticleState up_to_here, own;
+    for (std::size_t i = 0; i < beads.size(); ++i) {
+      const int of = i < beads.layer.size() ? beads.layer[i] : 0;
+      if (of > k) continue;
+      up_to_here.AddCopy(beads, i);
+      if (of < k) continue;
+      own.AddCopy(beads, i);
+      const int kind = i < beads.species.size() ? beads.species[i] : 0;
+      if (kind < species) ++layer.beads[kind];
+    }
+    layer.bottom_m = bottom;
+    layer.top_m = MeasureSurface(up_to_here, R);
+    layer.asked_top_m = k + 1 < layers ? LayerBottom(scene, k + 1) : scene.bed.thickness_m;
+    layer.solid_fraction = SolidFraction(own, R, layer.top_m - layer.bottom_m);
+    bottom = layer.top_m;
+  }
+  return out;
+}
+
 double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m,
                      double thickness_m) {
   if (thickness_m <= 0.0) return 0.0;
@@ -857,41 +963,82 @@ double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m,
 
 // ---- insertion ---------------------------------------------------------------------------------
 
-// A loose column of solid fraction about 0.3 above the plate.
-dem::ParticleState InsertSourceBeads(const Scene& scene, const BedRequest& request) {
-  const SourcePlan plan = PlanSourceBed(scene);
-  if (plan.column_top_m > scene.cylinder.height_m)
+namespace {
+
+// Picks the species of a layer's next bead: the one furthest below its share of the volume
+// inserted so far (the first on a tie), so that the layer's mixture is its fractions to within a
+// bead whatever the draw. It draws no random number: a layer of one species takes the draws it
+// always took.
+class SpeciesPicker {
+ public:
+  explicit SpeciesPicker(const std::array<double, kMaxSpecies>& fraction) : m_fraction(fraction) {}
+  int Next() const {
+    int best = -1;
+    double best_deficit = 0.0;
+    for (int k = 0; k < kMaxSpecies; ++k) {
+      if (m_fraction[k] <= 0.0) continue;
+      const double deficit = m_fraction[k] * m_total - m_volume[k];
+      if (best < 0 || deficit > best_deficit) {
+        best = k;
+        best_deficit = deficit;
+      }
+    }
+    return best;
+  }
+  void Inserted(int k, double volume) {
+    m_volume[k] += volume;
+    m_total += volume;
+  }
+
+ private:
+  std::array<double, kMaxSpecies> m_fraction;
+  std::array<double, kMaxSpecies> m_volume{};
+  double m_total = 0.0;
+};
+
+// Adds a layer's beads (LayerPlan) to `beads` at random positions in its loose column, each
+// clear of the others and of the beads already there, each marked as of layer `layer_index`.
+void InsertLayerBeads(const Scene& scene, const LayerPlan& layer, std::uint8_t layer_index,
+                      Uniform& uniform, dem::ParticleState& beads, const BedRequest& request) {
+  if (layer.column_top_m > scene.cylinder.height_m)
     throw SceneError("bed.source_thickness_m",
                      "a bed this thick needs a loose column of " +
-                         std::to_string(plan.column_top_m) +
+                         std::to_string(layer.column_top_m) +
                          " m to settle from, higher than cylinder.height_m");
   const double R = scene.cylinder.radius_m;
-  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
-  if (!(plan.beads <= kMaxBeads))
+  if (!(layer.beads + static_cast<double>(beads.size()) <= kMaxBeads))
     throw SceneError("beads.diameter_min_m",
                      "the source bed would hold more than " + std::to_string(kMaxBeads) +
                          " beads, more than a simulation can number; use larger beads or a "
                          "thinner bed");
-  const auto count = static_cast<std::size_t>(plan.beads);
-  double column_top = plan.column_top_m;
+  const auto count = static_cast<std::size_t>(layer.beads);
+  const double bottom = layer.bottom_m;
+  double column_top = layer.column_top_m;
+  std::array<SpeciesMaterial, kMaxSpecies> species;
+  for (int k = 0; k < kMaxSpecies; ++k) species[k] = SpeciesOf(scene, k);
+  SpeciesPicker picker(layer.fraction);
 
-  Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
-  dem::ParticleState beads;
-  const double cell = d_max;
+  const double cell = LargestDiameter(scene);
   auto key = [&](int x, int y, int z) {
     return (static_cast<std::int64_t>(z) << 32) ^ (static_cast<std::int64_t>(y + 32768) << 16) ^
            (x + 32768);
   };
   auto cell_of = [&](double v) { return static_cast<int>(std::floor(v / cell)); };
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
+  for (std::uint32_t j = 0; j < beads.size(); ++j) {
+    const dem::Vec3& x = beads.position[j];
+    grid[key(cell_of(x.x()), cell_of(x.y()), cell_of(x.z()))].push_back(j);
+  }
   for (std::size_t n = 0; n < count; ++n) {
     // A large bed takes a while to insert: look at the cancel flag now and then.
     if (n % 4096 == 0 && request.cancel && request.cancel->load(std::memory_order_relaxed))
       throw Cancelled();
-    const double r = 0.5 * uniform(d_min, d_max);
+    const int kind = picker.Next();
+    const SpeciesMaterial& m = species[kind];
+    const double r = 0.5 * uniform(m.diameter_min_m, m.diameter_max_m);
     for (int attempt = 0;; ++attempt) {
       if (attempt == 2000) {  // crowded: give the column more room
-        column_top *= 1.1;
+        column_top = bottom + (column_top - bottom) * 1.1;
         if (column_top > scene.cylinder.height_m)
           throw SceneError("bed.source_thickness_m",
                            "cannot fit the beads for this thickness into the cylinder");
@@ -900,7 +1047,7 @@ dem::ParticleState InsertSourceBeads(const Scene& scene, const BedRequest& reque
       const double reach = R - r;
       const double x = uniform(-reach, reach), y = uniform(-reach, reach);
       if (x * x + y * y > reach * reach) continue;
-      const double z = uniform(r, column_top - r);
+      const double z = uniform(bottom + r, column_top - r);
       const dem::Vec3 p(x, y, z);
       const int cx = cell_of(x), cy = cell_of(y), cz = cell_of(z);
       bool free = true;
@@ -919,10 +1066,24 @@ dem::ParticleState InsertSourceBeads(const Scene& scene, const BedRequest& reque
           }
       if (!free) continue;
       grid[key(cx, cy, cz)].push_back(static_cast<std::uint32_t>(beads.size()));
-      beads.Add(p, r, scene.material.density_kg_m3);
+      beads.Add(p, r, m.density_kg_m3, static_cast<dem::Species>(kind), layer_index);
+      picker.Inserted(kind, 4.0 / 3.0 * std::numbers::pi * r * r * r);
       break;
     }
   }
+}
+
+}  // namespace
+
+// A loose column of solid fraction about 0.3 above the plate.
+dem::ParticleState InsertSourceBeads(const Scene& scene, const BedRequest& request) {
+  const SourcePlan plan = PlanSourceBed(scene);
+  if (plan.layers.size() != 1)
+    throw SceneError("layer1.thickness_m",
+                     "a bed of layers is poured layer by layer, not from one loose column");
+  Uniform uniform(static_cast<std::uint64_t>(scene.bed.seed));
+  dem::ParticleState beads;
+  InsertLayerBeads(scene, plan.layers[0], 0, uniform, beads, request);
   return beads;
 }
 

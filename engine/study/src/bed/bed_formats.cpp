@@ -140,11 +140,17 @@ Column ParseColumn(const std::string& word, const Lines& lines) {
                                                                 {"r", "radius"},
                                                                 {"radius", "radius"},
                                                                 {"d", "diameter"},
-                                                                {"diameter", "diameter"}};
+                                                                {"diameter", "diameter"},
+                                                                {"type", "type"},
+                                                                {"species", "type"}};
   Column column;
   const auto it = quantities.find(name);
   if (it == quantities.end()) return column;  // another column (id, type, ...): not read
   column.quantity = it->second;
+  if (column.quantity == "type") {
+    if (!unit.empty()) lines.Fail("column " + Shown(word) + ": a type has no unit");
+    return column;
+  }
   if (!unit.empty()) {
     column.metres = MetresPerUnit(unit);
     if (column.metres == 0.0)
@@ -174,10 +180,11 @@ std::vector<BeadRecord> ReadText(Lines& lines, double metres, double max_beads) 
         columns.push_back(ParseColumn(w, lines));
         ++named[columns.back().quantity];
       }
-      if (!named["x"] || !named["y"] || !named["z"] || named["radius"] + named["diameter"] != 1)
+      if (!named["x"] || !named["y"] || !named["z"] || named["radius"] + named["diameter"] != 1 ||
+          named["type"] > 1)
         lines.Fail(
             "a header names the columns x, y, z and one of r (radius) or d (diameter), "
-            "units as x_mm or x[mm] (m, cm, mm, um); got " +
+            "units as x_mm or x[mm] (m, cm, mm, um), and at most one type (or species); got " +
             Shown(text));
       continue;
     }
@@ -193,8 +200,12 @@ std::vector<BeadRecord> ReadText(Lines& lines, double metres, double max_beads) 
     for (std::size_t c = 0; c < columns.size(); ++c) {
       const std::optional<double> value = Number(words[c]);
       if (!value) lines.Fail("not a number: " + Shown(words[c]));
-      const double v = *value * (columns[c].metres > 0 ? columns[c].metres : metres);
       const std::string& q = columns[c].quantity;
+      if (q == "type") {
+        bead.type = *value;
+        continue;
+      }
+      const double v = *value * (columns[c].metres > 0 ? columns[c].metres : metres);
       if (q == "x") bead.x = v;
       if (q == "y") bead.y = v;
       if (q == "z") bead.z = v;
@@ -269,8 +280,8 @@ std::vector<BeadRecord> ReadLammpsData(Lines& lines, double metres, double max_b
       lines.Fail("image flags " + words[7] + " " + words[8] + " " + words[9] +
                  ": the atom lies in a periodic image; a bed in a cylinder has none");
     beads.push_back({value[4] * metres, value[5] * metres, value[6] * metres,
-                     0.5 * value[2] * metres, lines.number(),
-                     value[3] / (metres * metres * metres)});
+                     0.5 * value[2] * metres, lines.number(), value[3] / (metres * metres * metres),
+                     value[1]});
   }
   if (static_cast<double>(beads.size()) < atoms)
     lines.Fail("the Atoms section ends after " + std::to_string(beads.size()) + " of " +
@@ -321,6 +332,7 @@ std::vector<BeadRecord> ReadDumpFrame(Lines& lines, double metres, double max_be
   const int position[3] = {column({"x", "xu"}), column({"y", "yu"}), column({"z", "zu"})};
   const int scaled[3] = {column({"xs", "xsu"}), column({"ys", "ysu"}), column({"zs", "zsu"})};
   const int radius = column({"radius"}), diameter = column({"diameter"});
+  const int type = column({"type"});
   for (int d = 0; d < 3; ++d)
     if (position[d] < 0 && scaled[d] < 0)
       lines.Fail("the dump's atoms have no x y z (or xs ys zs) columns");
@@ -342,7 +354,8 @@ std::vector<BeadRecord> ReadDumpFrame(Lines& lines, double metres, double max_be
     for (int d = 0; d < 3; ++d)
       x[d] = position[d] >= 0 ? value(position[d]) : lo[d] + value(scaled[d]) * (hi[d] - lo[d]);
     const double r = radius >= 0 ? value(radius) : 0.5 * value(diameter);
-    frame.push_back({x[0] * metres, x[1] * metres, x[2] * metres, r * metres, lines.number()});
+    frame.push_back({x[0] * metres, x[1] * metres, x[2] * metres, r * metres, lines.number(), 0.0,
+                     type >= 0 ? value(type) : 1.0});
   }
   return frame;
 }

@@ -14,6 +14,7 @@
 #include "dembuf/study/bed/bed_formats.h"
 #include "dembuf/study/scene/bed_plan.h"
 #include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/species.h"
 #include "dembuf/study/text/sha256.h"
 
 namespace dembuf {
@@ -235,6 +236,14 @@ std::string ImportedBed::Describe() const {
           << Percent(s.mean_ratio) << ")";
   };
   out << beads.size() << " beads (" << BedFileFormatName(format) << " file)";
+  if (!species_names.empty()) {
+    std::vector<std::size_t> count(species_names.size(), 0);
+    for (const dem::Species k : beads.species) ++count[k];
+    out << "; atom types as species:";
+    for (std::size_t k = 0; k < count.size(); ++k)
+      out << (k ? ", " : " ") << "type " << k + 1 << " " << species_names[k] << " (" << count[k]
+          << " beads)";
+  }
   part("; resting on the plate: ", plate, " beads", "a radius");
   part("; touching the side wall: ", wall, " beads", "a radius");
   part("; bead pairs touching: ", pairs, "", "the smaller radius");
@@ -250,35 +259,70 @@ std::string ImportedBed::Describe() const {
 
 namespace {
 
-// Where the file disagrees with the scene (its beads' densities, their sizes): said in the
-// bed's warnings, not silently replaced.
+// The species (0-based) of a bead of atom type `type`: type k is species k for a scene of
+// bed.import_types > 1; every type is species 1 otherwise. `fail` names the bead's line.
+template <class Fail>
+int SpeciesOfType(double type, const Scene& scene, const Fail& fail) {
+  const auto types = static_cast<double>(scene.bed.import_types);
+  if (types <= 1) return 0;
+  if (!(type >= 1 && type <= types && type == std::floor(type)))
+    fail("atom type " + SixDigits(type) + " is none of 1 to " + SixDigits(types) +
+         " (bed.import_types = " + SixDigits(types) + ": type k is species k)");
+  return static_cast<int>(type) - 1;
+}
+
+// Where the file disagrees with the scene (its beads' densities, their sizes, types it has
+// that the scene does not tell apart): said in the bed's warnings, not silently replaced.
 void AddImportWarnings(const BeadRecords& records, const Scene& scene, ImportedBed& bed) {
-  const double rho = scene.material.density_kg_m3;
-  std::size_t other_density = 0;
-  double file_density = 0.0;
-  for (const BeadRecord& b : records.beads)
+  const int species = SpeciesCount(scene);
+  std::vector<std::size_t> other_density(species, 0);
+  std::vector<double> file_density(species, 0.0);
+  double highest_type = 1;
+  for (std::size_t i = 0; i < records.beads.size(); ++i) {
+    const BeadRecord& b = records.beads[i];
+    highest_type = std::max(highest_type, b.type);
+    const dem::Species kind = bed.beads.species[i];
+    const double rho = SpeciesOf(scene, kind).density_kg_m3;
     if (b.density_kg_m3 > 0.0 && std::abs(b.density_kg_m3 - rho) > 0.01 * rho) {
-      if (other_density++ == 0) file_density = b.density_kg_m3;
+      if (other_density[kind]++ == 0) file_density[kind] = b.density_kg_m3;
     }
-  if (other_density > 0)
-    bed.warnings.push_back("bed.import: the file gives " + std::to_string(other_density) +
-                           " beads another density (" + SixDigits(file_density) +
-                           " kg/m^3 the first); the run gives every bead "
-                           "material.density_kg_m3 = " +
-                           SixDigits(rho) + " kg/m^3");
-  double r_min = bed.beads.radius[0], r_max = r_min;
-  for (double r : bed.beads.radius) {
-    r_min = std::min(r_min, r);
-    r_max = std::max(r_max, r);
   }
-  const double d_min = scene.beads.diameter_min_m, d_max = scene.beads.diameter_max_m;
-  if (2 * r_min < 0.99 * d_min || 2 * r_max > 1.01 * d_max)
-    bed.warnings.push_back("bed.import: the file's bead diameters, " + SixDigits(2e3 * r_min) +
-                           " to " + SixDigits(2e3 * r_max) +
-                           " mm, lie outside the scene's beads.diameter_min_m "
-                           "to diameter_max_m, " +
-                           SixDigits(1e3 * d_min) + " to " + SixDigits(1e3 * d_max) +
-                           " mm; the run uses the file's");
+  if (highest_type > 1 && scene.bed.import_types == 1)
+    bed.warnings.push_back(
+        "bed.import: the file's beads have atom types up to " + SixDigits(highest_type) +
+        "; with bed.import_types = 1 every bead is species 1 (" + scene.material.name + ")");
+  for (int kind = 0; kind < species; ++kind) {
+    const SpeciesMaterial m = SpeciesOf(scene, kind);
+    const std::string density_field = kind == 0
+                                          ? "material.density_kg_m3"
+                                          : "species" + std::to_string(kind + 1) + ".density_kg_m3";
+    // (A bed of one species is spoken of as its beads, one of several by species.)
+    const std::string of = species > 1 ? " of " + m.name : "";
+    if (other_density[kind] > 0)
+      bed.warnings.push_back("bed.import: the file gives " + std::to_string(other_density[kind]) +
+                             " beads" + of + " another density (" + SixDigits(file_density[kind]) +
+                             " kg/m^3 the first); the run gives " +
+                             (species > 1 ? "them " : "every bead ") + density_field + " = " +
+                             SixDigits(m.density_kg_m3) + " kg/m^3");
+    double r_min = HUGE_VAL, r_max = 0.0;
+    for (std::size_t i = 0; i < bed.beads.size(); ++i)
+      if (bed.beads.species[i] == kind) {
+        r_min = std::min(r_min, bed.beads.radius[i]);
+        r_max = std::max(r_max, bed.beads.radius[i]);
+      }
+    if (r_max == 0.0) continue;  // none of this species
+    const double d_min = m.diameter_min_m, d_max = m.diameter_max_m;
+    const std::string sizes = kind == 0 ? "beads.diameter_min_m"
+                                        : "species" + std::to_string(kind + 1) + ".diameter_min_m";
+    if (2 * r_min < 0.99 * d_min || 2 * r_max > 1.01 * d_max)
+      bed.warnings.push_back(
+          "bed.import: the file's " +
+          (species > 1 ? "diameters of " + m.name : std::string("bead diameters")) + ", " +
+          SixDigits(2e3 * r_min) + " to " + SixDigits(2e3 * r_max) +
+          " mm, lie outside the scene's " + sizes + " to diameter_max_m, " +
+          SixDigits(1e3 * d_min) + " to " + SixDigits(1e3 * d_max) +
+          " mm; the run uses the file's");
+  }
 }
 
 }  // namespace
@@ -320,11 +364,16 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
     if (z + r > scene.cylinder.height_m)
       fail("bead reaches above the side wall (cylinder.height_m = " +
            SixDigits(scene.cylinder.height_m) + " m)");
-    bed.beads.Add(dem::Vec3(x, y, z), r, scene.material.density_kg_m3);
+    const int kind = SpeciesOfType(b.type, scene, fail);
+    bed.beads.Add(dem::Vec3(x, y, z), r, SpeciesOf(scene, kind).density_kg_m3,
+                  static_cast<dem::Species>(kind));
     bed.lines.push_back(b.line);
   }
   if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
   AddImportWarnings(records, scene, bed);
+  if (scene.bed.import_types > 1)
+    for (int k = 0; k < scene.bed.import_types; ++k)
+      bed.species_names.push_back(SpeciesOf(scene, k).name);
 
   Measured m = MeasureOverlaps(bed.beads, R);
   if (!m.crowded.empty()) {

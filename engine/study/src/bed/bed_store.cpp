@@ -1,5 +1,6 @@
 // Bed files: a short text header of "key=value" lines, then the beads and contact springs as
 // raw little-endian doubles (exact), then an FNV-1a checksum of those bytes.
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -71,6 +72,15 @@ std::string SerializeBed(const PreparedBed& bed) {
       << "insert_time_s=" << Exact(bed.insert_time_s) << "\n"
       << "note=" << bed.note << "\n";
   for (const std::string& w : bed.warnings) out << "warning=" << w << "\n";
+  // A bed of one species is written as beds always were (its bytes, so its content hash, as
+  // before species existed); one of several adds each bead's species after the springs.
+  const dem::ParticleState& beads = bed.beads;
+  auto any = [](const std::vector<std::uint8_t>& labels) {
+    return std::any_of(labels.begin(), labels.end(), [](std::uint8_t k) { return k != 0; });
+  };
+  const bool species = any(beads.species), layers = any(beads.layer);
+  if (species) out << "species=per bead\n";
+  if (layers) out << "layers=per bead\n";
   out << "data\n";
   Checksum sum;
   const dem::ParticleState& b = bed.beads;
@@ -88,6 +98,10 @@ std::string SerializeBed(const PreparedBed& bed) {
     Put(out, sum, h.other);
     for (int d = 0; d < 3; ++d) Put(out, sum, h.shear[d]);
   }
+  if (species)
+    for (const dem::Species k : beads.species) Put(out, sum, k);
+  if (layers)
+    for (const std::uint8_t k : beads.layer) Put(out, sum, k);
   const std::uint64_t check = sum.value();
   out.write(reinterpret_cast<const char*>(&check), sizeof check);
   return std::move(out).str();
@@ -106,6 +120,7 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
   if (!std::getline(in, line) || line != kMagic)
     throw std::runtime_error(name + " is not a dembuf bed");
   PreparedBed bed;
+  bool species = false, layers = false;  // each bead's species, then layer, follow the springs
   while (std::getline(in, line) && line != "data") {
     const auto eq = line.find('=');
     if (eq == std::string::npos) throw std::runtime_error(name + ": bad header line " + line);
@@ -138,6 +153,10 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
       bed.note = value;
     else if (key == "warning")
       bed.warnings.push_back(value);
+    else if (key == "species")
+      species = value == "per bead";
+    else if (key == "layers")
+      layers = value == "per bead";
   }
   Checksum sum;
   const auto n = Get<std::uint64_t>(in, sum, name);
@@ -176,6 +195,12 @@ PreparedBed ParseBed(const std::string& bytes, const std::string& name) {
                                " beads or a bead and a wall");
     bed.history.push_back(e);
   }
+  b.species.assign(n, 0);
+  if (species)
+    for (std::uint64_t i = 0; i < n; ++i) b.species[i] = Get<dem::Species>(in, sum, name);
+  b.layer.assign(n, 0);
+  if (layers)
+    for (std::uint64_t i = 0; i < n; ++i) b.layer[i] = Get<std::uint8_t>(in, sum, name);
   std::uint64_t check = 0;
   if (!in.read(reinterpret_cast<char*>(&check), sizeof check) || check != sum.value())
     throw std::runtime_error(name + " is damaged (checksum mismatch)");

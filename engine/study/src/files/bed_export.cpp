@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "dembuf/study/files/vtk_files.h"
+#include "dembuf/study/scene/species.h"
 
 namespace dembuf {
 
@@ -27,10 +28,18 @@ namespace {
 std::string Text(const dem::ParticleState& beads, const std::string& title) {
   std::ostringstream out;
   out.precision(17);
-  out << "# " << title << "\n# " << beads.size() << " beads: x_m y_m z_m radius_m\n";
-  for (std::size_t i = 0; i < beads.size(); ++i)
+  // A bed of several species gets a header with a type column (bed.import_types reads it).
+  const bool species = std::any_of(beads.species.begin(), beads.species.end(),
+                                   [](dem::Species k) { return k != 0; });
+  out << "# " << title << "\n# " << beads.size() << " beads: x_m y_m z_m radius_m"
+      << (species ? " type (species)" : "") << "\n";
+  if (species) out << "x_m y_m z_m radius_m type\n";
+  for (std::size_t i = 0; i < beads.size(); ++i) {
     out << beads.position[i].x() << " " << beads.position[i].y() << " " << beads.position[i].z()
-        << " " << beads.radius[i] << "\n";
+        << " " << beads.radius[i];
+    if (species) out << " " << beads.species[i] + 1;
+    out << "\n";
+  }
   return out.str();
 }
 
@@ -52,18 +61,27 @@ std::string LammpsData(const dem::ParticleState& beads, const Scene& scene,
     top = std::max(top, beads.position[i].z() + beads.radius[i] + 0.01);
   if (projectile) top = std::max(top, projectile->position.z() + projectile->radius + 0.01);
   const std::size_t atoms = beads.size() + (projectile ? 1 : 0);
-  out << "LAMMPS data file: " << title << "\n\n"
+  // Atom type k is species k (bed.import_types reads them back so); the projectile's type
+  // follows the species'. The title line names them.
+  int species = 1;
+  for (const dem::Species k : beads.species) species = std::max(species, k + 1);
+  std::string types;
+  for (int k = 0; k < species; ++k)
+    types += (k ? ", " : "") + std::to_string(k + 1) + " " + SpeciesOf(scene, k).name;
+  if (projectile) types += ", " + std::to_string(species + 1) + " projectile";
+  out << "LAMMPS data file: " << title << "; atom types " << types << "\n\n"
       << atoms << " atoms\n"
-      << (projectile ? 2 : 1) << " atom types\n\n"
+      << species + (projectile ? 1 : 0) << " atom types\n\n"
       << -r << " " << r << " xlo xhi\n"
       << -r << " " << r << " ylo yhi\n"
       << -0.001 << " " << top << " zlo zhi\n\nAtoms # sphere\n\n";
   for (std::size_t i = 0; i < beads.size(); ++i)
-    out << i + 1 << " 1 " << 2.0 * beads.radius[i] << " " << Density(beads.mass[i], beads.radius[i])
-        << " " << beads.position[i].x() << " " << beads.position[i].y() << " "
-        << beads.position[i].z() << "\n";
+    out << i + 1 << " " << (i < beads.species.size() ? beads.species[i] + 1 : 1) << " "
+        << 2.0 * beads.radius[i] << " " << Density(beads.mass[i], beads.radius[i]) << " "
+        << beads.position[i].x() << " " << beads.position[i].y() << " " << beads.position[i].z()
+        << "\n";
   if (projectile)
-    out << atoms << " 2 " << 2.0 * projectile->radius << " "
+    out << atoms << " " << species + 1 << " " << 2.0 * projectile->radius << " "
         << Density(projectile->mass, projectile->radius) << " " << projectile->position.x() << " "
         << projectile->position.y() << " " << projectile->position.z() << "\n";
   out << "\nVelocities\n\n";

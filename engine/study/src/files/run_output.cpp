@@ -118,6 +118,21 @@ nlohmann::json SummaryToJson(const ImpactSummary& s, const Scene& scene, const R
               {"rest_wall_force_z_N", s.bed.rest_wall_force_z_N},
               {"weight_N", s.bed.weight_N}};
   if (!s.bed.note.empty()) j["bed"]["imported"] = s.bed.note;
+  if (!s.bed.layers.empty()) {
+    // A bed of several species or layers: each layer from the plate up, as measured.
+    nlohmann::json layers = nlohmann::json::array();
+    for (const LayerSummary& layer : s.bed.layers) {
+      nlohmann::json beads = nlohmann::json::object();
+      for (std::size_t k = 0; k < layer.beads.size(); ++k) beads[s.bed.species[k]] = layer.beads[k];
+      layers.push_back({{"bottom_m", layer.bottom_m},
+                        {"top_m", layer.top_m},
+                        {"asked_top_m", layer.asked_top_m},
+                        {"thickness_m", layer.top_m - layer.bottom_m},
+                        {"C0", layer.solid_fraction},
+                        {"beads", beads}});
+    }
+    j["bed"]["layers"] = layers;
+  }
   // Each peak named once: Pa the largest push, Pb the largest wave, the others bumps (of
   // either kind, as `push` says).
   auto is = [](const ForcePeak& a, const ForcePeak& b) {

@@ -92,22 +92,27 @@ struct Bodies {
   std::vector<dem::Vec3> positions, velocities, forces;
   std::vector<double> radii;
   std::vector<std::int32_t> ids;
+  std::vector<std::int32_t> species;  ///< 1, 2, 3 as the scene numbers them; 0: the projectile
 };
 
 Bodies BodiesOf(const ImpactSnapshot& s) {
-  Bodies b{s.positions, s.velocities, s.forces, s.radii, {}};
+  Bodies b{s.positions, s.velocities, s.forces, s.radii, {}, {}};
   const std::size_t n = s.positions.size();
   b.velocities.resize(n, dem::Vec3::Zero());
   b.forces.resize(n, dem::Vec3::Zero());
   b.ids.resize(n);
-  for (std::size_t i = 0; i < n; ++i)
+  b.species.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
     b.ids[i] = static_cast<std::int32_t>(i < s.ids.size() ? s.ids[i] : i);
+    b.species[i] = 1 + (i < s.species.size() ? s.species[i] : 0);
+  }
   if (s.projectile) {
     b.positions.push_back(s.projectile->position);
     b.velocities.push_back(s.projectile->velocity);
     b.forces.push_back(dem::Vec3::Zero());
     b.radii.push_back(s.projectile->radius);
     b.ids.push_back(-1);
+    b.species.push_back(0);
   }
   return b;
 }
@@ -131,6 +136,7 @@ std::string PolyData(const Bodies& b, bool with_point_data, const char* cells,
     arrays.Array(out, "radius_m", 1, b.radii);
     arrays.Array(out, "velocity_m_s", 3, Flatten(b.velocities));
     arrays.Array(out, "id", 1, b.ids);
+    arrays.Array(out, "species", 1, b.species);
     arrays.Array(out, "force_N", 3, Flatten(b.forces));
     out << "      </PointData>\n";
   }
@@ -214,6 +220,7 @@ std::string BedVtp(const dem::ParticleState& beads) {
   ImpactSnapshot snap;
   snap.positions = beads.position;
   snap.radii = beads.radius;
+  snap.species = beads.species;
   snap.velocities = beads.velocity;
   return BeadsVtp(snap);
 }

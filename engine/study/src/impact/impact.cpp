@@ -11,6 +11,7 @@
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/part_fields.h"
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/scene/species.h"
 
 namespace dembuf {
 
@@ -25,11 +26,24 @@ World BuildWorld(const Scene& scene, BedCache* cache, const BedRequest* request)
     world.beads = std::move(bed.beads);
     world.history = std::move(bed.history);
     world.bed_surface_m = bed.surface_m;
-    world.bed = BedSummary{
-        bed.hash,           sha256,       bed.surface_m, bed.solid_fraction, bed.plate_force_N,
-        bed.wall_force_z_N, bed.weight_N, bed.note,      bed.warnings};
+    world.bed = BedSummary{bed.hash,
+                           sha256,
+                           bed.surface_m,
+                           bed.solid_fraction,
+                           bed.plate_force_N,
+                           bed.wall_force_z_N,
+                           bed.weight_N,
+                           bed.note,
+                           bed.warnings,
+                           {},
+                           {}};
+    if (MixedBed(scene)) {
+      for (int k = 0; k < SpeciesCount(scene); ++k)
+        world.bed.species.push_back(SpeciesOf(scene, k).name);
+      world.bed.layers = MeasureLayers(world.beads, scene);
+    }
   }
-  double min_radius = 0.5 * scene.beads.diameter_min_m;
+  double min_radius = 0.5 * SmallestDiameter(scene);
   for (double r : world.beads.radius) min_radius = std::min(min_radius, r);
   ContactSetup setup = MakeContactSetup(scene, min_radius);
   world.params = setup.params;
@@ -103,6 +117,7 @@ ImpactSnapshot TakeSnapshot(const dem::Simulation& sim, const std::string& label
   snap.t_s = sim.time_s();
   snap.positions = sim.beads().position;
   snap.radii = sim.beads().radius;
+  snap.species = sim.beads().species;
   snap.velocities = sim.beads().velocity;
   snap.forces = sim.beads().force;
   snap.ids = sim.BeadOrigins();

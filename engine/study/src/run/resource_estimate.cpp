@@ -13,7 +13,9 @@
 #include "dembuf/study/files/vtk_files.h"
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/scene/bed_plan.h"
+#include "dembuf/study/scene/contact_setup.h"
 #include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/species.h"
 
 namespace dembuf {
 
@@ -212,8 +214,8 @@ ResourceEstimate EstimateResources(const Scene& scene) {
   ResourceEstimate e;
   const double area = std::numbers::pi * scene.cylinder.radius_m * scene.cylinder.radius_m;
   const double max_settle_s = scene.bed.max_settle_s;
-  double min_radius = 0.5 * scene.beads.diameter_min_m;
-  double max_radius = 0.5 * scene.beads.diameter_max_m;
+  double min_radius = 0.5 * SmallestDiameter(scene);
+  double max_radius = 0.5 * LargestDiameter(scene);
   const SourcePlan plan = PlanSourceBed(scene);
   double bed_top_m = std::max(plan.column_top_m, scene.bed.thickness_m);
   const std::vector<BedStage> stages = BedStagesOf(scene);
@@ -226,14 +228,18 @@ ResourceEstimate EstimateResources(const Scene& scene) {
     bed_top_m = imported.top_m;
     e.impact_beads = imported.beads;
   }
-  e.dt_s = scene.time.alpha * dem::CriticalTimeStep(min_radius, scene.material.density_kg_m3,
-                                                    scene.material.youngs_modulus_Pa,
-                                                    scene.material.poisson_ratio);
+  e.dt_s = scene.time.alpha * CriticalTimeStepOf(scene, min_radius);
   // A settling stage is checked for rest every 200 steps.
   auto settle_steps = [&](double seconds) { return std::ceil(seconds / e.dt_s) + 200; };
 
-  const double cut_beads =
-      std::ceil(kSettledSolidFraction * area * scene.bed.thickness_m / plan.mean_bead_volume_m3);
+  // The cut bed: each layer's share of H at the settled packing, in its mean bead.
+  double cut_beads = 0.0;
+  for (const LayerPlan& layer : plan.layers) {
+    const double top = &layer == &plan.layers.back() ? scene.bed.thickness_m : layer.top_m;
+    cut_beads += kSettledSolidFraction * area * std::max(top - layer.bottom_m, 0.0) /
+                 layer.mean_bead_volume_m3;
+  }
+  cut_beads = std::ceil(cut_beads);
   for (const BedStage& stage : stages) {
     StageEstimate s{stage.stage, stage.hash};
     s.steps_max = settle_steps(max_settle_s);
@@ -243,8 +249,15 @@ ResourceEstimate EstimateResources(const Scene& scene) {
       // Soft settling: beads softer by a factor s take steps sqrt(s) times as long (Hertz's
       // contact time goes as E^(-2/5), the critical step as E^(-1/2): the bound is kept).
       s.step_factor = std::sqrt(SoftSettlingFactor(scene));
-      const double fall = FallTime(plan.column_top_m, 0.0, 0.0, scene.gravity_m_s2);
-      s.typical_settle_s = fall >= 0.0 ? fall + kTypicalSourceRest_s : max_settle_s;
+      // Each layer falls from its column and comes to rest; those below the top are cut and
+      // relaxed too.
+      s.typical_settle_s = 0.0;
+      for (const LayerPlan& layer : plan.layers) {
+        const double fall =
+            FallTime(layer.column_top_m - layer.bottom_m, 0.0, 0.0, scene.gravity_m_s2);
+        s.typical_settle_s += fall >= 0.0 ? fall + kTypicalSourceRest_s : max_settle_s;
+        if (&layer != &plan.layers.back()) s.typical_settle_s += kTypicalRelaxation_s;
+      }
     } else if (stage.stage == "import") {
       s.beads = e.impact_beads;
     } else {

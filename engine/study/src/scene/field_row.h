@@ -20,6 +20,10 @@ std::vector<SceneField> MindlinTangentialFields();
 /// RollingResistance: mu_r.
 std::vector<SceneField> RollingResistanceFields();
 
+/// SpeciesPairs: the second and third species, their pairs' rules, and the layers that mix
+/// them (species_pairs_fields.cpp).
+std::vector<SceneField> SpeciesPairsFields();
+
 /// LocalViscousDamping: the beads' own damping.
 std::vector<SceneField> BeadDampingFields();
 

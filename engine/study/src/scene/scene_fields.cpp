@@ -15,6 +15,7 @@
 #include "dembuf/study/scene/bed_plan.h"
 #include "dembuf/study/scene/contact_setup.h"
 #include "dembuf/study/scene/errors.h"
+#include "dembuf/study/scene/species.h"
 #include "dembuf/study/text/text_limits.h"
 #include "scene/field_row.h"
 
@@ -53,6 +54,8 @@ std::vector<SceneField> WorldFields() {
       {"cylinder.height_m", "m", "height H2 of the side wall", Shapes::kSourceBed, DEMBUF_FIELD(cylinder.height_m), 0.0,
        10.0, true},
 
+      {"material.name", "", "name of species 1, these beads (summaries, frames, bed files)",
+       Shapes::kOutput, DEMBUF_FIELD(material.name)},
       {"material.density_kg_m3", "kg/m^3", "bead density rho", Shapes::kSourceBed, DEMBUF_FIELD(material.density_kg_m3),
        0.0, 1e5, true},
       {"material.youngs_modulus_Pa", "Pa", "Young's modulus E of beads and projectile",
@@ -86,6 +89,8 @@ std::vector<SceneField> WorldFields() {
       {"beads.diameter_max_m", "m", "largest bead diameter (uniform distribution)",
        Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_max_m), 0.0, 1.0, true},
   });
+  const std::vector<SceneField> species = SpeciesPairsFields();
+  fields.insert(fields.end(), species.begin(), species.end());
   return fields;
 }
 
@@ -110,6 +115,9 @@ std::vector<SceneField> BedFields() {
        false,
        false,
        {"m", "cm", "mm", "um"}},
+      {"bed.import_types", "",
+       "how many species bed.import's atom types are (type k is species k); 1 = all species 1",
+       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_types), 1.0, kMaxSpecies},
       {"bed.import_overlaps",
        "",
        "beads of bed.import overlapping by more than 1% of a radius: refuse, or relax (separate)",
@@ -663,6 +671,7 @@ void ValidateScene(const Scene& scene) {
     fail("bed.thickness_m",
          FormatNumber(scene.bed.thickness_m) +
              " must be below cylinder.height_m = " + FormatNumber(scene.cylinder.height_m));
+  CheckSpeciesAndLayers(scene);
   CheckProjectile(scene);
   CheckBedPreparation(scene);
   if (const double interval = scene.output.animation_interval_s; interval > 0.0) {

@@ -8,16 +8,11 @@
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/text/number_text.h"
 
 namespace dembuf {
 
 namespace {
-
-std::string NumberText(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.12g", v);
-  return buf;
-}
 
 // The value of a range point as text: the fewest digits that stay within a millionth of the
 // step of it, so that 3 * 0.005 reads 0.015 (not 0.015000000000000001) and points 1e-14
@@ -141,7 +136,7 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
   double count = 1;
   for (const SweepAxis& axis : axes) count *= static_cast<double>(axis.values.size());
   if (count > static_cast<double>(max_runs))
-    throw SceneError("axes", "the sweep has " + NumberText(count) + " runs; at most " +
+    throw SceneError("axes", "the sweep has " + NumberText(count, 12) + " runs; at most " +
                                  std::to_string(max_runs) + " are allowed");
   std::vector<SweepRun> runs;
   std::vector<std::size_t> pick(axes.size(), 0);

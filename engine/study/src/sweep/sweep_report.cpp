@@ -8,16 +8,11 @@
 #include <map>
 
 #include "dembuf/study/files/run_output.h"
+#include "dembuf/study/text/number_text.h"
 
 namespace dembuf {
 
 namespace {
-
-std::string NumberText(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.12g", v);
-  return buf;
-}
 
 // The axes a point is made of: all but the bed seed, over which a point is averaged.
 std::vector<std::size_t> PointAxes(const std::vector<SweepAxis>& axes) {
@@ -88,7 +83,7 @@ void PrintPoints(const std::vector<SweepAxis>& axes, const nlohmann::json& point
                  cell("P_N", 1).c_str(), cell("lambda", 100).c_str(),
                  cell("crater_depth_m", 100).c_str(),
                  point["C0"].is_number()
-                     ? NumberText(std::round(point["C0"].get<double>() * 1000) / 1000).c_str()
+                     ? NumberText(std::round(point["C0"].get<double>() * 1000) / 1000, 12).c_str()
                      : "-");
   }
 }

@@ -130,6 +130,11 @@ function showResults(job) {
       // (bed_thickness_m: a summary of an earlier dembuf)
       figure("bed H", `${sig(100 * (s.measured_thickness_m ?? s.bed_thickness_m), 3)} cm`, s.measured_thickness_m ?? s.bed_thickness_m),
       figure("C0", sig(s.C0, 3), s.C0),
+      // A bed of several species or layers: each layer as measured, from the plate up.
+      ...(s.bed?.layers ?? []).map((layer, k) => figure(`layer ${k + 1}`,
+        `${sig(100 * layer.thickness_m, 3)} cm, C0 ${sig(layer.C0, 3)}; ` +
+        Object.entries(layer.beads).filter(([, n]) => n > 0).map(([name, n]) => `${n.toLocaleString()} ${name}`).join(", "),
+        layer.thickness_m)),
       figure("beads", (s.beads || 0).toLocaleString(), s.beads),
       figure("steps", (s.steps || 0).toLocaleString(), s.steps),
       figure("wall time", `${sig(s.wall_time_s, 3)} s`, s.wall_time_s),

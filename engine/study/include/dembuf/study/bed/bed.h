@@ -232,6 +232,20 @@ double MeasureSurface(const dem::ParticleState& beads, double cylinder_radius_m)
 std::vector<bool> CutMask(const dem::ParticleState& beads, double cylinder_radius, double thickness,
                           const std::string& convention);
 
+/// One layer of a bed of layers or species, as measured on the prepared bed.
+struct LayerSummary {
+  double bottom_m = 0.0;           ///< the measured top of the layers below (0: the plate)
+  double top_m = 0.0;              ///< the measured surface of this layer's beads and those below
+  double asked_top_m = 0.0;        ///< where the scene asked it to end (H for the top layer)
+  double solid_fraction = 0.0;     ///< its beads' volume / (pi R^2 (top - bottom))
+  std::vector<std::size_t> beads;  ///< its beads of each species (0-based)
+};
+
+/// The layers of a prepared bed of a scene (each bead's layer, dem::ParticleState::layer):
+/// where each one's beads end (MeasureSurface of them and those below), its packing and its
+/// beads of each species.
+std::vector<LayerSummary> MeasureLayers(const dem::ParticleState& beads, const Scene& scene);
+
 /// Bead volume / (pi R^2 H).
 double SolidFraction(const dem::ParticleState& beads, double cylinder_radius_m, double thickness_m);
 

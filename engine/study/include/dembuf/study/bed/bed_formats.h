@@ -21,6 +21,7 @@ struct BeadRecord {
   double x = 0, y = 0, z = 0, radius = 0;
   long line = 0;
   double density_kg_m3 = 0;  ///< as the file gives it (0: the format has none)
+  double type = 1;           ///< its atom type or species column (1: the format has none)
 };
 
 /// The bed file formats dembuf reads.

@@ -1,12 +1,13 @@
 // Beds, snapshots and animation frames as VTK XML files, which ParaView, VisIt and VTK read:
-//   beads (.vtp)     every bead a vertex at its centre, with radius_m, velocity_m_s, id and
+//   beads (.vtp)     every bead a vertex at its centre, with radius_m, velocity_m_s, id,
+//                    species (1, 2, 3 as the scene numbers them: ParaView colours by it) and
 //                    force_N (its contact force); the projectile, when there is one, is the
-//                    last point, with id -1
+//                    last point, with id -1 and species 0
 //   contacts (.vtp)  the bead-bead and projectile-bead contacts, lines between the centres,
 //                    with normal_force_N
 //   a .pvd           a collection of them with their times, which ParaView plays in order
 // Arrays are written in binary (base64, VTK's inline "binary" format), positions and vectors
-// in double precision, so a file of beads is about 125 bytes a bead.
+// in double precision, so a file of beads is about 129 bytes a bead.
 #pragma once
 
 #include <string>
@@ -43,6 +44,6 @@ struct PvdEntry {
 std::string Pvd(std::vector<PvdEntry> entries);
 
 /// Bytes per bead of BeadsVtp, for cost estimates (each bead's arrays, base64).
-inline constexpr double kVtpBytesPerBead = 125;
+inline constexpr double kVtpBytesPerBead = 129;
 
 }  // namespace dembuf::report

@@ -13,6 +13,7 @@
 
 #include "dembuf/core/damping.h"
 #include "dembuf/core/simulation.h"
+#include "dembuf/study/bed/bed.h"
 #include "dembuf/study/impact/peaks.h"
 #include "dembuf/study/scene/contact_setup.h"
 #include "dembuf/study/scene/scene.h"
@@ -30,6 +31,9 @@ struct BedSummary {
   double weight_N = 0.0;
   std::string note;                   ///< an imported bed's overlaps, as read
   std::vector<std::string> warnings;  ///< where an imported file disagrees with the scene
+  /// A bed of several species or layers: the species' names (0-based) and each layer.
+  std::vector<std::string> species;
+  std::vector<LayerSummary> layers;
 };
 
 /// Everything a Simulation needs, derived from a Scene.
@@ -73,8 +77,9 @@ struct ImpactSnapshot {
   std::vector<dem::Vec3> positions;
   std::vector<double> radii;
   std::vector<dem::Vec3> velocities;
-  std::vector<dem::Vec3> forces;   ///< each bead's contact force (gravity apart)
-  std::vector<std::uint32_t> ids;  ///< each bead's index in the bed (stable from frame to frame)
+  std::vector<dem::Vec3> forces;      ///< each bead's contact force (gravity apart)
+  std::vector<std::uint32_t> ids;     ///< each bead's index in the bed (stable from frame to frame)
+  std::vector<dem::Species> species;  ///< each bead's species (0-based; empty: all species 1)
   std::optional<dem::RigidSphere> projectile;
   std::vector<dem::ContactSnapshot> contacts;  ///< none in an animation frame
 };

@@ -3,6 +3,9 @@
 // Scene validation checks these before a bed is prepared.
 #pragma once
 
+#include <array>
+#include <vector>
+
 #include "dembuf/study/scene/scene.h"
 
 namespace dembuf {
@@ -14,11 +17,25 @@ inline constexpr double kMaxBeads = 1e9;
 /// preparation inserts) and the height of the loose column they start in. Computed without
 /// allocating anything; `beads` is a double, so that an absurd scene
 /// can be refused before any count is taken.
-struct SourcePlan {
-  double thickness_m = 0.0;
+/// One layer of it (LayerSpec), poured in turn from the plate up: the beads inserted above the
+/// layers below, in a loose column from `bottom_m` to `column_top_m`, settled, and (all but the
+/// last) cut at `top_m`. The last layer's top is the source's thickness.
+struct LayerPlan {
+  double bottom_m = 0.0;
+  double top_m = 0.0;
   double beads = 0.0;
   double mean_bead_volume_m3 = 0.0;
   double column_top_m = 0.0;
+  double largest_diameter_m = 0.0;
+  /// The volume fraction of each species (0-based) in the layer.
+  std::array<double, kMaxSpecies> fraction{};
+};
+struct SourcePlan {
+  double thickness_m = 0.0;
+  double beads = 0.0;                ///< all layers'
+  double mean_bead_volume_m3 = 0.0;  ///< the top layer's
+  double column_top_m = 0.0;         ///< the highest of the layers' columns
+  std::vector<LayerPlan> layers;
 };
 SourcePlan PlanSourceBed(const Scene& scene);
 

@@ -5,6 +5,7 @@
 // `--set` overrides and the service API) defined once, in scene_fields.cpp.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <numbers>
@@ -19,8 +20,9 @@ struct CylinderSpec {
   double height_m = 0.30;   ///< H2; the side wall acts on bodies with 0 <= z <= height
 };
 
-/// Bead material and contact parameters (paper Table 1).
+/// Bead material and contact parameters (paper Table 1): the bed's first species.
 struct MaterialSpec {
+  std::string name = "beads";  ///< the species' name (in summaries, frames and bed files)
   double density_kg_m3 = 2650.0;
   double youngs_modulus_Pa = 5.0e9;
   double poisson_ratio = 0.22;
@@ -51,6 +53,45 @@ struct BeadSpec {
   double MeanDiameter() const { return 0.5 * (diameter_min_m + diameter_max_m); }
 };
 
+/// The most species a bed may mix: the first (material.*, beads.*) and species2, species3.
+inline constexpr int kMaxSpecies = 3;
+
+/// A further bead species (docs/model.md "Species"): its material, sizes and its own pairs'
+/// restitution and friction. Its pairs with another species follow PairRulesSpec. It is in the
+/// bed when a layer mixes it in (LayerSpec::fraction).
+struct SpeciesSpec {
+  std::string name;
+  double density_kg_m3 = 7850.0;  ///< defaults: steel shot
+  double youngs_modulus_Pa = 2.0e11;
+  double poisson_ratio = 0.30;
+  double restitution = 0.80;         ///< e of two of its mean beads at material's v_ref
+  double friction_bead_bead = 0.50;  ///< mu of two of its beads
+  double friction_bead_wall = 0.15;  ///< mu of its beads with plate and wall
+  double diameter_min_m = 0.004;
+  double diameter_max_m = 0.005;
+  double MeanDiameter() const { return 0.5 * (diameter_min_m + diameter_max_m); }
+};
+
+/// The pairs of two different species: restitution and friction given per pair, or by the
+/// rules (docs/model.md "Species"): e the mean of the two species' e, mu the smaller of their
+/// mu. 0 (restitution) and -1 (friction): by the rule.
+struct PairRulesSpec {
+  double restitution_1_2 = 0.0, restitution_1_3 = 0.0, restitution_2_3 = 0.0;
+  double friction_1_2 = -1.0, friction_1_3 = -1.0, friction_2_3 = -1.0;
+};
+
+/// One layer of the bed, counted from the plate up: its thickness and its mixture, the volume
+/// fractions of species 2 and 3 (species 1 takes the rest). A layer with a thickness has
+/// another above it; the last layer (thickness 0) fills the bed up to H.
+struct LayerSpec {
+  double thickness_m = 0.0;
+  double fraction2 = 0.0;
+  double fraction3 = 0.0;
+};
+
+/// The most layers a bed may have.
+inline constexpr int kMaxLayers = 3;
+
 /// The granular bed. Thickness 0 means no beads: the projectile hits the bare plate.
 struct BedSpec {
   double thickness_m = 0.0;     ///< H, settled thickness
@@ -71,8 +112,12 @@ struct BedSpec {
   /// The length unit of bed.import's numbers: "m", "cm", "mm" or "um" (a text file's header
   /// may name its own per column).
   std::string import_units = "m";
+  /// How many species bed.import's atom types (a LAMMPS file's type, a text file's type or
+  /// species column) are: type k is species k. 1: every bead is species 1, whatever its type.
+  std::int64_t import_types = 1;
   /// Beds are cut from one settled bed of this thickness, so that every H of a study shares
-  /// one settling (a bed thicker than this minus d_max gets a source of H + 2 d_max).
+  /// one settling (a bed thicker than this minus d_max gets a source of H + 2 d_max, and one
+  /// whose top layer mixes species is poured to H: docs/model.md, "Mixtures and layers").
   double source_thickness_m = 0.09;
   /// How the source bed is cut to thickness H: "surface" keeps the beads whose centres lie
   /// below the height that puts the measured mean surface at H; "tops" keeps only the beads
@@ -166,6 +211,12 @@ struct Scene {
   WallSpec walls;
   BeadSpec beads;
   BedSpec bed;
+  /// Species 2 and 3 (species 1 is material and beads) and their pairs' rules.
+  std::array<SpeciesSpec, kMaxSpecies - 1> species = {SpeciesSpec{.name = "steel"},
+                                                      SpeciesSpec{.name = "species3"}};
+  PairRulesSpec pairs;
+  /// The bed's layers from the plate up; one layer of species 1 alone is a bed of one species.
+  std::array<LayerSpec, kMaxLayers> layers;
   ProjectileSpec projectile;
   BeadDampingSpec bead_damping;  ///< scene fields damping.*
   TimeSpec time;

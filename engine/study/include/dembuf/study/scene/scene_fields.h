@@ -38,7 +38,7 @@ struct SceneField {
   using Ref = std::variant<double& (*)(Scene&), std::int64_t& (*)(Scene&), bool& (*)(Scene&),
                            std::string& (*)(Scene&), std::vector<double>& (*)(Scene&)>;
   std::string_view name;  ///< dotted name, e.g. "projectile.mass_kg"
-  std::string_view unit;  ///< SI unit, "" when dimensionless
+  std::string_view unit = {};  ///< SI unit, "" when dimensionless
   std::string_view help;
   Shapes shapes;  ///< what its value shapes (no default: every field says)
   Ref ref;
@@ -47,6 +47,10 @@ struct SceneField {
   bool min_open = false;
   bool max_open = false;
   std::vector<std::string_view> choices = {};  ///< allowed values of a string field, if restricted
+  /// Whether the field acts in a scene (nullptr: in every scene). One that does not (a species
+  /// no layer mixes in) is left out of the bed keys: adding such a field leaves every bed's
+  /// key as it was.
+  bool (*in_use)(const Scene&) = nullptr;
 };
 
 /// All fields in display order.

@@ -34,7 +34,11 @@ int CommandTable::RunParsed() const {
 void AddSceneArguments(CLI::App* command, CommandOptions& opt) {
   command->add_option("scene", opt.scene_file,
                       "scene file (TOML); default: the paper's Table 1 scene");
-  command->add_option("--preset", opt.preset, "start from a paper experiment: e1, e2, e3, e4, e5");
+  // The presets named from their list, so that a new one cannot be left out of the help.
+  std::string presets;
+  for (const Preset& p : Presets()) presets += (presets.empty() ? "" : ", ") + std::string(p.name);
+  command->add_option("--preset", opt.preset,
+                      "start from a preset scene (scenes/*.toml): " + presets);
   command->add_option("--accuracy", opt.accuracy,
                       "draft, standard or reference: time step and settling tolerance together "
                       "(docs/accuracy-cost.md)");

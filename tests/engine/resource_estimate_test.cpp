@@ -8,6 +8,7 @@
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/run/resource_estimate.h"
+#include "dembuf/study/scene/bed_plan.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "engine/small_bed.h"
@@ -52,6 +53,29 @@ TEST(ResourceEstimate, CountsTheBedsAndBoundsTheStepsAndSamplesOfARealRun) {
   const std::vector<std::string> cached = {e.stages[0].hash, e.stages[1].hash};
   EXPECT_DOUBLE_EQ(e.StepsMax(cached), e.impact_steps_max);
   EXPECT_LT(e.PredictedSeconds(1, cached), e.PredictedSeconds(1));
+}
+
+// A bed of several species steps at its quickest species' pace, as the run does, and a bed of
+// layers counts every layer's beads.
+TEST(ResourceEstimate, TakesTheStepOfTheQuickestSpeciesAndEveryLayer) {
+  Scene glass = test::SmallBedScene();
+  Scene with_steel = glass;
+  with_steel.layers[0].fraction2 = 0.3;  // steel shot: E = 200 GPa, rho = 7850
+  const ResourceEstimate a = EstimateResources(glass), b = EstimateResources(with_steel);
+  EXPECT_EQ(a.dt_s, BuildWorld(glass).params.dt_s);
+  EXPECT_EQ(b.dt_s, BuildWorld(with_steel).params.dt_s);
+  EXPECT_LT(b.dt_s, 0.3 * a.dt_s);
+  EXPECT_GT(b.impact_steps_max, 3.0 * a.impact_steps_max);
+  Scene layered = glass;
+  layered.bed.thickness_m = 0.012;
+  layered.layers[0] = {.thickness_m = 0.005, .fraction2 = 1.0};
+  const ResourceEstimate c = EstimateResources(layered);
+  ASSERT_EQ(c.stages.size(), 2u);
+  EXPECT_EQ(c.stages[0].beads, PlanSourceBed(layered).beads);
+  EXPECT_EQ(PlanSourceBed(layered).layers.size(), 2u);
+  // Both layers' beads are in the source, and each is poured: it takes longer to settle.
+  EXPECT_GT(c.stages[0].beads, PlanSourceBed(layered).layers[1].beads);
+  EXPECT_GT(c.stages[0].typical_settle_s, a.stages[0].typical_settle_s);
 }
 
 TEST(ResourceEstimate, ALongRunsSamplesAreBoundedByItsSteps) {

@@ -114,6 +114,65 @@ TEST(SpeciesBed, ALayeredBedHasItsInterfaceWithinABeadDiameterOfWhereItWasAsked)
   }
 }
 
+// A bed of steel shot alone: species 1 has no bead in it, so its sizes and material shape
+// neither the step nor the rest criterion: the same bed whatever they are.
+TEST(SpeciesBed, ASpeciesWithoutBeadsShapesNothingOfTheBed) {
+  Scene steel = SmallBedScene();
+  steel.layers[0].fraction2 = 1.0;
+  Scene odd = steel;
+  odd.beads.diameter_min_m = 4e-4;  // species 1: half-millimetre beads, none in the bed
+  odd.beads.diameter_max_m = 5e-4;
+  EXPECT_EQ(SmallestDiameter(odd), steel.species[0].diameter_min_m);
+  EXPECT_EQ(BedMeanBead(odd).mass_kg, BedMeanBead(steel).mass_kg);
+  BedCache cache;
+  const PreparedBed a = GetBed(steel, cache), b = GetBed(odd, cache);
+  ASSERT_EQ(a.beads.size(), b.beads.size());
+  EXPECT_EQ(0, std::memcmp(a.beads.position.data(), b.beads.position.data(),
+                           a.beads.size() * sizeof(dem::Vec3)));
+  EXPECT_EQ(a.settle_steps, b.settle_steps);
+  for (const dem::Species k : a.beads.species) ASSERT_EQ(k, 1);
+}
+
+// A second species nearly three times the size of the first, mixed: local settling holds the beads around a
+// moving one out to the largest bead's reach, so the settled bed has no overlap past a resting
+// contact's.
+TEST(SpeciesBed, LargerBeadsOfASecondSpeciesSettleWithoutOverlaps) {
+  Scene scene = SmallBedScene();
+  scene.cylinder.radius_m = 0.04;
+  scene.bed.thickness_m = 0.025;
+  scene.layers[0].fraction2 = 0.5;
+  scene.species[0] = {.name = "large",
+                      .density_kg_m3 = 2650.0,
+                      .youngs_modulus_Pa = 5e9,
+                      .poisson_ratio = 0.22,
+                      .diameter_min_m = 0.012,
+                      .diameter_max_m = 0.013};
+  ASSERT_TRUE(scene.bed.local_settling);
+  BedCache cache;
+  const PreparedBed bed = GetBed(scene, cache);
+  dem::Simulation sim(BuildWorld(scene, &cache).params, bed.beads, std::nullopt, bed.history);
+  sim.RefreshForces();
+  EXPECT_LT(sim.observables().max_overlap_ratio, kMaxRestingOverlap);
+  EXPECT_NO_THROW(CheckPreparedBed(bed, scene));
+  std::size_t large = 0;
+  for (const dem::Species k : bed.beads.species) large += k == 1;
+  EXPECT_GT(large, 5u);
+}
+
+// A bed file's header holds a note and warnings line by line: a line break in one cannot make
+// a header key of its own (a forged packing, say).
+TEST(SpeciesBed, ALineBreakInANoteStaysInTheNote) {
+  PreparedBed bed;
+  bed.beads.Add(dem::Vec3(0, 0, 0.002), 0.002, 2650.0);
+  bed.solid_fraction = 0.5;
+  bed.note = "3 beads\nsolid_fraction=0.99\ndata";
+  bed.warnings = {"one\nplate_force_N=12345"};
+  const PreparedBed back = ParseBed(SerializeBed(bed), "note.bed");
+  EXPECT_EQ(back.solid_fraction, 0.5);
+  EXPECT_EQ(back.plate_force_N, 0.0);
+  EXPECT_EQ(back.beads.size(), 1u);
+}
+
 // A bed of one species is written as it always was: no species or layer block, the same bytes.
 TEST(SpeciesBed, ABedOfOneSpeciesIsWrittenWithoutSpecies) {
   PreparedBed bed;
@@ -166,6 +225,16 @@ INSTANTIATE_TEST_SUITE_P(
                    "layer1.thickness_m"},
         BadSpecies{"sizes_the_wrong_way", [](Scene& s) { s.species[0].diameter_min_m = 0.006; },
                    "species2.diameter_min_m"},
+        BadSpecies{"two_species_of_one_name",
+                   [](Scene& s) {
+                     s.layers[0].fraction2 = 0.5;
+                     s.species[0].name = s.material.name;
+                   },
+                   "species2.name"},
+        BadSpecies{"a_name_with_a_line_break",
+                   [](Scene& s) { s.species[0].name = "steel\nsolid_fraction=0.99"; },
+                   "species2.name"},
+        BadSpecies{"an_empty_name", [](Scene& s) { s.material.name = ""; }, "material.name"},
         BadSpecies{"a_friction_neither_rule_nor_value",
                    [](Scene& s) { s.pairs.friction_1_2 = -0.5; }, "pairs.friction_1_2"},
         BadSpecies{"layers_with_a_bed_file",
@@ -176,6 +245,16 @@ INSTANTIATE_TEST_SUITE_P(
                    },
                    "layer1.fraction2"}),
     [](const testing::TestParamInfo<BadSpecies>& info) { return info.param.name; });
+
+// Fractions of species 2 and 3 that sum to 1 leave species 1 none, whatever the rounding.
+TEST(SpeciesScene, FractionsSummingToOneLeaveSpecies1None) {
+  Scene scene;
+  scene.layers[0].fraction2 = 0.7;
+  scene.layers[0].fraction3 = 0.3;
+  EXPECT_EQ(LayerFraction(scene, 0, 0), 0.0);
+  EXPECT_FALSE(HasBeadsOf(scene, 0));
+  EXPECT_TRUE(SpeciesInBed(scene, 0));  // the projectile's material still
+}
 
 // Fields by their dotted names, as a scene file and --set give them.
 TEST(SpeciesScene, SpeciesAndLayersAreFieldsOfTheTable) {
@@ -221,7 +300,7 @@ TEST(SpeciesBed, AtomTypesAreSpeciesInAndOut) {
   ASSERT_EQ(bed.beads.size(), 3u);
   EXPECT_EQ(bed.beads.species, (std::vector<dem::Species>{0, 1, 1}));
   EXPECT_NEAR(bed.beads.mass[1], 7850.0 * Volume(0.0022), 1e-12);
-  EXPECT_NE(bed.Describe().find("type 2 steel (2 beads)"), std::string::npos) << bed.Describe();
+  EXPECT_NE(bed.Describe().find("type 2 species 2 (2 beads)"), std::string::npos) << bed.Describe();
   EXPECT_TRUE(bed.warnings.empty());
   // A type the scene does not have is refused, naming its line.
   Scene one_type = scene;

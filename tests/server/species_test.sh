@@ -70,7 +70,7 @@ job=$("$dembuf" submit "$work/small.toml" --set bed.import="$work/mixed.data" \
 wait_state "$job" "done failed" 300
 [ "$(job_state "$job")" = done ] || fail "job $job on the data file: $("$dembuf" status "$job")"
 "$dembuf" fetch "$job" --out "$work/imported" --no-plots > /dev/null || fail "fetch of job $job"
-grep -q '"imported": ".*atom types as species: type 1 beads ([0-9]* beads), type 2 steel' \
+grep -q '"imported": ".*atom types as species: type 1 species 1 ([0-9]* beads), type 2 species 2' \
   "$work/imported/summary.json" || fail "the imported bed's note: $(grep imported "$work/imported/summary.json")"
 
 # The fields are in the table every door reads.

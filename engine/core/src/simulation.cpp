@@ -168,6 +168,10 @@ double Simulation::BeadKineticEnergy() const {
 }
 
 void Simulation::SetFriction(double sphere_pair, double sphere_wall) {
+  if (m_params.species.count > 1)
+    throw std::logic_error(
+        "SetFriction: a world of several species changes its pairs' with "
+        "SetPairConstants");
   CompleteKick();  // with the forces and rotation of the old friction
   m_params.sphere_pair.friction = sphere_pair;
   m_params.sphere_wall.friction = sphere_wall;

@@ -381,8 +381,9 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
                     const BedRequest& request, double max_time, double tolerance,
                     const std::function<void(dem::Simulation&, double)>& before_step = {},
                     Relaxation relaxation = {}) {
-  const double d_mean = scene.beads.MeanDiameter();
-  const double m_mean = scene.MeanBeadMass();
+  const MeanBead mean = BedMeanBead(scene);
+  const double d_mean = mean.diameter_m;
+  const double m_mean = mean.mass_kg;
   const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
   const double t0 = sim.time_s();
   constexpr int kCheckEvery = 200;
@@ -424,7 +425,7 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
                                rest.balance_error});
       };
       if (auto settled =
-              SettleLocally(sim, d_mean, scene.beads.diameter_max_m, tolerance * energy_scale,
+              SettleLocally(sim, d_mean, LargestDiameter(scene), tolerance * energy_scale,
                             max_steps, relaxation.quench_beads, report))
         sim = std::move(*settled);
     }
@@ -456,9 +457,8 @@ PreparedBed Finish(dem::Simulation& sim, const Scene& scene, const std::string& 
   bed.stage = stage;
   bed.surface_m = MeasureSurface(bed.beads, scene.cylinder.radius_m);
   bed.solid_fraction = SolidFraction(bed.beads, scene.cylinder.radius_m, bed.surface_m);
-  const double d_mean = scene.beads.MeanDiameter();
-  const double m_mean = scene.MeanBeadMass();
-  const RestState rest = MeasureRest(sim, m_mean * scene.gravity_m_s2 * d_mean);
+  const MeanBead mean = BedMeanBead(scene);
+  const RestState rest = MeasureRest(sim, mean.mass_kg * scene.gravity_m_s2 * mean.diameter_m);
   bed.weight_N = rest.weight;
   bed.kinetic_ratio = rest.kinetic_ratio;
   bed.plate_force_N = sim.observables().plate_force_N;
@@ -476,13 +476,15 @@ void SetBeadFriction(dem::WorldParams& params, double friction) {
   for (dem::PairParams& pair : params.species.bead_pair) pair.friction = friction;
 }
 
-// A simulation of a bed with the scene's contact law and bead friction `friction`.
+// A simulation of a bed with the scene's contact law and bead friction `friction` for every
+// pair of beads (none: each pair's own).
 dem::Simulation BedSimulation(const Scene& scene, dem::ParticleState beads,
-                              std::vector<dem::ContactHistoryEntry> history, double friction) {
+                              std::vector<dem::ContactHistoryEntry> history,
+                              std::optional<double> friction) {
   double min_radius = 0.5 * SmallestDiameter(scene);
   for (double r : beads.radius) min_radius = std::min(min_radius, r);
   ContactSetup setup = MakeContactSetup(scene, min_radius);
-  SetBeadFriction(setup.params, friction);
+  if (friction) SetBeadFriction(setup.params, *friction);
   // Beds settle without rolling resistance, so that it leaves their cache keys alone: it only
   // dissipates, and a bed at rest stays at rest when the impact switches it on.
   setup.params.rolling_friction = 0.0;
@@ -490,7 +492,7 @@ dem::Simulation BedSimulation(const Scene& scene, dem::ParticleState beads,
 }
 
 dem::Simulation BedSimulation(const Scene& scene, const PreparedBed* from, dem::ParticleState beads,
-                              double friction) {
+                              std::optional<double> friction) {
   return BedSimulation(scene, std::move(beads),
                        from ? from->history : std::vector<dem::ContactHistoryEntry>{}, friction);
 }
@@ -661,8 +663,8 @@ PreparedBed PrepareImport(const Scene& scene, const std::string& hash, const Bed
   ImportedBed imported = ReadTextBed(scene.bed.import, scene);
   const std::string report = imported.Describe();
   const std::vector<std::string> warnings = imported.warnings;
-  dem::Simulation sim =
-      BedSimulation(scene, nullptr, std::move(imported.beads), scene.material.friction_bead_bead);
+  // The study's friction, each pair its own (an imported bed has no friction stage).
+  dem::Simulation sim = BedSimulation(scene, nullptr, std::move(imported.beads), std::nullopt);
   const double t = SettleToRest(sim, scene, "relaxing the imported bed", request,
                                 scene.bed.max_settle_s, scene.bed.settle_tolerance);
   PreparedBed bed = Finish(sim, scene, hash, "import", t, wall_start);
@@ -785,15 +787,19 @@ void CheckPreparedBed(const PreparedBed& bed, const Scene& scene) {
   const double r_max = 0.5 * LargestDiameter(scene);
   constexpr double kRounding = 1e-9;  // relative: the doubles of another machine's sums
   const int species = SpeciesCount(scene);
-  if (b.species.size() != b.size()) fail("it gives no species for some of its beads");
+  if (b.species.size() != b.size() || b.layer.size() != b.size())
+    fail("it gives no species or layer for some of its beads");
   double weight = 0.0;
   for (std::size_t i = 0; i < b.size(); ++i) {
     const double r = b.radius[i];
     const dem::Vec3& x = b.position[i];
     const std::string bead = "bead " + std::to_string(i + 1);
-    if (b.species[i] >= species || !SpeciesInBed(scene, b.species[i]))
+    if (b.species[i] >= species || !HasBeadsOf(scene, b.species[i]))
       fail(bead + " is of species " + std::to_string(b.species[i] + 1) +
            ", which the scene's bed does not mix in");
+    if (b.layer[i] >= LayerCount(scene) || LayerFraction(scene, b.layer[i], b.species[i]) <= 0.0)
+      fail(bead + " is of species " + std::to_string(b.species[i] + 1) + " in layer " +
+           std::to_string(b.layer[i] + 1) + ", which the scene's layers do not mix so");
     const SpeciesMaterial m = SpeciesOf(scene, b.species[i]);
     const double r_lo = 0.5 * m.diameter_min_m, r_hi = 0.5 * m.diameter_max_m;
     if (!x.allFinite() || !std::isfinite(r) || r < r_lo * (1 - kRounding) ||

@@ -236,12 +236,12 @@ std::string ImportedBed::Describe() const {
           << Percent(s.mean_ratio) << ")";
   };
   out << beads.size() << " beads (" << BedFileFormatName(format) << " file)";
-  if (!species_names.empty()) {
-    std::vector<std::size_t> count(species_names.size(), 0);
+  if (species > 1) {
+    std::vector<std::size_t> count(static_cast<std::size_t>(species), 0);
     for (const dem::Species k : beads.species) ++count[k];
     out << "; atom types as species:";
     for (std::size_t k = 0; k < count.size(); ++k)
-      out << (k ? ", " : " ") << "type " << k + 1 << " " << species_names[k] << " (" << count[k]
+      out << (k ? ", " : " ") << "type " << k + 1 << " species " << k + 1 << " (" << count[k]
           << " beads)";
   }
   part("; resting on the plate: ", plate, " beads", "a radius");
@@ -288,16 +288,18 @@ void AddImportWarnings(const BeadRecords& records, const Scene& scene, ImportedB
     }
   }
   if (highest_type > 1 && scene.bed.import_types == 1)
-    bed.warnings.push_back(
-        "bed.import: the file's beads have atom types up to " + SixDigits(highest_type) +
-        "; with bed.import_types = 1 every bead is species 1 (" + scene.material.name + ")");
+    bed.warnings.push_back("bed.import: the file's beads have atom types up to " +
+                           SixDigits(highest_type) +
+                           "; with bed.import_types = 1 every bead is species 1");
   for (int kind = 0; kind < species; ++kind) {
     const SpeciesMaterial m = SpeciesOf(scene, kind);
     const std::string density_field = kind == 0
                                           ? "material.density_kg_m3"
                                           : "species" + std::to_string(kind + 1) + ".density_kg_m3";
-    // (A bed of one species is spoken of as its beads, one of several by species.)
-    const std::string of = species > 1 ? " of " + m.name : "";
+    // (A bed of one species is spoken of as its beads, one of several by species number: the
+    // bed, and these warnings with it, are kept under a key its species' names are not in.)
+    const std::string number = std::to_string(kind + 1);
+    const std::string of = species > 1 ? " of species " + number : "";
     if (other_density[kind] > 0)
       bed.warnings.push_back("bed.import: the file gives " + std::to_string(other_density[kind]) +
                              " beads" + of + " another density (" + SixDigits(file_density[kind]) +
@@ -317,7 +319,7 @@ void AddImportWarnings(const BeadRecords& records, const Scene& scene, ImportedB
     if (2 * r_min < 0.99 * d_min || 2 * r_max > 1.01 * d_max)
       bed.warnings.push_back(
           "bed.import: the file's " +
-          (species > 1 ? "diameters of " + m.name : std::string("bead diameters")) + ", " +
+          (species > 1 ? "diameters of species " + number : std::string("bead diameters")) + ", " +
           SixDigits(2e3 * r_min) + " to " + SixDigits(2e3 * r_max) +
           " mm, lie outside the scene's " + sizes + " to diameter_max_m, " +
           SixDigits(1e3 * d_min) + " to " + SixDigits(1e3 * d_max) +
@@ -371,9 +373,7 @@ ImportedBed ParseTextBed(std::istream& in, const std::string& name, const Scene&
   }
   if (bed.beads.size() == 0) throw SceneError("bed.import", name + " holds no beads");
   AddImportWarnings(records, scene, bed);
-  if (scene.bed.import_types > 1)
-    for (int k = 0; k < scene.bed.import_types; ++k)
-      bed.species_names.push_back(SpeciesOf(scene, k).name);
+  bed.species = static_cast<int>(scene.bed.import_types);
 
   Measured m = MeasureOverlaps(bed.beads, R);
   if (!m.crowded.empty()) {

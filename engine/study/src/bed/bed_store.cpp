@@ -47,6 +47,14 @@ T Get(std::istream& in, Checksum& sum, const std::string& path) {
   return v;
 }
 
+// A text as one header line: a line break (or another control character) in it would start
+// a line of its own, which a reader would take for a key of the header.
+std::string HeaderValue(std::string text) {
+  for (char& c : text)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+  return text;
+}
+
 std::string Exact(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.17g", v);
@@ -70,8 +78,8 @@ std::string SerializeBed(const PreparedBed& bed) {
       << "settle_steps=" << bed.settle_steps << "\n"
       << "wall_time_s=" << Exact(bed.wall_time_s) << "\n"
       << "insert_time_s=" << Exact(bed.insert_time_s) << "\n"
-      << "note=" << bed.note << "\n";
-  for (const std::string& w : bed.warnings) out << "warning=" << w << "\n";
+      << "note=" << HeaderValue(bed.note) << "\n";
+  for (const std::string& w : bed.warnings) out << "warning=" << HeaderValue(w) << "\n";
   // A bed of one species is written as beds always were (its bytes, so its content hash, as
   // before species existed); one of several adds each bead's species after the springs.
   const dem::ParticleState& beads = bed.beads;

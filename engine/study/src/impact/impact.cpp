@@ -419,7 +419,7 @@ ImpactSummary ImpactPass::Run(std::int64_t* found_peak_step) {
   m_summary.peaks =
       AnalyzePeaks(m_series, {m_rest_force, m_bed_surface_m,
                               m_sim.projectile() ? m_sim.projectile()->radius : 0.0,
-                              m_summary.beads > 0 ? m_scene.beads.MeanDiameter() : 0.0});
+                              m_summary.beads > 0 ? BedMeanBead(m_scene).diameter_m : 0.0});
   m_summary.crater_depth_m = std::isfinite(m_crater) ? m_crater : 0.0;
   m_summary.steps = m_sim.steps();
   m_summary.threads = m_sim.threads();

@@ -1,6 +1,7 @@
 #include "dembuf/study/run/run_job.h"
 
 #include "dembuf/study/files/run_output.h"
+#include "dembuf/study/scene/species.h"
 
 namespace dembuf {
 
@@ -20,7 +21,7 @@ ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& contr
   impact.on_sample = [&](const ImpactSample& s) { recorder.Sample(s); };
   impact.on_reference_sample = [&](const ImpactSample& s) { recorder.ReferenceSample(s); };
   report::ParaViewFiles paraview(scene.cylinder.radius_m, scene.cylinder.height_m,
-                                 scene.beads.diameter_max_m);
+                                 LargestDiameter(scene));
   impact.on_snapshot = [&](const ImpactSnapshot& snap) {
     recorder.Files(paraview.AddSnapshot(snap));
   };

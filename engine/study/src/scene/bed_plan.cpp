@@ -76,7 +76,7 @@ double SoftPourOverlap(const Scene& scene, double softening) {
   // The smallest beads of each species in the bed, on one of their own or the plate.
   double largest = 0.0;
   for (int k = 0; k < SpeciesCount(scene); ++k) {
-    if (!SpeciesInBed(scene, k)) continue;
+    if (!HasBeadsOf(scene, k)) continue;
     const SpeciesMaterial m = SpeciesOf(scene, k);
     const double r = 0.5 * m.diameter_min_m;
     const double mass = m.density_kg_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;

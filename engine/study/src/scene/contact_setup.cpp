@@ -19,12 +19,11 @@ double FallTime(double z0, double vz0, double z1, double gravity_m_s2) {
 }
 
 double CriticalTimeStepOf(const Scene& scene, double min_radius_m) {
-  const MaterialSpec& mat = scene.material;
-  double dt = dem::CriticalTimeStep(min_radius_m, mat.density_kg_m3, mat.youngs_modulus_Pa,
-                                    mat.poisson_ratio);
-  // Eq. 6 for each species, at the smallest bead's radius: the quickest sets the step.
-  for (int k = 1; k < SpeciesCount(scene); ++k) {
-    if (!SpeciesInBed(scene, k)) continue;
+  // Eq. 6 for each species in the bed, at the smallest bead's radius: the quickest sets the
+  // step.
+  double dt = HUGE_VAL;
+  for (int k = 0; k < SpeciesCount(scene); ++k) {
+    if (!HasBeadsOf(scene, k)) continue;
     const SpeciesMaterial m = SpeciesOf(scene, k);
     dt = std::min(dt, dem::CriticalTimeStep(min_radius_m, m.density_kg_m3, m.youngs_modulus_Pa,
                                             m.poisson_ratio));

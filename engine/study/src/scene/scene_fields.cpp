@@ -117,7 +117,8 @@ std::vector<SceneField> BedFields() {
        {"m", "cm", "mm", "um"}},
       {"bed.import_types", "",
        "how many species bed.import's atom types are (type k is species k); 1 = all species 1",
-       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_types), 1.0, kMaxSpecies},
+       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_types), 1.0, kMaxSpecies, false, false, {},
+       +[](const Scene& s) { return s.bed.import_types > 1; }},
       {"bed.import_overlaps",
        "",
        "beads of bed.import overlapping by more than 1% of a radius: refuse, or relax (separate)",
@@ -711,6 +712,26 @@ std::vector<std::string> SceneWarnings(const Scene& scene) {
                       " kg/m^3; solids lie between 100 (cork) and 22,600 (osmium)");
   };
   density("material.density_kg_m3", m.density_kg_m3, "the beads' density");
+  // The other species in the bed, and their pairs, by the same measures.
+  for (int k = 1; k < SpeciesCount(scene); ++k) {
+    if (!SpeciesInBed(scene, k)) continue;
+    const SpeciesSpec& s = scene.species[k - 1];
+    const std::string prefix = "species" + std::to_string(k + 1) + ".";
+    if (const double rho = s.density_kg_m3; rho < 100 || rho > 25000)
+      warnings.push_back(prefix + "density_kg_m3: " + FormatShort(rho) +
+                         " kg/m^3; solids lie between 100 (cork) and 22,600 (osmium)");
+    if (s.youngs_modulus_Pa < 1e6 || s.youngs_modulus_Pa > 1.2e12)
+      warnings.push_back(prefix + "youngs_modulus_Pa: " + FormatShort(s.youngs_modulus_Pa) +
+                         " Pa: solids lie between 1e6 (soft rubber) and 1.2e12 (diamond)");
+    if (s.restitution < 0.05)
+      warnings.push_back(prefix + "restitution: " + FormatShort(s.restitution) +
+                         " is below 0.05, the lowest restitution tested");
+  }
+  for (const auto& [field, e] : {std::pair{"pairs.restitution_1_2", scene.pairs.restitution_1_2},
+                                 {"pairs.restitution_1_3", scene.pairs.restitution_1_3},
+                                 {"pairs.restitution_2_3", scene.pairs.restitution_2_3}})
+    if (e > 0.0 && e < 0.05)
+      warn(field, FormatShort(e) + " is below 0.05, the lowest restitution tested");
   const ProjectileSpec& p = scene.projectile;
   if (p.enabled) {
     density("projectile.mass_kg",

@@ -1,12 +1,14 @@
 #include "dembuf/study/scene/species.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <numbers>
 #include <string>
 
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/text/number_text.h"
+#include "dembuf/study/text/text_limits.h"
 
 namespace dembuf {
 
@@ -64,7 +66,9 @@ double LayerFraction(const Scene& scene, int layer, int k) {
   const LayerSpec& l = scene.layers.at(static_cast<std::size_t>(layer));
   if (k == 1) return l.fraction2;
   if (k == 2) return l.fraction3;
-  return 1.0 - l.fraction2 - l.fraction3;
+  // Species 1 takes the rest; a rest of rounding (0.7 + 0.3 leaves 5.6e-17) is none.
+  const double rest = 1.0 - l.fraction2 - l.fraction3;
+  return rest > 1e-12 ? rest : 0.0;
 }
 
 bool MixesSpecies(const Scene& scene, int layer) {
@@ -79,6 +83,13 @@ bool SpeciesInBed(const Scene& scene, int k) {
   if (!scene.bed.import.empty()) return k < scene.bed.import_types;
   for (int layer = 0; layer < LayerCount(scene); ++layer)
     if (LayerFraction(scene, layer, k) > 0.0) return true;
+  return false;
+}
+
+bool HasBeadsOf(const Scene& scene, int k) {
+  if (k > 0 || !scene.bed.import.empty()) return SpeciesInBed(scene, k);
+  for (int layer = 0; layer < LayerCount(scene); ++layer)
+    if (LayerFraction(scene, layer, 0) > 0.0) return true;
   return false;
 }
 
@@ -100,17 +111,41 @@ double LayerBottom(const Scene& scene, int layer) {
 }
 
 double SmallestDiameter(const Scene& scene) {
-  double d = scene.beads.diameter_min_m;
-  for (int k = 1; k < SpeciesCount(scene); ++k)
-    if (SpeciesInBed(scene, k)) d = std::min(d, SpeciesOf(scene, k).diameter_min_m);
+  double d = HUGE_VAL;
+  for (int k = 0; k < SpeciesCount(scene); ++k)
+    if (HasBeadsOf(scene, k)) d = std::min(d, SpeciesOf(scene, k).diameter_min_m);
   return d;
 }
 
 double LargestDiameter(const Scene& scene) {
-  double d = scene.beads.diameter_max_m;
-  for (int k = 1; k < SpeciesCount(scene); ++k)
-    if (SpeciesInBed(scene, k)) d = std::max(d, SpeciesOf(scene, k).diameter_max_m);
+  double d = 0.0;
+  for (int k = 0; k < SpeciesCount(scene); ++k)
+    if (HasBeadsOf(scene, k)) d = std::max(d, SpeciesOf(scene, k).diameter_max_m);
   return d;
+}
+
+MeanBead BedMeanBead(const Scene& scene) {
+  int main = 0;
+  if (scene.bed.import.empty() && MixedBed(scene)) {
+    const int layers = LayerCount(scene);
+    double largest = -1.0;
+    for (int k = 0; k < SpeciesCount(scene); ++k) {
+      double volume = 0.0;  // per unit area
+      for (int layer = 0; layer < layers; ++layer) {
+        const double thickness =
+            layer + 1 < layers ? scene.layers[layer].thickness_m
+                               : std::max(scene.bed.thickness_m - LayerBottom(scene, layer), 1e-3);
+        volume += thickness * LayerFraction(scene, layer, k);
+      }
+      if (volume > largest) {
+        largest = volume;
+        main = k;
+      }
+    }
+  }
+  if (main == 0) return {scene.beads.MeanDiameter(), scene.MeanBeadMass()};
+  const SpeciesMaterial m = SpeciesOf(scene, main);
+  return {m.MeanDiameter(), m.MeanMass()};
 }
 
 namespace {
@@ -175,6 +210,29 @@ void CheckSpeciesAndLayers(const Scene& scene) {
       throw SceneError(field, Number(mu) +
                                   ": a friction coefficient >= 0, or -1 for the rule "
                                   "(the smaller of the two species')");
+  // The species are told apart by name in summaries, JSON keys and bed files' titles: a name
+  // is a word of a few plain characters (an allow-list: no line break or quote reaches a file).
+  for (int k = 0; k < kMaxSpecies; ++k) {
+    const std::string field =
+        k == 0 ? "material.name" : "species" + std::to_string(k + 1) + ".name";
+    const std::string name = SpeciesOf(scene, k).name;
+    const auto bad = std::find_if_not(name.begin(), name.end(), [](unsigned char c) {
+      return std::isalnum(c) || c == ' ' || c == '_' || c == '.' || c == '+' || c == '-';
+    });
+    if (name.empty() || name.size() > kMaxSpeciesName || bad != name.end())
+      throw SceneError(field, "\"" + PrintableText(name) + "\": a species' name is 1 to " +
+                                  std::to_string(kMaxSpeciesName) +
+                                  " letters, digits, spaces and _ . + -");
+  }
+  for (int k = 1; k < SpeciesCount(scene); ++k) {
+    const std::string field = "species" + std::to_string(k + 1) + ".name";
+    const std::string name = SpeciesOf(scene, k).name;
+    if (!SpeciesInBed(scene, k)) continue;
+    for (int other = 0; other < k; ++other)
+      if (SpeciesInBed(scene, other) && SpeciesOf(scene, other).name == name)
+        throw SceneError(field, "\"" + name + "\" is the name of species " +
+                                    std::to_string(other + 1) + " too; the species' names differ");
+  }
   for (int k = 1; k < kMaxSpecies; ++k) {
     const SpeciesMaterial m = SpeciesOf(scene, k);
     const std::string prefix = "species" + std::to_string(k + 1) + ".";

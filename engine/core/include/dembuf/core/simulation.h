@@ -125,7 +125,7 @@ class Simulation {
   double BeadKineticEnergy() const;
 
   /// Changes the friction coefficients (e.g. a slow ramp after settling) of a world of one
-  /// species.
+  /// species (one of several throws std::logic_error: SetPairConstants).
   void SetFriction(double sphere_pair, double sphere_wall);
   /// Changes the constants of every kind of pair (sphere_pair, sphere_wall and species) to
   /// those of `from`, which must have as many species (a friction ramp of several species).

@@ -8,8 +8,9 @@ std::vector<SceneField> HertzNormalFields() {
   return {
       {"material.restitution", "", "restitution e of two mean beads meeting at the reference speed",
        Shapes::kSourceBed, DEMBUF_FIELD(material.restitution), 0.0, 1.0, true},
-      {"material.restitution_ref_speed_m_s", "m/s", "impact speed at which e is calibrated",
-       Shapes::kSourceBed, DEMBUF_FIELD(material.restitution_ref_speed_m_s), 0.0, 1000.0, true},
+      {"material.restitution_ref_speed_m_s", "m/s",
+       "impact speed at which e is calibrated (of every species and pair)", Shapes::kSourceBed,
+       DEMBUF_FIELD(material.restitution_ref_speed_m_s), 0.0, 1000.0, true},
   };
 }
 

@@ -45,8 +45,8 @@ struct ImportedBed {
   /// Where the file disagrees with the scene (its densities, its beads' sizes), as "field:
   /// what" sentences: the run goes on with the scene's density and the file's sizes.
   std::vector<std::string> warnings;
-  /// The species its atom types became, by type (bed.import_types > 1; empty: all species 1).
-  std::vector<std::string> species_names;
+  /// How many species its atom types became (bed.import_types; 1: all species 1).
+  int species = 1;
 
   /// One paragraph for people: the beads, their resting contacts, what was separated.
   std::string Describe() const;

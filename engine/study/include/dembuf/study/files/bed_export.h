@@ -31,8 +31,10 @@ std::span<const BedFormatName> BedFormatNames();
 /// The format of a name of BedFormatNames; nullopt for another name.
 std::optional<BedFormat> ParseBedFormat(std::string_view name);
 
-/// The bed in that format. `scene` gives the container (the LAMMPS box) and names the bed in
-/// the file's header; `projectile`, when given, is added to a LAMMPS file as atom type 2.
+/// The bed in that format. `scene` gives the container (the LAMMPS box) and the species' names
+/// in the file's header; a bead's species k is its atom type k (a LAMMPS file's type, a text
+/// file's type column when there are several); `projectile`, when given, is added to a LAMMPS
+/// file as the type after the species'.
 std::string ExportBed(const dem::ParticleState& beads, const Scene& scene, BedFormat format,
                       const std::string& title,
                       const std::optional<dem::RigidSphere>& projectile = std::nullopt);

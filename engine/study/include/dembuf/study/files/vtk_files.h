@@ -7,7 +7,7 @@
 //                    with normal_force_N
 //   a .pvd           a collection of them with their times, which ParaView plays in order
 // Arrays are written in binary (base64, VTK's inline "binary" format), positions and vectors
-// in double precision, so a file of beads is about 129 bytes a bead.
+// in double precision, so a file of beads is about 130 bytes a bead.
 #pragma once
 
 #include <string>
@@ -44,6 +44,6 @@ struct PvdEntry {
 std::string Pvd(std::vector<PvdEntry> entries);
 
 /// Bytes per bead of BeadsVtp, for cost estimates (each bead's arrays, base64).
-inline constexpr double kVtpBytesPerBead = 129;
+inline constexpr double kVtpBytesPerBead = 130;
 
 }  // namespace dembuf::report

@@ -11,6 +11,9 @@
 
 namespace dembuf {
 
+/// The longest name a species may have (material.name, species2.name, ...).
+inline constexpr std::size_t kMaxSpeciesName = 40;
+
 /// One species' material and sizes.
 struct SpeciesMaterial {
   std::string name;
@@ -38,8 +41,13 @@ int LayerCount(const Scene& scene);
 /// layer of species 1 alone has 1: the world is that of one material).
 int SpeciesCount(const Scene& scene);
 
-/// Whether species k (0-based) is mixed into a layer of the bed.
+/// Whether species k (0-based) acts in the scene: mixed into a layer of the bed (an atom type
+/// of an imported one), or species 1, the projectile's material, whether the bed has it or not.
 bool SpeciesInBed(const Scene& scene, int k);
+
+/// Whether the bed has beads of species k (0-based): mixed into a layer, or an atom type of an
+/// imported bed. What the beads' sizes and time step are taken over.
+bool HasBeadsOf(const Scene& scene, int k);
 
 /// Whether the bed has more than one species or more than one layer.
 bool MixedBed(const Scene& scene);
@@ -56,6 +64,15 @@ double LayerBottom(const Scene& scene, int layer);
 /// The smallest and largest diameters of the species in the bed.
 double SmallestDiameter(const Scene& scene);
 double LargestDiameter(const Scene& scene);
+
+/// The bed's typical bead: the mean bead of the species with the most volume in the bed
+/// (species 1 on a tie, and for an imported bed, whose shares are not known before it is
+/// read). The rest criterion's m g d and the peak rule's unit of depth.
+struct MeanBead {
+  double diameter_m = 0.0;
+  double mass_kg = 0.0;
+};
+MeanBead BedMeanBead(const Scene& scene);
 
 /// The pair rules (PairRulesSpec): species a and b's restitution and friction (a == b: the
 /// species' own).

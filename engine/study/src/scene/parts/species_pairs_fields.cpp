@@ -146,51 +146,27 @@ std::vector<SceneField> LayerRows() {
   return rows;
 }
 
-// The rows of the pairs' rules.
+// The rows of the rules of the pair of species a and b (0-based), whose given values are
+// the members `restitution` and `friction` of PairRulesSpec.
+template <int a, int b, double PairRulesSpec::*restitution, double PairRulesSpec::*friction>
 std::vector<SceneField> PairRows() {
+  const std::string pair = std::to_string(a + 1) + "_" + std::to_string(b + 1);
+  const std::string which = "species " + std::to_string(a + 1) + " on " + std::to_string(b + 1);
   return {
-      {.name = "pairs.restitution_1_2",
-       .help = "e of species 1 on 2; 0 = the mean of theirs",
+      {.name = Text("pairs.restitution_" + pair),
+       .help = Text("e of " + which + "; 0 = the mean of theirs"),
        .shapes = Shapes::kSourceBed,
-       .ref = DEMBUF_FIELD(pairs.restitution_1_2),
+       .ref = +[](Scene& s) -> double& { return s.pairs.*restitution; },
        .min = 0.0,
        .max = 1.0,
-       .in_use = PairUsed<0, 1>},
-      {.name = "pairs.restitution_1_3",
-       .help = "e of species 1 on 3; 0 = the mean of theirs",
-       .shapes = Shapes::kSourceBed,
-       .ref = DEMBUF_FIELD(pairs.restitution_1_3),
-       .min = 0.0,
-       .max = 1.0,
-       .in_use = PairUsed<0, 2>},
-      {.name = "pairs.restitution_2_3",
-       .help = "e of species 2 on 3; 0 = the mean of theirs",
-       .shapes = Shapes::kSourceBed,
-       .ref = DEMBUF_FIELD(pairs.restitution_2_3),
-       .min = 0.0,
-       .max = 1.0,
-       .in_use = PairUsed<1, 2>},
-      {.name = "pairs.friction_1_2",
-       .help = "mu of species 1 on 2; -1 = the smaller of theirs",
+       .in_use = PairUsed<a, b>},
+      {.name = Text("pairs.friction_" + pair),
+       .help = Text("mu of " + which + "; -1 = the smaller of theirs"),
        .shapes = Shapes::kFrictionBed,
-       .ref = DEMBUF_FIELD(pairs.friction_1_2),
+       .ref = +[](Scene& s) -> double& { return s.pairs.*friction; },
        .min = -1.0,
        .max = 10.0,
-       .in_use = PairUsed<0, 1>},
-      {.name = "pairs.friction_1_3",
-       .help = "mu of species 1 on 3; -1 = the smaller of theirs",
-       .shapes = Shapes::kFrictionBed,
-       .ref = DEMBUF_FIELD(pairs.friction_1_3),
-       .min = -1.0,
-       .max = 10.0,
-       .in_use = PairUsed<0, 2>},
-      {.name = "pairs.friction_2_3",
-       .help = "mu of species 2 on 3; -1 = the smaller of theirs",
-       .shapes = Shapes::kFrictionBed,
-       .ref = DEMBUF_FIELD(pairs.friction_2_3),
-       .min = -1.0,
-       .max = 10.0,
-       .in_use = PairUsed<1, 2>},
+       .in_use = PairUsed<a, b>},
   };
 }
 
@@ -200,8 +176,12 @@ std::vector<SceneField> SpeciesPairsFields() {
   static_assert(kMaxSpecies == 3 && kMaxLayers == 3, "a template call per slot below");
   static const std::vector<SceneField> rows = [] {
     std::vector<SceneField> all;
-    for (const auto& part : {SpeciesRows<0>(), SpeciesRows<1>(), PairRows(), LayerRows<0>(),
-                             LayerRows<1>(), LayerRows<2>()})
+    using P = PairRulesSpec;
+    for (const auto& part : {SpeciesRows<0>(), SpeciesRows<1>(),
+                             PairRows<0, 1, &P::restitution_1_2, &P::friction_1_2>(),
+                             PairRows<0, 2, &P::restitution_1_3, &P::friction_1_3>(),
+                             PairRows<1, 2, &P::restitution_2_3, &P::friction_2_3>(),
+                             LayerRows<0>(), LayerRows<1>(), LayerRows<2>()})
       all.insert(all.end(), part.begin(), part.end());
     return all;
   }();

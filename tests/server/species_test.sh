@@ -61,6 +61,17 @@ for case in layered mixed; do
     fail "the fetched job of the $case bed"
 done
 
+# The Python package reads the species as a column of the frames.
+PYTHONPATH="$(dirname "$dembuf")/../python" /usr/bin/python3 - "$work/layered-job" <<'PY' ||
+import glob, sys
+import dembuf
+frame = dembuf.read_vtp(sorted(glob.glob(f"{sys.argv[1]}/frames/*.vtp"))[0])
+assert set(frame["species"]) == {0, 1, 2}, set(frame["species"])
+assert (frame.loc[frame["id"] == -1, "species"] == 0).all()
+print(f"read_vtp: species {sorted(set(frame['species']))} over {len(frame)} bodies")
+PY
+  fail "the Python reader of the species"
+
 # A bed file of two atom types, sent with a job: two species, named in the bed's note.
 "$dembuf" bed export "$work/small.toml" "${mixed[@]}" --bed-cache "$work/beds" --format lammps \
   --out "$work/mixed.data" > /dev/null || fail "bed export of the mixture"

@@ -133,9 +133,9 @@ TEST(SpeciesBed, ASpeciesWithoutBeadsShapesNothingOfTheBed) {
   for (const dem::Species k : a.beads.species) ASSERT_EQ(k, 1);
 }
 
-// A second species nearly three times the size of the first, mixed: local settling holds the beads around a
-// moving one out to the largest bead's reach, so the settled bed has no overlap past a resting
-// contact's.
+// A second species nearly three times the size of the first, mixed: local settling holds the beads
+// around a moving one out to the largest bead's reach, so the settled bed has no overlap past a
+// resting contact's.
 TEST(SpeciesBed, LargerBeadsOfASecondSpeciesSettleWithoutOverlaps) {
   Scene scene = SmallBedScene();
   scene.cylinder.radius_m = 0.04;
@@ -322,6 +322,14 @@ TEST(SpeciesBed, AtomTypesAreSpeciesInAndOut) {
               std::string::npos)
         << e.what();
   }
+  // A LAMMPS dump's type column, and a text file's, are atom types too.
+  std::istringstream dump(
+      "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS pp pp pp\n-0.03 0.03\n"
+      "-0.03 0.03\n0 0.1\nITEM: ATOMS id type x y z radius\n1 2 0 0 0.0022 0.0022\n"
+      "2 1 0.005 0 0.0022 0.0022\n");
+  EXPECT_EQ(ParseTextBed(dump, "bed.dump", scene).beads.species, (std::vector<dem::Species>{1, 0}));
+  std::istringstream text("x_mm y_mm z_mm d_mm species\n0 0 2.2 4.4 2\n5 0 2.2 4.4 1\n");
+  EXPECT_EQ(ParseTextBed(text, "bed.txt", scene).beads.species, (std::vector<dem::Species>{1, 0}));
   // Out and back: the LAMMPS data and the text export keep the species.
   Scene mixed = SmallBedScene();
   mixed.layers[0].fraction2 = 0.5;

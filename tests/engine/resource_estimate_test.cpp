@@ -76,6 +76,10 @@ TEST(ResourceEstimate, TakesTheStepOfTheQuickestSpeciesAndEveryLayer) {
   // Both layers' beads are in the source, and each is poured: it takes longer to settle.
   EXPECT_GT(c.stages[0].beads, PlanSourceBed(layered).layers[1].beads);
   EXPECT_GT(c.stages[0].typical_settle_s, a.stages[0].typical_settle_s);
+  // Its steps are bounded by each settling's: each layer's, and the cut's relaxation of the
+  // lower (no soft settling in the small scene: one settling a layer).
+  ASSERT_EQ(SoftSettlingFactor(layered), 1.0);
+  EXPECT_EQ(c.stages[0].steps_max, 3.0 * (std::ceil(layered.bed.max_settle_s / c.dt_s) + 200));
 }
 
 TEST(ResourceEstimate, ALongRunsSamplesAreBoundedByItsSteps) {

@@ -246,6 +246,19 @@ INSTANTIATE_TEST_SUITE_P(
                    "layer1.fraction2"}),
     [](const testing::TestParamInfo<BadSpecies>& info) { return info.param.name; });
 
+// The friction stage runs for the pairs the bed has: a bed of steel alone, prepared at its own
+// friction, has none, whatever species 1's friction (the projectile's) is.
+TEST(SpeciesScene, TheFrictionStageIsForThePairsOfTheBed) {
+  Scene steel = SmallBedScene();
+  steel.layers[0].fraction2 = 1.0;
+  steel.material.friction_bead_bead = 0.3;
+  steel.species[0].friction_bead_bead = steel.bed.prep_friction;
+  EXPECT_FALSE(NeedsFrictionStage(steel));
+  EXPECT_EQ(BedStagesOf(steel).size(), 2u);
+  steel.species[0].friction_bead_bead = 0.3;
+  EXPECT_TRUE(NeedsFrictionStage(steel));
+}
+
 // Fractions of species 2 and 3 that sum to 1 leave species 1 none, whatever the rounding.
 TEST(SpeciesScene, FractionsSummingToOneLeaveSpecies1None) {
   Scene scene;

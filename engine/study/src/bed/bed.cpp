@@ -53,10 +53,13 @@ Scene ResolvedForKeys(const Scene& scene) {
 }
 
 // The versions of the procedures that make each stage (bed.h).
-std::string SourceVersions() {
+std::string SourceVersions(const Scene& scene) {
+  // (A bed of one species is made as it was before species: its keys name no species version.)
+  const bool species = MixedBed(scene) || scene.bed.import_types > 1;
   return "preparation v" + std::to_string(kBedPreparationVersion) + "\nlocal settling v" +
          std::to_string(kLocalSettlingVersion) + "\nsoft settling v" +
-         std::to_string(kSoftSettlingVersion) + "\n";
+         std::to_string(kSoftSettlingVersion) + "\n" +
+         (species ? "species v" + std::to_string(kSpeciesBedVersion) + "\n" : "");
 }
 std::string CutVersions() {
   return "cut bead quench v" + std::to_string(kCutBeadQuenchVersion) + "\nsurface cut v" +
@@ -686,13 +689,13 @@ BedStageKeys BedKeys(const Scene& scene) {
   BedStageKeys keys;
   if (!scene.bed.import.empty()) {
     keys.import = ContentHash(
-        KeyText(r, {kSourceBed, kFrictionBed, kImportedBed}, SourceVersions() + "imported\n"));
+        KeyText(r, {kSourceBed, kFrictionBed, kImportedBed}, SourceVersions(r) + "imported\n"));
     return keys;
   }
-  keys.source = ContentHash(KeyText(r, {kSourceBed}, SourceVersions()));
-  keys.cut = ContentHash(KeyText(r, {kSourceBed, kCutBed}, SourceVersions() + CutVersions()));
+  keys.source = ContentHash(KeyText(r, {kSourceBed}, SourceVersions(r)));
+  keys.cut = ContentHash(KeyText(r, {kSourceBed, kCutBed}, SourceVersions(r) + CutVersions()));
   keys.friction = ContentHash(
-      KeyText(r, {kSourceBed, kCutBed, kFrictionBed}, SourceVersions() + CutVersions()));
+      KeyText(r, {kSourceBed, kCutBed, kFrictionBed}, SourceVersions(r) + CutVersions()));
   return keys;
 }
 

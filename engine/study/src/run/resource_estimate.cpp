@@ -246,10 +246,11 @@ ResourceEstimate EstimateResources(const Scene& scene) {
     s.typical_settle_s = kTypicalRelaxation_s;
     if (stage.stage == "source") {
       s.beads = plan.beads;
-      // A bed of layers settles each layer (soft, then at the true stiffness), and cuts and
-      // relaxes each but the last: each a settling of its own, up to max_settle_s.
+      // A bed of layers settles each layer (soft and then at the true stiffness, or once),
+      // and cuts and relaxes each but the last: each a settling of its own, up to max_settle_s.
       const auto layers = static_cast<double>(plan.layers.size());
-      if (layers > 1) s.steps_max = settle_steps(max_settle_s) * (3.0 * layers - 1.0);
+      const double settlings = SoftSettlingFactor(scene) != 1.0 ? 2.0 : 1.0;
+      if (layers > 1) s.steps_max = settle_steps(max_settle_s) * ((settlings + 1.0) * layers - 1.0);
       // Soft settling: beads softer by a factor s take steps sqrt(s) times as long (Hertz's
       // contact time goes as E^(-2/5), the critical step as E^(-1/2): the bound is kept).
       s.step_factor = std::sqrt(SoftSettlingFactor(scene));

@@ -108,7 +108,7 @@ double SoftSettlingFactor(const Scene& scene) {
 bool NeedsFrictionStage(const Scene& scene) {
   for (int a = 0; a < SpeciesCount(scene); ++a)
     for (int b = a; b < SpeciesCount(scene); ++b)
-      if (SpeciesInBed(scene, a) && SpeciesInBed(scene, b) &&
+      if (HasBeadsOf(scene, a) && HasBeadsOf(scene, b) &&
           PairFriction(scene, a, b) != scene.bed.prep_friction)
         return true;
   return false;

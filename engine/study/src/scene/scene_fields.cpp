@@ -10,6 +10,7 @@
 #include <optional>
 #include <ostream>
 #include <sstream>
+#include <tuple>
 #include <toml.hpp>
 
 #include "dembuf/study/scene/bed_plan.h"
@@ -727,10 +728,11 @@ std::vector<std::string> SceneWarnings(const Scene& scene) {
       warnings.push_back(prefix + "restitution: " + FormatShort(s.restitution) +
                          " is below 0.05, the lowest restitution tested");
   }
-  for (const auto& [field, e] : {std::pair{"pairs.restitution_1_2", scene.pairs.restitution_1_2},
-                                 {"pairs.restitution_1_3", scene.pairs.restitution_1_3},
-                                 {"pairs.restitution_2_3", scene.pairs.restitution_2_3}})
-    if (e > 0.0 && e < 0.05)
+  for (const auto& [field, e, a, b] :
+       {std::tuple{"pairs.restitution_1_2", scene.pairs.restitution_1_2, 0, 1},
+        {"pairs.restitution_1_3", scene.pairs.restitution_1_3, 0, 2},
+        {"pairs.restitution_2_3", scene.pairs.restitution_2_3, 1, 2}})
+    if (SpeciesInBed(scene, a) && SpeciesInBed(scene, b) && e > 0.0 && e < 0.05)
       warn(field, FormatShort(e) + " is below 0.05, the lowest restitution tested");
   const ProjectileSpec& p = scene.projectile;
   if (p.enabled) {

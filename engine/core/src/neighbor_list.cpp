@@ -238,7 +238,9 @@ void ResortPairList(const ParticleState& beads, double near_gap, PairList& list,
   }
   for (long c = 1; c < chunks; ++c) {
     const std::uint32_t from = far_offsets[chunk_beads(c).first];
-    std::memmove(far + kept_in[c], far + from, (kept_in[c + 1] - kept_in[c]) * sizeof *far);
+    // (An empty far part may have no storage at all: memmove takes no null pointer.)
+    if (kept_in[c + 1] > kept_in[c])
+      std::memmove(far + kept_in[c], far + from, (kept_in[c + 1] - kept_in[c]) * sizeof *far);
   }
   new_far_offsets[n] = kept;
   list.far_offsets = std::move(new_far_offsets);

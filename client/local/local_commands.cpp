@@ -152,7 +152,8 @@ void AddSweep(CLI::App& app, CommandOptions& opt, CommandTable& commands) {
 // and meaning, tab-separated.
 int ListValues(const std::string& what) {
   if (what == "presets")
-    for (const Preset& p : Presets()) std::printf("%.*s\n", int(p.name.size()), p.name.data());
+    for (const Preset& p : Presets())
+      std::printf("%.*s\t%s\n", int(p.name.size()), p.name.data(), PresetSummary(p).c_str());
   if (what == "accuracies")
     for (const AccuracyPreset& a : AccuracyPresets())
       std::printf("%.*s\t%.*s\n", int(a.name.size()), a.name.data(), int(a.description.size()),
@@ -172,6 +173,10 @@ int ListValues(const std::string& what) {
       std::snprintf(text, sizeof text, "%s%g to %g%s", f.min_open ? "(" : "[", f.min, f.max,
                     f.max_open ? ")" : "]");
       range = text;
+    } else if (std::holds_alternative<bool& (*)(Scene&)>(f.ref)) {
+      range = "true|false";
+    } else if (std::holds_alternative<std::string& (*)(Scene&)>(f.ref)) {
+      range = "text";
     }
     std::printf("%.*s\t%.*s\t%s\t%.*s\n", int(f.name.size()), f.name.data(), int(f.unit.size()),
                 f.unit.data(), range.c_str(), int(f.help.size()), f.help.data());

@@ -59,6 +59,7 @@ HcSearchOptions ParseHcRange(const std::string& text) {
 
 int SweepCommand(const CommandOptions& opt) {
   ReportDestination report(opt);
+  RequireJoinedAssignments("--vary", opt.vary, opt.scene_file);
   const Scene base = ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
   SweepOptions sweep;
   std::optional<HcSearchOptions> hc_search;

@@ -318,6 +318,7 @@ grpc::Status SendBedFile(const Remote& remote, const RemoteScene& remote_scene,
 // The request's scene; a bed file it imports is sent first.
 grpc::Status MakeSceneSpec(const Remote& remote, const RemoteScene& scene, v1::SceneSpec* out) {
   v1::SceneSpec& spec = *out;
+  RequireJoinedAssignments("--set", scene.overrides, scene.scene_file);
   if (grpc::Status s = SendBedFile(remote, scene, spec.mutable_bed_file()); !s.ok()) return s;
   spec.set_preset(scene.preset);
   spec.set_accuracy(scene.accuracy);
@@ -568,6 +569,7 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
                 const std::vector<std::string>& vary, int seeds, const std::string& name,
                 bool json) {
   v1::SubmitSweepRequest request;
+  RequireJoinedAssignments("--vary", vary, scene.scene_file);
   if (grpc::Status s = MakeSceneSpec(remote, scene, request.mutable_base()); !s.ok())
     return Report(remote, s);
   for (const std::string& spec : vary) {

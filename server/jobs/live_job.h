@@ -77,6 +77,9 @@ class LiveJob {
     {
       std::lock_guard lock(m_mutex);
       m_state = state;
+      // Until the run reports its own stage, its stage is its state ("preparing_bed", not the
+      // "queued" it was made with).
+      if (!m_stage_reported) m_progress.stage = StateName(state);
     }
     m_changed.notify_all();
   }
@@ -84,6 +87,7 @@ class LiveJob {
   void SetProgress(const std::string& stage, double fraction, double sim_time_s,
                    std::int64_t steps) {
     std::lock_guard lock(m_mutex);
+    m_stage_reported = true;
     m_progress.stage = stage;
     m_progress.fraction = fraction;
     m_progress.sim_time_s = sim_time_s;
@@ -141,6 +145,7 @@ class LiveJob {
   std::int64_t m_first;
   JobState m_state = JobState::kQueued;
   JobProgress m_progress;
+  bool m_stage_reported = false;
   bool m_ended = false;
 };
 

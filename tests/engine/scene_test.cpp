@@ -226,6 +226,37 @@ TEST(SceneErrors, ControlBytesInWhatWasGivenAreEscaped) {
   }
 }
 
+TEST(SceneErrors, AMisspeltFieldNamesTheFieldMeant) {
+  auto message = [](const std::string& assignment) {
+    Scene scene;
+    try {
+      ApplyOverride(scene, assignment);
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(message("projectile.mas_kg=1").find("did you mean projectile.mass_kg?"),
+            std::string::npos);
+  EXPECT_NE(message("bed.thicknessm=1").find("did you mean bed.thickness_m?"), std::string::npos);
+  // Nothing near: no guess, the section's fields as before.
+  EXPECT_EQ(message("bed.zzzzzzzzzzzz=1").find("did you mean"), std::string::npos);
+  EXPECT_EQ(message(std::string(5000, 'x') + "=1").find("did you mean"), std::string::npos);
+}
+
+// Every preset says what it is in one sentence, from its file's opening comment.
+TEST(Presets, EachHasASummarySentence) {
+  for (const Preset& p : Presets()) {
+    const std::string summary = PresetSummary(p);
+    EXPECT_GT(summary.size(), 20u) << p.name;
+    EXPECT_LT(summary.size(), 400u) << p.name;
+    EXPECT_EQ(summary.back(), '.') << p.name << ": " << summary;
+    EXPECT_EQ(summary.find('#'), std::string::npos) << p.name;
+  }
+  EXPECT_EQ(PresetSummary(Presets().front()),
+            "E1, validation against experiment (paper Figs. 2-3): the Table 1 scene.");
+}
+
 TEST(AccuracyPresets, SetTheKnobsTogetherAndRefuseUnknownNames) {
   Scene scene;
   ApplyAccuracy(scene, "draft");

@@ -12,6 +12,14 @@
 expect_exit 2 "Could not convert" "$dembuf" sweep --seeds x
 expect_exit 2 "not expected" "$dembuf" run --seeds 3
 expect_exit 2 "unknown field" "$dembuf" run --set no.field=1 --out "$work/x"
+# A misspelt field is named with the field meant; a value given as a word of its own (it was
+# read as the scene file "0.01") with the form meant.
+expect_exit 2 "bed.thicknes_m: unknown field; did you mean bed.thickness_m?" \
+  "$dembuf" run --set bed.thicknes_m=0.01 --dry-run
+expect_exit 2 'as in --set bed.thickness_m=0.01' "$dembuf" run --set bed.thickness_m 0.01 --dry-run
+expect_exit 2 'as in --vary bed.thickness_m=0.01,0.02' \
+  "$dembuf" sweep --vary bed.thickness_m 0.01,0.02 --dry-run
+expect_exit 2 'as in --set bed.thickness_m=0.01' "$dembuf" submit --set bed.thickness_m 0.01
 expect_exit 0 "Usage" "$dembuf" --help
 expect_exit 2 "Could not convert\|not a number\|Invalid" "$dembufd" --workers x
 expect_exit 0 "Exit codes: 0" "$dembuf" --help

@@ -105,6 +105,18 @@ TEST_F(JobFeedTest, AnEndedJobIsReadInPiecesToItsEnd) {
     ASSERT_EQ(read[k].plate_force_N, samples[k].plate_force_N) << k;
 }
 
+// `dembuf list` showed "preparing_bed" beside the stage "queued 0%": a started job's stage is
+// its state until the run reports one of its own.
+TEST(LiveJob, ItsStageIsItsStateUntilTheRunReportsOne) {
+  LiveJob live(1);
+  EXPECT_EQ(live.Progress().stage, "queued");
+  live.SetState(JobState::kPreparingBed);
+  EXPECT_EQ(live.Progress().stage, "preparing_bed");
+  live.SetProgress("bed: settling", 0.1, 0.0, 0);
+  live.SetState(JobState::kRunning);
+  EXPECT_EQ(live.Progress().stage, "bed: settling");
+}
+
 TEST_F(JobFeedTest, ARunningJobIsReadFromTheStoreThenLiveThenToItsEnd) {
   const auto running = AddRunningJob();
   const std::int64_t id = running.first;

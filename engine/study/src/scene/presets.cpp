@@ -1,5 +1,8 @@
 #include "dembuf/study/scene/presets.h"
 
+#include <algorithm>
+#include <cctype>
+
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
 
@@ -12,6 +15,25 @@ Scene PresetScene(const std::string& name) {
     known += (known.empty() ? "" : ", ") + std::string(p.name);
   }
   throw SceneError("preset", "unknown preset \"" + name + "\"; known presets: " + known);
+}
+
+std::string PresetSummary(const Preset& preset) {
+  // The file's opening comment, its lines joined, up to the end of its first sentence: a
+  // full stop, a space, then a letter ("Figs. 2-3" does not end one).
+  std::string comment;
+  std::string_view rest = preset.toml;
+  while (rest.starts_with("#")) {
+    const std::size_t end = std::min(rest.find('\n'), rest.size());
+    std::string_view line = rest.substr(1, end - 1);
+    if (line.starts_with(" ")) line.remove_prefix(1);
+    comment += (comment.empty() ? "" : " ") + std::string(line);
+    rest.remove_prefix(std::min(end + 1, rest.size()));
+  }
+  for (std::size_t i = 0; i + 2 < comment.size(); ++i)
+    if (comment[i] == '.' && comment[i + 1] == ' ' &&
+        std::isalpha(static_cast<unsigned char>(comment[i + 2])))
+      return comment.substr(0, i + 1);
+  return comment;
 }
 
 const std::vector<AccuracyPreset>& AccuracyPresets() {

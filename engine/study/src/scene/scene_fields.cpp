@@ -256,6 +256,38 @@ void CheckRange(const SceneField& f, double v, std::string_view as_text) {
                      std::string(as_text) + " is out of range: " + RangeText(f));
 }
 
+// The edit distance of two names (insertions, deletions and substitutions), for "did you
+// mean": a dozen lines, where a library would be a dependency for one error message.
+std::size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t substitution = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
+      diagonal = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitution});
+    }
+  }
+  return row[b.size()];
+}
+
+// "did you mean bed.thickness_m? " for a name a third of whose letters or fewer are wrong.
+std::string DidYouMean(std::string_view name) {
+  constexpr std::size_t kLongestMisspelling = 64;  // field names are at most 40 letters
+  if (name.size() > kLongestMisspelling) return "";
+  const SceneField* nearest = nullptr;
+  std::size_t best = name.size() / 3 + 1;
+  for (const auto& f : FieldTable()) {
+    if (const std::size_t d = EditDistance(name, f.name); d < best) {
+      best = d;
+      nearest = &f;
+    }
+  }
+  return nearest ? "did you mean " + std::string(nearest->name) + "? " : "";
+}
+
 std::string KnownFieldsNear(std::string_view name) {
   std::string section(name.substr(0, name.find('.')));
   std::string list;
@@ -277,7 +309,8 @@ std::string KnownFieldsNear(std::string_view name) {
 
 const SceneField& RequireSceneField(std::string_view name) {
   const SceneField* f = FindSceneField(name);
-  if (!f) throw SceneError(std::string(name), "unknown field; " + KnownFieldsNear(name));
+  if (!f) throw SceneError(std::string(name),
+                             "unknown field; " + DidYouMean(name) + KnownFieldsNear(name));
   return *f;
 }
 

@@ -16,6 +16,10 @@ struct Preset {
 
 const std::vector<Preset>& Presets();
 
+/// What a preset is, in one sentence: the first of its file's opening comment (scenes/*.toml),
+/// so that the file stays the one place that says it.
+std::string PresetSummary(const Preset& preset);
+
 /// The preset's scene (defaults, then the preset's fields). Throws SceneError naming
 /// "--preset" and the known names for an unknown one.
 Scene PresetScene(const std::string& name);

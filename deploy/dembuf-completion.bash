@@ -5,10 +5,13 @@
 #   ln -s dembuf /usr/share/bash-completion/completions/dembufd
 # or source it from ~/.bashrc.
 
-# The commands of PROGRAM (the first words of the lines under "Subcommands:").
+# The commands of PROGRAM [COMMAND...] (the names on the lines under "Subcommands:", each
+# alias of "  bed, beds   ..." too).
 _dembuf_commands() {
-  "$1" --help 2>/dev/null | awk '/^Subcommands:/ { in_list = 1; next }
-                                 in_list && /^  [a-z]/ { print $1 }
+  "$@" --help 2>/dev/null | awk '/^Subcommands:/ { in_list = 1; next }
+                                 in_list && /^  [a-z]/ { sub(/^  /, ""); split($0, part, /   */)
+                                                         n = split(part[1], names, /, */)
+                                                         for (i = 1; i <= n; i++) print names[i] }
                                  in_list && /^$/ { in_list = 0 }'
 }
 
@@ -23,15 +26,18 @@ _dembuf_valued_options() {
 }
 
 _dembuf() {
-  local program=${COMP_WORDS[0]} current=${COMP_WORDS[COMP_CWORD]} command="" word previous=""
+  local program=${COMP_WORDS[0]} current=${COMP_WORDS[COMP_CWORD]} word previous=""
   local commands valued
+  local -a command=()  # the command and its subcommands given so far ("bed export")
   commands=$(_dembuf_commands "$program")
   valued=$("$program" --help 2>/dev/null | _dembuf_valued_options)
-  # The command is the first word that names one, not the value of an option before it.
+  # The command is the first word that names one, not the value of an option before it; then
+  # each word that names one of its subcommands.
   for word in "${COMP_WORDS[@]:1:COMP_CWORD-1}"; do
     if ! grep -qxF -- "$previous" <<< "$valued" && grep -qxF -- "$word" <<< "$commands"; then
-      command=$word
-      break
+      command+=("$word")
+      commands=$(_dembuf_commands "$program" "${command[@]}")
+      valued=$("$program" "${command[@]}" --help 2>/dev/null | _dembuf_valued_options)
     fi
     previous=$word
   done
@@ -60,13 +66,9 @@ _dembuf() {
       ;;
   esac
   if [[ $current == -* ]]; then
-    if [ -n "$command" ]; then
-      words=$("$program" "$command" --help 2>/dev/null | _dembuf_options)
-    else
-      words=$("$program" --help 2>/dev/null | _dembuf_options)
-    fi
-  elif [ -z "$command" ] && [ -n "$commands" ]; then
-    words=$commands
+    words=$("$program" "${command[@]}" --help 2>/dev/null | _dembuf_options)
+  elif [ -n "$commands" ]; then
+    words=$commands  # the commands, or the subcommands of the command given
   else
     return 0  # scene files, folders, ids: bash's own completion (-o default)
   fi

@@ -18,22 +18,37 @@ as_troff() {
   sed -e 's/\\/\\e/g' -e "s/^\([.']\)/\\\\\&\1/"
   echo ".fi"
 }
-# The commands of a program: the first words of the lines under "Subcommands:".
+# Lines "TERM<tab>TEXT" as a troff list of terms, each followed by its text (escaped).
+as_term_list() {
+  awk -F'\t' '{
+    text = $2; gsub(/\\/, "\\e", text)
+    if (text ~ /^[.\x27]/) text = "\\&" text
+    print ".TP"; print ".B " $1; print text }'
+}
+# The commands of a program and their subcommands, as the completion reads them (one list).
+# shellcheck source=dembuf-completion.bash
+. "$(dirname "$0")/dembuf-completion.bash"
 commands_of() {
-  "$1" --help | awk '/^Subcommands:/ { in_list = 1; next }
-                     in_list && /^  [a-z]/ { print $1 }
-                     in_list && /^$/ { in_list = 0 }'
+  local command sub
+  for command in $(_dembuf_commands "$1"); do
+    # (An alias is the same command: "bed, beds" is described once.)
+    "$1" --help | grep -qE "^  ([a-z-]+, )*$command(,|  )" || continue
+    "$1" --help | grep -qE "^  [a-z-]+, ([a-z-]+, )*$command(,|  )" && continue
+    echo "$command"
+    for sub in $(_dembuf_commands "$1" "$command"); do echo "$command $sub"; done
+  done
 }
 
 describe() {
   local program=$1 name=$2 summary=$3 environment=$4 extra=${5:-}
   {
     echo "[COMMANDS]"
-    for command in $(commands_of "$program"); do
-      echo ".SS $command"
+    local command
+    while read -r -a command; do
+      echo ".SS ${command[*]}"
       # (Usage lines name the program as it was called: by its name here, not its path.)
-      "$program" "$command" --help | tail -n +2 | sed "s|$program |$name |" | as_troff
-    done
+      "$program" "${command[@]}" --help | tail -n +2 | sed "s|$program |$name |" | as_troff
+    done < <(commands_of "$program")
     [ -z "$extra" ] || "$extra" "$program"
     echo "[ENVIRONMENT]"
     echo "$environment"
@@ -66,17 +81,16 @@ EXAMPLES
   echo "Every field of a scene file, by its dotted name as --set and --vary take it, with its"
   echo "unit, its allowed range (or values) and its meaning."
   # (awk, not read: a field without a unit or a range has empty columns between its tabs.)
-  "$program" scene --list fields | awk -F'\t' '{
-    text = ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4
-    gsub(/\\/, "\\e", text)
-    if (text ~ /^[.\x27]/) text = "\\&" text
-    print ".TP"; print ".B " $1; print text }'
+  "$program" scene --list fields |
+    awk -F'\t' '{ print $1 "\t" ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4 }' |
+    as_term_list
   echo ".PP"
-  echo "Presets (--preset): $("$program" scene --list presets | tr '\n' ' ')"
-  echo ".br"
   echo "Accuracies (--accuracy): $("$program" scene --list accuracies | cut -f1 | tr '\n' ' ')"
   echo ".br"
   echo "Bed formats (bed export --format): $("$program" scene --list formats | cut -f1 | tr '\n' ' ')"
+  echo "[PRESETS]"
+  echo "The scenes --preset starts from (scenes/*.toml of the sources), each with its first sentence."
+  "$program" scene --list presets | as_term_list
 }
 
 describe "$dembuf" dembuf "DEM simulation of impacts on granular buffer layers" '.TP

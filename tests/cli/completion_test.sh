@@ -31,6 +31,14 @@ complete_words "$dembuf" --server run list --st | grep -qx -- --state ||
 if complete_words "$dembuf" list --st | grep -qx -- --out; then fail "list offers run's --out"; fi
 complete_words "$dembufd" --ht | grep -qx -- --http || fail "dembufd --ht<Tab> lacks --http"
 complete_words "$dembufd" token | grep -qx token-create || fail "dembufd token<Tab>"
+# A command's aliases are commands ("bed, beds" offered "bed,"), and a command's subcommands
+# follow it (dembuf bed <Tab> offered the top-level commands), with their own options.
+[ "$(complete_words "$dembuf" be | tr '\n' ' ')" = "bed beds " ] ||
+  fail "dembuf be<Tab>: $(complete_words "$dembuf" be | tr '\n' ' ')"
+[ "$(complete_words "$dembuf" bed "" | tr '\n' ' ')" = "export push " ] ||
+  fail "dembuf bed <Tab>: $(complete_words "$dembuf" bed "" | tr '\n' ' ')"
+complete_words "$dembuf" beds export --fo | grep -qx -- --format ||
+  fail "dembuf beds export --fo<Tab> lacks --format"
 # The values: presets, accuracies, formats and scene fields (they completed nothing).
 [ "$(complete_words "$dembuf" run --preset e | tr '\n' ' ')" = "e1 e2 e2-heavy-beads e2-local-damping e2-steel-mix e2-steel-under-glass e2-viscous-damping e3 e4 e5 " ] ||
   fail "dembuf run --preset e<Tab>: $(complete_words "$dembuf" run --preset e)"
@@ -49,7 +57,7 @@ for page in dembuf dembufd; do
     fail "$page.1 does not render: $(cat "$work/$page.err")"
 done
 for text in "--find-hc" "--json" "DEMBUF_PROGRESS_S" "SIGTERM" "Usage: dembuf run" "EXAMPLES" \
-  "SCENE FIELDS" "bed.thickness_m" "[m] [0 to 10]: settled bed thickness H" "Presets (--preset): e1" \
+  "SCENE FIELDS" "bed.thickness_m" "[m] [0 to 10]: settled bed thickness H" "PRESETS" "e2-steel-mix" \
   "Bed formats (bed export --format): text lammps vtp"; do
   grep -qF -- "$text" "$work/dembuf.txt" || fail "dembuf.1 lacks $text"
 done

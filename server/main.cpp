@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   }
   if (args.token_create->parsed() || args.token_revoke->parsed() || args.token_list->parsed())
     return TokenCommand(config, args);
+  if (args.check_config) return CheckConfig(config);
   if (args.check_db) return CheckDatabase(config);
   return Serve(config);
 }

@@ -95,28 +95,13 @@ std::vector<ConfigSetting> ConfigSettings(ServerConfig& config) {
 
 }  // namespace
 
-void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config) {
-  toml::value root;
-  try {
-    CheckTomlText(text, "configuration " + path, ConfigLimits());
-    std::istringstream in(text);
-    root = toml::parse(in, path);
-  } catch (const InputLimitError& e) {
-    throw ConfigError(e.what());
-  } catch (const std::exception& e) {
-    throw ConfigError("configuration " + path + ": " + e.what());
-  }
+namespace {
+
+// Sets each (key, value) through the table of settings; `origin` names where they came from
+// in messages ("configuration /etc/dembuf/dembufd.toml", "--setting").
+void ApplyEntries(const std::vector<std::pair<std::string, const toml::value*>>& entries,
+                  const std::string& origin, ServerConfig& config) {
   const std::vector<ConfigSetting> settings = ConfigSettings(config);
-  // The settings with their tables' names: [slurm] work_dir = ... is "slurm.work_dir".
-  std::vector<std::pair<std::string, const toml::value*>> entries;
-  for (const auto& [key, value] : root.as_table()) {
-    if (key == "slurm" && value.is_table()) {
-      for (const auto& [inner, inner_value] : value.as_table())
-        entries.push_back({"slurm." + inner, &inner_value});
-    } else {
-      entries.push_back({key, &value});
-    }
-  }
   for (const auto& entry : entries) {
     // (Named references, not a structured binding: clang 14 cannot capture one.)
     const std::string& key = entry.first;
@@ -124,11 +109,10 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
     const auto setting = std::find_if(settings.begin(), settings.end(),
                                       [&](const auto& s) { return s.first == key; });
     if (key == "require_tokens")
-      throw ConfigError("configuration " + path +
+      throw ConfigError(origin +
                         ": require_tokens is replaced by access: \"tokens\" (the default: every "
                         "request on every address carries a token) or \"local\"");
-    if (setting == settings.end())
-      throw ConfigError("configuration " + path + ": unknown setting \"" + key + "\"");
+    if (setting == settings.end()) throw ConfigError(origin + ": unknown setting \"" + key + "\"");
     if (key == "workers" && value.is_string()) {  // "auto", or a number
       config.workers = ParseWorkers(value.as_string());
       continue;
@@ -146,11 +130,75 @@ void LoadConfigText(const std::string& text, const std::string& path, ServerConf
           try {
             *target = toml::get<T>(value);
           } catch (const std::exception&) {
-            throw ConfigError("configuration " + path + ": " + key + " has the wrong type");
+            throw ConfigError(origin + ": " + key + " has the wrong type");
           }
         },
         setting->second);
   }
+}
+
+}  // namespace
+
+void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config) {
+  toml::value root;
+  try {
+    CheckTomlText(text, "configuration " + path, ConfigLimits());
+    std::istringstream in(text);
+    root = toml::parse(in, path);
+  } catch (const InputLimitError& e) {
+    throw ConfigError(e.what());
+  } catch (const std::exception& e) {
+    throw ConfigError("configuration " + path + ": " + e.what());
+  }
+  // The settings with their tables' names: [slurm] work_dir = ... is "slurm.work_dir".
+  std::vector<std::pair<std::string, const toml::value*>> entries;
+  for (const auto& [key, value] : root.as_table()) {
+    if (key == "slurm" && value.is_table()) {
+      for (const auto& [inner, inner_value] : value.as_table())
+        entries.push_back({"slurm." + inner, &inner_value});
+    } else {
+      entries.push_back({key, &value});
+    }
+  }
+  ApplyEntries(entries, "configuration " + path, config);
+}
+
+void ApplySettingFlag(const std::string& assignment, ServerConfig& config) {
+  const std::size_t eq = assignment.find('=');
+  const std::string origin = "--setting " + assignment.substr(0, std::min<std::size_t>(eq, 64));
+  if (eq == std::string::npos || eq == 0)
+    throw ConfigError(origin +
+                      ": give KEY=VALUE, a key of the configuration file (slurm.KEY "
+                      "for its [slurm] table), as in --setting quota_beads=2e6");
+  const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  if (std::any_of(text.begin(), text.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; }))
+    throw ConfigError(origin + ": the value has a control character");
+  // The value as the file would write it (2e6, true, ["--qos=x"], "text"); text that is not a
+  // TOML value is the text itself: --setting slurm.partition=debug.
+  toml::value value;
+  try {
+    const std::string line = "v = " + text;
+    CheckTomlText(line, origin, ConfigLimits());
+    std::istringstream in(line);
+    const toml::value parsed = toml::parse(in, "--setting");
+    if (parsed.as_table().size() != 1) throw std::invalid_argument("one value");
+    value = parsed.as_table().at("v");
+  } catch (const std::exception&) {
+    value = toml::value(text);
+  }
+  ApplyEntries({{key, &value}}, origin, config);
+}
+
+std::string ConfigText(const ServerConfig& resolved) {
+  ServerConfig config = resolved;  // the table points into a config it may change
+  std::string top, slurm;
+  for (const auto& [key, target] : ConfigSettings(config)) {
+    const toml::value value = std::visit([](auto* v) { return toml::value(*v); }, target);
+    const bool in_slurm = key.rfind("slurm.", 0) == 0;
+    (in_slurm ? slurm : top) +=
+        (in_slurm ? key.substr(6) : key) + " = " + toml::format(value) + "\n";
+  }
+  return top + "\n[slurm]\n" + slurm;
 }
 
 int ParseWorkers(const std::string& text) {

@@ -97,6 +97,14 @@ void LoadConfigFile(const std::string& path, ServerConfig& config);
 /// The same for the file's text (`path` names it in messages).
 void LoadConfigText(const std::string& text, const std::string& path, ServerConfig& config);
 
+/// Applies one `--setting KEY=VALUE` flag: any key of the configuration file (slurm.KEY for the
+/// [slurm] table), the value as TOML or, when it is not a TOML value, as text. Throws
+/// ConfigError naming the key as the file's settings do.
+void ApplySettingFlag(const std::string& assignment, ServerConfig& config);
+
+/// Every setting as a configuration file would say it (dembufd --check-config prints it).
+std::string ConfigText(const ServerConfig& config);
+
 /// The port of a listen address "HOST:PORT" or "[IPv6]:PORT" (0: any free port); -1 for a
 /// "unix:PATH" socket. Throws ConfigError naming `listen` for anything else.
 /// A worker count as written in the configuration or on the command line: 1 to 256, or

@@ -36,6 +36,8 @@ struct DaemonArgs {
   std::string user;
   bool admin = false;
   bool check_db = false;
+  bool check_config = false;
+  std::vector<std::string> settings;  ///< --setting KEY=VALUE, in order
 };
 
 /// Declares dembufd's options and commands on `app`, read into `args`.
@@ -45,6 +47,8 @@ ServerConfig ResolveConfig(const DaemonArgs& args);
 
 /// token-create, token-revoke or token-list on the configured database.
 int TokenCommand(const ServerConfig& config, const DaemonArgs& args);
+/// --check-config: the settings resolved and checked, printed as a configuration file.
+int CheckConfig(const ServerConfig& config);
 /// --check-db: the database checked offline against its checksums.
 int CheckDatabase(const ServerConfig& config);
 /// Serves until a stop signal; the exit code.

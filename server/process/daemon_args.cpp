@@ -57,6 +57,13 @@ void SetupDaemonArgs(CLI::App& app, DaemonArgs& args) {
   AddSetting(app, args, "--executor", &ServerConfig::executor,
              "where jobs run: threads (this machine) or slurm (the cluster of the "
              "configuration's [slurm] table)");
+  app.add_option("--setting", args.settings,
+                 "any setting of the configuration file as KEY=VALUE (slurm.KEY for its [slurm] "
+                 "table; repeatable): --setting quota_beads=2e6 --setting slurm.partition=debug; "
+                 "the named flags above override it");
+  app.add_flag("--check-config", args.check_config,
+               "check the configuration (file, --setting and flags), print every setting as a "
+               "configuration file would, and exit: 0 valid, 2 not");
   // Token administration: works on the database, does not start the server.
   args.token_create = app.add_subcommand("token-create", "make (or replace) a user's API token");
   args.token_create->add_option("name", args.user, "user name")->required();
@@ -74,6 +81,7 @@ void SetupDaemonArgs(CLI::App& app, DaemonArgs& args) {
 ServerConfig ResolveConfig(const DaemonArgs& args) {
   ServerConfig config;
   if (!args.config_file.empty()) LoadConfigFile(args.config_file, config);
+  for (const std::string& setting : args.settings) ApplySettingFlag(setting, config);
   for (const auto& [option, set] : args.given)
     if (option->count() > 0) set(config);
   ValidateConfig(config);
@@ -109,6 +117,12 @@ int TokenCommand(const ServerConfig& config, const DaemonArgs& args) {
     std::cerr << "dembufd: " << e.what() << "\n";
     return kDaemonRuntime;
   }
+}
+
+int CheckConfig(const ServerConfig& config) {
+  std::printf("%s", ConfigText(config).c_str());
+  std::fprintf(stderr, "dembufd: the configuration is valid\n");
+  return kDaemonDone;
 }
 
 int CheckDatabase(const ServerConfig& config) {

@@ -23,6 +23,8 @@ packages=("$@")
   haproxy
   # the Python package: data frames, the worked example's plots, VTK to read files back
   python3-pandas python3-matplotlib python3-vtk9
+  # packaging: the Debian package (dpkg-shlibdeps) and the wheel, tried in a venv
+  dpkg-dev python3-pip python3-venv python3-setuptools python3-wheel
   # LAMMPS: the peer of the speed benchmark, and the reader of exported beds
   lammps
 )

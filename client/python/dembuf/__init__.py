@@ -12,9 +12,29 @@ results, from the daemon or from a local run's folder, as pandas DataFrames.
     beads = dembuf.read_vtp(frames.file.iloc[-1])        # one frame's beads as a DataFrame
 """
 
-from .client import Client, DembufError, Sample, connect
+from ._version import __version__
 from .frames import SERIES_COLUMNS, Run, read_points, read_run, read_sweep
 from .vtp import read_contacts_vtp, read_pvd, read_vtp
+
+# The client of a dembufd needs grpcio and protobuf; the readers above do not. It is imported
+# when first named (PEP 562), so that `import dembuf` works in a Python without gRPC.
+_CLIENT_NAMES = ("Client", "DembufError", "Sample", "connect")
+
+
+def __getattr__(name):
+    if name not in _CLIENT_NAMES:
+        raise AttributeError(f"module 'dembuf' has no attribute {name!r}")
+    try:
+        from . import client
+    except ImportError as e:
+        missing = getattr(e, "name", None) or str(e)
+        raise ImportError(
+            f"dembuf.{name} talks to a dembufd and needs grpcio and protobuf ({missing} is "
+            "missing): pip install 'dembuf[server]', or on Debian apt install python3-grpcio "
+            "python3-protobuf; dembuf.read_run and the other readers work without them"
+        ) from e
+    return getattr(client, name)
+
 
 __all__ = [
     "Client",
@@ -22,6 +42,7 @@ __all__ = [
     "Run",
     "SERIES_COLUMNS",
     "Sample",
+    "__version__",
     "connect",
     "read_contacts_vtp",
     "read_points",

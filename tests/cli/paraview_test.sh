@@ -107,4 +107,25 @@ if command -v lmp > /dev/null; then
 else
   echo "LAMMPS (lmp) not installed: its reading of the exported bed not checked"
 fi
+# The same frames as LAMMPS dumps (output.frame_format, for OVITO): one a frame, of the VTK
+# frame's atoms (the beads and the projectile) at its time; the last imports as a bed (the
+# project's reader of LAMMPS dumps: TIME before TIMESTEP, the projectile as the atom of type 4).
+"$dembuf" run "${small[@]}" --set output.animation_interval_s=0.0005 --set time.impact_window_s=0.004 \
+  --set output.frame_format=lammps --bed-cache "$work/beds" --no-plots --out "$work/dumps" \
+  > "$work/dumps.log" 2>&1 || { cat "$work/dumps.log"; fail "run with frame_format lammps"; }
+[ ! -e "$work/dumps/frames.pvd" ] || fail "frame_format lammps wrote frames.pvd"
+vtps=$(cd "$work/run/frames" && ls ./*.vtp | sed 's/\.vtp$//')
+[ "$vtps" = "$(cd "$work/dumps/frames" && ls ./*.dump | sed 's/\.dump$//')" ] ||
+  fail "the dumps are not the VTK frames: $(ls "$work/dumps/frames")"
+for frame in $vtps; do
+  points=$(grep -a -o 'NumberOfPoints="[0-9]*"' "$work/run/frames/$frame.vtp" | head -1 | tr -dc 0-9)
+  atoms=$(sed -n '/^ITEM: NUMBER OF ATOMS/{n;p;}' "$work/dumps/frames/$frame.dump")
+  [ "$points" = "$atoms" ] || fail "$frame: $atoms atoms, $points VTK points"
+  [ "$(grep -c . "$work/dumps/frames/$frame.dump")" = $((atoms + 9 + 2)) ] || fail "$frame's lines"
+done
+last=$(ls "$work/dumps/frames/"*.dump | tail -1)
+"$dembuf" bed export "${small[@]}" --set bed.import="$last" --set bed.import_overlaps=relax \
+  --bed-cache "$work/beds" --format text --out "$work/frame_bed.txt" > "$work/import.log" 2>&1 ||
+  fail "the last dump does not import as a bed: $(cat "$work/import.log")"
+
 echo "1 passed, 0 failed"

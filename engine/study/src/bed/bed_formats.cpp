@@ -365,6 +365,12 @@ std::vector<BeadRecord> ReadLammpsDump(Lines& lines, double metres, double max_b
   std::vector<BeadRecord> last;
   for (std::string raw; lines.Next(raw);) {
     if (Words(raw).empty()) continue;
+    // A frame's units and time (dump_modify units yes, time yes) come before its timestep.
+    if (raw.rfind("ITEM: UNITS", 0) == 0 ||
+        (raw.rfind("ITEM: TIME", 0) == 0 && raw.rfind("ITEM: TIMESTEP", 0) != 0)) {
+      if (!lines.Next(raw)) lines.Fail("the dump ends where a value of its item was expected");
+      continue;
+    }
     if (raw.rfind("ITEM: TIMESTEP", 0) != 0)
       lines.Fail("expected \"ITEM: TIMESTEP\", the start of a frame of a LAMMPS dump");
     last = ReadDumpFrame(lines, metres, max_beads);
@@ -384,7 +390,9 @@ BeadRecords ReadBeadRecords(std::istream& in, const std::string& name, const std
   const auto first = std::find_if(head.begin(), head.end(),
                                   [](const std::string& line) { return !Words(line).empty(); });
   BeadRecords records;
-  if (first != head.end() && first->rfind("ITEM: TIMESTEP", 0) == 0) {
+  if (first != head.end() &&
+      (first->rfind("ITEM: TIMESTEP", 0) == 0 || first->rfind("ITEM: TIME", 0) == 0 ||
+       first->rfind("ITEM: UNITS", 0) == 0)) {
     records.format = BedFileFormat::kLammpsDump;
     records.beads = ReadLammpsDump(lines, metres, max_beads);
   } else if (LooksLikeLammpsData(head)) {

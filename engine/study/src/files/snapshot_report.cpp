@@ -184,12 +184,16 @@ std::vector<ResultFile> ParaViewFiles::AddSnapshot(const ImpactSnapshot& snap) {
 std::vector<ResultFile> ParaViewFiles::AddFrame(const ImpactSnapshot& frame) {
   std::vector<ResultFile> files;
   AddContainerOnce(files);
-  const std::string path = "frames/" + SafeLabel(frame.label) + ".vtp";
+  const std::string path = FramePath(frame, ".vtp");
   m_frames.push_back({frame.t_s, 0, path});
   m_frames.push_back({frame.t_s, 1, "container.vtp"});
   files.push_back({path, BeadsVtp(frame)});
   files.push_back({"frames.pvd", Pvd(m_frames)});
   return files;
+}
+
+std::string FramePath(const ImpactSnapshot& frame, std::string_view extension) {
+  return "frames/" + SafeLabel(frame.label) + std::string(extension);
 }
 
 bool IsSafeResultPath(std::string_view path) {
@@ -221,11 +225,15 @@ bool IsResultFileName(std::string_view path) {
   if (path == run_files::kPlateForceBare || path == "snapshots.pvd" || path == "frames.pvd" ||
       path == "container.vtp")
     return true;
-  constexpr std::string_view kSnapshots = "snapshots/", kFrames = "frames/", kVtp = ".vtp";
+  constexpr std::string_view kSnapshots = "snapshots/", kFrames = "frames/";
   if (path.substr(0, kFrames.size()) == kFrames) {
     const std::string_view name = path.substr(kFrames.size());
-    return name.size() > kVtp.size() && name.substr(name.size() - kVtp.size()) == kVtp &&
-           IsLabel(name.substr(0, name.size() - kVtp.size()));
+    for (const std::string_view extension : {".vtp", ".dump"})  // FramePath's
+      if (name.size() > extension.size() &&
+          name.substr(name.size() - extension.size()) == extension &&
+          IsLabel(name.substr(0, name.size() - extension.size())))
+        return true;
+    return false;
   }
   if (path.substr(0, kSnapshots.size()) != kSnapshots) return false;
   const std::string_view rest = path.substr(kSnapshots.size());

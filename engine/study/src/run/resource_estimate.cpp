@@ -10,6 +10,7 @@
 #include "dembuf/core/time_step.h"
 #include "dembuf/study/bed/bed.h"
 #include "dembuf/study/bed/bed_io.h"
+#include "dembuf/study/files/lammps_frames.h"
 #include "dembuf/study/files/vtk_files.h"
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/scene/bed_plan.h"
@@ -76,6 +77,13 @@ std::string Short(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", v);
   return buf;
+}
+
+// An animation frame's bytes per bead, in the formats the scene asks for.
+double FrameBytesPerBead(const Scene& scene) {
+  const std::string& format = scene.output.frame_format;
+  return (format != "lammps" ? report::kVtpBytesPerBead : 0.0) +
+         (format != "vtp" ? report::kDumpBytesPerBead : 0.0);
 }
 
 bool Skipped(const StageEstimate& stage, const std::vector<std::string>& skip) {
@@ -181,7 +189,7 @@ void EstimateBytes(const Scene& scene, double one_pass, double bed_top_m, double
       kRunFileBytes + e.samples_max * kBytesPerSample +
       e.snapshots *
           (e.impact_beads * kSnapshotFileBytesPerBead + plate_cells * kSnapshotFileBytesPerCell) +
-      e.animation_frames * ((e.impact_beads + 1) * report::kVtpBytesPerBead + kPvdBytesPerEntry);
+      e.animation_frames * ((e.impact_beads + 1) * FrameBytesPerBead(scene) + kPvdBytesPerEntry);
   // The bare-plate impact's samples (plate_force_bare.csv), over one impact window at most.
   if (e.impact_beads > 0 && projectile)
     e.output_bytes_max +=
@@ -348,7 +356,7 @@ void CheckResources(const ResourceEstimate& e, const ResourceLimits& limits, con
   if (over(e.output_bytes_max, limits.output_bytes)) {
     // The field of the largest part of the files.
     const double samples = e.samples_max * kBytesPerSample;
-    const double frames = e.animation_frames * (e.impact_beads + 1) * report::kVtpBytesPerBead;
+    const double frames = e.animation_frames * (e.impact_beads + 1) * FrameBytesPerBead(scene);
     const double snapshots = e.snapshots > 0 ? e.output_bytes_max - samples - frames : 0.0;
     const char* field = frames >= std::max(samples, snapshots) ? "output.animation_interval_s"
                         : snapshots > samples                  ? "output.snapshot_times_s"

@@ -25,7 +25,19 @@ ImpactSummary RunJob(const Scene& scene, BedCache& beds, const JobControl& contr
   impact.on_snapshot = [&](const ImpactSnapshot& snap) {
     recorder.Files(paraview.AddSnapshot(snap));
   };
-  impact.on_frame = [&](const ImpactSnapshot& frame) { recorder.Files(paraview.AddFrame(frame)); };
+  // The frames in the formats asked for: ParaView's, LAMMPS dumps (for OVITO), or both.
+  const std::string& frame_format = scene.output.frame_format;
+  std::int64_t frame_number = 0;
+  impact.on_frame = [&](const ImpactSnapshot& frame) {
+    std::vector<report::ResultFile> files;
+    if (frame_format != "lammps") files = paraview.AddFrame(frame);
+    if (frame_format != "vtp")
+      files.push_back({report::FramePath(frame, ".dump"),
+                       report::LammpsDumpFrame(frame, frame_number, scene.cylinder.radius_m,
+                                               scene.cylinder.height_m)});
+    ++frame_number;
+    recorder.Files(files);
+  };
   impact.steering = control.steering;
   impact.beds = &beds;
   impact.bed_request = &bed_request;

@@ -208,6 +208,11 @@ std::vector<SceneField> ImpactFields() {
        "spacing of animation frames of the beads during the impact (frames/, for ParaView); "
        "0 = none",
        Shapes::kOutput, DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
+      {"output.frame_format", "",
+       "the animation frames' files: vtp (frames/*.vtp and frames.pvd, for ParaView), lammps "
+       "(frames/*.dump, LAMMPS dump files for OVITO) or both",
+       Shapes::kOutput, DEMBUF_FIELD(output.frame_format), 0.0, 0.0, false, false,
+       {"vtp", "lammps", "both"}},
   });
   return fields;
 }

@@ -59,6 +59,10 @@ class ParaViewFiles {
   std::vector<PvdEntry> m_snapshots, m_frames;
 };
 
+/// An animation frame's file: frames/LABEL.vtp or frames/LABEL.dump (extension ".vtp" or
+/// ".dump", the only ones IsResultFileName allows), LABEL as SafeLabel makes it.
+std::string FramePath(const ImpactSnapshot& frame, std::string_view extension);
+
 /// Whether `path` may name a result file: relative, made of folder and file names of letters,
 /// digits, '.', '-' and '_' (none of them "." or ".."), at most kMaxResultPathLength long and
 /// kMaxResultPathDepth deep. Result files come from a cluster's shared folder and from a
@@ -73,9 +77,9 @@ const std::vector<std::string>& ResultFileRoots();
 
 /// Whether `path` is the name of a result file a run writes besides its series and summary:
 /// plate_force_bare.csv, snapshots.pvd, frames.pvd, container.vtp, snapshots/LABEL/ one of the
-/// files of SnapshotFiles, or frames/LABEL.vtp, LABEL as SafeLabel makes it (never starting with a
-/// dot). An allow-list, not a rule about characters: what a server or a cluster's folder
-/// sends under any other name (.git/config, .envrc, a/b where a is a file) is refused.
+/// files of SnapshotFiles, or frames/LABEL.vtp or .dump, LABEL as SafeLabel makes it (never
+/// starting with a dot). An allow-list, not a rule about characters: what a server or a cluster's
+/// folder sends under any other name (.git/config, .envrc, a/b where a is a file) is refused.
 bool IsResultFileName(std::string_view path);
 
 /// Writes the files under `dir` (each atomically), creating their folders. Throws

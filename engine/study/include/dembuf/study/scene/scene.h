@@ -192,6 +192,8 @@ struct OutputSpec {
   /// Spacing of the animation frames of the beads during the impact (frames/*.vtp and
   /// frames.pvd, for ParaView); 0: none.
   double animation_interval_s = 0.0;
+  /// The frames' files: "vtp" (ParaView), "lammps" (frames/*.dump, for OVITO) or "both".
+  std::string frame_format = "vtp";
 };
 
 /// The most animation frames a run writes (output.animation_interval_s).

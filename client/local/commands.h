@@ -25,7 +25,9 @@ struct CommandOptions {
   std::string bed_cache;
   bool no_bed_cache = false;
   std::vector<std::string> vary;
-  std::string find_hc;  ///< "LOW:HIGH[:TOLERANCE]" in metres: dembuf sweep --find-hc
+  std::string table;        ///< sweep --table: a file of chosen points (ParseSweepTable)
+  bool long_table = false;  ///< sweep --long: also sweep_long.csv (WriteSweepLongTable)
+  std::string find_hc;      ///< "LOW:HIGH[:TOLERANCE]" in metres: dembuf sweep --find-hc
   int seeds = 1;
   int jobs = 0;       ///< sweep runs at once; 0: one per usable CPU
   int plan_cpus = 0;  ///< sweep --dry-run: plan for this many CPUs (0: this machine's)

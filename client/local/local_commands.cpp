@@ -115,6 +115,13 @@ void AddSweep(CLI::App& app, CommandOptions& opt, CommandTable& commands) {
       ->add_option("--vary", opt.vary,
                    "dotted.field=START:STOP:STEP or dotted.field=v1,v2,... (repeatable)")
       ->allow_extra_args(false);
+  sweep->add_option("--table", opt.table,
+                    "a file of chosen points: a header of field names, then a row of values per "
+                    "point, tab- or comma-separated (bed.seed may be a column; else --seeds); "
+                    "multiplied by each --vary");
+  sweep->add_flag("--long", opt.long_table,
+                  "also write every sample of every run as one tidy table, sweep_long.csv "
+                  "(run, the swept fields, then plate_force.csv's columns)");
   sweep->add_option("--find-hc", opt.find_hc,
                     "LOW:HIGH[:TOL] (m): find Hc by bisection of bed.thickness_m in that range "
                     "(P within 10% of its value at HIGH), to TOL (default 0.001)");

@@ -55,20 +55,8 @@ HcSearchOptions ParseHcRange(const std::string& text) {
   return o;
 }
 
-}  // namespace
-
-int SweepCommand(const CommandOptions& opt) {
-  ReportDestination report(opt);
-  RequireJoinedAssignments("--vary", opt.vary, opt.scene_file);
-  const Scene base = ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
-  SweepOptions sweep;
-  std::optional<HcSearchOptions> hc_search;
-  if (!opt.find_hc.empty()) {
-    if (!opt.vary.empty())
-      throw SceneError("--find-hc", "it varies bed.thickness_m itself; leave out --vary");
-    hc_search = ParseHcRange(opt.find_hc);
-  }
-  for (const auto& spec : opt.vary) sweep.axes.push_back(ParseSweepAxis(spec));
+// --seeds, --jobs and --plan-cpus within their ranges.
+void CheckSweepCounts(const CommandOptions& opt) {
   if (const std::string problem = SweepSeedsProblem(opt.seeds); !problem.empty())
     throw SceneError("--seeds", problem);
   if (opt.jobs < 0 || opt.jobs > 256)
@@ -78,7 +66,35 @@ int SweepCommand(const CommandOptions& opt) {
     throw SceneError("--plan-cpus", std::to_string(opt.plan_cpus) +
                                         (opt.dry_run ? " is out of range: 1 to 1024"
                                                      : ": it plans a dry run; add --dry-run"));
+}
+
+// The sweep's axes: the columns of --table first (read row by row), then each --vary.
+std::vector<SweepAxis> SweepAxesOf(const CommandOptions& opt, std::size_t* table_columns) {
+  std::vector<SweepAxis> axes;
+  if (!opt.table.empty()) axes = TableAxes(ReadSweepTableFile(opt.table));
+  *table_columns = axes.size();
+  for (const auto& spec : opt.vary) axes.push_back(ParseSweepAxis(spec));
+  return axes;
+}
+
+}  // namespace
+
+int SweepCommand(const CommandOptions& opt) {
+  ReportDestination report(opt);
+  RequireJoinedAssignments("--vary", opt.vary, opt.scene_file);
+  const Scene base = ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);
+  SweepOptions sweep;
+  std::optional<HcSearchOptions> hc_search;
+  if (!opt.find_hc.empty()) {
+    if (!opt.vary.empty() || !opt.table.empty())
+      throw SceneError("--find-hc",
+                       "it varies bed.thickness_m itself; leave out --vary and --table");
+    hc_search = ParseHcRange(opt.find_hc);
+  }
+  sweep.axes = SweepAxesOf(opt, &sweep.table_columns);
+  CheckSweepCounts(opt);
   sweep.seeds = opt.seeds;
+  sweep.long_table = opt.long_table;
   sweep.jobs = opt.jobs > 0 ? opt.jobs : std::min(256, dem::UsableCpus());
   sweep.command_line = opt.command_line;
   sweep.status = GetVerbosity() == Verbosity::kQuiet ? nullptr : stderr;
@@ -91,15 +107,17 @@ int SweepCommand(const CommandOptions& opt) {
   // The search's cost: its deepest bed for every seed, at each of the runs it may make (the
   // two ends and each halving of the range down to the tolerance).
   std::vector<SweepAxis> planned = sweep.axes;
+  std::size_t planned_table = sweep.table_columns;
   int repeats = 1;
   if (hc_search) {
     planned = {MakeSweepAxis("bed.thickness_m", {std::to_string(hc_search->high_m)}, "")};
+    planned_table = 0;
     const int halvings = static_cast<int>(
         std::ceil(std::log2((hc_search->high_m - hc_search->low_m) / hc_search->tolerance_m)));
     repeats = 2 + std::min(halvings, hc_search->max_steps);
   }
   const std::vector<SweepRun> planned_runs =
-      ExpandSweep(base, WithSeedAxis(planned, opt.seeds, base.bed.seed));
+      ExpandSweep(base, WithSeedAxis(planned, opt.seeds, base.bed.seed), 100000, {}, planned_table);
   for (const SweepRun& run : planned_runs) {
     for (int k = 0; k < repeats; ++k) {
       scenes.push_back(run.scene);

@@ -33,6 +33,7 @@
 #include "local/scene_input.h"
 #include "remote/remote_json.h"
 #include "terminal/exit_codes.h"
+#include "terminal/interrupts.h"
 #include "terminal/progress.h"
 
 namespace dembuf::cli {
@@ -566,9 +567,17 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::stri
 }
 
 int RemoteSweep(const Remote& remote, const RemoteScene& scene,
-                const std::vector<std::string>& vary, int seeds, const std::string& name,
-                bool json) {
+                const std::vector<std::string>& vary, const std::string& table, int seeds,
+                const std::string& name, bool json) {
   v1::SubmitSweepRequest request;
+  if (!table.empty()) {  // read here, checked by the daemon
+    const SweepTable points = ReadSweepTableFile(table);
+    for (const std::string& field : points.fields) request.mutable_table()->add_fields(field);
+    for (const auto& row : points.rows) {
+      v1::SweepRow* out = request.mutable_table()->add_rows();
+      for (const std::string& value : row) out->add_values(value);
+    }
+  }
   RequireJoinedAssignments("--vary", vary, scene.scene_file);
   if (grpc::Status s = MakeSceneSpec(remote, scene, request.mutable_base()); !s.ok())
     return Report(remote, s);
@@ -800,6 +809,46 @@ void PrintFinalNumbers(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_
               100 * number("lambda"));
 }
 
+int RemoteWatchSweep(const Remote& remote, std::int64_t id) {
+  auto stub = Connect(remote);
+  CatchInterrupts();
+  const double interval_s = std::max(0.2, PlainProgressInterval() / 5);
+  std::string last;
+  while (true) {
+    grpc::ClientContext context;
+    Prepare(context, remote);
+    v1::GetSweepRequest request;
+    request.set_id(id);
+    v1::Sweep s;
+    if (const grpc::Status status = stub->GetSweep(&context, request, &s); !status.ok())
+      return Report(remote, status);
+    // The server's counts, checked before they are added up.
+    std::map<std::string, int> counts;
+    long long ended = 0, total = s.jobs_total();
+    for (const auto& [state, count] : s.jobs_by_state()) {
+      bool known = false;
+      for (int k = v1::JOB_STATE_QUEUED; k <= v1::JOB_STATE_CANCELLED; ++k)
+        known = known || state == api::StateText(static_cast<v1::JobState>(k));
+      if (count < 0 || count > 1000000 || !known) {
+        std::fprintf(stderr, "dembuf: the server sent a bad count of sweep %lld's jobs\n",
+                     static_cast<long long>(id));
+        return kExitRuntime;
+      }
+      counts[state] = count;
+      if (state == "done" || state == "failed" || state == "cancelled") ended += count;
+    }
+    std::string line = "sweep " + std::to_string(id) + ": " + std::to_string(ended) + " of " +
+                       std::to_string(total) + " jobs ended";
+    for (const auto& [state, count] : counts) line += ", " + state + " " + std::to_string(count);
+    if (line != last) std::printf("%s\n", line.c_str());
+    std::fflush(stdout);
+    last = line;
+    if (ended >= total) return counts["failed"] + counts["cancelled"] == 0 ? 0 : kExitFailed;
+    if (Interrupted()) return InterruptedExit();
+    std::this_thread::sleep_for(std::chrono::duration<double>(interval_s));
+  }
+}
+
 int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t from_index) {
   auto stub = Connect(remote);
   grpc::ClientContext context;
@@ -1000,7 +1049,7 @@ int FetchJob(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, cons
 
 // dembuf fetch --sweep ID: a run folder per finished job, and the sweep's tables.
 int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, const fs::path& dir,
-               bool plots) {
+               bool plots, bool long_table) {
   v1::Sweep s;
   {
     grpc::ClientContext context;
@@ -1060,7 +1109,10 @@ int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, co
                    static_cast<long long>(id));
       return kExitRuntime;
     }
-    run.values.assign(job.sweep_values().begin(), job.sweep_values().end());
+    // As a local sweep's reports write them (checked to be the axes' values above).
+    for (std::size_t a = 0; a < axes.size(); ++a)
+      run.values.push_back(
+          CanonicalSweepValue(axes[a].field, job.sweep_values(static_cast<int>(a))));
     if (!Ended(job.state())) {
       run.state = api::StateText(job.state());
       run.error = std::string("still ") + api::StateText(job.state());
@@ -1091,6 +1143,9 @@ int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, co
   std::printf("sweep %lld: wrote %s (%d jobs, %d failed, %d not finished)\n",
               static_cast<long long>(id), dir.c_str(), s.jobs_total(),
               summary["failed"].get<int>() - pending, pending);
+  if (long_table)
+    std::printf("wrote %s: %zu samples\n", (dir / sweep_files::kLong).c_str(),
+                WriteSweepLongTable(dir, axes, runs));
   if (plots) PlotIfPossible(dir);
   return pending == 0 && summary["failed"].get<int>() == 0 ? 0 : kExitFailed;
 }
@@ -1098,7 +1153,11 @@ int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, co
 }  // namespace
 
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
-                bool plots, bool force) {
+                bool plots, bool force, bool long_table) {
+  if (long_table && !sweep) {
+    std::fprintf(stderr, "dembuf: --long writes a sweep's samples as one table: add --sweep\n");
+    return kExitBadInput;
+  }
   auto stub = Connect(remote);
   const fs::path dir = out_dir;
   std::error_code error;
@@ -1117,7 +1176,7 @@ int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::st
     for (const auto& entry : fs::directory_iterator(dir, error))
       if (entry.path().filename().string().rfind("sweep", 0) == 0) fs::remove(entry.path(), error);
   }
-  return sweep ? FetchSweep(*stub, remote, id, dir, plots)
+  return sweep ? FetchSweep(*stub, remote, id, dir, plots, long_table)
                : FetchJob(*stub, remote, id, dir, plots);
 }
 

@@ -29,10 +29,11 @@ struct Remote {
 };
 
 int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name);
-/// Prints the sweep's id (with `json`: the sweep and its job ids as JSON).
+/// Prints the sweep's id (with `json`: the sweep and its job ids as JSON). `table`: a file of
+/// chosen points (sweep --table), or "".
 int RemoteSweep(const Remote& remote, const RemoteScene& scene,
-                const std::vector<std::string>& vary, int seeds, const std::string& name,
-                bool json);
+                const std::vector<std::string>& vary, const std::string& table, int seeds,
+                const std::string& name, bool json);
 struct ListOptions {
   std::string state;
   std::string owner;
@@ -48,7 +49,10 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
 /// A job's files (or, with `sweep`, every job's and the sweep's tables) into `out_dir`, which
 /// must be new or empty unless `force` (then the files of an earlier fetch are replaced).
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
-                bool plots, bool force);
+                bool plots, bool force, bool long_table = false);
+/// Follows a sweep until every job of it has ended, a line each time its counts change; 0 when
+/// every job is done, kExitFailed when one failed or was cancelled.
+int RemoteWatchSweep(const Remote& remote, std::int64_t id);
 int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep);
 /// Deletes an ended job (or sweep, with its jobs) and its stored results.
 int RemoteDelete(const Remote& remote, std::int64_t id, bool sweep);

@@ -29,6 +29,7 @@ struct RemoteArgs {
   std::string fetch_dir;
   bool no_plots = false;
   bool fetch_force = false;
+  bool fetch_long = false;
 };
 
 // Who this process runs as, one rule for the CLI and the Python package: $USER, else
@@ -87,11 +88,17 @@ void AddJobCommands(CLI::App& app, CommandOptions& opt, RemoteArgs& a, CommandTa
   status->add_flag("--json", a.json, "print JSON (docs/service.md) instead of text");
   commands.Add(status, [&] { return RemoteStatus(a.remote, a.id, a.is_sweep, a.json); });
 
-  CLI::App* watch = app.add_subcommand("watch", "follow a job's plate force live");
-  watch->add_option("id", a.id, "job id")->required();
+  CLI::App* watch = app.add_subcommand("watch", "follow a job's plate force live (or a sweep)");
+  watch->add_option("id", a.id, "job id (or sweep id with --sweep)")->required();
   watch->add_flag("--csv", a.watch_csv, "print every sample as a CSV row");
   watch->add_option("--from", a.watch_from, "first sample index (to resume)");
-  commands.Add(watch, [&] { return RemoteWatch(a.remote, a.id, a.watch_csv, a.watch_from); });
+  watch->add_flag("--sweep", a.is_sweep,
+                  "follow a sweep: a line as its jobs end, and exit when all have (0: all done; "
+                  "3: one failed or was cancelled)");
+  commands.Add(watch, [&] {
+    return a.is_sweep ? RemoteWatchSweep(a.remote, a.id)
+                      : RemoteWatch(a.remote, a.id, a.watch_csv, a.watch_from);
+  });
 }
 
 void AddResultCommands(CLI::App& app, RemoteArgs& a, CommandTable& commands) {
@@ -102,8 +109,12 @@ void AddResultCommands(CLI::App& app, RemoteArgs& a, CommandTable& commands) {
   fetch->add_option("--out", a.fetch_dir, "output folder")->required();
   fetch->add_flag("--no-plots", a.no_plots, "do not draw plots");
   fetch->add_flag("--force", a.fetch_force, "replace what an earlier fetch wrote into the folder");
+  fetch->add_flag("--long", a.fetch_long,
+                  "with --sweep: also every sample of every run as one tidy table, "
+                  "sweep_long.csv (run, the swept fields, then plate_force.csv's columns)");
   commands.Add(fetch, [&] {
-    return RemoteFetch(a.remote, a.id, a.is_sweep, a.fetch_dir, !a.no_plots, a.fetch_force);
+    return RemoteFetch(a.remote, a.id, a.is_sweep, a.fetch_dir, !a.no_plots, a.fetch_force,
+                       a.fetch_long);
   });
 
   CLI::App* cancel = app.add_subcommand("cancel", "cancel a queued or running job (or sweep)");
@@ -161,7 +172,7 @@ void AddRemoteCommands(CLI::App& app, CommandOptions& opt, CommandTable& command
                    "for the server's N CPUs; --local runs the sweep here)\n");
       return std::nullopt;
     }
-    return RemoteSweep(args->remote, SceneOf(o), o.vary, o.seeds, o.name, o.json);
+    return RemoteSweep(args->remote, SceneOf(o), o.vary, o.table, o.seeds, o.name, o.json);
   };
 }
 

@@ -59,8 +59,8 @@ AdmittedJob AdmitJob(const v1::SceneSpec& spec, const std::optional<BedFile>& se
 namespace {
 
 void CheckSweepShape(const v1::SubmitSweepRequest& request) {
-  if (request.axes().empty() && request.seeds() <= 1)
-    throw SceneError("axes", "a sweep needs at least one axis or seeds > 1");
+  if (request.axes().empty() && request.table().rows().empty() && request.seeds() <= 1)
+    throw SceneError("axes", "a sweep needs at least one axis, a table or seeds > 1");
   const int seeds = request.seeds() == 0 ? 1 : request.seeds();
   if (const std::string problem = SweepSeedsProblem(seeds); !problem.empty())
     throw SceneError("seeds", problem);
@@ -78,16 +78,29 @@ AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request,
   const int seeds = request.seeds() == 0 ? 1 : request.seeds();  // (0, the default, is one)
   const Scene base = ResolveSceneSpec(request.base(), sent);
   AdmittedSweep sweep;
+  // A table's columns first, read row by row (TableAxes checks each value and row).
+  if (request.has_table()) {
+    dembuf::SweepTable table;  // (not the store's table of sweeps)
+    table.fields.assign(request.table().fields().begin(), request.table().fields().end());
+    for (const auto& row : request.table().rows())
+      table.rows.emplace_back(row.values().begin(), row.values().end());
+    sweep.axes = TableAxes(table);
+  }
+  const std::size_t table_columns = sweep.axes.size();
   for (const auto& axis : request.axes()) {
     const std::vector<std::string> values(axis.values().begin(), axis.values().end());
     sweep.axes.push_back(MakeSweepAxis(axis.field(), values, axis.range()));
   }
   sweep.axes = WithSeedAxis(sweep.axes, seeds, base.bed.seed);
   // Each run as soon as its axes are set: before anything looks at what they name.
-  sweep.runs = ExpandSweep(base, sweep.axes, max_runs, [&](const Scene& run) {
-    if (cancelled && cancelled()) throw Cancelled();  // no work for a caller who left
-    sweep.output_bytes += AdmitScene(run, sent, limits).output_bytes_max;
-  });
+  sweep.runs = ExpandSweep(
+      base, sweep.axes, max_runs,
+      [&](const Scene& run) {
+        if (cancelled && cancelled()) throw Cancelled();  // no work for a caller who left
+        sweep.output_bytes += AdmitScene(run, sent, limits).output_bytes_max;
+      },
+      table_columns);
+  sweep.axes = DistinctAxes(std::move(sweep.axes));  // as the sweep's record keeps them
   return sweep;
 }
 

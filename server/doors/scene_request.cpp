@@ -8,6 +8,7 @@
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
+#include "dembuf/study/sweep/sweep_plan.h"
 
 namespace dembuf::server {
 
@@ -98,6 +99,19 @@ void CheckSweepAxes(const v1::SubmitSweepRequest& request) {
       throw SceneError(axis.field(), std::to_string(axis.values_size()) +
                                          " values in the sweep axis; at most " +
                                          std::to_string(kMaxAxisValues));
+  // A table's size before any of its values is read.
+  const v1::SweepTable& table = request.table();
+  if (table.fields_size() > kMaxAxes)
+    throw SceneError("table", std::to_string(table.fields_size()) + " columns; at most " +
+                                  std::to_string(kMaxAxes));
+  if (static_cast<std::size_t>(table.rows_size()) > kMaxTableRows)
+    throw SceneError("table", std::to_string(table.rows_size()) + " rows; at most " +
+                                  std::to_string(kMaxTableRows));
+  for (int r = 0; r < table.rows_size(); ++r)
+    if (table.rows(r).values_size() != table.fields_size())
+      throw SceneError("table", "row " + std::to_string(r + 1) + " has " +
+                                    std::to_string(table.rows(r).values_size()) + " values for " +
+                                    std::to_string(table.fields_size()) + " columns");
 }
 
 }  // namespace dembuf::server

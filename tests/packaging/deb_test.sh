@@ -42,7 +42,9 @@ depends=$(dpkg-deb -f "$deb" Depends)
 for needed in libgrpc python3-pandas libsqlite3; do
   grep -q "$needed" <<< "$depends" || fail "Depends lacks $needed: $depends"
 done
-dpkg-deb --ctrl-tarfile "$deb" | tar -t | grep -q conffiles || fail "no conffiles"
+# (Listed whole, then searched: grep -q stopping early would fail tar's write under pipefail.)
+control=$(dpkg-deb --ctrl-tarfile "$deb" | tar -t)
+grep -q conffiles <<< "$control" || fail "no conffiles: $control"
 
 # Installed by apt, its dependencies already on this machine (no download).
 apt-get install -y -qq --no-install-recommends "$deb" > "$work/apt.log" 2>&1 ||
@@ -82,7 +84,8 @@ setpriv --reuid dembuf --regid dembuf --init-groups "${command[@]}" --listen 127
   2> "$work/daemon.err" &
 daemon=$!
 port=""
-for _ in $(seq 100); do
+for _ in $(seq 600); do  # (up to a minute: a loaded machine starts it slowly)
+  kill -0 "$daemon" 2> /dev/null || fail "the daemon exited: $(cat "$work/daemon.err")"
   port=$( (tail -n +$((before + 1)) "$log" || true) 2> /dev/null |
     sed -n 's/.*listening on .* (port \([0-9]*\)).*/\1/p')
   [ -n "$port" ] && break

@@ -13,7 +13,7 @@ results, from the daemon or from a local run's folder, as pandas DataFrames.
 """
 
 from ._version import __version__
-from .frames import SERIES_COLUMNS, Run, read_points, read_run, read_sweep
+from .frames import SERIES_COLUMNS, Run, read_points, read_run, read_sweep, read_sweep_long
 from .vtp import read_contacts_vtp, read_pvd, read_vtp
 
 # The client of a dembufd needs grpcio and protobuf; the readers above do not. It is imported
@@ -49,5 +49,6 @@ __all__ = [
     "read_pvd",
     "read_run",
     "read_sweep",
+    "read_sweep_long",
     "read_vtp",
 ]

@@ -295,22 +295,32 @@ class Client:
             warnings.warn(f"job {answer.job.id}: {warning}", stacklevel=2)
         return answer.job.id
 
-    def submit_sweep(self, axes: Mapping[str, str | Sequence[object]], seeds: int = 1,
-                     preset: str = "", scene: Mapping | None = None,
+    def submit_sweep(self, axes: Mapping[str, str | Sequence[object]] | None = None,
+                     seeds: int = 1, preset: str = "", scene: Mapping | None = None,
                      toml: str | os.PathLike | None = None,
                      set: Sequence[str] | Mapping[str, object] | None = None,
                      accuracy: str = "", name: str = "",
-                     bed_file: str | os.PathLike | None = None) -> int:
+                     bed_file: str | os.PathLike | None = None,
+                     table: "pd.DataFrame | str | os.PathLike | None" = None) -> int:
         """Submits a sweep; returns its id. `axes` maps a scene field to its values, a list
-        or a "START:STOP:STEP" range (inclusive): {"bed.thickness_m": "0:0.08:0.005"}. Each
-        point runs on bed seeds 1..seeds, its jobs sharing their beds; with `bed_file`, every
-        point imports that file (as submit)."""
+        or a "START:STOP:STEP" range (inclusive): {"bed.thickness_m": "0:0.08:0.005"}.
+        `table` gives chosen points instead or as well (as `dembuf sweep --table`): a
+        DataFrame whose columns are scene fields and whose rows are points, or a file of them
+        (tab- or comma-separated, a header of field names); its rows are multiplied by the
+        axes. Each point runs on bed seeds 1..seeds (unless bed.seed is a column or an axis),
+        its jobs sharing their beds; with `bed_file`, every point imports that file."""
         request = pb.SubmitSweepRequest(
             base=self._scene_spec(preset, scene, toml, set, accuracy), seeds=seeds, name=name,
             owner=self.owner, command_line=command_line())
         if bed_file is not None:
             request.base.bed_file = self.send_bed_file(bed_file)
-        for field, values in axes.items():
+        if table is not None:
+            points = table if isinstance(table, pd.DataFrame) else pd.read_csv(
+                table, sep=None, engine="python", comment="#", dtype=str, skipinitialspace=True)
+            request.table.fields.extend(str(c) for c in points.columns)
+            for row in points.itertuples(index=False):
+                request.table.rows.add(values=[str(v) for v in row])
+        for field, values in (axes or {}).items():
             if isinstance(values, str):
                 request.axes.add(field=field, range=values)
             else:

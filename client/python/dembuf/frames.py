@@ -137,6 +137,17 @@ def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
     return frame.drop(columns=["run_dir"], errors="ignore")
 
 
+def read_sweep_long(folder: str | os.PathLike) -> pd.DataFrame:
+    """A sweep folder's sweep_long.csv (`dembuf sweep --long`, `dembuf fetch --sweep N
+    --long`): every sample of every run that ended well, one row each, tidy: `run` (as in
+    sweep.csv), the swept fields, then plate_force.csv's columns (t_s, plate_force_N, ...)."""
+    csv = pathlib.Path(folder) / "sweep_long.csv"
+    if not csv.exists():
+        raise FileNotFoundError(f"{csv}: no long table; write it with `dembuf sweep --long` or "
+                                "`dembuf fetch --sweep N --long`")
+    return pd.read_csv(csv, keep_default_na=False, na_values=[""])
+
+
 def sweep_axes(frame: pd.DataFrame) -> list[str]:
     """The swept fields of a sweep frame: its columns between `id` and `status`."""
     columns = list(frame.columns)

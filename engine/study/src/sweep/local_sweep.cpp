@@ -231,7 +231,7 @@ void SweepRunner::RunAll() {
 }
 
 // A run's values of the axes, as the field table writes them (so that a point asked for as
-// 0.01 and as 1e-2 is one point).
+// 0.01 and as 1e-2 is one point; CanonicalSweepValue gives a fetched sweep's the same).
 std::vector<std::string> AxisValues(const Scene& scene, const std::vector<SweepAxis>& axes) {
   std::vector<std::string> values;
   for (const SweepAxis& axis : axes)
@@ -331,7 +331,7 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
              std::vector<SweepRunReport>* reports_out) {
   const std::vector<SweepAxis> axes = WithSeedAxis(options.axes, options.seeds, base.bed.seed);
   // Every scene is checked before the first run starts.
-  const std::vector<SweepRun> runs = ExpandSweep(base, axes);
+  const std::vector<SweepRun> runs = ExpandSweep(base, axes, 100000, {}, options.table_columns);
   std::set<std::string> sources;
   for (const SweepRun& run : runs)
     if (!run.beds.source_hash.empty()) sources.insert(run.beds.source_hash);
@@ -382,7 +382,10 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
       {"beds_prepared", beds.prepared_counts()},
   };
   const nlohmann::json summary =
-      WriteSweepReport(options.out_dir, axes, reports, extra, options.report);
+      WriteSweepReport(options.out_dir, DistinctAxes(axes), reports, extra, options.report);
+  if (options.long_table)
+    Say(options.report, "wrote %s: %zu samples\n", (options.out_dir / sweep_files::kLong).c_str(),
+        WriteSweepLongTable(options.out_dir, axes, reports));
   if (reports_out) reports_out->insert(reports_out->end(), reports.begin(), reports.end());
   int interrupted = 0;
   for (const RunResult& r : results) interrupted += r.interrupted || (!r.ok && r.error.empty());
@@ -405,6 +408,7 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
     Say(options.report, "\nHc search: H = %.4g cm\n", 100 * h);
     SweepOptions step = options;
     step.axes = {MakeSweepAxis("bed.thickness_m", {text}, "")};
+    step.long_table = false;  // written once, of every step, below
     std::vector<SweepRunReport> reports;
     failed += RunSweep(base, step, beds, &reports);
     if (options.cancel && options.cancel->load()) throw Cancelled();
@@ -455,6 +459,7 @@ int RunHcSearch(const Scene& base, const SweepOptions& options, const HcSearchOp
         {"steps", points}}}};
   Say(options.report, "\nall %zu runs of the search:", all.size());
   WriteSweepReport(options.out_dir, axes, all, extra, options.report);
+  if (options.long_table) WriteSweepLongTable(options.out_dir, axes, all);
   if (hc.reached)
     Say(options.report,
         "\nHc = %.2f +- %.2f cm (bisection: P within %.0f%% of the plateau P = %.4g N at H = "

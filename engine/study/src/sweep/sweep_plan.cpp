@@ -9,6 +9,7 @@
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/text/number_text.h"
+#include "dembuf/study/text/text_limits.h"
 
 namespace dembuf {
 
@@ -127,19 +128,34 @@ std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
 }
 
 std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
-                                  std::size_t max_runs, const RunAdmission& admit) {
+                                  std::size_t max_runs, const RunAdmission& admit,
+                                  std::size_t table_columns) {
   // One axis per field: a field varied twice would label one axis's results with the other's
   // values.
   for (std::size_t a = 0; a < axes.size(); ++a)
     for (std::size_t b = 0; b < a; ++b)
       if (axes[a].field == axes[b].field) throw SceneError(axes[a].field, "varied twice");
+  // The dimensions multiplied: the table's rows (its columns read together), then each axis.
+  table_columns = std::min(table_columns, axes.size());
+  std::vector<std::size_t> sizes;
+  if (table_columns > 0) sizes.push_back(axes.front().values.size());
+  for (std::size_t a = table_columns; a < axes.size(); ++a) sizes.push_back(axes[a].values.size());
+  for (std::size_t a = 1; a < table_columns; ++a)
+    if (axes[a].values.size() != sizes.front())
+      throw SceneError(axes[a].field, "a table column of " + std::to_string(axes[a].values.size()) +
+                                          " values beside " + std::to_string(sizes.front()));
   double count = 1;
-  for (const SweepAxis& axis : axes) count *= static_cast<double>(axis.values.size());
+  for (std::size_t size : sizes) count *= static_cast<double>(size);
   if (count > static_cast<double>(max_runs))
     throw SceneError("axes", "the sweep has " + NumberText(count, 12) + " runs; at most " +
                                  std::to_string(max_runs) + " are allowed");
+  // The value index of each axis for a pick of the dimensions.
+  auto value_of = [&](const std::vector<std::size_t>& pick, std::size_t a) {
+    if (a < table_columns) return pick.front();
+    return pick[a - table_columns + (table_columns > 0 ? 1 : 0)];
+  };
   std::vector<SweepRun> runs;
-  std::vector<std::size_t> pick(axes.size(), 0);
+  std::vector<std::size_t> pick(sizes.size(), 0);
   while (count > 0) {
     SweepRun run;
     run.index = runs.size();
@@ -148,7 +164,7 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
     std::snprintf(index, sizeof index, "%03zu", run.index);
     run.name = index;
     for (std::size_t a = 0; a < axes.size(); ++a) {
-      run.values.push_back(axes[a].values[pick[a]]);
+      run.values.push_back(axes[a].values[value_of(pick, a)]);
       SetSceneField(run.scene, axes[a].field, run.values.back());
       // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "_" + std::string.
       run.name.append("_").append(axes[a].field.substr(axes[a].field.rfind('.') + 1));
@@ -158,11 +174,115 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
     ValidateScene(run.scene);
     run.beds = BedNeedsOf(run.scene);
     runs.push_back(std::move(run));
-    std::size_t a = 0;
-    while (a < axes.size() && ++pick[a] == axes[a].values.size()) pick[a++] = 0;
-    if (a == axes.size()) break;
+    std::size_t d = 0;
+    while (d < sizes.size() && ++pick[d] == sizes[d]) pick[d++] = 0;
+    if (d == sizes.size()) break;
   }
   return runs;
+}
+
+SweepTable ParseSweepTable(std::string_view text, const std::string& name) {
+  SweepTable table;
+  char separator = '\t';
+  std::size_t line_number = 0;
+  auto where = [&] { return name + " line " + std::to_string(line_number); };
+  while (!text.empty()) {
+    const std::size_t end = std::min(text.find('\n'), text.size());
+    std::string_view line = text.substr(0, end);
+    text.remove_prefix(std::min(end + 1, text.size()));
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (line.find_first_not_of(" \t") == std::string_view::npos || line.front() == '#') continue;
+    if (table.fields.empty() && line.find('\t') == std::string_view::npos) separator = ',';
+    std::vector<std::string> cells;
+    for (std::size_t begin = 0;;) {
+      const std::size_t cut = std::min(line.find(separator, begin), line.size());
+      std::string_view cell = line.substr(begin, cut - begin);
+      while (!cell.empty() && cell.front() == ' ') cell.remove_prefix(1);
+      while (!cell.empty() && cell.back() == ' ') cell.remove_suffix(1);
+      cells.emplace_back(cell);
+      if (cut == line.size()) break;
+      begin = cut + 1;
+    }
+    if (table.fields.empty()) {
+      for (const std::string& field : cells) {
+        if (field.empty()) throw SceneError("--table", where() + ": a column without a field name");
+        RequireSceneField(field);
+        if (std::count(cells.begin(), cells.end(), field) > 1)
+          throw SceneError(field, where() + ": the column is given twice");
+      }
+      table.fields = std::move(cells);
+      continue;
+    }
+    if (cells.size() != table.fields.size())
+      throw SceneError("--table", where() + ": " + std::to_string(cells.size()) + " values for " +
+                                      std::to_string(table.fields.size()) + " columns");
+    if (table.rows.size() >= kMaxTableRows)
+      throw SceneError("--table", name + ": more than " + std::to_string(kMaxTableRows) + " rows");
+    table.rows.push_back(std::move(cells));
+  }
+  if (table.fields.empty() || table.rows.empty())
+    throw SceneError("--table", name + ": needs a header of field names and a row per point");
+  return table;
+}
+
+std::string CanonicalSweepValue(const std::string& field, const std::string& text) {
+  Scene probe;
+  SetSceneField(probe, field, text);
+  return FormatSceneField(probe, RequireSceneField(field));
+}
+
+std::vector<SweepAxis> DistinctAxes(std::vector<SweepAxis> axes) {
+  for (SweepAxis& axis : axes) {
+    std::vector<std::string> distinct;
+    for (std::string& v : axis.values)
+      if (std::find(distinct.begin(), distinct.end(), v) == distinct.end())
+        distinct.push_back(std::move(v));
+    axis.values = std::move(distinct);
+  }
+  return axes;
+}
+
+SweepTable ReadSweepTableFile(const std::string& path) {
+  constexpr std::size_t kMaxTableBytes = 16 << 20;  // 100,000 rows of a few fields
+  std::string text;
+  try {
+    text = ReadBoundedFile(path, kMaxTableBytes, "table");
+  } catch (const std::exception& e) {
+    throw SceneError("--table", e.what());
+  }
+  return ParseSweepTable(text, path);
+}
+
+std::vector<SweepAxis> TableAxes(const SweepTable& table) {
+  std::vector<SweepAxis> columns;
+  for (const std::string& field : table.fields) {
+    RequireSceneField(field);
+    columns.push_back({field, {}});
+  }
+  // Every value valid for its field, and no point twice (as the scene holds its values: 1 and
+  // 1.0 are one point).
+  std::map<std::string, std::size_t> seen;
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    const std::vector<std::string>& row = table.rows[r];
+    if (row.size() != columns.size())
+      throw SceneError("table", "row " + std::to_string(r + 1) + " has " +
+                                    std::to_string(row.size()) + " values for " +
+                                    std::to_string(columns.size()) + " columns");
+    Scene probe;
+    std::string point;
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      if (row[c].empty())
+        throw SceneError(columns[c].field, "row " + std::to_string(r + 1) + ": no value");
+      SetSceneField(probe, columns[c].field, row[c]);
+      point += FormatSceneField(probe, RequireSceneField(columns[c].field)) + '\n';
+      columns[c].values.push_back(row[c]);
+    }
+    if (const auto [at, fresh] = seen.emplace(point, r + 1); !fresh)
+      throw SceneError("table", "rows " + std::to_string(at->second) + " and " +
+                                    std::to_string(r + 1) + " are the same point");
+  }
+  return columns;
 }
 
 }  // namespace dembuf

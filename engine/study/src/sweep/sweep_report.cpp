@@ -332,4 +332,44 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
   return summary;
 }
 
+std::size_t WriteSweepLongTable(const std::filesystem::path& dir,
+                                const std::vector<SweepAxis>& axes,
+                                const std::vector<SweepRunReport>& runs) {
+  const std::filesystem::path path = dir / sweep_files::kLong;
+  const std::filesystem::path partial = path.string() + ".partial";
+  std::ofstream out(partial, std::ios::trunc);
+  std::string columns;  // plate_force.csv's header: the first run's, every run's
+  std::size_t rows = 0;
+  for (std::size_t j = 0; j < runs.size(); ++j) {
+    const SweepRunReport& r = runs[j];
+    if (!r.ok) continue;
+    const std::filesystem::path series =
+        dir / sweep_files::kRuns / r.name / report::run_files::kPlateForce;
+    std::ifstream in(series);
+    std::string line;
+    if (!in || !std::getline(in, line))
+      throw std::runtime_error("cannot read " + series.string() + " for " + path.string());
+    if (columns.empty()) {
+      columns = line;
+      out << "run";
+      for (const SweepAxis& axis : axes) out << "," << CsvCell(axis.field);
+      out << "," << columns << "\n";
+    } else if (line != columns) {
+      throw std::runtime_error(series.string() + " has the columns \"" + line + "\", not \"" +
+                               columns + "\" as the sweep's other runs");
+    }
+    std::string prefix = std::to_string(j);
+    for (const std::string& v : r.values) prefix += "," + CsvCell(v);
+    while (std::getline(in, line)) {
+      if (line.empty()) continue;
+      out << prefix << "," << line << "\n";
+      ++rows;
+    }
+  }
+  out.close();
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  std::filesystem::rename(partial, path);
+  return rows;
+}
+
 }  // namespace dembuf

@@ -23,8 +23,11 @@ namespace dembuf {
 
 struct SweepOptions {
   std::vector<SweepAxis> axes;
-  int seeds = 1;  ///< bed seeds 1..seeds, unless bed.seed is varied
-  int jobs = 1;   ///< runs at once
+  /// The first table_columns axes are a table's columns (TableAxes), read row by row.
+  std::size_t table_columns = 0;
+  bool long_table = false;  ///< also write sweep_long.csv (WriteSweepLongTable)
+  int seeds = 1;            ///< bed seeds 1..seeds, unless bed.seed is varied
+  int jobs = 1;             ///< runs at once
   std::filesystem::path out_dir;
   std::string command_line;  ///< what asked for the sweep, for each run's provenance
   /// Raised to stop (SIGINT, SIGTERM): the runs going stop within a second, no more start,

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "dembuf/study/bed/bed.h"
@@ -65,9 +66,41 @@ struct SweepRun {
 using RunAdmission = std::function<void(const Scene&)>;
 
 /// The product of the axes on top of `base`, every scene admitted (when `admit` is given) and
-/// validated. Throws SceneError naming the field (a field varied twice among them), or when
-/// the product has more than max_runs runs.
+/// validated. The first `table_columns` axes are a table's columns (TableAxes): read together,
+/// row by row, as one dimension of the product. Throws SceneError naming the field (a field
+/// varied twice among them), or when the product has more than max_runs runs.
 std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis>& axes,
-                                  std::size_t max_runs = 100000, const RunAdmission& admit = {});
+                                  std::size_t max_runs = 100000, const RunAdmission& admit = {},
+                                  std::size_t table_columns = 0);
+
+/// A table of chosen points (dembuf sweep --table, yade-batch's parameter table): a scene
+/// field per column, a row of values per point; bed.seed may be a column.
+struct SweepTable {
+  std::vector<std::string> fields;
+  std::vector<std::vector<std::string>> rows;
+};
+/// The most rows a table may have (as many as a sweep's runs).
+inline constexpr std::size_t kMaxTableRows = 100000;
+
+/// Reads a table: a header line of field names, then a line of values per point, separated by
+/// tabs (TSV) or, where the header has no tab, commas; blank lines and lines starting with
+/// "#" are skipped. `name` names the file in errors. Throws SceneError naming the line.
+SweepTable ParseSweepTable(std::string_view text, const std::string& name);
+
+/// A swept value as the field table writes it (1 of projectile.speed_m_s reads "1.0"): as a
+/// local sweep's reports hold a run's values, and a fetched sweep's too. Throws SceneError.
+std::string CanonicalSweepValue(const std::string& field, const std::string& text);
+
+/// The axes with each value once, in the order first given: a table's columns (whose values
+/// repeat row by row) as a sweep's record and report show them.
+std::vector<SweepAxis> DistinctAxes(std::vector<SweepAxis> axes);
+
+/// The table in a file (of at most 16 MiB). Throws SceneError naming --table.
+SweepTable ReadSweepTableFile(const std::string& path);
+
+/// The table's columns as axes for ExpandSweep (each column's values in row order), every
+/// value checked against its field and no point given twice. Throws SceneError naming the
+/// field or the rows.
+std::vector<SweepAxis> TableAxes(const SweepTable& table);
 
 }  // namespace dembuf

@@ -22,6 +22,8 @@ namespace sweep_files {
 inline constexpr const char* kRuns = "runs";
 inline constexpr const char* kTable = "sweep.csv";    ///< a row per run
 inline constexpr const char* kPoints = "points.csv";  ///< a row per point: mean and spread
+/// Every sample of every run, one table (WriteSweepLongTable: sweep --long, fetch --long).
+inline constexpr const char* kLong = "sweep_long.csv";
 inline constexpr const char* kSummary = "summary.json";
 inline constexpr const char* kIncomplete = "incomplete.json";  ///< a sweep interrupted
 /// What makes the folder's runs one sweep (SweepFolderKey, local_sweep.h).
@@ -84,5 +86,14 @@ nlohmann::json WriteSweepReport(const std::filesystem::path& dir,
                                 const std::vector<SweepAxis>& axes,
                                 const std::vector<SweepRunReport>& runs,
                                 const nlohmann::json& extra, std::FILE* table);
+
+/// Writes dir/sweep_long.csv, the sweep's series as one tidy table for pandas or R: a row per
+/// sample of every run that ended well, its columns the run's number (sweep.csv's `run`), the
+/// swept fields, then plate_force.csv's columns (t_s, plate_force_N, ...). Reads each run's
+/// dir/runs/NAME/plate_force.csv a line at a time; returns the rows written. Throws
+/// std::runtime_error for a series it cannot read or whose columns differ from the first's.
+std::size_t WriteSweepLongTable(const std::filesystem::path& dir,
+                                const std::vector<SweepAxis>& axes,
+                                const std::vector<SweepRunReport>& runs);
 
 }  // namespace dembuf

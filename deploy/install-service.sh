@@ -11,9 +11,13 @@ cmake --install build --prefix /usr/local
 # The unit (in /usr/local/lib/systemd/system) and the configuration: a configuration already
 # there is the lab's and stays.
 kept=""
-if [ -f /etc/dembuf/dembufd.toml ]; then kept=$(mktemp); cp -p /etc/dembuf/dembufd.toml "$kept"; fi
+if [ -f /etc/dembuf/dembufd.toml ]; then
+  kept=$(mktemp)
+  cp -p /etc/dembuf/dembufd.toml "$kept"
+  # Put back whatever happens below (a failed install, Ctrl-C).
+  trap 'mv "$kept" /etc/dembuf/dembufd.toml' EXIT
+fi
 cmake --install build --prefix /usr/local --component service
-[ -z "$kept" ] || mv "$kept" /etc/dembuf/dembufd.toml
 id dembuf > /dev/null 2>&1 || useradd --system --user-group --home-dir /var/lib/dembuf --shell /usr/sbin/nologin dembuf
 systemctl daemon-reload
 systemctl enable --now dembufd

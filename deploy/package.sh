@@ -4,7 +4,8 @@
 # completion, Python package, systemd unit and /etc/dembuf/dembufd.toml) and
 # build/dist/dembuf-VERSION-py3-none-any.whl. Install them with
 #   sudo apt install ./build/dembuf_*.deb
-#   pip install build/dist/dembuf-*.whl        (the readers; add [server] for the client)
+#   python3 -m venv .venv && .venv/bin/pip install build/dist/dembuf-*.whl
+#   (the readers; "build/dist/dembuf-VERSION-py3-none-any.whl[server]" adds the client's gRPC)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/build.sh

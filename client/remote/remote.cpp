@@ -843,7 +843,16 @@ int RemoteWatchSweep(const Remote& remote, std::int64_t id) {
     if (line != last) std::printf("%s\n", line.c_str());
     std::fflush(stdout);
     last = line;
-    if (ended >= total) return counts["failed"] + counts["cancelled"] == 0 ? 0 : kExitFailed;
+    long long counted = 0;
+    for (const auto& entry : counts) counted += entry.second;
+    if (total < 1 || total > 1000000 || counted != total) {
+      std::fprintf(stderr,
+                   "dembuf: the server sent sweep %lld with %lld jobs in all but %lld by state\n",
+                   static_cast<long long>(id), total, counted);
+      return kExitRuntime;
+    }
+    if (ended >= total)
+      return counts["failed"] > 0 ? kExitFailed : counts["cancelled"] > 0 ? kExitCancelled : 0;
     if (Interrupted()) return InterruptedExit();
     std::this_thread::sleep_for(std::chrono::duration<double>(interval_s));
   }
@@ -1109,7 +1118,9 @@ int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, co
                    static_cast<long long>(id));
       return kExitRuntime;
     }
-    // As a local sweep's reports write them (checked to be the axes' values above).
+    // As a local sweep's reports write them (checked to be the axes' values above); a second
+    // job of the same index (a hostile server's) replaces the first.
+    run.values.clear();
     for (std::size_t a = 0; a < axes.size(); ++a)
       run.values.push_back(
           CanonicalSweepValue(axes[a].field, job.sweep_values(static_cast<int>(a))));

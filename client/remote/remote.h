@@ -51,7 +51,7 @@ int RemoteWatch(const Remote& remote, std::int64_t id, bool csv, std::int64_t fr
 int RemoteFetch(const Remote& remote, std::int64_t id, bool sweep, const std::string& out_dir,
                 bool plots, bool force, bool long_table = false);
 /// Follows a sweep until every job of it has ended, a line each time its counts change; 0 when
-/// every job is done, kExitFailed when one failed or was cancelled.
+/// every job is done, kExitFailed when one failed, else kExitCancelled when one was cancelled.
 int RemoteWatchSweep(const Remote& remote, std::int64_t id);
 int RemoteCancel(const Remote& remote, std::int64_t id, bool sweep);
 /// Deletes an ended job (or sweep, with its jobs) and its stored results.

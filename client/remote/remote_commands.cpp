@@ -94,7 +94,7 @@ void AddJobCommands(CLI::App& app, CommandOptions& opt, RemoteArgs& a, CommandTa
   watch->add_option("--from", a.watch_from, "first sample index (to resume)");
   watch->add_flag("--sweep", a.is_sweep,
                   "follow a sweep: a line as its jobs end, and exit when all have (0: all done; "
-                  "3: one failed or was cancelled)");
+                  "3: one failed; 4: one was cancelled)");
   commands.Add(watch, [&] {
     return a.is_sweep ? RemoteWatchSweep(a.remote, a.id)
                       : RemoteWatch(a.remote, a.id, a.watch_csv, a.watch_from);
@@ -171,6 +171,12 @@ void AddRemoteCommands(CLI::App& app, CommandOptions& opt, CommandTable& command
                    "dembuf: a dry run is planned here, not on the server (--plan-cpus N plans "
                    "for the server's N CPUs; --local runs the sweep here)\n");
       return std::nullopt;
+    }
+    if (o.long_table) {
+      std::fprintf(stderr,
+                   "dembuf: --long is written when a server's sweep is fetched: dembuf fetch "
+                   "--sweep ID --long --out DIR (--local runs the sweep here)\n");
+      return kExitBadInput;
     }
     return RemoteSweep(args->remote, SceneOf(o), o.vary, o.table, o.seeds, o.name, o.json);
   };

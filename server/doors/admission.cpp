@@ -80,6 +80,10 @@ AdmittedSweep AdmitSweep(const v1::SubmitSweepRequest& request,
   AdmittedSweep sweep;
   // A table's columns first, read row by row (TableAxes checks each value and row).
   if (request.has_table()) {
+    if (static_cast<std::size_t>(request.table().rows_size()) > max_runs)
+      throw SceneError("table", std::to_string(request.table().rows_size()) +
+                                    " rows; a sweep has at most " + std::to_string(max_runs) +
+                                    " runs here");
     dembuf::SweepTable table;  // (not the store's table of sweeps)
     table.fields.assign(request.table().fields().begin(), request.table().fields().end());
     for (const auto& row : request.table().rows())

@@ -101,17 +101,21 @@ void CheckSweepAxes(const v1::SubmitSweepRequest& request) {
                                          std::to_string(kMaxAxisValues));
   // A table's size before any of its values is read.
   const v1::SweepTable& table = request.table();
+  if (request.has_table() && (table.fields_size() == 0 || table.rows_size() == 0))
+    throw SceneError("table", "a table needs at least one column and one row");
   if (table.fields_size() > kMaxAxes)
     throw SceneError("table", std::to_string(table.fields_size()) + " columns; at most " +
                                   std::to_string(kMaxAxes));
   if (static_cast<std::size_t>(table.rows_size()) > kMaxTableRows)
     throw SceneError("table", std::to_string(table.rows_size()) + " rows; at most " +
                                   std::to_string(kMaxTableRows));
-  for (int r = 0; r < table.rows_size(); ++r)
+  for (int r = 0; r < table.rows_size(); ++r) {
+    for (const std::string& value : table.rows(r).values()) CheckSweepValueLength("table", value);
     if (table.rows(r).values_size() != table.fields_size())
       throw SceneError("table", "row " + std::to_string(r + 1) + " has " +
                                     std::to_string(table.rows(r).values_size()) + " values for " +
                                     std::to_string(table.fields_size()) + " columns");
+  }
 }
 
 }  // namespace dembuf::server

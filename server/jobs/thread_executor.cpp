@@ -221,7 +221,7 @@ void ThreadExecutor::Run(std::int64_t id, const std::shared_ptr<LiveJob>& live) 
   try {
     const Scene scene = SceneOfJob(m_store, *job);
     JobControl control;
-    control.context = {job->command_line, m_options.host, started_at, "", 0};
+    control.context = {job->command_line, m_options.host, started_at, "", 0, {}};
     control.steering.cancel = &live->cancel;
     control.steering.threads = &live->threads;
     // One fraction over the whole job: the bed stages and the impact by their predicted time.

@@ -130,7 +130,12 @@ void ApplyEntries(const std::vector<std::pair<std::string, const toml::value*>>&
           try {
             *target = toml::get<T>(value);
           } catch (const std::exception&) {
-            throw ConfigError(origin + ": " + key + " has the wrong type");
+            const char* wanted = std::is_same_v<T, std::string> ? "a string"
+                                 : std::is_same_v<T, int>       ? "a whole number"
+                                 : std::is_same_v<T, bool>      ? "true or false"
+                                 : std::is_same_v<T, double>    ? "a number"
+                                                                : "a list of strings";
+            throw ConfigError(origin + ": " + key + " has the wrong type: it takes " + wanted);
           }
         },
         setting->second);

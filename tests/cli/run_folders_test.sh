@@ -51,6 +51,12 @@ for other in "$sweep_run" "$work/fetched"; do
   warnings_of() { grep '^warning: \|^no warnings$' "$1/log.txt"; }
   diff <(warnings_of "$work/run") <(warnings_of "$other") ||
     fail "log.txt's warnings differ between dembuf run and $other"
+  # And what the run did, with times: the same events wherever it ran (the times differ).
+  events_of() { sed -n '/^what the run did (UTC):$/,$p' "$1/log.txt" | cut -d' ' -f2- | sed -e 's/, [0-9]* beads$//' -e 's/, the bed from the cache$//'; }
+  [ -n "$(events_of "$other")" ] || fail "$other's log.txt has no timeline: $(cat "$other/log.txt")"
+  grep -q '^20[0-9-]*T[0-9:]*Z ended at .* ms' "$other/log.txt" || fail "$other's log.txt has no end"
+  diff <(events_of "$work/run" | grep -v '^bed: ') <(events_of "$other" | grep -v '^bed: ') ||
+    fail "log.txt's events differ between dembuf run and $other"
   while read -r file; do
     [ "$file" = ./summary.json ] || [ "$file" = ./log.txt ] && continue
     cmp -s "$work/run/$file" "$other/$file" || fail "$file differs between dembuf run and $other"

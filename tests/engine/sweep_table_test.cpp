@@ -37,9 +37,10 @@ TEST(SweepTable, RowsAreOneDimensionOfTheProduct) {
   base.bed.thickness_m = 0;
   const std::vector<SweepRun> runs = ExpandSweep(base, axes, 100, {}, table.size());
   ASSERT_EQ(runs.size(), 4u);  // two rows times two seeds, not 2 x 1 x 2 x ... of a product
-  EXPECT_EQ(runs[0].values, (std::vector<std::string>{"1", "0.1", "1"}));
-  EXPECT_EQ(runs[1].values, (std::vector<std::string>{"2", "0.1", "1"}));
-  EXPECT_EQ(runs[3].values, (std::vector<std::string>{"2", "0.1", "2"}));
+  // (The table's values as the field table writes them: 1 of a speed is 1.0.)
+  EXPECT_EQ(runs[0].values, (std::vector<std::string>{"1.0", "0.1", "1"}));
+  EXPECT_EQ(runs[1].values, (std::vector<std::string>{"2.0", "0.1", "1"}));
+  EXPECT_EQ(runs[3].values, (std::vector<std::string>{"2.0", "0.1", "2"}));
   EXPECT_EQ(runs[1].scene.projectile.speed_m_s, 2.0);
   EXPECT_EQ(runs[1].scene.projectile.mass_kg, 0.1);
   // The same columns as a product would be four points per seed.
@@ -56,12 +57,32 @@ TEST(SweepTable, RefusesWhatIsNotAPointNamingWhere) {
             std::string::npos);
   EXPECT_NE(RefusalOf("projectile.speed_m_s\n-1\n").find("projectile.speed_m_s"),
             std::string::npos);
-  EXPECT_NE(RefusalOf("projectile.speed_m_s\n1\n1.0\n").find("rows 1 and 2 are the same point"),
+  EXPECT_NE(RefusalOf("projectile.speed_m_s\n1\n1.0\n")
+                .find("rows 1 and 2 (after the header) are the same"),
             std::string::npos);
   EXPECT_NE(RefusalOf("bed.seed\tbed.seed\n1\t2\n").find("the column is given twice"),
             std::string::npos);
   EXPECT_NE(RefusalOf("# nothing\n").find("needs a header"), std::string::npos);
   EXPECT_NE(RefusalOf("bed.seed\n").find("needs a header"), std::string::npos);
+}
+
+// From a review: a table of no rows made a sweep of no jobs (stored outside every quota), a
+// count of seeds beside a bed.seed column was dropped without a word, and a value of
+// thousands of digits was copied into every run.
+TEST(SweepTable, RefusesAnEmptySweepSeedsTwiceAndLongValues) {
+  Scene base;
+  base.bed.thickness_m = 0;
+  EXPECT_THROW(ExpandSweep(base, {SweepAxis{"projectile.speed_m_s", {}}}, 100, {}, 1), SceneError);
+  const std::vector<SweepAxis> seeded = TableAxes(ParseSweepTable("bed.seed\n1\n2\n", "t"));
+  EXPECT_THROW(WithSeedAxis(seeded, 3), SceneError);
+  EXPECT_EQ(WithSeedAxis(seeded, 1).size(), 1u);
+  EXPECT_NE(RefusalOf("bed.thickness_m\n0." + std::string(600, '0') + "1\n").find("at most 512"),
+            std::string::npos);
+  EXPECT_NE(RefusalOf("projectile.speed_m_s projectile.mass_kg\n1 2\n")
+                .find("separate the columns by tabs or commas"),
+            std::string::npos);
+  // 1e-2 and 0.01 are one point.
+  EXPECT_NE(RefusalOf("bed.thickness_m\n0.01\n1e-2\n").find("are the same"), std::string::npos);
 }
 
 }  // namespace

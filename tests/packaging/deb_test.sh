@@ -74,7 +74,7 @@ read -r -a command <<< "$exec_start"
 # own name, not through this function, $! is the daemon).
 as_dembuf() { setpriv --reuid dembuf --regid dembuf --init-groups "$@"; }
 [ "${command[0]}" = /usr/bin/dembufd ] || fail "ExecStart names ${command[0]}"
-install -d -o dembuf -g dembuf -m 0750 /var/lib/dembuf /var/log/dembuf
+[ "$(stat -c %U /var/lib/dembuf)" = dembuf ] || fail "postinst made no /var/lib/dembuf of dembuf's"
 as_dembuf "${command[@]}" --check-config > "$work/config.txt" || fail "--check-config"
 grep -q '^db = "/var/lib/dembuf/dembuf.db"' "$work/config.txt" || fail "the installed configuration"
 token=$(as_dembuf "${command[@]}" token-create alice 2> /dev/null) || fail "token-create"

@@ -48,6 +48,12 @@ with dembuf.connect() as daemon:
     frame = daemon.sweep(sweep)
     assert dembuf.frames.sweep_axes(frame)[:2] == list(table.columns), frame.columns
     assert len(frame) == 2, frame
+    # A table of columns and no rows was stored as a sweep of no jobs (a review's find).
+    try:
+        daemon.submit_sweep(table=pd.DataFrame(columns=["bed.thickness_m"]), seeds=2)
+        raise SystemExit("a table of no rows was accepted")
+    except dembuf.DembufError as e:
+        assert e.code == "INVALID_ARGUMENT" and "one row" in e.message, e
 print(f"Python: {len(long)} samples of 12 runs; a DataFrame submitted as sweep {sweep}")
 PY
 

@@ -30,8 +30,10 @@ def __getattr__(name):
         missing = getattr(e, "name", None) or str(e)
         raise ImportError(
             f"dembuf.{name} talks to a dembufd and needs grpcio and protobuf ({missing} is "
-            "missing): pip install 'dembuf[server]', or on Debian apt install python3-grpcio "
-            "python3-protobuf; dembuf.read_run and the other readers work without them"
+            "missing): install the dembuf wheel with its server extra (pip install "
+            "'dembuf-VERSION-py3-none-any.whl[server]'), or on Debian apt install "
+            "python3-grpcio python3-protobuf; dembuf.read_run and the other readers work "
+            "without them"
         ) from e
     return getattr(client, name)
 

@@ -34,6 +34,19 @@ _CHANNEL_OPTIONS = [("grpc.compression_enabled_algorithms_bitset", 1),
 MAX_SERIES_SAMPLES = 20_000_000
 
 
+def _read_table(path: str | os.PathLike) -> pd.DataFrame:
+    """A table file by `dembuf sweep --table`'s rules: `#` lines and blank lines skipped, the
+    header's tabs (else commas) separate the columns, every value text (the daemon checks
+    them)."""
+    lines = [line for line in pathlib.Path(path).read_text().splitlines()
+             if line.strip() and not line.startswith("#")]
+    if not lines:
+        raise ValueError(f"{path}: needs a header of field names and a row per point")
+    sep = "\t" if "\t" in lines[0] else ","
+    rows = [[cell.strip(" ") for cell in line.split(sep)] for line in lines]
+    return pd.DataFrame(rows[1:], columns=rows[0], dtype=str)
+
+
 class DembufError(Exception):
     """A refused or failed call: `code` is the gRPC status name ("NOT_FOUND", ...), the
     message the daemon's reason ("id: no job 99")."""
@@ -315,8 +328,7 @@ class Client:
         if bed_file is not None:
             request.base.bed_file = self.send_bed_file(bed_file)
         if table is not None:
-            points = table if isinstance(table, pd.DataFrame) else pd.read_csv(
-                table, sep=None, engine="python", comment="#", dtype=str, skipinitialspace=True)
+            points = table if isinstance(table, pd.DataFrame) else _read_table(table)
             request.table.fields.extend(str(c) for c in points.columns)
             for row in points.itertuples(index=False):
                 request.table.rows.add(values=[str(v) for v in row])

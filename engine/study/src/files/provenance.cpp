@@ -116,7 +116,7 @@ std::string WithoutSecrets(std::string line, const std::string& secret) {
 }
 
 RunContext RunStartingNow(std::string command_line) {
-  return {std::move(command_line), HostName(), UtcNow(), "", omp_get_max_threads()};
+  return {std::move(command_line), HostName(), UtcNow(), "", omp_get_max_threads(), {}};
 }
 
 std::string SceneText(const Scene& scene) {
@@ -139,6 +139,8 @@ nlohmann::json ProvenanceJson(const RunContext& run, const Scene& scene, const B
       {"started_at", run.started_at},
       {"finished_at", run.finished_at},
       {"command_line", run.command_line},
+      {"model_reference", kPaperReference},
+      {"timeline", run.timeline},
   };
 }
 

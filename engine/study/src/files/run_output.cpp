@@ -51,9 +51,16 @@ std::string RunLogText(const nlohmann::json& summary) {
   };
   std::string text;
   const nlohmann::json provenance = summary.value("provenance", nlohmann::json::object());
+  std::string timeline;
   if (provenance.is_object())
-    for (const auto& [key, value] : provenance.items())
+    for (const auto& [key, value] : provenance.items()) {
+      if (key == "timeline" && value.is_array()) {  // a line each, after the other lines
+        for (const nlohmann::json& event : value) timeline += line(event) + "\n";
+        continue;
+      }
       text += PrintableText(key) + ": " + line(value) + "\n";
+    }
+  if (!timeline.empty()) text += "what the run did (UTC):\n" + timeline;
   const nlohmann::json warnings = summary.value("warnings", nlohmann::json::array());
   if (!warnings.is_array() || warnings.empty()) text += "no warnings\n";
   if (warnings.is_array())

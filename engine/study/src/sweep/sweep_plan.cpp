@@ -56,6 +56,13 @@ std::vector<std::string> ExpandRange(const std::string& field, const std::string
 
 }  // namespace
 
+void CheckSweepValueLength(const std::string& field, const std::string& value) {
+  // Each value is copied into every run's name and record: a long one costs runs times over.
+  if (value.size() > kMaxSweepValueBytes)
+    throw SceneError(field, "a swept value of " + std::to_string(value.size()) +
+                                " bytes; at most " + std::to_string(kMaxSweepValueBytes));
+}
+
 SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>& values,
                         const std::string& range) {
   RequireSceneField(field);
@@ -70,6 +77,7 @@ SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>
   std::map<std::string, std::string> seen;  // the field's value as the scene holds it
   for (const std::string& v : axis.values) {
     if (v.empty()) throw SceneError(field, "empty value in the sweep axis");
+    CheckSweepValueLength(field, v);
     SetSceneField(probe, field, v);
     const auto [at, fresh] = seen.emplace(FormatSceneField(probe, RequireSceneField(field)), v);
     if (!fresh)
@@ -117,8 +125,13 @@ std::string SweepSeedsProblem(int seeds) {
 std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
                                     std::int64_t first_seed) {
   if (std::any_of(axes.begin(), axes.end(),
-                  [](const SweepAxis& a) { return a.field == "bed.seed"; }))
+                  [](const SweepAxis& a) { return a.field == "bed.seed"; })) {
+    if (seeds > 1)
+      throw SceneError("seeds", std::to_string(seeds) +
+                                    ": bed.seed is swept already (an axis or a table's column); "
+                                    "give the seeds there, not as a count");
     return axes;
+  }
   if (const std::string problem = SweepSeedsProblem(seeds); !problem.empty())
     throw SceneError("seeds", problem);
   SweepAxis seed{"bed.seed", {}};
@@ -146,6 +159,7 @@ std::vector<SweepRun> ExpandSweep(const Scene& base, const std::vector<SweepAxis
                                           " values beside " + std::to_string(sizes.front()));
   double count = 1;
   for (std::size_t size : sizes) count *= static_cast<double>(size);
+  if (count == 0) throw SceneError("axes", "the sweep has no runs: an axis or table is empty");
   if (count > static_cast<double>(max_runs))
     throw SceneError("axes", "the sweep has " + NumberText(count, 12) + " runs; at most " +
                                  std::to_string(max_runs) + " are allowed");
@@ -207,6 +221,10 @@ SweepTable ParseSweepTable(std::string_view text, const std::string& name) {
     if (table.fields.empty()) {
       for (const std::string& field : cells) {
         if (field.empty()) throw SceneError("--table", where() + ": a column without a field name");
+        if (field.find_first_of(" ;") != std::string::npos)
+          throw SceneError("--table", where() + ": \"" + field +
+                                          "\" is not a field name: separate the columns by tabs "
+                                          "or commas");
         RequireSceneField(field);
         if (std::count(cells.begin(), cells.end(), field) > 1)
           throw SceneError(field, where() + ": the column is given twice");
@@ -274,13 +292,15 @@ std::vector<SweepAxis> TableAxes(const SweepTable& table) {
     for (std::size_t c = 0; c < columns.size(); ++c) {
       if (row[c].empty())
         throw SceneError(columns[c].field, "row " + std::to_string(r + 1) + ": no value");
+      CheckSweepValueLength(columns[c].field, row[c]);
       SetSceneField(probe, columns[c].field, row[c]);
-      point += FormatSceneField(probe, RequireSceneField(columns[c].field)) + '\n';
-      columns[c].values.push_back(row[c]);
+      // As the field table writes it: 1e-2 and 0.01 are one value, in the record and the runs.
+      columns[c].values.push_back(FormatSceneField(probe, RequireSceneField(columns[c].field)));
+      point += columns[c].values.back() + '\n';
     }
     if (const auto [at, fresh] = seen.emplace(point, r + 1); !fresh)
-      throw SceneError("table", "rows " + std::to_string(at->second) + " and " +
-                                    std::to_string(r + 1) + " are the same point");
+      throw SceneError("table", "the points of rows " + std::to_string(at->second) + " and " +
+                                    std::to_string(r + 1) + " (after the header) are the same");
   }
   return columns;
 }

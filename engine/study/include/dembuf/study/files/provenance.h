@@ -47,7 +47,16 @@ struct RunContext {
   std::string started_at;  ///< UTC, ISO 8601
   std::string finished_at;
   int threads = 0;
+  /// What the run did, a line each, prefixed with its UTC time (RunJob writes it): its bed
+  /// stages as they start and end, the impact's start and end. In log.txt.
+  std::vector<std::string> timeline;
 };
+
+/// The paper whose model and experiments dembuf reproduces, as its provenance names it.
+inline constexpr const char* kPaperReference =
+    "Ji S., Fan L., Liang S., Buffer capacity of granular materials and its influencing factors "
+    "based on discrete element method, Acta Physica Sinica 65, 104501 (2016), "
+    "doi:10.7498/aps.65.104501";
 
 /// A run starting now on this machine, asked for by `command_line`, on the engine's default
 /// threads (OpenMP's, as OMP_NUM_THREADS sets them); finished_at is the caller's to set.

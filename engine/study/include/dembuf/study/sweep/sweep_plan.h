@@ -40,6 +40,11 @@ SweepAxis ParseSweepAxis(const std::string& spec);
 SweepAxis MakeSweepAxis(const std::string& field, const std::vector<std::string>& values,
                         const std::string& range);
 
+/// The longest swept value, in bytes (a path of bed.import fits): each is copied into every run.
+inline constexpr std::size_t kMaxSweepValueBytes = 512;
+/// Throws SceneError naming the field for a value longer than kMaxSweepValueBytes.
+void CheckSweepValueLength(const std::string& field, const std::string& value);
+
 /// The most bed seeds a sweep runs of each point: the rule of `dembuf sweep --seeds` and of the
 /// daemon's SubmitSweep alike.
 inline constexpr int kMaxSweepSeeds = 1000;
@@ -47,7 +52,8 @@ inline constexpr int kMaxSweepSeeds = 1000;
 std::string SweepSeedsProblem(int seeds);
 
 /// Adds the axis bed.seed = first_seed .. first_seed + seeds - 1 unless bed.seed is already
-/// varied. Throws SceneError (seeds) where SweepSeedsProblem says why not.
+/// varied (then seeds must be 1). Throws SceneError (seeds) where SweepSeedsProblem says why
+/// not, or for seeds > 1 beside a swept bed.seed.
 std::vector<SweepAxis> WithSeedAxis(std::vector<SweepAxis> axes, int seeds,
                                     std::int64_t first_seed = 1);
 

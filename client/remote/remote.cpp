@@ -1030,13 +1030,19 @@ grpc::Status FetchJobResults(v1::Dembuf::Stub& stub, const Remote& remote, std::
 
 // A job's values go into sweep.csv, points.csv and the table: each must be one of its axis's
 // values, which were checked as values of the field.
-bool HasValuesOfAxes(const v1::Job& job, const std::vector<SweepAxis>& axes) {
+// The job's values of the axes into `run`, as a local sweep's reports write them; false (and
+// `run` unchanged) when they are not the axes' values. A second job of the same index (a
+// hostile server's) replaces the first's values.
+bool TakeValuesOfAxes(const v1::Job& job, const std::vector<SweepAxis>& axes, SweepRunReport& run) {
   if (job.sweep_values_size() != static_cast<int>(axes.size())) return false;
   for (int a = 0; a < job.sweep_values_size(); ++a) {
     const std::vector<std::string>& allowed = axes[static_cast<std::size_t>(a)].values;
     if (std::find(allowed.begin(), allowed.end(), job.sweep_values(a)) == allowed.end())
       return false;
   }
+  run.values.clear();
+  for (std::size_t a = 0; a < axes.size(); ++a)
+    run.values.push_back(CanonicalSweepValue(axes[a].field, job.sweep_values(static_cast<int>(a))));
   return true;
 }
 
@@ -1110,7 +1116,7 @@ int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, co
     SweepRunReport& run = runs[index];
     run.name = SafeFolderName(job.name(), job.id());
     run.id = job.id();
-    if (!HasValuesOfAxes(job, axes)) {
+    if (!TakeValuesOfAxes(job, axes, run)) {
       std::fprintf(stderr,
                    "dembuf: the server at %s sent job %lld of sweep %lld with values that are "
                    "not its sweep's\n",
@@ -1118,12 +1124,6 @@ int FetchSweep(v1::Dembuf::Stub& stub, const Remote& remote, std::int64_t id, co
                    static_cast<long long>(id));
       return kExitRuntime;
     }
-    // As a local sweep's reports write them (checked to be the axes' values above); a second
-    // job of the same index (a hostile server's) replaces the first.
-    run.values.clear();
-    for (std::size_t a = 0; a < axes.size(); ++a)
-      run.values.push_back(
-          CanonicalSweepValue(axes[a].field, job.sweep_values(static_cast<int>(a))));
     if (!Ended(job.state())) {
       run.state = api::StateText(job.state());
       run.error = std::string("still ") + api::StateText(job.state());

@@ -756,8 +756,10 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
   std::printf("scene %s, bed %s\n", Shown(j.scene_hash()).c_str(),
               j.bed_hash().empty() ? "(none)" : Shown(j.bed_hash()).c_str());
   if (j.slurm_job_id() != 0)
-    std::printf("Slurm job %lld%s%s\n", static_cast<long long>(j.slurm_job_id()),
-                j.host().empty() ? "" : " on ", Shown(j.host()).c_str());
+    std::printf(
+        "Slurm job %lld%s%s%s\n", static_cast<long long>(j.slurm_job_id()),
+        j.has_slurm_array_task() ? ("_" + std::to_string(j.slurm_array_task())).c_str() : "",
+        j.host().empty() ? "" : " on ", Shown(j.host()).c_str());
   for (const auto& bed : j.beds_prepared()) std::printf("prepared bed: %s\n", Shown(bed).c_str());
   if (j.files_size() > 0) {
     std::int64_t bytes = 0;

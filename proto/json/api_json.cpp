@@ -76,6 +76,8 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
        p.peak_plate_force_n() > 0.0 ? nlohmann::json(p.peak_plate_force_n()) : nlohmann::json()},
       {"P_N", job.has_p_n() ? nlohmann::json(job.p_n()) : nlohmann::json()},
       {"slurm_job_id", IdOrNull(job.slurm_job_id())},
+      {"slurm_array_task",
+       job.has_slurm_array_task() ? nlohmann::json(job.slurm_array_task()) : nlohmann::json()},
   };
   if (!details) return out;
   out["scene_toml"] = job.scene_toml();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <set>
 #include <sstream>
 
 #include "dembuf/study/spawn/program.h"
@@ -53,23 +54,39 @@ bool IsFinalState(std::string_view state) {
   return false;
 }
 
+namespace {
+
+// An array task's index as squeue or scontrol print it; -1 for "N/A" (not an array's task),
+// nothing for anything else.
+std::optional<int> ParseTask(std::string_view text) {
+  if (text == "N/A") return -1;
+  const std::optional<int> task = Number(text);
+  if (!task) return std::nullopt;
+  return task;
+}
+
+}  // namespace
+
 std::vector<JobStatus> ParseSqueue(std::string_view output) {
   std::vector<JobStatus> jobs;
   for (std::string_view line : Split(output, '\n')) {
     const std::vector<std::string_view> fields = Split(line, '|');
-    if (fields.size() != 5) continue;
+    if (fields.size() != 6) continue;
     const std::optional<std::int64_t> id = ParseId(fields[0]);
-    if (!id || !IsWord(fields[2]) || fields[1].size() > 256 || fields[3].size() > 256 ||
-        fields[4].size() > 256)
+    const std::optional<int> task = ParseTask(fields[1]);
+    if (!id || !task || !IsWord(fields[3]) || fields[2].size() > 256 || fields[4].size() > 256 ||
+        fields[5].size() > 256)
       continue;
-    jobs.push_back({*id, std::string(fields[1]), std::string(fields[2]), std::string(fields[3]),
-                    std::string(fields[4])});
+    jobs.push_back({*id, *task, std::string(fields[2]), std::string(fields[3]),
+                    std::string(fields[4]), std::string(fields[5])});
   }
   return jobs;
 }
 
-std::optional<JobStatus> ParseScontrolJob(std::string_view line) {
+std::vector<JobStatus> ParseScontrolJob(std::string_view line) {
   JobStatus job;
+  std::int64_t array_id = 0;
+  std::string tasks;
   std::istringstream words{std::string(line)};
   for (std::string word; words >> word;) {
     const std::size_t equals = word.find('=');
@@ -77,6 +94,10 @@ std::optional<JobStatus> ParseScontrolJob(std::string_view line) {
     const std::string key = word.substr(0, equals), value = word.substr(equals + 1);
     if (key == "JobId") {
       if (const auto id = ParseId(value)) job.id = *id;
+    } else if (key == "ArrayJobId") {
+      if (const auto id = ParseId(value)) array_id = *id;
+    } else if (key == "ArrayTaskId") {
+      tasks = value;
     } else if (key == "JobName") {
       job.name = value;
     } else if (key == "JobState" && IsWord(value)) {
@@ -87,8 +108,50 @@ std::optional<JobStatus> ParseScontrolJob(std::string_view line) {
       job.node = value;
     }
   }
-  if (job.id == 0 || job.state.empty()) return std::nullopt;
-  return job;
+  if (job.id == 0 || job.state.empty()) return {};
+  if (array_id == 0 && tasks.empty()) return {job};
+  // A task of an array: known by the array's id and its index.
+  const std::optional<std::vector<int>> indexes = ParseArrayIndexes(tasks);
+  if (array_id == 0 || !indexes) return {};
+  std::vector<JobStatus> each;
+  for (int index : *indexes) {
+    each.push_back(job);
+    each.back().id = array_id;
+    each.back().task = index;
+  }
+  return each;
+}
+
+std::string FormatArrayIndexes(std::vector<int> indexes) {
+  std::sort(indexes.begin(), indexes.end());
+  indexes.erase(std::unique(indexes.begin(), indexes.end()), indexes.end());
+  std::string text;
+  for (std::size_t i = 0; i < indexes.size();) {
+    std::size_t last = i;
+    while (last + 1 < indexes.size() && indexes[last + 1] == indexes[last] + 1) ++last;
+    if (!text.empty()) text += ',';
+    text += std::to_string(indexes[i]);
+    if (last > i) text += '-' + std::to_string(indexes[last]);
+    i = last + 1;
+  }
+  return text;
+}
+
+std::optional<std::vector<int>> ParseArrayIndexes(std::string_view text, std::size_t most) {
+  text = text.substr(0, text.find('%'));
+  if (text.empty() || text.size() > 4096) return std::nullopt;
+  std::vector<int> indexes;
+  for (std::string_view part : Split(text, ',')) {
+    const std::size_t dash = part.find('-');
+    const std::optional<int> first = Number(part.substr(0, dash));
+    const std::optional<int> last =
+        dash == std::string_view::npos ? first : Number(part.substr(dash + 1));
+    if (!first || !last || *last < *first ||
+        static_cast<std::size_t>(*last - *first) + indexes.size() >= most)
+      return std::nullopt;
+    for (int index = *first; index <= *last; ++index) indexes.push_back(index);
+  }
+  return indexes;
 }
 
 std::optional<std::int64_t> ParseSbatchId(std::string_view output) {
@@ -153,7 +216,13 @@ std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& 
   if (job.mem_mb > 0) args.push_back("--mem=" + std::to_string(job.mem_mb) + "M");
   if (job.time_s > 0) args.push_back("--time=" + FormatTimeLimit(job.time_s));
   if (!settings.partition.empty()) args.push_back("--partition=" + settings.partition);
-  if (!settings.account.empty()) args.push_back("--account=" + settings.account);
+  const std::string& account = job.account.empty() ? settings.account : job.account;
+  if (!account.empty()) args.push_back("--account=" + account);
+  if (!job.wckey.empty()) args.push_back("--wckey=" + job.wckey);
+  if (!job.comment.empty()) args.push_back("--comment=" + job.comment);
+  if (!job.array_tasks.empty())
+    args.push_back("--array=" + FormatArrayIndexes(job.array_tasks) +
+                   (job.array_limit > 0 ? "%" + std::to_string(job.array_limit) : ""));
   if (!job.after_ok.empty()) {
     std::string after = "afterok";
     for (std::int64_t id : job.after_ok) {
@@ -169,9 +238,21 @@ std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& 
   // (SubmitEnvironment).
   if (!job.environment.empty()) args.push_back("--export=ALL");
   std::string line = "exec";
+  if (!job.array_tasks.empty())
+    line = "job=$((" + std::to_string(job.array_base) + " + SLURM_ARRAY_TASK_ID)) && exec";
   for (const std::string& word : job.command) {
     line += ' ';
-    line += ShellQuote(word);
+    if (job.array_tasks.empty()) {
+      line += ShellQuote(word);
+      continue;
+    }
+    // Each part quoted, and the task's job id, a number the shell computed, between them.
+    std::string_view rest = word;
+    for (std::size_t at; (at = rest.find(kTaskJobId)) != std::string_view::npos;) {
+      line += ShellQuote(rest.substr(0, at)) + "\"$job\"";
+      rest.remove_prefix(at + kTaskJobId.size());
+    }
+    line += ShellQuote(rest);
   }
   args.push_back("--wrap=" + line);
   return args;
@@ -224,8 +305,8 @@ std::int64_t Client::Submit(const Submission& job) {
   return *id;
 }
 
-std::map<std::int64_t, JobStatus> Client::Query(const std::vector<std::int64_t>& ids) {
-  std::map<std::int64_t, JobStatus> found;
+std::map<JobKey, JobStatus> Client::Query(const std::vector<std::int64_t>& ids) {
+  std::map<JobKey, JobStatus> found;
   if (ids.empty()) return found;
   std::string list;
   for (std::int64_t id : ids) {
@@ -233,19 +314,26 @@ std::map<std::int64_t, JobStatus> Client::Query(const std::vector<std::int64_t>&
     list += std::to_string(id);
   }
   const ProgramResult squeue =
-      RunProgram({"squeue", "-h", "-t", "all", "-j", list, "-o", kSqueueFormat},
+      RunProgram({"squeue", "-h", "-r", "-t", "all", "-j", list, "-o", kSqueueFormat},
                  std::chrono::seconds(m_settings.command_timeout_s));
   if (squeue.exit_code == 127 || squeue.timed_out)
     throw SlurmError("squeue: " + (squeue.timed_out ? std::string("no answer") : squeue.output));
   // (squeue refuses the whole list when one id is unknown to it: scontrol asks one by one.)
+  std::set<std::int64_t> listed;
   for (const JobStatus& job : ParseSqueue(squeue.output))
-    if (std::find(ids.begin(), ids.end(), job.id) != ids.end()) found[job.id] = job;
+    if (std::find(ids.begin(), ids.end(), job.id) != ids.end()) {
+      found[{job.id, job.task}] = job;
+      listed.insert(job.id);
+    }
   for (std::int64_t id : ids) {
-    if (found.count(id)) continue;
+    if (listed.count(id)) continue;
     const ProgramResult scontrol = RunProgram({"scontrol", "show", "job", "-o", std::to_string(id)},
                                               std::chrono::seconds(m_settings.command_timeout_s));
     if (scontrol.exit_code != 0) continue;  // "Invalid job id": Slurm has forgotten it
-    if (const auto job = ParseScontrolJob(scontrol.output); job && job->id == id) found[id] = *job;
+    listed.insert(id);                      // (asked once, however often it is in `ids`)
+    for (std::string_view line : Split(scontrol.output, '\n'))
+      for (const JobStatus& job : ParseScontrolJob(line))
+        if (job.id == id) found[{job.id, job.task}] = job;
   }
   return found;
 }
@@ -253,13 +341,13 @@ std::map<std::int64_t, JobStatus> Client::Query(const std::vector<std::int64_t>&
 std::vector<JobStatus> Client::FindByNamePrefix(const std::string& prefix) {
   std::vector<JobStatus> jobs;
   for (const JobStatus& job :
-       ParseSqueue(Run({"squeue", "-h", "--me", "-t", "all", "-o", kSqueueFormat})))
+       ParseSqueue(Run({"squeue", "-h", "-r", "--me", "-t", "all", "-o", kSqueueFormat})))
     if (job.name.rfind(prefix, 0) == 0) jobs.push_back(job);
   return jobs;
 }
 
-void Client::Cancel(std::int64_t id) {
-  Run({"scancel", std::to_string(id)}, false);
+void Client::Cancel(std::int64_t id, int task) {
+  Run({"scancel", std::to_string(id) + (task >= 0 ? "_" + std::to_string(task) : "")}, false);
 }
 
 }  // namespace dembuf::server::slurm

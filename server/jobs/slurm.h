@@ -29,7 +29,8 @@ bool SlurmUnreachable(const std::string& error);
 
 /// A job as squeue or scontrol describes it.
 struct JobStatus {
-  std::int64_t id = 0;
+  std::int64_t id = 0;  ///< the job's id; a job array's own id for each of its tasks
+  int task = -1;        ///< the task's index in its job array; -1: not an array's task
   std::string name;
   std::string state;   ///< PENDING, RUNNING, COMPLETED, FAILED, CANCELLED, TIMEOUT, ...
   std::string reason;  ///< why it waits or ended (Dependency, TimeLimit, None, ...)
@@ -40,12 +41,24 @@ struct JobStatus {
 /// OUT_OF_MEMORY, NODE_FAIL, PREEMPTED, BOOT_FAIL, DEADLINE).
 bool IsFinalState(std::string_view state);
 
-/// squeue's output format: id, name, state, reason, node.
-inline constexpr const char* kSqueueFormat = "%i|%j|%T|%r|%N";
-/// The lines of `squeue -h -o kSqueueFormat`.
+/// A job of Slurm's as the daemon names it: the job's id and its task in a job array (-1:
+/// not an array's task). A job array's tasks share its id.
+using JobKey = std::pair<std::int64_t, int>;
+
+/// squeue's output format: the job's (or its array's) id, the array task ("N/A" for none),
+/// name, state, reason, node.
+inline constexpr const char* kSqueueFormat = "%F|%K|%j|%T|%r|%N";
+/// The lines of `squeue -h -r -o kSqueueFormat` (-r: an array's tasks one per line).
 std::vector<JobStatus> ParseSqueue(std::string_view output);
-/// One line of `scontrol show job -o` (JobId=.. JobName=.. JobState=.. Reason=..).
-std::optional<JobStatus> ParseScontrolJob(std::string_view line);
+/// One line of `scontrol show job -o` (JobId=.. ArrayJobId=.. ArrayTaskId=.. JobName=..
+/// JobState=.. Reason=..); an array's tasks that still wait together ("ArrayTaskId=3-9%2")
+/// are each one status. Nothing when the line does not parse.
+std::vector<JobStatus> ParseScontrolJob(std::string_view line);
+/// An array's task indexes as sbatch's --array takes them: "0-3,7,9-10".
+std::string FormatArrayIndexes(std::vector<int> indexes);
+/// The indexes of such a list (a "%N" limit after it ignored); nothing when it is not one or
+/// names more than `most` indexes.
+std::optional<std::vector<int>> ParseArrayIndexes(std::string_view text, std::size_t most = 100000);
 /// The job id sbatch --parsable prints ("123" or "123;cluster").
 std::optional<std::int64_t> ParseSbatchId(std::string_view output);
 
@@ -63,12 +76,23 @@ struct Settings {
   std::string time_limit;               ///< Slurm's format; "" from the job's estimate
   std::vector<std::string> extra_args;  ///< more sbatch arguments, one word each
   std::string work_dir;                 ///< a folder every node sees: job folders, bed cache
-  std::string dembuf;          ///< the dembuf program on the nodes; "" for the one beside dembufd
-  double poll_s = 2.0;         ///< how often squeue is asked
+  std::string dembuf;   ///< the dembuf program on the nodes; "" for the one beside dembufd
+  double poll_s = 2.0;  ///< how often squeue is asked
+  /// A sweep's jobs go to Slurm as job arrays of at most this many tasks (1: a job each).
+  int array_tasks_max = 1000;
+  int array_limit = 0;  ///< an array's tasks that run at once, at most (0: no limit)
+  /// Slurm's account of each dembuf user's jobs (one not named: `account`).
+  std::map<std::string, std::string> accounts;
+  bool wckey = false;          ///< each job's wckey is its dembuf user's name
   int command_timeout_s = 60;  ///< a Slurm command that takes longer has failed
+  bool operator==(const Settings&) const = default;
 };
 
-/// One job to submit.
+/// In an array's command, where each task puts its dembuf job's id (the array's first job id
+/// plus the task's index): "/work/jobs/d-{job}/scene.toml".
+inline constexpr std::string_view kTaskJobId = "{job}";
+
+/// One job to submit, or one job array.
 struct Submission {
   std::string name;    ///< dembuf-<daemon id>-<job id>, or -bed-<hash>
   std::string folder;  ///< its working folder (--chdir)
@@ -78,6 +102,14 @@ struct Submission {
   int time_s = 0;                      ///< 0: the partition's default
   std::vector<std::int64_t> after_ok;  ///< jobs that must end well first
   std::vector<std::string> command;    ///< the program and its arguments
+  /// A job array's task indexes ([] for one job): task i runs the command with kTaskJobId as
+  /// array_base + i.
+  std::vector<int> array_tasks;
+  std::int64_t array_base = 0;
+  int array_limit = 0;  ///< tasks that run at once, at most (0: as many as Slurm places)
+  std::string account;  ///< "" for the settings' account
+  std::string wckey;    ///< "" for none
+  std::string comment;  ///< what the job's record says (who asked for it)
   /// Variables the job gets (names of [A-Z_], made by the daemon): in sbatch's environment,
   /// which sbatch hands to the job (--export=ALL) and only the daemon's account may read, not
   /// on sbatch's command line, which every account on the machine may.
@@ -85,7 +117,8 @@ struct Submission {
 };
 
 /// The sbatch arguments of a submission: every value one argument, and the command a single
-/// shell word each (sbatch --wrap runs a shell line: each word is quoted).
+/// shell word each (sbatch --wrap runs a shell line: each word is quoted; in an array's,
+/// kTaskJobId becomes the task's job id, computed by the shell from SLURM_ARRAY_TASK_ID).
 std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& job);
 /// The "NAME=value" entries sbatch runs with for a submission (its `environment`). Throws
 /// SlurmError for a name that is not one of [A-Z_].
@@ -98,14 +131,14 @@ class Client {
 
   /// Submits; returns the Slurm job id. Throws SlurmError with sbatch's words.
   std::int64_t Submit(const Submission& job);
-  /// The state of these jobs: squeue first; the jobs it does not list (finished long ago,
-  /// or unknown) from scontrol. A job neither knows is absent. Throws SlurmError when
-  /// squeue itself cannot be run.
-  std::map<std::int64_t, JobStatus> Query(const std::vector<std::int64_t>& ids);
+  /// The state of these jobs and of their arrays' tasks: squeue first; the jobs it does not
+  /// list (finished long ago, or unknown) from scontrol. A job neither knows is absent.
+  /// Throws SlurmError when squeue itself cannot be run.
+  std::map<JobKey, JobStatus> Query(const std::vector<std::int64_t>& ids);
   /// Jobs whose name starts with `prefix` (the daemon's own: to re-adopt after a restart).
   std::vector<JobStatus> FindByNamePrefix(const std::string& prefix);
-  /// Cancels; a job already ended is no error.
-  void Cancel(std::int64_t id);
+  /// Cancels a job, or one task of an array; a job already ended is no error.
+  void Cancel(std::int64_t id, int task = -1);
 
   const Settings& settings() const { return m_settings; }
 

@@ -92,8 +92,9 @@ std::vector<JobRecord> InTurns(const std::vector<JobRecord>& jobs) {
 }
 
 // Why Slurm ended a job that left no result, in words, with Slurm's state name in them.
-std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int64_t slurm_id) {
-  const std::string job = "Slurm job " + std::to_string(slurm_id);
+std::string SlurmReason(const std::optional<slurm::JobStatus>& status,
+                        const std::string& slurm_job) {
+  const std::string job = "Slurm job " + slurm_job;
   if (!status) return job + " is unknown to Slurm and left no result (its state was wiped?)";
   const std::string& state = status->state;
   if (state == "TIMEOUT") return job + " passed its time limit: TIMEOUT";
@@ -104,6 +105,12 @@ std::string SlurmReason(const std::optional<slurm::JobStatus>& status, std::int6
   if (state == "COMPLETED") return job + " ended without writing its result: COMPLETED";
   return job + " ended: " + state +
          (status->reason.empty() || status->reason == "None" ? "" : " (" + status->reason + ")");
+}
+
+// A job's Slurm job as Slurm writes it: "123", or "123_4" for task 4 of array 123.
+std::string SlurmJobText(const JobRecord& job) {
+  return std::to_string(job.slurm_id) +
+         (job.slurm_task < 0 ? "" : "_" + std::to_string(job.slurm_task));
 }
 
 std::string ToLower(std::string text) {
@@ -158,11 +165,14 @@ void SlurmExecutor::Adopt() {
       m_log->info("job {}: taken up again in Slurm job {}", job.id, job.slurm_id);
       continue;
     }
-    // Submitted by a daemon that died before it could store the Slurm id?
-    const auto found = std::find_if(in_slurm.begin(), in_slurm.end(),
-                                    [&](const auto& s) { return s.name == JobName(job.id); });
+    // Submitted by a daemon that died before it could store the Slurm id? Its own Slurm job,
+    // or a task of an array named by its first job (task i of array b runs job b + i).
+    const auto found = std::find_if(in_slurm.begin(), in_slurm.end(), [&](const auto& s) {
+      return s.task < 0 ? s.name == JobName(job.id) : s.name == ArrayName(job.id - s.task);
+    });
     if (found != in_slurm.end()) {
-      m_store.SetSlurmId(job.id, found->id);
+      const std::int64_t base = found->task < 0 ? -1 : job.id - found->task;
+      m_store.SetSlurmId({job.id}, found->id, base);
       m_log->warn("job {}: found in Slurm as job {}; taken up, not submitted again", job.id,
                   found->id);
     } else if (job.state != JobState::kQueued) {
@@ -201,7 +211,7 @@ bool SlurmExecutor::Cancel(std::int64_t id) {
   }
   // It ends when Slurm says so (the next pass records it): the run gets SIGTERM first.
   try {
-    m_slurm.Cancel(job->slurm_id);
+    m_slurm.Cancel(job->slurm_id, job->slurm_task);
   } catch (const slurm::SlurmError& e) {
     m_log->error("job {}: scancel {}: {}", id, job->slurm_id, e.what());
     throw std::runtime_error("Slurm did not take the cancel: " + std::string(e.what()));
@@ -266,13 +276,13 @@ void SlurmExecutor::Loop() {
 void SlurmExecutor::Tick() {
   std::lock_guard work(m_work_mutex);
   SubmitQueued();
-  std::vector<std::int64_t> ids;
-  for (const SlurmBedJob& bed : m_store.SlurmBedsInState("submitted")) ids.push_back(bed.slurm_id);
+  std::set<std::int64_t> ids;  // (an array's tasks share its id)
+  for (const SlurmBedJob& bed : m_store.SlurmBedsInState("submitted")) ids.insert(bed.slurm_id);
   for (const JobRecord& job : m_store.UnfinishedJobs())
-    if (job.slurm_id != 0) ids.push_back(job.slurm_id);
+    if (job.slurm_id != 0) ids.insert(job.slurm_id);
   // Slurm first, then the folders: a run whose files are not there yet when Slurm says it
   // ended has really ended without them.
-  const std::map<std::int64_t, slurm::JobStatus> status = m_slurm.Query(ids);
+  const std::map<slurm::JobKey, slurm::JobStatus> status = m_slurm.Query({ids.begin(), ids.end()});
   PollBeds(status);
   PollJobs(status);
   CancelUnneededBeds();
@@ -301,6 +311,14 @@ std::string SlurmExecutor::JobName(std::int64_t id) const {
   return "dembuf-" + m_daemon_id + "-" + std::to_string(id);
 }
 
+std::string SlurmExecutor::ArrayName(std::int64_t base) const {
+  return "dembuf-" + m_daemon_id + "-array-" + std::to_string(base);
+}
+
+std::string SlurmExecutor::SlurmName(const JobRecord& job) const {
+  return job.slurm_task < 0 ? JobName(job.id) : ArrayName(job.id - job.slurm_task);
+}
+
 std::string SlurmExecutor::BedJobName(const std::string& hash) const {
   return "dembuf-" + m_daemon_id + "-bed-" + hash;
 }
@@ -309,20 +327,56 @@ OwnedFolder SlurmExecutor::JobFolder(std::int64_t id, bool make) const {
   return m_jobs.Folder(m_daemon_id + "-" + std::to_string(id), make);
 }
 
+OwnedFolder SlurmExecutor::ArrayFolder(std::int64_t base, bool make) const {
+  return m_jobs.Folder(m_daemon_id + "-array-" + std::to_string(base), make);
+}
+
 bool SlurmExecutor::BedReady(const std::string& hash) const {
   return m_beds.Contains(hash + ".bed");
 }
 
+namespace {
+
+// A job that waits to be submitted to Slurm.
+bool Unsubmitted(const JobRecord& job) {
+  return job.slurm_id == 0 && job.state == JobState::kQueued && !job.cancel_requested;
+}
+
+}  // namespace
+
+std::vector<JobRecord> SlurmExecutor::SubmittedWith(
+    const JobRecord& first, const std::vector<JobRecord>& unfinished) const {
+  std::vector<JobRecord> jobs = {first};
+  if (first.sweep_id == 0) return jobs;
+  // Task i is job first + i: Slurm's index limit (MaxArraySize) bounds the ids' span.
+  for (const JobRecord& job : unfinished)
+    if (job.id > first.id && job.id - first.id < m_options.slurm.array_tasks_max &&
+        job.sweep_id == first.sweep_id && job.owner == first.owner && Unsubmitted(job))
+      jobs.push_back(job);
+  std::sort(jobs.begin(), jobs.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  return jobs;
+}
+
 void SlurmExecutor::SubmitQueued() {
-  for (const JobRecord& job : InTurns(m_store.UnfinishedJobs())) {
-    if (job.slurm_id != 0 || job.state != JobState::kQueued || job.cancel_requested) continue;
+  const std::vector<JobRecord> unfinished = m_store.UnfinishedJobs();
+  std::set<std::int64_t> submitted;  // in an array, this pass
+  for (const JobRecord& job : InTurns(unfinished)) {
+    if (!Unsubmitted(job) || submitted.count(job.id)) continue;
     {
       std::lock_guard lock(m_mutex);
       if (m_stopping) return;
     }
+    // The rest of its sweep with it (jobs in turns: the sweep's first unsubmitted job).
+    const std::vector<JobRecord> jobs = SubmittedWith(job, unfinished);
+    for (const JobRecord& with : jobs) submitted.insert(with.id);
     try {
-      Submit(job);
-      if (job.error.rfind(kWaitingForSlurm, 0) == 0) m_store.SetState(job.id, JobState::kQueued);
+      if (jobs.size() == 1)
+        Submit(job);
+      else
+        SubmitArray(jobs);
+      for (const JobRecord& with : jobs)
+        if (with.error.rfind(kWaitingForSlurm, 0) == 0)
+          m_store.SetState(with.id, JobState::kQueued);
     } catch (const slurm::SlurmError& e) {
       const std::string what = e.what();
       if (slurm::SlurmUnreachable(what)) {
@@ -333,8 +387,11 @@ void SlurmExecutor::SubmitQueued() {
                        m_options.slurm.poll_s, what);
         return;
       }
-      m_store.FinishJob(job.id, JobState::kFailed, "Slurm refused the job: " + what, {});
-      m_log->error("job {}: Slurm refused it: {}", job.id, what);
+      for (const JobRecord& with : jobs)
+        m_store.FinishJob(with.id, JobState::kFailed, "Slurm refused the job: " + what, {});
+      m_log->error("job {}{}: Slurm refused it: {}", job.id,
+                   jobs.size() > 1 ? " and " + std::to_string(jobs.size() - 1) + " more" : "",
+                   what);
     }
   }
 }
@@ -354,7 +411,7 @@ bool SlurmExecutor::NoteWaitingForSlurm(std::string what) {
 }
 
 slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const OwnedFolder& folder,
-                                               const std::string& scene_toml, const Scene& scene,
+                                               const JobRecord& job, const Scene& scene,
                                                bool bed_only, std::int64_t after,
                                                const std::vector<std::string>& dembuf_args,
                                                const std::string& nonce) const {
@@ -366,7 +423,7 @@ slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const Ow
     on_node.bed.import = kNodeBedFile;
     folder.Write(report::run_files::kScene, report::SceneText(on_node));
   } else {
-    folder.Write(report::run_files::kScene, scene_toml);
+    folder.Write(report::run_files::kScene, job.scene_toml);
   }
   const slurm::Settings& settings = m_options.slurm;
   slurm::Submission submission;
@@ -375,6 +432,12 @@ slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const Ow
   submission.log = (folder.path() / "slurm.log").string();
   if (!nonce.empty()) submission.environment.emplace_back(report::kResultNonceVariable, nonce);
   submission.cpus = settings.cpus_per_job;
+  // Whose job it is, in Slurm's accounting: sacct tells the lab's users apart by its comment,
+  // and by account and wckey where the cluster keeps them.
+  submission.comment = "dembuf_user=" + job.owner;
+  if (const auto account = settings.accounts.find(job.owner); account != settings.accounts.end())
+    submission.account = account->second;
+  if (settings.wckey) submission.wckey = job.owner;
   const ResourceEstimate cost = EstimateResources(scene);
   submission.mem_mb = settings.mem_per_job_mb > 0
                           ? settings.mem_per_job_mb
@@ -408,8 +471,8 @@ std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& s
                                    (folder.path() / report::run_files::kScene).string(),
                                    "--bed-cache", m_beds.path().string()};
   if (stage == "source") args.push_back("--source-only");
-  const std::int64_t slurm_id = m_slurm.Submit(
-      NewSubmission(BedJobName(hash), folder, job.scene_toml, scene, true, after, args));
+  const std::int64_t slurm_id =
+      m_slurm.Submit(NewSubmission(BedJobName(hash), folder, job, scene, true, after, args));
   m_store.PutSlurmBed({hash, stage, slurm_id, "submitted", "", job.id});
   m_log->info("job {}: {} {} is prepared by Slurm job {}", job.id, BedWords(stage), hash, slurm_id);
   return slurm_id;
@@ -422,39 +485,91 @@ void SlurmExecutor::AddBed(const PreparedBed& bed) {
   m_beds.Write(bed.hash + ".bed", SerializeBed(bed));
 }
 
+std::int64_t SlurmExecutor::BedDependency(const JobRecord& job, const Scene& scene) {
+  if (job.bed_hash.empty() || BedReady(job.bed_hash)) return 0;
+  // Only the source when the bed is cut from one: the source is shared by many beds.
+  const std::int64_t source = BedJob(job.source_hash, "source", job, scene, 0);
+  const std::vector<BedStage> stages = BedStagesOf(scene);
+  return BedJob(job.bed_hash, stages.empty() ? "cut" : stages.back().stage, job, scene, source);
+}
+
+std::vector<std::string> SlurmExecutor::RunArgs(const std::string& folder) const {
+  return {"run",
+          folder + "/" + report::run_files::kScene,
+          "--out",
+          folder + "/out",
+          "--force",
+          "--yes",
+          "--no-plots",
+          "--bed-cache",
+          m_beds.path().string(),
+          "--samples-out",
+          folder + "/samples.bin"};
+}
+
 void SlurmExecutor::Submit(const JobRecord& job) {
   const Scene scene = SceneOfJob(m_store, job);
-  // Only the source when the bed is cut from one: the source is shared by many beds.
-  std::int64_t bed_after = 0;
-  if (!job.bed_hash.empty() && !BedReady(job.bed_hash)) {
-    const std::int64_t source = BedJob(job.source_hash, "source", job, scene, 0);
-    const std::vector<BedStage> stages = BedStagesOf(scene);
-    bed_after =
-        BedJob(job.bed_hash, stages.empty() ? "cut" : stages.back().stage, job, scene, source);
-  }
+  const std::int64_t bed_after = BedDependency(job, scene);
   const OwnedFolder folder = JobFolder(job.id, true);
-  const fs::path& path = folder.path();
   const std::string name = JobName(job.id);
   // The run's proof that its result is its own, kept before the job exists in Slurm: a
   // daemon that dies meanwhile still knows it when it takes the job up.
   const std::string nonce = NewToken();
-  m_store.SetResultNonce(job.id, nonce);
-  const std::int64_t slurm_id = m_slurm.Submit(
-      NewSubmission(name, folder, job.scene_toml, scene, false, bed_after,
-                    {"run", (path / report::run_files::kScene).string(), "--out",
-                     (path / "out").string(), "--force", "--yes", "--no-plots", "--bed-cache",
-                     m_beds.path().string(), "--samples-out", (path / "samples.bin").string()},
-                    nonce));
-  m_store.SetSlurmId(job.id, slurm_id);
+  m_store.SetResultNonce({job.id}, nonce);
+  const std::int64_t slurm_id = m_slurm.Submit(NewSubmission(
+      name, folder, job, scene, false, bed_after, RunArgs(folder.path().string()), nonce));
+  m_store.SetSlurmId({job.id}, slurm_id);
   m_store.LogEvent(job.id,
                    "submitted to Slurm as job " + std::to_string(slurm_id) + " (" + name + ")");
   m_log->info("job {}: submitted to Slurm as job {}{}", job.id, slurm_id,
               bed_after ? " after its bed, job " + std::to_string(bed_after) : "");
 }
 
-void SlurmExecutor::PollBeds(const std::map<std::int64_t, slurm::JobStatus>& status) {
+void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
+  const std::int64_t base = jobs.front().id;
+  const std::string name = ArrayName(base);
+  // One nonce for the array: its tasks are all this daemon's runs.
+  const std::string nonce = NewToken();
+  std::vector<std::int64_t> ids;
+  for (const JobRecord& job : jobs) ids.push_back(job.id);
+  m_store.SetResultNonce(ids, nonce);
+  // Each task's folder is its job's; the array's words name it through kTaskJobId.
+  const std::string task_folder =
+      (m_jobs.path() / (m_daemon_id + "-")).string() + std::string(slurm::kTaskJobId);
+  slurm::Submission array;
+  std::set<std::int64_t> after;
+  for (const JobRecord& job : jobs) {
+    const Scene scene = SceneOfJob(m_store, job);
+    if (const std::int64_t bed = BedDependency(job, scene); bed != 0) after.insert(bed);
+    // Every task asks for what the largest needs.
+    const slurm::Submission task = NewSubmission(name, JobFolder(job.id, true), job, scene, false,
+                                                 0, RunArgs(task_folder), nonce);
+    const int mem_mb = std::max(array.mem_mb, task.mem_mb),
+              time_s = std::max(array.time_s, task.time_s);
+    if (array.array_tasks.empty()) array = task;
+    array.mem_mb = mem_mb;
+    array.time_s = time_s;
+    array.array_tasks.push_back(static_cast<int>(job.id - base));
+  }
+  const OwnedFolder folder = ArrayFolder(base, true);
+  array.folder = folder.path().string();
+  array.log = (folder.path() / "task-%a.log").string();
+  array.array_base = base;
+  array.array_limit = m_options.slurm.array_limit;
+  array.after_ok.assign(after.begin(), after.end());
+  const std::int64_t slurm_id = m_slurm.Submit(array);
+  m_store.SetSlurmId(ids, slurm_id, base);
+  for (const JobRecord& job : jobs)
+    m_store.LogEvent(job.id, "submitted to Slurm as task " + std::to_string(job.id - base) +
+                                 " of job array " + std::to_string(slurm_id) + " (" + name + ")");
+  m_log->info("jobs {} to {}: submitted to Slurm as job array {} of {} tasks{}", base, ids.back(),
+              slurm_id, ids.size(),
+              after.empty() ? "" : " after their beds' " + std::to_string(after.size()) + " jobs");
+}
+
+void SlurmExecutor::PollBeds(const std::map<slurm::JobKey, slurm::JobStatus>& status) {
   for (SlurmBedJob bed : m_store.SlurmBedsInState("submitted")) {
-    const auto it = status.find(bed.slurm_id);
+    const auto it = status.find({bed.slurm_id, -1});
     std::optional<slurm::JobStatus> s;
     if (it != status.end() && it->second.name == BedJobName(bed.hash)) s = it->second;
     if (BedReady(bed.hash)) {
@@ -472,7 +587,8 @@ void SlurmExecutor::PollBeds(const std::map<std::int64_t, slurm::JobStatus>& sta
       last = e.what();
     }
     bed.state = "failed";
-    bed.error = SlurmReason(s, bed.slurm_id) + (last.empty() ? "" : "; it said: " + last);
+    bed.error =
+        SlurmReason(s, std::to_string(bed.slurm_id)) + (last.empty() ? "" : "; it said: " + last);
     m_store.PutSlurmBed(bed);
     m_log->error("{} {} could not be prepared: {}", BedWords(bed.stage), bed.hash, bed.error);
     FailDependents(bed.hash, BedWords(bed.stage) + " could not be prepared: " + bed.error);
@@ -491,19 +607,19 @@ void SlurmExecutor::FailDependents(const std::string& bed_hash, const std::strin
       bed->error = why;
       m_store.PutSlurmBed(*bed);
     }
-    if (job.slurm_id != 0) m_slurm.Cancel(job.slurm_id);
+    if (job.slurm_id != 0) m_slurm.Cancel(job.slurm_id, job.slurm_task);
     m_store.FinishJob(job.id, JobState::kFailed, why, {});
     m_log->error("job {}: failed: {}", job.id, why);
   }
 }
 
-void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& status) {
+void SlurmExecutor::PollJobs(const std::map<slurm::JobKey, slurm::JobStatus>& status) {
   for (const JobRecord& job : m_store.UnfinishedJobs()) {
     if (job.slurm_id == 0) continue;
     std::optional<slurm::JobStatus> s;
     // A job of that id but another name is not ours: Slurm's ids began again.
-    if (const auto it = status.find(job.slurm_id);
-        it != status.end() && it->second.name == JobName(job.id))
+    if (const auto it = status.find({job.slurm_id, job.slurm_task});
+        it != status.end() && it->second.name == SlurmName(job))
       s = it->second;
     bool began = false, wrote_end = false;
     try {
@@ -526,8 +642,7 @@ void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& sta
     }
     if (s->state != "RUNNING" && s->state != "COMPLETING") {
       // Waiting: status says for what (its bed, free cores, the partition's limits).
-      const std::string note = "Slurm job " + std::to_string(job.slurm_id) + " " +
-                               ToLower(s->state) +
+      const std::string note = "Slurm job " + SlurmJobText(job) + " " + ToLower(s->state) +
                                (s->reason.empty() || s->reason == "None" ? "" : ": " + s->reason);
       if (note != job.error) m_store.SetState(job.id, job.state, note);
       continue;
@@ -559,7 +674,7 @@ void SlurmExecutor::PollJobs(const std::map<std::int64_t, slurm::JobStatus>& sta
     if (!followable) {
       // More samples than its run may write, or none that can be read: a node gone wrong.
       // Ended here, not taken; Finish says why.
-      m_slurm.Cancel(job.slurm_id);
+      m_slurm.Cancel(job.slurm_id, job.slurm_task);
       Finish(job, s);
     }
   }
@@ -662,8 +777,8 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
       state = JobState::kCancelled;
       error = job.state == JobState::kQueued ? "cancelled while queued" : "cancelled while running";
     } else {
-      const std::string last = LastError(folder);
-      error = SlurmReason(status, job.slurm_id) + (last.empty() ? "" : "; it said: " + last);
+      const std::string last = LastError(job);
+      error = SlurmReason(status, SlurmJobText(job)) + (last.empty() ? "" : "; it said: " + last);
     }
   } catch (const std::exception& e) {
     // What a node left is not taken on trust: the job fails saying what is wrong with it.
@@ -684,9 +799,15 @@ void SlurmExecutor::Finish(const JobRecord& job, const std::optional<slurm::JobS
     m_log->warn("job {}: {}: {}", job.id, StateName(state), error);
 }
 
-std::string SlurmExecutor::LastError(const OwnedFolder& folder) {
+std::string SlurmExecutor::LastError(const JobRecord& job) const {
+  if (job.slurm_task < 0) return LastError(JobFolder(job.id, false));
+  return LastError(ArrayFolder(job.id - job.slurm_task, false),
+                   "task-" + std::to_string(job.slurm_task) + ".log");
+}
+
+std::string SlurmExecutor::LastError(const OwnedFolder& folder, const std::string& log) {
   // The log's end: the run's last words are there, however much it printed before.
-  std::istringstream in(folder.ReadTail("slurm.log", 64 << 10));
+  std::istringstream in(folder.ReadTail(log, 64 << 10));
   std::string line, last;
   while (std::getline(in, line))
     if (line.rfind("dembuf:", 0) == 0 || line.rfind("slurmstepd:", 0) == 0) last = line;

@@ -6,6 +6,8 @@
 //   work_dir/jobs/<daemon>-<job>/       scene.toml, bed-file (a bed file sent with the job),
 //                                       out/ (the run's files), samples.bin (the force
 //                                       samples as they come), slurm.log
+//   work_dir/jobs/<daemon>-array-<job>/ task-<i>.log: the logs of a job array's tasks (its
+//                                       first dembuf job's id names it)
 //   work_dir/bed-jobs/<hash>/           a bed preparation's scene.toml, bed-file, slurm.log
 //
 // The daemon owns work_dir (owned_files.h): it must be the daemon's account's and closed to
@@ -20,6 +22,11 @@
 // why it ended (TIMEOUT, OUT_OF_MEMORY, NODE_FAIL, CANCELLED). Slurm job ids are stored with
 // the jobs, and jobs are named dembuf-<daemon id>-<job id>, so that a restarted daemon takes
 // up what runs instead of submitting it again, and never mistakes another job for its own.
+//
+// A sweep's jobs go as one job array (dembuf-<daemon id>-array-<first job id>), a task per
+// job: task i runs job first + i, in that job's own folder; the array waits for every bed
+// its tasks need, and runs at most slurm.array_limit tasks at once. Every Slurm job carries
+// its dembuf user: in its comment, in its account (slurm.accounts) and wckey if configured.
 #pragma once
 
 #include <spdlog/logger.h>
@@ -87,11 +94,22 @@ class SlurmExecutor final : public Executor {
   /// whether any job's note changed.
   bool NoteWaitingForSlurm(std::string what);
   void Submit(const JobRecord& job);
+  /// Submits a sweep's jobs (ids rising from jobs[0]'s) as one job array.
+  void SubmitArray(const std::vector<JobRecord>& jobs);
+  /// The queued jobs submitted with `first`: it alone, or with the rest of its sweep's not yet
+  /// submitted, as one array (at most slurm.array_tasks_max, ids from first's on).
+  std::vector<JobRecord> SubmittedWith(const JobRecord& first,
+                                       const std::vector<JobRecord>& unfinished) const;
+  /// The Slurm job that prepares the job's bed (and its source before it), submitting it if
+  /// none has it: 0 when the bed is ready.
+  std::int64_t BedDependency(const JobRecord& job, const Scene& scene);
+  /// `dembuf run`'s arguments for a job whose folder is `folder`.
+  std::vector<std::string> RunArgs(const std::string& folder) const;
   /// The Slurm job preparing this bed, submitting it if none has it: 0 when the bed is ready.
   std::int64_t BedJob(const std::string& hash, const std::string& stage, const JobRecord& job,
                       const Scene& scene, std::int64_t after);
-  void PollBeds(const std::map<std::int64_t, slurm::JobStatus>& status);
-  void PollJobs(const std::map<std::int64_t, slurm::JobStatus>& status);
+  void PollBeds(const std::map<slurm::JobKey, slurm::JobStatus>& status);
+  void PollJobs(const std::map<slurm::JobKey, slurm::JobStatus>& status);
   /// A job whose run ended: its results from its folder, or Slurm's reason.
   void Finish(const JobRecord& job, const std::optional<slurm::JobStatus>& status);
   void FailDependents(const std::string& bed_hash, const std::string& why);
@@ -107,17 +125,24 @@ class SlurmExecutor final : public Executor {
 
   /// A job's folder, made when `make` is set (else OwnershipError when it is not there).
   OwnedFolder JobFolder(std::int64_t id, bool make) const;
+  /// The folder of the job array whose first job is `base` (its tasks' logs).
+  OwnedFolder ArrayFolder(std::int64_t base, bool make) const;
   std::string JobName(std::int64_t id) const;
+  std::string ArrayName(std::int64_t base) const;
+  /// The name of the Slurm job that runs the job: its own, or its array's.
+  std::string SlurmName(const JobRecord& job) const;
   std::string BedJobName(const std::string& hash) const;
   bool BedReady(const std::string& hash) const;
   /// The last line the run printed that says what went wrong, from its Slurm log.
-  static std::string LastError(const OwnedFolder& folder);
-  /// A Slurm job of `dembuf dembuf_args...` in `folder`, where it writes the scene (and its
-  /// bed file), after job `after` (0: none): its memory and time from the settings, else from
-  /// the scene's estimate (`bed_only`: the estimate of preparing its bed; else of its impact
-  /// alone). `nonce`, when given, goes to the job as DEMBUF_RESULT_NONCE (sbatch's environment).
+  std::string LastError(const JobRecord& job) const;
+  static std::string LastError(const OwnedFolder& folder, const std::string& log = "slurm.log");
+  /// A Slurm job of `dembuf dembuf_args...` in `folder`, where it writes the job's scene (and
+  /// its bed file), after job `after` (0: none): its memory and time from the settings, else
+  /// from the scene's estimate (`bed_only`: the estimate of preparing its bed; else of its
+  /// impact alone), and its job's user in Slurm's accounting. `nonce`, when given, goes to
+  /// the job as DEMBUF_RESULT_NONCE (sbatch's environment).
   slurm::Submission NewSubmission(const std::string& name, const OwnedFolder& folder,
-                                  const std::string& scene_toml, const Scene& scene, bool bed_only,
+                                  const JobRecord& job, const Scene& scene, bool bed_only,
                                   std::int64_t after, const std::vector<std::string>& dembuf_args,
                                   const std::string& nonce = "") const;
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -43,7 +44,8 @@ void LoadConfigFile(const std::string& path, ServerConfig& config) {
 namespace {
 
 // Where a setting goes in ServerConfig.
-using ConfigTarget = std::variant<std::string*, int*, bool*, double*, std::vector<std::string>*>;
+using ConfigTarget = std::variant<std::string*, int*, bool*, double*, std::vector<std::string>*,
+                                  std::map<std::string, std::string>*>;
 using ConfigSetting = std::pair<std::string, ConfigTarget>;
 
 // Every setting once: its key and where it goes. A key not here is refused.
@@ -90,6 +92,10 @@ std::vector<ConfigSetting> ConfigSettings(ServerConfig& config) {
       {"slurm.work_dir", &config.slurm.work_dir},
       {"slurm.dembuf", &config.slurm.dembuf},
       {"slurm.poll_s", &config.slurm.poll_s},
+      {"slurm.array_tasks_max", &config.slurm.array_tasks_max},
+      {"slurm.array_limit", &config.slurm.array_limit},
+      {"slurm.accounts", &config.slurm.accounts},
+      {"slurm.wckey", &config.slurm.wckey},
   };
 }
 
@@ -134,7 +140,9 @@ void ApplyEntries(const std::vector<std::pair<std::string, const toml::value*>>&
                                  : std::is_same_v<T, int>       ? "a whole number"
                                  : std::is_same_v<T, bool>      ? "true or false"
                                  : std::is_same_v<T, double>    ? "a number"
-                                                                : "a list of strings";
+                                 : std::is_same_v<T, std::vector<std::string>>
+                                     ? "a list of strings"
+                                     : "a table of strings (name = \"value\")";
             throw ConfigError(origin + ": " + key + " has the wrong type: it takes " + wanted);
           }
         },
@@ -194,14 +202,36 @@ void ApplySettingFlag(const std::string& assignment, ServerConfig& config) {
   ApplyEntries({{key, &value}}, origin, config);
 }
 
+namespace {
+
+// A setting's value as the configuration file writes it, on one line: a table inline
+// (toml11 writes a table as the root of a file).
+std::string SettingText(const ConfigTarget& target) {
+  return std::visit(
+      [](auto* v) -> std::string {
+        using T = std::remove_pointer_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, std::map<std::string, std::string>>) {
+          std::string text;
+          for (const auto& [name, value] : *v)
+            text += (text.empty() ? "" : ", ") + toml::format_key(name) + " = " +
+                    toml::format(toml::value(value));
+          return "{" + text + "}";
+        } else {
+          return toml::format(toml::value(*v));
+        }
+      },
+      target);
+}
+
+}  // namespace
+
 std::string ConfigText(const ServerConfig& resolved) {
   ServerConfig config = resolved;  // the table points into a config it may change
   std::string top, slurm;
   for (const auto& [key, target] : ConfigSettings(config)) {
-    const toml::value value = std::visit([](auto* v) { return toml::value(*v); }, target);
     const bool in_slurm = key.rfind("slurm.", 0) == 0;
     (in_slurm ? slurm : top) +=
-        (in_slurm ? key.substr(6) : key) + " = " + toml::format(value) + "\n";
+        (in_slurm ? key.substr(6) : key) + " = " + SettingText(target) + "\n";
   }
   return top + "\n[slurm]\n" + slurm;
 }
@@ -252,7 +282,7 @@ std::string HttpAddress(const std::string& http) {
 namespace {
 
 // The [slurm] table of a daemon that runs its jobs on a cluster.
-void ValidateSlurmConfig(const ServerConfig::Slurm& slurm) {
+void ValidateSlurmConfig(const slurm::Settings& slurm) {
   auto require = [](bool ok, const std::string& what) {
     if (!ok) throw ConfigError(what);
   };
@@ -271,12 +301,25 @@ void ValidateSlurmConfig(const ServerConfig::Slurm& slurm) {
           "slurm.poll_s: must be 0.1 to 600, not " + std::to_string(slurm.poll_s));
   // Names and values reach sbatch as single arguments, never through a shell; still, a
   // partition or account is one word of Slurm's.
-  for (const auto& [name, value] :
-       {std::pair{"slurm.partition", slurm.partition}, {"slurm.account", slurm.account}})
+  const auto slurm_name = [&](const std::string& name, const std::string& value) {
     require(value.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
                                     "0123456789_-.,") == std::string::npos,
-            std::string(name) + ": \"" + value +
-                "\" is not a Slurm name (letters, digits, _ - . and commas)");
+            name + ": \"" + value + "\" is not a Slurm name (letters, digits, _ - . and commas)");
+  };
+  slurm_name("slurm.partition", slurm.partition);
+  slurm_name("slurm.account", slurm.account);
+  for (const auto& [user, account] : slurm.accounts) {
+    const std::string problem = UserNameProblem(user);
+    require(problem.empty(), "slurm.accounts: the user " + problem);
+    require(!account.empty(), "slurm.accounts." + user + ": give a Slurm account");
+    slurm_name("slurm.accounts." + user, account);
+  }
+  require(slurm.array_tasks_max >= 1 && slurm.array_tasks_max <= 100000,
+          "slurm.array_tasks_max: must be 1 (a Slurm job per dembuf job) to 100000, not " +
+              std::to_string(slurm.array_tasks_max));
+  require(slurm.array_limit >= 0 && slurm.array_limit <= 100000,
+          "slurm.array_limit: must be 0 (no limit) to 100000, not " +
+              std::to_string(slurm.array_limit));
   for (const std::string& arg : slurm.extra_args)
     require(arg.rfind("--", 0) == 0 && arg.find('\n') == std::string::npos &&
                 arg.rfind("--wrap", 0) != 0,

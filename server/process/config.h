@@ -1,6 +1,8 @@
 // dembufd's settings: defaults, then the configuration file, then the command line.
 #pragma once
 
+#include "jobs/slurm.h"
+
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -67,18 +69,8 @@ struct ServerConfig {
 
   /// Where jobs run: "threads" (the daemon's workers) or "slurm" (the [slurm] table's cluster).
   std::string executor = "threads";
-  struct Slurm {
-    std::string partition;  ///< "" for the cluster's default
-    std::string account;    ///< "" for the user's default
-    int cpus_per_job = 1;
-    int mem_per_job_mb = 0;  ///< 0: from each job's estimate
-    std::string time_limit;  ///< Slurm's format ("30", "2:00:00", "1-00"); "" from the estimate
-    std::vector<std::string> extra_args;  ///< more sbatch arguments
-    std::string work_dir;                 ///< a folder every node sees (required)
-    std::string dembuf;                   ///< dembuf on the nodes; "" for the one beside dembufd
-    double poll_s = 2.0;                  ///< how often the daemon asks Slurm
-    bool operator==(const Slurm&) const = default;
-  } slurm;
+  /// The [slurm] table: what the daemon asks of the cluster (slurm::Settings owns the list).
+  slurm::Settings slurm;
 
   /// (For the test that the example configuration states these defaults.)
   bool operator==(const ServerConfig&) const = default;

@@ -101,9 +101,8 @@ std::unique_ptr<Executor> MakeExecutor(const ServerConfig& config, Store& store,
                                        const std::shared_ptr<spdlog::logger>& log) {
   if (config.executor == "slurm") {
     SlurmExecutorOptions options;
-    const ServerConfig::Slurm& s = config.slurm;
-    options.slurm = {s.partition,  s.account,  s.cpus_per_job, s.mem_per_job_mb, s.time_limit,
-                     s.extra_args, s.work_dir, s.dembuf,       s.poll_s};
+    const slurm::Settings& s = config.slurm;
+    options.slurm = s;
     options.queue_limit = config.queue_limit;
     // The ceiling on any job's files read back from a node; each job's own bound is its
     // estimate (SlurmExecutor::ResultBytesMax), as a node's files are not trusted.

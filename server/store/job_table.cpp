@@ -14,15 +14,15 @@ const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
     "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
-    "peak_plate_force_N, P_N, command_line";
+    "peak_plate_force_N, P_N, slurm_task, command_line";
 // The same for a listing, which shows no scene: its text is not read ('' in its place).
 const char* const kListedJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "'', scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
     "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
-    "peak_plate_force_N, P_N, command_line";
+    "peak_plate_force_N, P_N, slurm_task, command_line";
 // How many kJobColumns names: a column selected after them has this index.
-constexpr int kJobColumnCount = 25;
+constexpr int kJobColumnCount = 26;
 
 JobRecord ReadJobRow(Statement& s) {
   JobRecord j;
@@ -50,6 +50,7 @@ JobRecord ReadJobRow(Statement& s) {
   j.result_nonce = s.Text(21);
   j.peak_plate_force_N = s.Real(22);
   j.P_N = s.Real(23);
+  j.slurm_task = static_cast<int>(s.Int(24));
   j.command_line = s.Text(kJobColumnCount - 1);
   return j;
 }
@@ -252,15 +253,22 @@ std::vector<JobRecord> JobTable::UnfinishedJobs() {
   return jobs;
 }
 
-void JobTable::SetSlurmId(std::int64_t id, std::int64_t slurm_id) {
+void JobTable::SetSlurmId(const std::vector<std::int64_t>& jobs, std::int64_t slurm_id,
+                          std::int64_t array_base) {
   Connection::Writing db = m_connection.Write();
-  db->Prepare("UPDATE jobs SET slurm_id = ? WHERE id = ?").Bind(slurm_id, id).Run();
+  for (std::int64_t id : jobs) {
+    const std::int64_t task = array_base < 0 ? -1 : id - array_base;
+    db->Prepare("UPDATE jobs SET slurm_id = ?, slurm_task = ? WHERE id = ?")
+        .Bind(slurm_id, task, id)
+        .Run();
+  }
   db.Commit();
 }
 
-void JobTable::SetResultNonce(std::int64_t id, const std::string& nonce) {
+void JobTable::SetResultNonce(const std::vector<std::int64_t>& jobs, const std::string& nonce) {
   Connection::Writing db = m_connection.Write();
-  db->Prepare("UPDATE jobs SET result_nonce = ? WHERE id = ?").Bind(nonce, id).Run();
+  for (std::int64_t id : jobs)
+    db->Prepare("UPDATE jobs SET result_nonce = ? WHERE id = ?").Bind(nonce, id).Run();
   db.Commit();
 }
 

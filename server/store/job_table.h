@@ -42,9 +42,12 @@ class JobTable {
   void MarkStarted(std::int64_t id, JobState state, const std::string& host,
                    const std::string& code_version);
   void SetState(std::int64_t id, JobState state, const std::string& error = "");
-  void SetSlurmId(std::int64_t id, std::int64_t slurm_id);
-  /// Keeps the nonce given to the job's Slurm job (the Slurm executor), before it is submitted.
-  void SetResultNonce(std::int64_t id, const std::string& nonce);
+  /// The Slurm job that runs each of `jobs` (the Slurm executor): one job, task -1, or the
+  /// tasks of one job array, each job's task its id less `array_base`. One transaction.
+  void SetSlurmId(const std::vector<std::int64_t>& jobs, std::int64_t slurm_id,
+                  std::int64_t array_base = -1);
+  /// Keeps the nonce given to the jobs' Slurm job (the Slurm executor), before it is submitted.
+  void SetResultNonce(const std::vector<std::int64_t>& jobs, const std::string& nonce);
   /// Notes that the job's user asked to cancel it.
   void RequestCancel(std::int64_t id);
   /// At start: jobs left preparing or running by a daemon that died go back to the queue,

@@ -45,6 +45,7 @@ struct JobRecord {
   std::string host;
   std::string code_version;
   std::int64_t slurm_id = 0;  ///< the cluster job running it (the Slurm executor); 0: none
+  int slurm_task = -1;        ///< its task in that job, a job array; -1: not an array's task
   bool cancel_requested = false;
   std::string command_line;  ///< what asked for it, as the client sent it ("" if it did not)
   std::string bed_file;      ///< SHA-256 of the owner's bed file it imports ("" for none)

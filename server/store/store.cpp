@@ -174,6 +174,11 @@ ALTER TABLE jobs ADD COLUMN result_nonce TEXT NOT NULL DEFAULT '';
 ALTER TABLE jobs ADD COLUMN peak_plate_force_N REAL;
 ALTER TABLE jobs ADD COLUMN P_N REAL;
 )sql",
+    R"sql(
+-- The Slurm executor runs a sweep's jobs as one job array: a job's task in the array that
+-- slurm_id names (-1: a job of its own).
+ALTER TABLE jobs ADD COLUMN slurm_task INTEGER NOT NULL DEFAULT -1;
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 // The version that added the checksums of summaries, whole series and result files.

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "../engine/temp_path.h"
 #include "dembuf/study/files/run_output.h"
@@ -20,32 +21,79 @@ using slurm::JobStatus;
 
 TEST(Slurm, ReadsSqueueLinesAndLeavesOutWhatDoesNotParse) {
   const std::vector<JobStatus> jobs = slurm::ParseSqueue(
-      "12|dembuf-0a1b2c3d-7|RUNNING|None|node01\n"
-      "13|dembuf-0a1b2c3d-8|PENDING|Dependency|\n"
-      "x|not-a-job|RUNNING|None|node01\n"            // no id
-      "14|dembuf-0a1b2c3d-9|RUN NING|None|node01\n"  // not a state word
+      "12|N/A|dembuf-0a1b2c3d-7|RUNNING|None|node01\n"
+      "13|N/A|dembuf-0a1b2c3d-8|PENDING|Dependency|\n"
+      "x|N/A|not-a-job|RUNNING|None|node01\n"            // no id
+      "14|N/A|dembuf-0a1b2c3d-9|RUN NING|None|node01\n"  // not a state word
       "15|two|fields\n"
-      "16|dembuf-0a1b2c3d-10|TIMEOUT|TimeLimit|node02");
-  ASSERT_EQ(jobs.size(), 3u);
+      "17|3-9%2|dembuf-0a1b2c3d-array-5|PENDING|None|\n"  // tasks not one per line (no -r)
+      "16|N/A|dembuf-0a1b2c3d-10|TIMEOUT|TimeLimit|node02\n"
+      "20|4|dembuf-0a1b2c3d-array-30|RUNNING|None|node03");
+  ASSERT_EQ(jobs.size(), 4u);
   EXPECT_EQ(jobs[0].id, 12);
+  EXPECT_EQ(jobs[0].task, -1);
   EXPECT_EQ(jobs[0].name, "dembuf-0a1b2c3d-7");
   EXPECT_EQ(jobs[0].state, "RUNNING");
   EXPECT_EQ(jobs[0].node, "node01");
   EXPECT_EQ(jobs[1].reason, "Dependency");
   EXPECT_EQ(jobs[2].state, "TIMEOUT");
+  // A task of an array: the array's id and the task's index.
+  EXPECT_EQ(jobs[3].id, 20);
+  EXPECT_EQ(jobs[3].task, 4);
+  EXPECT_EQ(jobs[3].node, "node03");
 }
 
 TEST(Slurm, ReadsScontrolsOneLineForm) {
-  const auto job = slurm::ParseScontrolJob(
+  const auto jobs = slurm::ParseScontrolJob(
       "JobId=42 JobName=dembuf-0a1b2c3d-3 UserId=lab(1000) JobState=OUT_OF_MEMORY "
       "Reason=OutOfMemory Dependency=(null) NodeList=node07 BatchHost=node07");
-  ASSERT_TRUE(job);
-  EXPECT_EQ(job->id, 42);
-  EXPECT_EQ(job->name, "dembuf-0a1b2c3d-3");
-  EXPECT_EQ(job->state, "OUT_OF_MEMORY");
-  EXPECT_EQ(job->reason, "OutOfMemory");
-  EXPECT_EQ(job->node, "node07");
-  EXPECT_FALSE(slurm::ParseScontrolJob("slurm_load_jobs error: Invalid job id specified"));
+  ASSERT_EQ(jobs.size(), 1u);
+  const JobStatus& job = jobs[0];
+  EXPECT_EQ(job.id, 42);
+  EXPECT_EQ(job.task, -1);
+  EXPECT_EQ(job.name, "dembuf-0a1b2c3d-3");
+  EXPECT_EQ(job.state, "OUT_OF_MEMORY");
+  EXPECT_EQ(job.reason, "OutOfMemory");
+  EXPECT_EQ(job.node, "node07");
+  EXPECT_TRUE(slurm::ParseScontrolJob("slurm_load_jobs error: Invalid job id specified").empty());
+}
+
+TEST(Slurm, ScontrolsArrayTasksAreKnownByTheArraysIdAndTheirIndex) {
+  // A task that runs has a job id of its own; the tasks that still wait share one line.
+  const auto running = slurm::ParseScontrolJob(
+      "JobId=51 ArrayJobId=50 ArrayTaskId=1 JobName=dembuf-0a1b2c3d-array-9 JobState=RUNNING "
+      "Reason=None NodeList=node01");
+  ASSERT_EQ(running.size(), 1u);
+  EXPECT_EQ(running[0].id, 50);
+  EXPECT_EQ(running[0].task, 1);
+  const auto waiting = slurm::ParseScontrolJob(
+      "JobId=50 ArrayJobId=50 ArrayTaskId=2-4,7%2 JobName=dembuf-0a1b2c3d-array-9 "
+      "JobState=PENDING Reason=JobArrayTaskLimit NodeList=(null)");
+  ASSERT_EQ(waiting.size(), 4u);
+  for (const JobStatus& task : waiting) {
+    EXPECT_EQ(task.id, 50);
+    EXPECT_EQ(task.reason, "JobArrayTaskLimit");
+  }
+  EXPECT_EQ(waiting[0].task, 2);
+  EXPECT_EQ(waiting[3].task, 7);
+  // A task list that is not one, or one too long to be an array's, is not taken.
+  EXPECT_TRUE(
+      slurm::ParseScontrolJob("JobId=50 ArrayJobId=50 ArrayTaskId=x JobState=PENDING").empty());
+  EXPECT_TRUE(
+      slurm::ParseScontrolJob("JobId=50 ArrayJobId=50 ArrayTaskId=0-999999 JobState=PENDING")
+          .empty());
+}
+
+TEST(Slurm, ArrayIndexesAreWrittenAsRanges) {
+  EXPECT_EQ(slurm::FormatArrayIndexes({0, 1, 2, 3}), "0-3");
+  EXPECT_EQ(slurm::FormatArrayIndexes({9, 0, 1, 5, 6, 3}), "0-1,3,5-6,9");
+  EXPECT_EQ(slurm::FormatArrayIndexes({4}), "4");
+  for (const std::vector<int>& indexes :
+       {std::vector<int>{0, 1, 2, 3}, std::vector<int>{0, 1, 3, 5, 6, 9}, std::vector<int>{4}})
+    EXPECT_EQ(slurm::ParseArrayIndexes(slurm::FormatArrayIndexes(indexes)), indexes);
+  EXPECT_EQ(slurm::ParseArrayIndexes("3-5%2"), (std::vector<int>{3, 4, 5}));
+  for (const char* bad : {"", "a", "5-3", "1,,2", "-1", "1-", "0-100000"})
+    EXPECT_FALSE(slurm::ParseArrayIndexes(bad)) << bad;
 }
 
 TEST(Slurm, ReadsTheJobIdSbatchPrints) {
@@ -131,6 +179,38 @@ TEST(Slurm, SbatchGetsEveryValueAsOneArgumentAndTheCommandQuoted) {
   EXPECT_EQ(args, expected);
 }
 
+TEST(Slurm, AnArraysTasksEachRunTheirOwnJobAndCarryTheirUser) {
+  slurm::Settings settings;
+  settings.account = "lab";
+  slurm::Submission job;
+  job.name = "dembuf-0a1b2c3d-array-40";
+  job.folder = "/shared/jobs/a";
+  job.log = "/shared/jobs/a/task-%a.log";
+  job.account = "proj-a";  // the user's, over the settings'
+  job.wckey = "alice";
+  job.comment = "dembuf_user=alice";
+  job.array_tasks = {0, 1, 2, 5};
+  job.array_base = 40;
+  job.array_limit = 2;
+  job.command = {"/opt/dembuf", "run", "/shared/it's/d-{job}/scene.toml"};
+  const std::vector<std::string> args = slurm::SbatchArgs(settings, job);
+  for (const char* arg :
+       {"--account=proj-a", "--wckey=alice", "--comment=dembuf_user=alice", "--array=0-2,5%2"})
+    EXPECT_NE(std::find(args.begin(), args.end(), arg), args.end()) << arg;
+  EXPECT_EQ(std::find(args.begin(), args.end(), "--account=lab"), args.end());
+  const std::string wrap = args.back();
+  ASSERT_EQ(wrap.rfind("--wrap=", 0), 0u);
+  // The shell line as Slurm runs it, task 5: job 45's folder, every other word as it was.
+  std::string line = wrap.substr(7);
+  const std::size_t exec = line.find(" && exec ");
+  ASSERT_NE(exec, std::string::npos) << line;
+  line.replace(exec, 9, " && printf '%s|' ");
+  const ProgramResult task =
+      RunProgram({"sh", "-c", "SLURM_ARRAY_TASK_ID=5; " + line}, std::chrono::seconds(10));
+  EXPECT_EQ(task.exit_code, 0);
+  EXPECT_EQ(task.output, "/opt/dembuf|run|/shared/it's/d-45/scene.toml|");
+}
+
 TEST(Slurm, AQuotedWordReachesTheProgramUnchanged) {
   // Through a real shell: every awkward character arrives as it was.
   const std::string word = "it's $HOME `id` \"x\" \\ ; | & * \n end";
@@ -179,6 +259,32 @@ TEST(SlurmConfig, TheSlurmTableIsReadAndChecked) {
   EXPECT_NE(refused(base + "extra_args = [\"--wrap=id\"]\n").find("slurm.extra_args"),
             std::string::npos);
   EXPECT_NE(refused(base + "nodes = 3\n").find("slurm.nodes"), std::string::npos);
+  EXPECT_NE(refused(base + "array_tasks_max = 0\n").find("slurm.array_tasks_max"),
+            std::string::npos);
+  EXPECT_NE(refused(base + "array_limit = -1\n").find("slurm.array_limit"), std::string::npos);
+  EXPECT_NE(refused(base + "[slurm.accounts]\n\"a b\" = \"x\"\n").find("slurm.accounts"),
+            std::string::npos);
+  EXPECT_NE(refused(base + "accounts = {alice = \"x;y\"}\n").find("slurm.accounts.alice"),
+            std::string::npos);
+  EXPECT_NE(refused(base + "accounts = [\"alice\"]\n").find("a table of strings"),
+            std::string::npos);
+}
+
+TEST(SlurmConfig, AUsersAccountMapIsReadAndWrittenBack) {
+  ServerConfig config;
+  LoadConfigText(
+      "executor = \"slurm\"\n[slurm]\nwork_dir = \"/s\"\narray_limit = 4\nwckey = true\n"
+      "[slurm.accounts]\nalice = \"proj-a\"\n\"b.o.b\" = \"proj-b\"\n",
+      "test.toml", config);
+  ValidateConfig(config);
+  EXPECT_EQ(config.slurm.array_limit, 4);
+  EXPECT_TRUE(config.slurm.wckey);
+  EXPECT_EQ(config.slurm.accounts,
+            (std::map<std::string, std::string>{{"alice", "proj-a"}, {"b.o.b", "proj-b"}}));
+  // --check-config's text reads back to the same settings.
+  ServerConfig again;
+  LoadConfigText(ConfigText(config), "printed", again);
+  EXPECT_EQ(again, config);
 }
 
 }  // namespace

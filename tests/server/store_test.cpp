@@ -264,7 +264,7 @@ TEST_F(StoreTest, AFinishedJobsPeakAndPAreInItsRecord) {
     Database db(path.string());
     db.Execute(
         "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
-        "PRAGMA user_version = 10");
+        "ALTER TABLE jobs DROP COLUMN slurm_task; PRAGMA user_version = 10");
     // A summary changed since it was stored (valid JSON, another P): its checksum fails.
     db.Execute("UPDATE results SET summary_json = '{\"P_N\": 9999}' WHERE job_id = " +
                std::to_string(ids[2]));
@@ -438,7 +438,7 @@ TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAndLoseTheirTokensAtTheUpgr
         "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
         "ALTER TABLE jobs DROP COLUMN bed_file; ALTER TABLE jobs DROP COLUMN result_nonce; "
         "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
-        "PRAGMA user_version = 7");
+        "ALTER TABLE jobs DROP COLUMN slurm_task; PRAGMA user_version = 7");
     db.Execute("UPDATE jobs SET command_line = 'dembuf --token 0123abcd submit'");
     db.Execute(
         "UPDATE results SET summary_json = "

@@ -8,7 +8,10 @@
 #   4. a job cancelled with scancel from outside ends failed, saying CANCELLED;
 #   5. cancelling a sweep whose bed is being prepared cancels the bed's Slurm job;
 #   6. a job past its time limit ends failed, saying TIMEOUT (found by its daemon restarted
-#      after the job ended).
+#      after the job ended);
+#   7. a 12-point parameter table goes as one job array of at most 4 tasks at once, its
+#      comment and account naming its user, and gives the local sweep's long table, byte for
+#      byte.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -137,11 +140,16 @@ wait "$daemon_pid" 2> /dev/null || true
 daemon_pid=""
 start_daemon "$work/slurm.db" "$work/slurm.log" --config "$work/slurm.toml"
 for id in $first $((first + 1)) $((first + 2)); do wait_state $id done 180; done
-for id in $first $((first + 1)) $((first + 2)); do
-  n=$(squeue -h -t all -o '%j' | grep -c -- "^dembuf-$daemon_id-$id\$" || true)
-  [ "$n" = 1 ] || fail "job $id was submitted to Slurm $n times"
+# The sweep is one job array, named by its first job: each job is one task of it.
+arrays=$(squeue -h -r -t all -o '%j|%F' | grep -c -- "^dembuf-$daemon_id-array-$first|" || true)
+for task in 0 1 2; do
+  n=$(squeue -h -r -t all -o '%j|%K' | grep -c -- "^dembuf-$daemon_id-array-$first|$task\$" || true)
+  [ "$n" = 1 ] || fail "job $((first + task)) was submitted to Slurm $n times (task $task)"
 done
-echo "after the restart: 3 jobs done, each submitted once"
+[ "$arrays" = 3 ] || fail "$arrays tasks of job arrays named for job $first, not 3"
+[ "$(squeue -h -r -t all -o '%j|%F' | grep -- "^dembuf-$daemon_id-array-$first|" | sort -u | wc -l)" = 1 ] ||
+  fail "the sweep of job $first went to Slurm as more than one array"
+echo "after the restart: 3 jobs done, one job array, each task submitted once"
 
 echo "== 4. scancel from outside ($SECONDS s)"
 outside=$("$dembuf" submit "$work/scene.toml" "${long[@]}" --set time.end_s=4 | grep -o '[0-9]*' | head -1)
@@ -182,4 +190,36 @@ said=$("$dembuf" status "$late" || true)
 [[ "$said" == *"TIMEOUT"* ]] || fail "no TIMEOUT in: $said"
 echo "$said" | grep note
 stop_daemon
+
+echo "== 7. a 12-point table as one job array, accounted to its user ($SECONDS s)"
+slurm_config "$work/array.toml" "$work/array" 'array_limit = 4' 'accounts = {second = "proj-b"}'
+start_daemon "$work/array.db" "$work/array.log" --config "$work/array.toml"
+array_daemon=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/array.log" | tail -1)
+# Bare-plate impacts (no bed to prepare), two fields and the seed as columns.
+bare=(--preset e2 --set bed.thickness_m=0 --set time.output_interval_s=1e-4)
+{
+  printf 'projectile.speed_m_s\tprojectile.mass_kg\tbed.seed\n'
+  for speed in 1 2 3 4 5 6; do printf '%s\t0.%s\t1\n%s\t0.3\t2\n' "$speed" "$speed" "$speed"; done
+} > "$work/points.tsv"
+sweep=$("$dembuf" --owner second sweep "${bare[@]}" --table "$work/points.tsv" 2> "$work/err") ||
+  fail "the table sweep: $(cat "$work/err")"
+timeout 300 "$dembuf" watch --sweep "$sweep" > "$work/watch" || fail "watch --sweep: $(tail -3 "$work/watch")"
+tasks=$(squeue -h -r -t all -o '%j|%F|%K' | grep -- "^dembuf-$array_daemon-array-" || true)
+[ "$(echo "$tasks" | wc -l)" = 12 ] || fail "not 12 array tasks in Slurm: $tasks"
+array=$(echo "$tasks" | cut -d'|' -f2 | sort -u)
+[ "$(echo "$array" | wc -l)" = 1 ] || fail "the table went as more than one array: $tasks"
+info=$(scontrol show job -o "$array")
+for word in ArrayTaskThrottle=4 Comment=dembuf_user=second Account=proj-b; do
+  [ "$(echo "$info" | grep -c -- " $word ")" = 12 ] || fail "not every task has $word: $info"
+done
+# (The daemon's database is new: the sweep's jobs are 1 to 12, job 5 its task 4.)
+"$dembuf" status 5 | grep -q "^Slurm job ${array}_4" || fail "status 5: $("$dembuf" status 5)"
+"$dembuf" fetch --sweep "$sweep" --long --no-plots --out "$work/array-fetched" > /dev/null ||
+  fail "fetch --sweep --long"
+stop_daemon
+"$dembuf" sweep --local "${bare[@]}" --table "$work/points.tsv" --long --out "$work/array-local" \
+  > "$work/local.out" 2>&1 || fail "the local table sweep: $(cat "$work/local.out")"
+cmp "$work/array-local/sweep_long.csv" "$work/array-fetched/sweep_long.csv" ||
+  fail "the Slurm array's long table differs from the local sweep's"
+echo "12 points: one job array (at most 4 at once, dembuf_user=second, account proj-b), the local long table"
 echo "PASS ($SECONDS s)"

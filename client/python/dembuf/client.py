@@ -164,6 +164,7 @@ def _job_json(j, details: bool = True) -> dict:
                                else None),
         "P_N": j.P_N if j.HasField("P_N") and math.isfinite(j.P_N) else None,
         "slurm_job_id": j.slurm_job_id or None,
+        "slurm_array_task": j.slurm_array_task if j.HasField("slurm_array_task") else None,
     } | ({
         "scene_toml": j.scene_toml, "scene_hash": j.scene_hash, "bed_hash": j.bed_hash,
         "summary": _server_json(j.summary_json, f"job {j.id}'s summary_json"),

@@ -30,9 +30,10 @@ if [ "${SANITIZE:-1}" != 0 ]; then
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$sanitizer_opt_flags" -DCMAKE_UNITY_BUILD=ON -DDEMBUF_FUZZ=ON > /dev/null
   cmake --build build-fuzz --parallel "$(nproc)" --target engine_tests server_tests
   export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
-  # The GoogleTest suites only (the script tests need the other binaries), in two processes,
-  # one per core: the bed preparation tests, which share one settled bed (settling is the
-  # longest part under the sanitizers), and the rest of the engine's then the service's.
+  # The GoogleTest suites only (the script tests need the other binaries), in three
+  # processes: the bed preparation tests, which share one settled bed (settling is the
+  # longest part under the sanitizers), and the rest of the engine's in two shards (gtest's
+  # own sharding: alone, the rest took five times the bed tests), then the service's.
   # Tests that prepare beds of their own or integrate long fine-step runs are left to the
   # optimised suite above: under the sanitizers each takes one to three minutes and adds no
   # code path (bed files are also written and read by the store tests, imported bed files
@@ -42,8 +43,13 @@ if [ "${SANITIZE:-1}" != 0 ]; then
   engine_long='BedPreparation.CachedBed*:BedPreparation.KineticDamping*:BedPreparation.LocalSettling*:SmallBedImpact.*:Regression.*:Determinism.*:Energy.*:Restitution.*:HertzElastic.*:HardCase.SingleBeadLayer*:HardCase.ImportedBedWithSmall*:HardCase.Restitution*:HardCase.SizeRatio*:HardCase.ProjectileGrazing*:HardCase.BedImpact*:HardCase.AMillion*:ResourceEstimate.CountsTheBeds*:BedImport.ASettledBeds*:BedImport.LargerOverlapsAreSeparated*:BedImport.ABedSettledByLammps*'
   build-fuzz/tests/engine_tests --gtest_brief=1 --gtest_filter="BedPreparation.*-$engine_long" &
   bed_tests=$!
-  build-fuzz/tests/engine_tests --gtest_brief=1 --gtest_filter="*-BedPreparation.*:$engine_long"
+  GTEST_TOTAL_SHARDS=2 GTEST_SHARD_INDEX=0 build-fuzz/tests/engine_tests --gtest_brief=1 \
+    --gtest_filter="*-BedPreparation.*:$engine_long" &
+  first_shard=$!
+  GTEST_TOTAL_SHARDS=2 GTEST_SHARD_INDEX=1 build-fuzz/tests/engine_tests --gtest_brief=1 \
+    --gtest_filter="*-BedPreparation.*:$engine_long"
   build-fuzz/tests/server_tests --gtest_brief=1
+  wait "$first_shard"
   wait "$bed_tests"
 
   stage "the threaded parts under ThreadSanitizer"

@@ -15,7 +15,7 @@ status=0
 study_rooms=(text spawn scene bed impact files run sweep)
 # The daemon: the database and the files it owns; who may do what; the executors and what a
 # running job records; the gRPC service and the web pages; main's arguments, config, serving.
-server_rooms=(store access jobs doors process)
+server_rooms=(store access jobs notify doors process)
 # The client: what the terminal shows; the commands that need the engine alone; the remote ones.
 client_rooms=(terminal local remote)
 

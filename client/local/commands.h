@@ -33,6 +33,8 @@ struct CommandOptions {
   int plan_cpus = 0;  ///< sweep --dry-run: plan for this many CPUs (0: this machine's)
   bool local = false;
   std::string name;
+  bool notify = false;      ///< submit, sweep on a server: the daemon's chat hook tells of the end
+  bool no_reuse = false;    ///< submit, sweep on a server: run even where a stored result answers
   std::string samples_out;  ///< also stream the samples, packed, to this file
   bool no_plots = false;
   bool source_only = false;   ///< prepare-bed: only the source bed

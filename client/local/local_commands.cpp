@@ -147,9 +147,22 @@ void AddSweep(CLI::App& app, CommandOptions& opt, CommandTable& commands) {
                   "print the result as JSON on stdout (locally: the folder, the failed runs and "
                   "summary.json; on a server: the sweep and its job ids), the report on stderr");
   sweep->add_option("--name", opt.name, "a name for the sweep (remote)");
+  sweep->add_flag("--notify", opt.notify,
+                  "with --server or DEMBUF_SERVER: post to the lab's chat when the sweep has "
+                  "ended (the daemon's hook; dembuf server-info says whether it has one)");
+  sweep->add_flag("--no-reuse", opt.no_reuse,
+                  "on a server: run every point, even one a stored result of the same scene, "
+                  "seed, bed file and engine could answer at once (here, a folder's runs done "
+                  "are kept unless --force)");
   commands.Add(sweep, [&opt, &commands] {
     if (commands.sweep_elsewhere)
       if (const std::optional<int> code = commands.sweep_elsewhere(opt)) return *code;
+    if (opt.notify) {
+      std::fprintf(stderr,
+                   "dembuf: --notify asks a server's chat hook; a sweep run here ends in this "
+                   "terminal (name a server with --server or DEMBUF_SERVER)\n");
+      return static_cast<int>(kExitBadInput);
+    }
     return SweepCommand(opt);
   });
 }

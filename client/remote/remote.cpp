@@ -544,14 +544,16 @@ grpc::Status SubmitWithRetries(const Remote& remote, Call&& call) {
 
 }  // namespace
 
-int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name) {
+int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const SubmitOptions& options) {
   v1::SubmitJobRequest request;
   if (grpc::Status s = MakeSceneSpec(remote, scene, request.mutable_scene()); !s.ok())
     return Report(remote, s);
-  request.set_name(name);
+  request.set_name(options.name);
   request.set_owner(remote.owner);
   request.set_command_line(remote.command_line.substr(0, kMaxCommandLineBytes));
   request.set_request_id(NewRequestId());
+  request.set_notify(options.notify);
+  request.set_no_reuse(options.no_reuse);
   v1::SubmitJobResponse response;
   const auto stub = Connect(remote);
   const grpc::Status status = SubmitWithRetries(remote, [&](grpc::ClientContext& context) {
@@ -560,15 +562,22 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::stri
   if (!status.ok()) return Report(remote, status);
   PrintWarnings(response.warnings());
   std::printf("%lld\n", static_cast<long long>(response.job().id()));
-  Note("job %lld queued on %s; watch it with: dembuf watch %lld\n",
-       static_cast<long long>(response.job().id()), remote.address.c_str(),
-       static_cast<long long>(response.job().id()));
+  if (response.job().reused_from() != 0)
+    Note(
+        "job %lld on %s: answered at once with job %lld's stored result (the same scene, seed "
+        "and engine; --no-reuse runs it)\n",
+        static_cast<long long>(response.job().id()), remote.address.c_str(),
+        static_cast<long long>(response.job().reused_from()));
+  else
+    Note("job %lld queued on %s; watch it with: dembuf watch %lld\n",
+         static_cast<long long>(response.job().id()), remote.address.c_str(),
+         static_cast<long long>(response.job().id()));
   return 0;
 }
 
 int RemoteSweep(const Remote& remote, const RemoteScene& scene,
                 const std::vector<std::string>& vary, const std::string& table, int seeds,
-                const std::string& name, bool json) {
+                const SubmitOptions& options, bool json) {
   v1::SubmitSweepRequest request;
   if (!table.empty()) {  // read here, checked by the daemon
     const SweepTable points = ReadSweepTableFile(table);
@@ -589,7 +598,9 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
     for (const auto& v : parts.values) axis->add_values(v);
   }
   request.set_seeds(seeds);
-  request.set_name(name);
+  request.set_notify(options.notify);
+  request.set_no_reuse(options.no_reuse);
+  request.set_name(options.name);
   request.set_owner(remote.owner);
   request.set_command_line(remote.command_line.substr(0, kMaxCommandLineBytes));
   request.set_request_id(NewRequestId());
@@ -615,9 +626,16 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
     return 0;
   }
   std::printf("%lld\n", static_cast<long long>(sweep.id()));
-  Note("sweep %lld: %d jobs queued on %s (jobs %lld to %lld)\n", static_cast<long long>(sweep.id()),
+  const auto done = sweep.jobs_by_state().find("done");
+  const int reused = done == sweep.jobs_by_state().end() ? 0 : done->second;
+  Note("sweep %lld: %d jobs on %s (jobs %lld to %lld)%s\n", static_cast<long long>(sweep.id()),
        sweep.jobs_total(), remote.address.c_str(), static_cast<long long>(response.job_ids(0)),
-       static_cast<long long>(response.job_ids(response.job_ids_size() - 1)));
+       static_cast<long long>(response.job_ids(response.job_ids_size() - 1)),
+       reused == 0 ? ", queued"
+                   : (", " + std::to_string(reused) +
+                      " answered at once from stored results of the same scenes (--no-reuse "
+                      "runs them)")
+                         .c_str());
   for (const auto& axis : sweep.axes()) Note("  %s\n", AxisText(axis).c_str());
   Note(
       "follow it with: dembuf status --sweep %lld; fetch it with: dembuf fetch --sweep %lld "
@@ -755,6 +773,11 @@ int RemoteStatus(const Remote& remote, std::int64_t id, bool sweep, bool json) {
                 j.progress().sim_time_s() * 1e3, j.progress().peak_plate_force_n());
   std::printf("scene %s, bed %s\n", Shown(j.scene_hash()).c_str(),
               j.bed_hash().empty() ? "(none)" : Shown(j.bed_hash()).c_str());
+  if (j.reused_from() != 0)
+    std::printf(
+        "reused: job %lld's stored result (the same scene, seed, bed file and engine), not run "
+        "again; its provenance is that job's (--no-reuse runs it)\n",
+        static_cast<long long>(j.reused_from()));
   if (j.slurm_job_id() != 0)
     std::printf(
         "Slurm job %lld%s%s%s\n", static_cast<long long>(j.slurm_job_id()),
@@ -1279,6 +1302,9 @@ int RemoteServerInfo(const Remote& remote, bool json) {
     std::printf("workers %d x %d threads, running %d, queued %d of %d%s%s\n", info.workers(),
                 info.threads_per_job(), info.running(), info.queue_depth(), info.queue_limit(),
                 info.database().empty() ? "" : ", database ", Shown(info.database()).c_str());
+  if (info.notify())
+    std::printf(
+        "notifications: submit --notify and sweep --notify post the end to the lab's chat\n");
   // The caller's share, against the per-user quotas (counts whole, bytes in MB to 0.01).
   auto of = [](double used, double quota, const char* format) {
     char used_text[32], quota_text[32];

@@ -28,12 +28,18 @@ struct Remote {
   std::string command_line;  ///< this program's arguments, sent with jobs as provenance
 };
 
-int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const std::string& name);
+/// What a submission asks besides its scene.
+struct SubmitOptions {
+  std::string name;
+  bool notify = false;    ///< the daemon's chat hook tells of the end
+  bool no_reuse = false;  ///< run even where a stored result of the same scene could answer
+};
+int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const SubmitOptions& options);
 /// Prints the sweep's id (with `json`: the sweep and its job ids as JSON). `table`: a file of
 /// chosen points (sweep --table), or "".
 int RemoteSweep(const Remote& remote, const RemoteScene& scene,
                 const std::vector<std::string>& vary, const std::string& table, int seeds,
-                const std::string& name, bool json);
+                const SubmitOptions& options, bool json);
 struct ListOptions {
   std::string state;
   std::string owner;

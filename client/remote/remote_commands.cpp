@@ -69,7 +69,15 @@ void AddJobCommands(CLI::App& app, CommandOptions& opt, RemoteArgs& a, CommandTa
   CLI::App* submit = app.add_subcommand("submit", "queue a scene on the server; prints the job id");
   AddSceneArguments(submit, opt);
   submit->add_option("--name", opt.name, "a name for the job");
-  commands.Add(submit, [&] { return RemoteSubmit(a.remote, SceneOf(opt), opt.name); });
+  submit->add_flag("--notify", opt.notify,
+                   "post to the lab's chat when the job has ended (the daemon's hook; dembuf "
+                   "server-info says whether it has one)");
+  submit->add_flag("--no-reuse", opt.no_reuse,
+                   "run it even when a stored result of the same scene, seed, bed file and "
+                   "engine could answer it at once");
+  commands.Add(submit, [&] {
+    return RemoteSubmit(a.remote, SceneOf(opt), {opt.name, opt.notify, opt.no_reuse});
+  });
 
   CLI::App* list = app.add_subcommand("list", "list the server's jobs (or sweeps), newest first");
   list->add_option("--state", a.list.state,
@@ -178,7 +186,8 @@ void AddRemoteCommands(CLI::App& app, CommandOptions& opt, CommandTable& command
                    "--sweep ID --long --out DIR (--local runs the sweep here)\n");
       return kExitBadInput;
     }
-    return RemoteSweep(args->remote, SceneOf(o), o.vary, o.table, o.seeds, o.name, o.json);
+    return RemoteSweep(args->remote, SceneOf(o), o.vary, o.table, o.seeds,
+                       {o.name, o.notify, o.no_reuse}, o.json);
   };
 }
 

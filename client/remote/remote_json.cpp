@@ -18,7 +18,8 @@ nlohmann::json ServerInfoJson(const v1::ServerInfoResponse& info, const std::str
       {"stored_bytes", info.stored_bytes()},
       {"quota_stored_bytes", info.quota_stored_bytes()},
       {"queued_jobs", info.queued_jobs()},
-      {"quota_queued_jobs", info.quota_queued_jobs()}};
+      {"quota_queued_jobs", info.quota_queued_jobs()},
+      {"notify", info.notify()}};
 }
 
 }  // namespace dembuf::cli

@@ -78,6 +78,7 @@ nlohmann::json JobJson(const v1::Job& job, bool details) {
       {"slurm_job_id", IdOrNull(job.slurm_job_id())},
       {"slurm_array_task",
        job.has_slurm_array_task() ? nlohmann::json(job.slurm_array_task()) : nlohmann::json()},
+      {"reused_from", IdOrNull(job.reused_from())},
   };
   if (!details) return out;
   out["scene_toml"] = job.scene_toml();

@@ -58,6 +58,7 @@ void FillJob(Store& store, Executor& executor, const JobRecord& r, bool with_det
   out->set_command_line(r.command_line);
   out->set_slurm_job_id(r.slurm_id);
   if (r.slurm_id != 0 && r.slurm_task >= 0) out->set_slurm_array_task(r.slurm_task);
+  out->set_reused_from(r.reused_from);
   out->set_state(ToProto(r.state));
   if (r.P_N) out->set_p_n(*r.P_N);
   FillProgress(ProgressOf(r, executor), out->mutable_progress());

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
 
@@ -119,8 +120,13 @@ Status CheckOwner(const std::string& owner) {
 // What every submission (a job, a sweep) passes first: whose name it is filed under (set in
 // `owner`), its name, the command line kept with it and its request id.
 template <class Request>
-Status CheckSubmission(const Caller& caller, const Request& request, std::string* owner) {
+Status CheckSubmission(const Caller& caller, const Request& request, bool can_notify,
+                       std::string* owner) {
   if (Status s = CheckOwner(request.owner()); !s.ok()) return s;
+  if (request.notify() && !can_notify)
+    return Status(StatusCode::INVALID_ARGUMENT,
+                  "notify: this daemon has no chat hook to tell you through (its administrator "
+                  "sets notify_url_file); dembuf watch --sweep ID waits for a sweep's end");
   *owner = AccessPolicy::OwnerFor(caller, request.owner());
   if (Status s = CheckLabel("name", request.name(), 200); !s.ok()) return s;
   if (Status s = CheckLabel("command_line", request.command_line(), kMaxCommandLineBytes); !s.ok())
@@ -174,6 +180,49 @@ Status DembufService::CheckQueuedQuota(const std::string& owner, std::size_t mor
                     std::to_string(m_info.quota_queued_jobs) +
                     " per user (quota_queued_jobs): wait for them to run, or cancel some",
                 "quota=quota_queued_jobs");
+}
+
+Status DembufService::CheckNotifyRoom(bool notify, const std::string& owner) {
+  if (!notify) return Status::OK;
+  const int waiting = m_store.CountWaitingNotifications(owner);
+  if (waiting < kMaxWaitingNotificationsPerUser) return Status::OK;
+  return Status(StatusCode::RESOURCE_EXHAUSTED,
+                "notify: " + owner + " has " + std::to_string(waiting) +
+                    " notifications waiting or filed in the last hour, the most one user may (" +
+                    std::to_string(kMaxWaitingNotificationsPerUser) +
+                    "): a sweep is told of once, however many its jobs",
+                "quota=notifications");
+}
+
+namespace {
+
+// Whether a summary was written by this program's engine: the same version, commit (with a
+// hash of its changes) and build type, so that its result is the one this daemon would make.
+bool MadeByThisEngine(const std::string& summary_json) {
+  const nlohmann::json summary = nlohmann::json::parse(summary_json, nullptr, false);
+  if (!summary.is_object() || !summary.contains("provenance")) return false;
+  const nlohmann::json& p = summary["provenance"];
+  const std::string commit = p.value("build_commit", "");
+  return p.value("dembuf_version", "") == kVersion && commit == report::BuildCommit() &&
+         commit != "unknown" && p.value("build_type", "") == report::BuildType();
+}
+
+}  // namespace
+
+std::int64_t DembufService::ReusableResult(const Caller& caller, const JobRecord& job) {
+  for (const JobRecord& done : m_store.DoneJobsOfScene(job.scene_hash, job.bed_file)) {
+    if (!AccessPolicy::Allows(caller, Action::kRead, done.owner)) continue;
+    try {
+      if (!MadeByThisEngine(m_store.Summary(done.id))) continue;
+      m_store.GetResults(done.id);  // (the whole series, checked against its checksums)
+      for (const JobFileInfo& file : m_store.JobFiles(done.id))
+        m_store.ReadJobFile(done.id, file.path, 0, 1);  // (a read from 0 checks the file)
+      return done.id;
+    } catch (const StoreError& e) {
+      m_log->warn("job {}'s result is not reused: {}", done.id, e.what());
+    }
+  }
+  return 0;
 }
 
 Status DembufService::CheckStoredQuota(const std::string& owner, double more_bytes) {
@@ -331,14 +380,20 @@ Status DembufService::FileSubmission(const std::string& owner, const std::string
   // two submissions at once cannot both pass a quota.
   std::lock_guard lock(m_submissions);
   if (Status retry; retried(&retry)) return retry;
-  if (Status s = CheckQueuedQuota(owner, filing.jobs.size()); !s.ok()) return s;
+  // A job answered with a stored result is done as it is filed: it neither queues nor runs.
+  const auto to_run = static_cast<std::size_t>(std::count_if(
+      filing.jobs.begin(), filing.jobs.end(), [](const JobRecord& j) { return !j.reused_from; }));
+  if (Status s = CheckQueuedQuota(owner, to_run); !s.ok()) return s;
   double bytes = filing.output_bytes;
   for (const JobRecord& job : filing.jobs) bytes += static_cast<double>(JobRowBytes(job));
   if (Status s = CheckStoredQuota(owner, bytes); !s.ok()) return s;
   try {
-    m_executor.Admit(filing.jobs.size(), [&] {
+    m_executor.Admit(to_run, [&] {
       filing.store(filing.jobs);
-      return filing.jobs;
+      std::vector<JobRecord> queued;
+      for (const JobRecord& job : filing.jobs)
+        if (job.state == JobState::kQueued) queued.push_back(job);
+      return queued;
     });
   } catch (const QueueFull& e) {
     return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
@@ -355,7 +410,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
                                                    v1::SubmitJobResponse* response) {
   return Serve("SubmitJob", context, [=, this](const Caller& caller) -> Status {
     std::string owner;
-    if (Status s = CheckSubmission(caller, *request, &owner); !s.ok()) return s;
+    if (Status s = CheckSubmission(caller, *request, m_info.notify, &owner); !s.ok()) return s;
+    if (Status s = CheckNotifyRoom(request->notify(), owner); !s.ok()) return s;
     auto admit = [&] {
       const AdmittedJob admitted =
           AdmitJob(request->scene(), BedFileOf(request->scene(), owner), m_info.job_limits);
@@ -368,6 +424,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
       JobRecord& job = filing.jobs.emplace_back(MakeJobRecord(admitted.scene, owner, name));
       job.bed_file = request->scene().bed_file();
       job.command_line = KeptCommandLine(context, request->command_line());
+      job.notify = request->notify();
+      if (!request->no_reuse()) job.reused_from = ReusableResult(caller, job);
       filing.store = [&](std::vector<JobRecord>& jobs) {
         m_store.AddJob(jobs.front(), request->request_id());
       };
@@ -390,7 +448,8 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
                                                      v1::SubmitSweepResponse* response) {
   return Serve("SubmitSweep", context, [=, this](const Caller& caller) -> Status {
     std::string owner;
-    if (Status s = CheckSubmission(caller, *request, &owner); !s.ok()) return s;
+    if (Status s = CheckSubmission(caller, *request, m_info.notify, &owner); !s.ok()) return s;
+    if (Status s = CheckNotifyRoom(request->notify(), owner); !s.ok()) return s;
     SweepRecord sweep;
     auto admit = [&] {
       const AdmittedSweep admitted = AdmitSweep(
@@ -400,6 +459,7 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
       sweep.owner = owner;
       sweep.name = request->name().empty() ? "sweep" : request->name();
       sweep.axes = admitted.axes;
+      sweep.notify = request->notify();
       Filing filing;
       filing.output_bytes = admitted.output_bytes;
       const std::string command_line = KeptCommandLine(context, request->command_line());
@@ -414,6 +474,7 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
         job.sweep_index = static_cast<int>(runs[k].index);
         job.sweep_values = runs[k].values;
         job.command_line = command_line;
+        if (!request->no_reuse()) job.reused_from = ReusableResult(caller, job);
       }
       filing.store = [&](std::vector<JobRecord>& jobs) {
         m_store.AddSweep(sweep, jobs, request->request_id());
@@ -799,6 +860,7 @@ grpc::ServerUnaryReactor* DembufService::ServerInfo(grpc::CallbackServerContext*
     response->set_version(kVersion);
     const ExecutorInfo executor = m_executor.info();
     response->set_executor(executor.kind);
+    response->set_notify(m_info.notify);
     response->set_workers(executor.workers);
     response->set_threads_per_job(executor.threads_per_job);
     response->set_queue_depth(m_executor.queued());

@@ -38,6 +38,7 @@ struct ServiceInfo {
   int max_fetch_streams = 0;
   std::chrono::seconds stream_write_timeout{};
   std::int64_t max_bed_push_bytes = 0;
+  bool notify = false;  ///< a chat hook tells owners of their work's end (notify_url_file)
 };
 
 /// Pushes of beds at once, per user and in all: each holds its bed in memory until it is
@@ -118,6 +119,13 @@ class DembufService final : public DembufServiceBase {
   grpc::Status CallsWaiting(const Caller& caller) const;
   /// The per-user quotas: queued jobs, and stored results (`more_bytes` the new jobs' bound).
   grpc::Status CheckQueuedQuota(const std::string& owner, std::size_t more);
+  /// A submission with `notify` refused while its owner is owed kMaxWaitingNotificationsPerUser.
+  grpc::Status CheckNotifyRoom(bool notify, const std::string& owner);
+  /// A done job whose result `job` may take instead of running (0: none): of the same scene
+  /// (seed included) and bed file, made by this very engine (version, commit and build type,
+  /// from its summary's provenance), one `caller` may read, and whose summary, series and
+  /// files match their checksums (a damaged one is logged and passed over).
+  std::int64_t ReusableResult(const Caller& caller, const JobRecord& job);
   grpc::Status CheckStoredQuota(const std::string& owner, double more_bytes);
   /// Runs a handler and turns any exception it lets out into a status with the reason (and
   /// a log line), instead of an abort or a reasonless answer; the access policy's refusals

@@ -98,7 +98,7 @@ std::vector<JobStatus> ParseScontrolJob(std::string_view line) {
       if (const auto id = ParseId(value)) array_id = *id;
     } else if (key == "ArrayTaskId") {
       tasks = value;
-    } else if (key == "JobName") {
+    } else if (key == "JobName" && value.size() <= 256) {
       job.name = value;
     } else if (key == "JobState" && IsWord(value)) {
       job.state = value;
@@ -142,14 +142,19 @@ std::optional<std::vector<int>> ParseArrayIndexes(std::string_view text, std::si
   if (text.empty() || text.size() > 4096) return std::nullopt;
   std::vector<int> indexes;
   for (std::string_view part : Split(text, ',')) {
+    // "a", "a-b" or "a-b:step"
+    const std::size_t colon = part.find(':');
+    const std::optional<int> step =
+        colon == std::string_view::npos ? std::optional<int>(1) : Number(part.substr(colon + 1));
+    part = part.substr(0, colon);
     const std::size_t dash = part.find('-');
     const std::optional<int> first = Number(part.substr(0, dash));
     const std::optional<int> last =
         dash == std::string_view::npos ? first : Number(part.substr(dash + 1));
-    if (!first || !last || *last < *first ||
-        static_cast<std::size_t>(*last - *first) + indexes.size() >= most)
+    if (!first || !last || !step || *step < 1 || *last < *first ||
+        static_cast<std::size_t>((*last - *first) / *step) + indexes.size() >= most)
       return std::nullopt;
-    for (int index = *first; index <= *last; ++index) indexes.push_back(index);
+    for (int index = *first; index <= *last; index += *step) indexes.push_back(index);
   }
   return indexes;
 }
@@ -258,8 +263,10 @@ std::vector<std::string> SbatchArgs(const Settings& settings, const Submission& 
   return args;
 }
 
-bool SlurmUnreachable(const std::string& error) {
-  // What sbatch and squeue print when slurmctld is down or unknown, or the program cannot run.
+namespace {
+
+// What sbatch and squeue print when slurmctld is down or unknown, or the program cannot run.
+bool SaysUnreachable(const std::string& error) {
   static const char* const signs[] = {"Unable to contact slurm controller",
                                       "Socket timed out",
                                       "Connection refused",
@@ -272,7 +279,13 @@ bool SlurmUnreachable(const std::string& error) {
                                       "No such file or directory"};
   for (const char* sign : signs)
     if (error.find(sign) != std::string::npos) return true;
-  return error.find("submission failed") == std::string::npos;
+  return false;
+}
+
+}  // namespace
+
+bool SlurmUnreachable(const std::string& error) {
+  return SaysUnreachable(error) || error.find("submission failed") == std::string::npos;
 }
 
 std::string Client::Run(const std::vector<std::string>& args, bool check,
@@ -316,7 +329,9 @@ std::map<JobKey, JobStatus> Client::Query(const std::vector<std::int64_t>& ids) 
   const ProgramResult squeue =
       RunProgram({"squeue", "-h", "-r", "-t", "all", "-j", list, "-o", kSqueueFormat},
                  std::chrono::seconds(m_settings.command_timeout_s));
-  if (squeue.exit_code == 127 || squeue.timed_out)
+  // Slurm that cannot be reached says nothing of the jobs: they are not taken as gone.
+  if (squeue.exit_code == 127 || squeue.timed_out ||
+      (squeue.exit_code != 0 && SaysUnreachable(squeue.output)))
     throw SlurmError("squeue: " + (squeue.timed_out ? std::string("no answer") : squeue.output));
   // (squeue refuses the whole list when one id is unknown to it: scontrol asks one by one.)
   std::set<std::int64_t> listed;
@@ -327,13 +342,29 @@ std::map<JobKey, JobStatus> Client::Query(const std::vector<std::int64_t>& ids) 
     }
   for (std::int64_t id : ids) {
     if (listed.count(id)) continue;
-    const ProgramResult scontrol = RunProgram({"scontrol", "show", "job", "-o", std::to_string(id)},
-                                              std::chrono::seconds(m_settings.command_timeout_s));
-    if (scontrol.exit_code != 0) continue;  // "Invalid job id": Slurm has forgotten it
-    listed.insert(id);                      // (asked once, however often it is in `ids`)
+    // (SLURM_BITSTR_LEN=0: an array's task list whole, not cut to 64 characters with "...")
+    const ProgramResult scontrol =
+        RunProgram({"scontrol", "show", "job", "-o", std::to_string(id)},
+                   std::chrono::seconds(m_settings.command_timeout_s), {"SLURM_BITSTR_LEN=0"});
+    if (scontrol.exit_code != 0) {
+      // Only Slurm's own word that it does not know the job makes it gone.
+      if (scontrol.output.find("Invalid job id") != std::string::npos) continue;
+      throw SlurmError("scontrol show job " + std::to_string(id) + " failed (exit " +
+                       std::to_string(scontrol.exit_code) +
+                       "): " + scontrol.output.substr(0, 2000));
+    }
+    listed.insert(id);  // (asked once, however often it is in `ids`)
+    bool parsed = false;
     for (std::string_view line : Split(scontrol.output, '\n'))
       for (const JobStatus& job : ParseScontrolJob(line))
-        if (job.id == id) found[{job.id, job.task}] = job;
+        if (job.id == id) {
+          found[{job.id, job.task}] = job;
+          parsed = true;
+        }
+    // An answer that cannot be read is asked again, not taken to say the job has gone.
+    if (!parsed && scontrol.output.find("JobId=") != std::string::npos)
+      throw SlurmError("scontrol show job " + std::to_string(id) +
+                       " said what cannot be read: " + scontrol.output.substr(0, 500));
   }
   return found;
 }

@@ -275,7 +275,6 @@ void SlurmExecutor::Loop() {
 
 void SlurmExecutor::Tick() {
   std::lock_guard work(m_work_mutex);
-  SubmitQueued();
   std::set<std::int64_t> ids;  // (an array's tasks share its id)
   for (const SlurmBedJob& bed : m_store.SlurmBedsInState("submitted")) ids.insert(bed.slurm_id);
   for (const JobRecord& job : m_store.UnfinishedJobs())
@@ -286,6 +285,8 @@ void SlurmExecutor::Tick() {
   PollBeds(status);
   PollJobs(status);
   CancelUnneededBeds();
+  // After the look: a bed found failed is not taken as a dependency of a new job.
+  SubmitQueued();
 }
 
 void SlurmExecutor::CancelUnneededBeds() {
@@ -530,17 +531,27 @@ void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
   const std::string name = ArrayName(base);
   // One nonce for the array: its tasks are all this daemon's runs.
   const std::string nonce = NewToken();
-  std::vector<std::int64_t> ids;
-  for (const JobRecord& job : jobs) ids.push_back(job.id);
-  m_store.SetResultNonce(ids, nonce);
   // Each task's folder is its job's; the array's words name it through kTaskJobId.
   const std::string task_folder =
       (m_jobs.path() / (m_daemon_id + "-")).string() + std::string(slurm::kTaskJobId);
   slurm::Submission array;
   std::set<std::int64_t> after;
+  std::vector<std::int64_t> ids;
   for (const JobRecord& job : jobs) {
     const Scene scene = SceneOfJob(m_store, job);
-    if (const std::int64_t bed = BedDependency(job, scene); bed != 0) after.insert(bed);
+    std::int64_t bed = 0;
+    try {
+      bed = BedDependency(job, scene);
+    } catch (const slurm::SlurmError& e) {
+      if (slurm::SlurmUnreachable(e.what())) throw;
+      // The cluster refused this job's bed (memory, time): this job fails, not its array.
+      m_store.FinishJob(job.id, JobState::kFailed,
+                        std::string("Slurm refused the job of its bed: ") + e.what(), {});
+      m_log->error("job {}: Slurm refused the job of its bed: {}", job.id, e.what());
+      continue;
+    }
+    if (bed != 0) after.insert(bed);
+    ids.push_back(job.id);
     // Every task asks for what the largest needs.
     const slurm::Submission task = NewSubmission(name, JobFolder(job.id, true), job, scene, false,
                                                  0, RunArgs(task_folder), nonce);
@@ -551,6 +562,8 @@ void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
     array.time_s = time_s;
     array.array_tasks.push_back(static_cast<int>(job.id - base));
   }
+  if (ids.empty()) return;
+  m_store.SetResultNonce(ids, nonce);
   const OwnedFolder folder = ArrayFolder(base, true);
   array.folder = folder.path().string();
   array.log = (folder.path() / "task-%a.log").string();
@@ -559,9 +572,9 @@ void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
   array.after_ok.assign(after.begin(), after.end());
   const std::int64_t slurm_id = m_slurm.Submit(array);
   m_store.SetSlurmId(ids, slurm_id, base);
-  for (const JobRecord& job : jobs)
-    m_store.LogEvent(job.id, "submitted to Slurm as task " + std::to_string(job.id - base) +
-                                 " of job array " + std::to_string(slurm_id) + " (" + name + ")");
+  for (const std::int64_t id : ids)
+    m_store.LogEvent(id, "submitted to Slurm as task " + std::to_string(id - base) +
+                             " of job array " + std::to_string(slurm_id) + " (" + name + ")");
   m_log->info("jobs {} to {}: submitted to Slurm as job array {} of {} tasks{}", base, ids.back(),
               slurm_id, ids.size(),
               after.empty() ? "" : " after their beds' " + std::to_string(after.size()) + " jobs");
@@ -633,6 +646,7 @@ void SlurmExecutor::PollJobs(const std::map<slurm::JobKey, slurm::JobStatus>& st
     } catch (const OwnershipError&) {
       wrote_end = true;  // Finish reads it, and fails the job saying what is wrong
     }
+    if (!wrote_end && !began && s && ArrayEndedForAnotherBed(job, *s)) continue;
     if (wrote_end || !s || slurm::IsFinalState(s->state)) {
       // A run that began and ended between two looks: it ran all the same.
       if (job.state == JobState::kQueued && began)
@@ -678,6 +692,23 @@ void SlurmExecutor::PollJobs(const std::map<slurm::JobKey, slurm::JobStatus>& st
       Finish(job, s);
     }
   }
+}
+
+bool SlurmExecutor::ArrayEndedForAnotherBed(const JobRecord& job, const slurm::JobStatus& status) {
+  // An array waits for every bed its tasks need, and Slurm ends all its tasks when one of
+  // them fails. The jobs of that bed have failed already (PollBeds, before this): the others
+  // go back to the queue, to be submitted again after their own beds.
+  if (job.slurm_task < 0 || job.cancel_requested || status.state != "CANCELLED" ||
+      status.reason != "DependencyNeverSatisfied")
+    return false;
+  const std::string note = "queued again: Slurm ended its job array (" +
+                           std::to_string(job.slurm_id) +
+                           ") when another job's bed could not be prepared";
+  m_store.SetSlurmId({job.id}, 0);
+  m_store.SetState(job.id, JobState::kQueued, note);
+  m_store.LogEvent(job.id, note);
+  m_log->warn("job {}: {}", job.id, note);
+  return true;
 }
 
 SlurmExecutor::JobBounds SlurmExecutor::BoundsOf(const JobRecord& job) {

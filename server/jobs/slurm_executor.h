@@ -110,6 +110,9 @@ class SlurmExecutor final : public Executor {
                       const Scene& scene, std::int64_t after);
   void PollBeds(const std::map<slurm::JobKey, slurm::JobStatus>& status);
   void PollJobs(const std::map<slurm::JobKey, slurm::JobStatus>& status);
+  /// Puts an array's task back in the queue when Slurm ended the array because another
+  /// task's bed failed; whether it did.
+  bool ArrayEndedForAnotherBed(const JobRecord& job, const slurm::JobStatus& status);
   /// A job whose run ended: its results from its folder, or Slurm's reason.
   void Finish(const JobRecord& job, const std::optional<slurm::JobStatus>& status);
   void FailDependents(const std::string& bed_hash, const std::string& why);

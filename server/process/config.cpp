@@ -82,6 +82,8 @@ std::vector<ConfigSetting> ConfigSettings(ServerConfig& config) {
       {"http", &config.http},
       {"http_max_streams_per_user", &config.http_max_streams_per_user},
       {"http_max_streams", &config.http_max_streams},
+      {"notify_url_file", &config.notify_url_file},
+      {"notify_mention", &config.notify_mention},
       {"executor", &config.executor},
       {"slurm.partition", &config.slurm.partition},
       {"slurm.account", &config.slurm.account},
@@ -320,11 +322,18 @@ void ValidateSlurmConfig(const slurm::Settings& slurm) {
   require(slurm.array_limit >= 0 && slurm.array_limit <= 100000,
           "slurm.array_limit: must be 0 (no limit) to 100000, not " +
               std::to_string(slurm.array_limit));
-  for (const std::string& arg : slurm.extra_args)
+  for (const std::string& arg : slurm.extra_args) {
     require(arg.rfind("--", 0) == 0 && arg.find('\n') == std::string::npos &&
                 arg.rfind("--wrap", 0) != 0,
             "slurm.extra_args: \"" + arg +
                 "\" must be one sbatch option, written --name=value (not --wrap)");
+    // What the daemon sets itself for each job, which an extra argument after it would undo.
+    const std::string name = arg.substr(0, arg.find('='));
+    for (const char* own : {"--account", "--comment", "--wckey", "--array", "--job-name",
+                            "--output", "--chdir", "--dependency", "--export"})
+      require(name != own, "slurm.extra_args: \"" + arg + "\": " + own +
+                               " is the daemon's to set for each job (accounts: [slurm.accounts])");
+  }
 }
 
 }  // namespace

@@ -67,6 +67,12 @@ struct ServerConfig {
   double quota_memory_mb = 4096;   ///< peak memory of the run
   double quota_output_mb = 1024;   ///< result files stored (E5's six snapshots: 120 MB)
 
+  /// A file holding the URL of the chat hook (a Mattermost or Slack incoming webhook) that
+  /// jobs and sweeps submitted with --notify are told to when they end; "": none. The URL
+  /// is a secret (whoever has it may post), so it is kept out of this file.
+  std::string notify_url_file;
+  bool notify_mention = false;  ///< messages begin with "@user" (the chat's user of that name)
+
   /// Where jobs run: "threads" (the daemon's workers) or "slurm" (the [slurm] table's cluster).
   std::string executor = "threads";
   /// The [slurm] table: what the daemon asks of the cluster (slurm::Settings owns the list).

@@ -8,6 +8,7 @@
 #include "dembuf/study/version.h"
 #include "process/daemon.h"
 #include "process/instance.h"
+#include "process/secret_file.h"
 #include "store/store.h"
 
 namespace dembuf::server {
@@ -120,6 +121,15 @@ int TokenCommand(const ServerConfig& config, const DaemonArgs& args) {
 }
 
 int CheckConfig(const ServerConfig& config) {
+  // The files the settings name that the daemon reads as it starts.
+  if (!config.notify_url_file.empty()) {
+    try {
+      ReadHookUrl(config.notify_url_file);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "dembufd: %s\n", e.what());
+      return kDaemonBadInput;
+    }
+  }
   std::printf("%s", ConfigText(config).c_str());
   std::fprintf(stderr, "dembufd: the configuration is valid\n");
   return kDaemonDone;

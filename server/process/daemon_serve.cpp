@@ -22,8 +22,10 @@
 #include "doors/web/web_server.h"
 #include "jobs/slurm_executor.h"
 #include "jobs/thread_executor.h"
+#include "notify/notifier.h"
 #include "process/daemon.h"
 #include "process/instance.h"
+#include "process/secret_file.h"
 #include "process/tls_files.h"
 #include "store/owned_files.h"
 #include "store/store.h"
@@ -303,7 +305,21 @@ int Serve(const ServerConfig& config) {
     log->critical("{}", e.what());
     return kDaemonRuntime;
   }
-  const ServiceInfo info = MakeServiceInfo(config);
+  // Before the port is bound too: a hook that cannot be used stops the start.
+  std::unique_ptr<Notifier> notifier;
+  if (!config.notify_url_file.empty()) {
+    try {
+      NotifierOptions options;
+      options.url = ReadHookUrl(config.notify_url_file);
+      options.mention = config.notify_mention;
+      notifier = std::make_unique<Notifier>(*store, options, log);
+    } catch (const std::exception& e) {
+      log->critical("{}", e.what());
+      return kDaemonRuntime;
+    }
+  }
+  ServiceInfo info = MakeServiceInfo(config);
+  info.notify = notifier != nullptr;
   // One access policy for gRPC, the web pages and their files.
   const AccessPolicy policy(*store,
                             config.access == "local" ? AccessMode::kLocal : AccessMode::kTokens);
@@ -335,6 +351,7 @@ int Serve(const ServerConfig& config) {
     return kDaemonRuntime;
   }
   executor->Start();
+  if (notifier) notifier->Start();
   log->info("dembufd {} listening on {} (port {}), database {}{}{}", kVersion, config.listen, port,
             config.db, config.tls_cert.empty() ? "" : ", TLS",
             policy.tokens_required() ? ", tokens required" : ", access local: no tokens");
@@ -347,6 +364,9 @@ int Serve(const ServerConfig& config) {
   if (web_server) web_server->Stop();
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   executor->Shutdown(std::chrono::seconds(config.shutdown_grace_s));
+  // What it still owes (a job that ended in the grace) is sent by the next start.
+  if (notifier) notifier->Shutdown();
+  notifier.reset();
   store.reset();
   log->info("stopped cleanly");
   return kDaemonDone;

@@ -5,6 +5,8 @@
 
 #include "dembuf/study/files/provenance.h"
 #include "dembuf/study/files/run_output.h"
+#include "store/notification_table.h"
+#include "store/result_table.h"
 
 namespace dembuf::server {
 
@@ -14,15 +16,15 @@ const char* const kJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "scene_toml, scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
     "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
-    "peak_plate_force_N, P_N, slurm_task, command_line";
+    "peak_plate_force_N, P_N, slurm_task, reused_from, command_line";
 // The same for a listing, which shows no scene: its text is not read ('' in its place).
 const char* const kListedJobColumns =
     "id, IFNULL(sweep_id, 0), sweep_index, sweep_values_json, owner, name, state, error, "
     "'', scene_hash, bed_hash, source_hash, attempts, created_at, started_at, "
     "finished_at, host, code_version, slurm_id, cancel_requested, bed_file, result_nonce, "
-    "peak_plate_force_N, P_N, slurm_task, command_line";
+    "peak_plate_force_N, P_N, slurm_task, reused_from, command_line";
 // How many kJobColumns names: a column selected after them has this index.
-constexpr int kJobColumnCount = 26;
+constexpr int kJobColumnCount = 27;
 
 JobRecord ReadJobRow(Statement& s) {
   JobRecord j;
@@ -51,6 +53,7 @@ JobRecord ReadJobRow(Statement& s) {
   j.peak_plate_force_N = s.Real(22);
   j.P_N = s.Real(23);
   j.slurm_task = static_cast<int>(s.Int(24));
+  j.reused_from = s.Int(25);
   j.command_line = s.Text(kJobColumnCount - 1);
   return j;
 }
@@ -84,10 +87,13 @@ std::optional<JobState> ParseState(const std::string& name) {
 
 void InsertJob(Database& db, JobRecord& job) {
   job.created_at = report::UtcNow();
+  // Its id after every job's, deleted ones' too (Store::DeleteJobs notes the largest).
   Statement& s = db.Prepare(
-      "INSERT INTO jobs (sweep_id, sweep_index, sweep_values_json, owner, name, state, "
+      "INSERT INTO jobs (id, sweep_id, sweep_index, sweep_values_json, owner, name, state, "
       "scene_toml, scene_hash, bed_hash, source_hash, created_at, command_line, bed_file) "
-      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      "VALUES (max(IFNULL((SELECT max(id) FROM jobs), 0), IFNULL((SELECT CAST(value AS INTEGER) "
+      "FROM meta WHERE key = 'deleted_job_id_max'), 0)) + 1, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
+      "?, ?)");
   if (job.sweep_id != 0) {
     s.Bind(job.sweep_id, job.sweep_index, nlohmann::json(job.sweep_values).dump(), job.owner,
            job.name, StateName(job.state), job.scene_toml, job.scene_hash, job.bed_hash,
@@ -99,6 +105,9 @@ void InsertJob(Database& db, JobRecord& job) {
   }
   s.Run();
   job.id = db.LastInsertId();
+  // A result to reuse that has gone since it was found (deleted): the job runs after all.
+  if (job.reused_from != 0 && !CopyResultIn(db, job.reused_from, job.id)) job.reused_from = 0;
+  if (job.reused_from != 0) job.state = JobState::kDone;
 }
 
 void RecordSubmission(Database& db, const std::string& owner, const std::string& request_id,
@@ -114,8 +123,21 @@ void RecordSubmission(Database& db, const std::string& owner, const std::string&
 void JobTable::AddJob(JobRecord& job, const std::string& request_id) {
   Connection::Writing db = m_connection.Write();
   InsertJob(*db, job);
+  if (job.notify) WantNotification(*db, job.id, 0, job.owner);
   RecordSubmission(*db, job.owner, request_id, {job.id, 0}, job.created_at);
   db.Commit();
+}
+
+std::vector<JobRecord> JobTable::DoneJobsOfScene(const std::string& scene_hash,
+                                                 const std::string& bed_file, int limit) {
+  Connection::Reading db = m_connection.Read();
+  Statement& s = db->Prepare(std::string("SELECT ") + kListedJobColumns +
+                             " FROM jobs WHERE scene_hash = ? AND bed_file = ? AND state = "
+                             "'done' ORDER BY id DESC LIMIT ?");
+  s.Bind(scene_hash, bed_file, limit);
+  std::vector<JobRecord> jobs;
+  while (s.Step()) jobs.push_back(ReadJobRow(s));
+  return jobs;
 }
 
 std::optional<Submission> JobTable::FindSubmission(const std::string& owner,

@@ -48,6 +48,10 @@ struct JobRecord {
   int slurm_task = -1;        ///< its task in that job, a job array; -1: not an array's task
   bool cancel_requested = false;
   std::string command_line;  ///< what asked for it, as the client sent it ("" if it did not)
+  bool notify = false;  ///< its owner is told when it ends (a job of its own; a sweep's: the sweep)
+  /// Filed done with this job's result (the same scene, seed, bed file and engine), not run;
+  /// 0: run. Set before it is filed (InsertJob copies the result).
+  std::int64_t reused_from = 0;
   std::string bed_file;      ///< SHA-256 of the owner's bed file it imports ("" for none)
   std::string result_nonce;  ///< put into its Slurm job's script; its result must carry it
   /// A finished job's peak plate force and P from its summary (nullopt: not known).
@@ -86,6 +90,7 @@ struct SweepRecord {
   std::string name;
   std::vector<SweepAxis> axes;
   std::string created_at;
+  bool notify = false;  ///< its owner is told when its last job ends (as it is filed)
 };
 
 struct JobFilter {

@@ -135,6 +135,49 @@ void ResultTable::FinishJob(std::int64_t id, JobState state, const std::string& 
   db.Commit();
 }
 
+bool CopyResultIn(Database& db, std::int64_t from, std::int64_t to) {
+  Statement& done = db.Prepare(
+      "SELECT host, code_version, peak_plate_force_N, P_N FROM jobs WHERE id = ? AND state = "
+      "'done' AND EXISTS (SELECT 1 FROM results WHERE job_id = ?)");
+  done.Bind(from, from);
+  if (!done.Step()) {
+    done.Run();
+    return false;
+  }
+  const std::string host = done.Text(0), code_version = done.Text(1);
+  const std::optional<double> peak = done.Real(2), p = done.Real(3);
+  done.Run();
+  // The stored bytes and their checksums as they are: the same result, not a new one.
+  db.Prepare(
+        "INSERT INTO results (job_id, summary_json, sample_count, series, summary_sha256, "
+        "series_sha256) SELECT ?, summary_json, sample_count, series, summary_sha256, "
+        "series_sha256 FROM results WHERE job_id = ?")
+      .Bind(to, from)
+      .Run();
+  db.Prepare(
+        "INSERT INTO series_chunks (job_id, first_index, sample_count, data, sha256) SELECT ?, "
+        "first_index, sample_count, data, sha256 FROM series_chunks WHERE job_id = ?")
+      .Bind(to, from)
+      .Run();
+  db.Prepare(
+        "INSERT INTO job_files (job_id, path, data, sha256) SELECT ?, path, data, sha256 FROM "
+        "job_files WHERE job_id = ?")
+      .Bind(to, from)
+      .Run();
+  const std::string now = report::UtcNow();
+  db.Prepare(
+        "UPDATE jobs SET state = 'done', started_at = ?, finished_at = ?, host = ?, "
+        "code_version = ?, peak_plate_force_N = ?, P_N = ?, reused_from = ? WHERE id = ?")
+      .Bind(now, now, host, code_version, peak, p, from, to)
+      .Run();
+  db.Prepare("INSERT INTO events (job_id, at, message) VALUES (?, ?, ?)")
+      .Bind(to, now,
+            "answered with job " + std::to_string(from) +
+                "'s result (the same scene, seed, bed file and engine): not run again")
+      .Run();
+  return true;
+}
+
 void ResultTable::PutJobFiles(std::int64_t id, const std::vector<report::ResultFile>& files) {
   Connection::Writing db = m_connection.Write();
   PutJobFilesIn(*db, id, files);

@@ -13,6 +13,11 @@
 
 namespace dembuf::server {
 
+/// Copies (in the caller's transaction) the done job `from`'s result, its summary, series and
+/// files with their checksums, to the job `to`, which is then done, reusing it; false (nothing
+/// changed) when `from` is no done job any more.
+bool CopyResultIn(Database& db, std::int64_t from, std::int64_t to);
+
 /// Series, summaries and result files of jobs.
 class ResultTable {
  public:

@@ -1,5 +1,6 @@
 #include "store/store.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <optional>
 #include <random>
@@ -179,6 +180,27 @@ ALTER TABLE jobs ADD COLUMN P_N REAL;
 -- slurm_id names (-1: a job of its own).
 ALTER TABLE jobs ADD COLUMN slurm_task INTEGER NOT NULL DEFAULT -1;
 )sql",
+    R"sql(
+-- Notifications owed: a job of its own (job_id) or a sweep (sweep_id) submitted with notify,
+-- told to the administrator's chat hook once it has ended (waiting, then sent or failed).
+CREATE TABLE notifications (
+  id          INTEGER PRIMARY KEY,
+  job_id      INTEGER NOT NULL DEFAULT 0,
+  sweep_id    INTEGER NOT NULL DEFAULT 0,
+  owner       TEXT NOT NULL,
+  state       TEXT NOT NULL,
+  error       TEXT NOT NULL DEFAULT '',
+  created_at  TEXT NOT NULL,
+  ended_at    TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX notifications_waiting ON notifications(state);
+)sql",
+    R"sql(
+-- A job answered with another's result, not run (the same scene, seed, bed file and engine):
+-- that job's id (0: run). Done jobs are looked up by their scene's hash.
+ALTER TABLE jobs ADD COLUMN reused_from INTEGER NOT NULL DEFAULT 0;
+CREATE INDEX jobs_by_scene ON jobs(scene_hash);
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 // The version that added the checksums of summaries, whole series and result files.
@@ -209,7 +231,8 @@ Store::Store(const std::string& path, StoreOptions options) try
       SweepTable(static_cast<Connection&>(*this)),
       ResultTable(static_cast<Connection&>(*this)),
       BedTable(static_cast<Connection&>(*this)),
-      UserTable(static_cast<Connection&>(*this)) {
+      UserTable(static_cast<Connection&>(*this)),
+      NotificationTable(static_cast<Connection&>(*this)) {
   Reading db = Read();
   // Read-only checks first: a foreign or damaged file is reported, never modified.
   Statement& check = db->Prepare("PRAGMA quick_check");
@@ -337,6 +360,14 @@ std::int64_t Store::DeleteJobs(const std::vector<std::int64_t>& ids, std::int64_
   std::int64_t freed = 0;
   std::set<std::int64_t> sweeps;
   if (sweep_id != 0) sweeps.insert(sweep_id);
+  // A deleted job's id is never given again (SQLite would give the largest's to the next
+  // job): its Slurm folder, its events and what a user noted of it name it alone.
+  if (!ids.empty())
+    db->Prepare(
+          "INSERT INTO meta (key, value) VALUES ('deleted_job_id_max', ?1) ON CONFLICT(key) DO "
+          "UPDATE SET value = max(CAST(value AS INTEGER), ?1)")
+        .Bind(*std::max_element(ids.begin(), ids.end()))
+        .Run();
   for (const std::int64_t id : ids) {
     Statement& bytes = db->Prepare(StoredBytesSql("SELECT ?1"));
     bytes.Bind(id);
@@ -347,7 +378,7 @@ std::int64_t Store::DeleteJobs(const std::vector<std::int64_t>& ids, std::int64_
     if (sweep.Step() && sweep.Int(0) != 0) sweeps.insert(sweep.Int(0));
     sweep.Run();
     for (const char* table :
-         {"series_chunks", "results", "job_files", "bed_preparations", "events"})
+         {"series_chunks", "results", "job_files", "bed_preparations", "events", "notifications"})
       db->Prepare(std::string("DELETE FROM ") + table + " WHERE job_id = ?").Bind(id).Run();
     db->Prepare("DELETE FROM submissions WHERE job_id = ?").Bind(id).Run();
     db->Prepare("DELETE FROM jobs WHERE id = ?").Bind(id).Run();
@@ -360,6 +391,7 @@ std::int64_t Store::DeleteJobs(const std::vector<std::int64_t>& ids, std::int64_
     left.Run();
     if (empty) {
       db->Prepare("DELETE FROM submissions WHERE sweep_id = ?").Bind(sweep).Run();
+      db->Prepare("DELETE FROM notifications WHERE sweep_id = ?").Bind(sweep).Run();
       db->Prepare("DELETE FROM sweeps WHERE id = ?").Bind(sweep).Run();
     }
   }

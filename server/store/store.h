@@ -12,6 +12,7 @@
 #include "store/bed_table.h"
 #include "store/connection.h"
 #include "store/job_table.h"
+#include "store/notification_table.h"
 #include "store/records.h"
 #include "store/result_table.h"
 #include "store/sweep_table.h"
@@ -26,7 +27,8 @@ class Store : private Connection,
               public SweepTable,
               public ResultTable,
               public BedTable,
-              public UserTable {
+              public UserTable,
+              public NotificationTable {
  public:
   /// Opens or creates the database and brings its schema up to date. Throws StoreError with
   /// a clear message for a file that is not a dembuf database, is damaged, or is newer than

@@ -4,6 +4,7 @@
 
 #include "dembuf/study/files/provenance.h"
 #include "store/job_table.h"
+#include "store/notification_table.h"
 
 namespace dembuf::server {
 
@@ -36,6 +37,7 @@ void SweepTable::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs,
     job.sweep_id = sweep.id;
     InsertJob(*db, job);
   }
+  if (sweep.notify) WantNotification(*db, 0, sweep.id, sweep.owner);
   RecordSubmission(*db, sweep.owner, request_id, {0, sweep.id}, sweep.created_at);
   db.Commit();
 }

@@ -59,7 +59,7 @@ q = json.load(open(f"{second}/summary.json"))["provenance"]
 scene = open(f"{first}/scene.toml", "rb").read()
 assert p["scene_sha256"] == hashlib.sha256(scene).hexdigest(), p
 assert re.fullmatch(r"[0-9a-f]{64}", p["bed_sha256"]) and p["bed_sha256"] == q["bed_sha256"], (p, q)
-assert re.fullmatch(r"([0-9a-f]{40}(-dirty)?|unknown)", p["build_commit"]), p
+assert re.fullmatch(r"([0-9a-f]{40}(-dirty-[0-9a-f]{12})?|unknown)", p["build_commit"]), p
 assert p["build_type"] and p["dembuf_version"] and p["threads"] >= 1 and p["seed"] == 1, p
 assert p["host"] == host, (p["host"], host)
 iso = r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ"

@@ -91,7 +91,7 @@ class ClientTest(unittest.TestCase):
         self.assertEqual(p["scene_sha256"], hashlib.sha256(scene).hexdigest())
         self.assertRegex(p["bed_sha256"], "^[0-9a-f]{64}$")
         self.assertEqual(p["bed_hash"], run.job["bed_hash"])
-        self.assertRegex(p["build_commit"], "^([0-9a-f]{40}(-dirty)?|unknown)$")
+        self.assertRegex(p["build_commit"], "^([0-9a-f]{40}(-dirty-[0-9a-f]{12})?|unknown)$")
         self.assertEqual(p["host"], run.job["host"])
         self.assertGreaterEqual(p["threads"], 1)
         self.assertLessEqual(p["started_at"], p["finished_at"])

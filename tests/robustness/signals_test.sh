@@ -97,7 +97,7 @@ stop_daemon
 # word, and twice made a good job a poison job: it stops as SIGTERM does.
 for hangup in 1 2; do
   start_daemon "$work/dembuf.db" "$work/hup.log" --shutdown-grace 0
-  [ "$hangup" = 1 ] && hup_job=$("$dembuf" submit --set time.end_s=5 2>/dev/null)
+  [ "$hangup" = 1 ] && hup_job=$("$dembuf" submit --set time.end_s=5 --no-reuse 2>/dev/null)
   wait_state "$hup_job" running 60
   kill -HUP "$daemon_pid"
   code=0

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <map>
 
 #include "../engine/temp_path.h"
@@ -92,7 +93,8 @@ TEST(Slurm, ArrayIndexesAreWrittenAsRanges) {
        {std::vector<int>{0, 1, 2, 3}, std::vector<int>{0, 1, 3, 5, 6, 9}, std::vector<int>{4}})
     EXPECT_EQ(slurm::ParseArrayIndexes(slurm::FormatArrayIndexes(indexes)), indexes);
   EXPECT_EQ(slurm::ParseArrayIndexes("3-5%2"), (std::vector<int>{3, 4, 5}));
-  for (const char* bad : {"", "a", "5-3", "1,,2", "-1", "1-", "0-100000"})
+  EXPECT_EQ(slurm::ParseArrayIndexes("1-9:4,12"), (std::vector<int>{1, 5, 9, 12}));
+  for (const char* bad : {"", "a", "5-3", "1,,2", "-1", "1-", "0-100000", "1-9:0", "1-3..."})
     EXPECT_FALSE(slurm::ParseArrayIndexes(bad)) << bad;
 }
 
@@ -211,6 +213,59 @@ TEST(Slurm, AnArraysTasksEachRunTheirOwnJobAndCarryTheirUser) {
   EXPECT_EQ(task.output, "/opt/dembuf|run|/shared/it's/d-45/scene.toml|");
 }
 
+// Programs named squeue and scontrol in a folder first in PATH, printing `output` and exiting
+// with `code`, for as long as the object lives.
+class FakeSlurm {
+ public:
+  FakeSlurm(const std::string& squeue, int squeue_code, const std::string& scontrol,
+            int scontrol_code)
+      : m_dir(test::TempPath("bin")), m_path(std::getenv("PATH")) {
+    std::filesystem::create_directories(m_dir);
+    Write("squeue", squeue, squeue_code);
+    Write("scontrol", scontrol, scontrol_code);
+    setenv("PATH", (m_dir + ":" + m_path).c_str(), 1);
+  }
+  ~FakeSlurm() { setenv("PATH", m_path.c_str(), 1); }
+
+ private:
+  void Write(const std::string& name, const std::string& output, int code) {
+    const std::string path = m_dir + "/" + name;
+    std::ofstream(path) << "#!/bin/sh\nprintf '%s\\n' " << ShellQuote(output) << "\nexit " << code
+                        << "\n";
+    std::filesystem::permissions(path, std::filesystem::perms::owner_all);
+  }
+  std::string m_dir, m_path;
+};
+
+// A cluster that cannot be reached says nothing of the jobs: they must not be taken as gone
+// (every running job was failed when slurmctld restarted).
+TEST(Slurm, AClusterThatDoesNotAnswerSaysNoJobHasGone) {
+  slurm::Client client{slurm::Settings{}};
+  {
+    FakeSlurm down("squeue: error: Unable to contact slurm controller (connect failure)", 1, "", 1);
+    EXPECT_THROW(client.Query({12}), slurm::SlurmError);
+  }
+  {
+    // squeue refuses the list (one id unknown); scontrol fails otherwise than "Invalid job id".
+    FakeSlurm refusing("slurm_load_jobs error: Invalid job id specified", 1,
+                       "slurm_load_jobs error: Socket timed out on send/recv operation", 1);
+    EXPECT_THROW(client.Query({12}), slurm::SlurmError);
+  }
+  {
+    FakeSlurm garbled("", 1, "JobId=12 ArrayJobId=12 ArrayTaskId=3-1... JobState=PENDING", 0);
+    EXPECT_THROW(client.Query({12}), slurm::SlurmError);
+  }
+  {
+    FakeSlurm forgotten("slurm_load_jobs error: Invalid job id specified", 1,
+                        "slurm_load_jobs error: Invalid job id specified", 1);
+    EXPECT_TRUE(client.Query({12}).empty());  // Slurm's own word: gone
+  }
+  FakeSlurm known("", 1, "JobId=13 ArrayJobId=12 ArrayTaskId=1 JobName=x JobState=RUNNING", 0);
+  const auto found = client.Query({12});
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found.begin()->first, (slurm::JobKey{12, 1}));
+}
+
 TEST(Slurm, AQuotedWordReachesTheProgramUnchanged) {
   // Through a real shell: every awkward character arrives as it was.
   const std::string word = "it's $HOME `id` \"x\" \\ ; | & * \n end";
@@ -259,6 +314,8 @@ TEST(SlurmConfig, TheSlurmTableIsReadAndChecked) {
   EXPECT_NE(refused(base + "extra_args = [\"--wrap=id\"]\n").find("slurm.extra_args"),
             std::string::npos);
   EXPECT_NE(refused(base + "nodes = 3\n").find("slurm.nodes"), std::string::npos);
+  EXPECT_NE(refused(base + "extra_args = [\"--account=other\"]\n").find("the daemon's to set"),
+            std::string::npos);
   EXPECT_NE(refused(base + "array_tasks_max = 0\n").find("slurm.array_tasks_max"),
             std::string::npos);
   EXPECT_NE(refused(base + "array_limit = -1\n").find("slurm.array_limit"), std::string::npos);

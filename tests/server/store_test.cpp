@@ -206,6 +206,27 @@ TEST_F(StoreTest, ASweepLeftWithoutJobsIsDeletedWithTheLast) {
   EXPECT_FALSE(store.GetSweep(empty.id));
 }
 
+// A deleted job's id is not given to the next job (SQLite gives the largest id again): the
+// Slurm executor's folder of the deleted job would be taken for the new one's, and failed it.
+TEST_F(StoreTest, ADeletedJobsIdIsNeverGivenAgain) {
+  std::int64_t newest = 0;
+  {
+    Store store(path.string());
+    JobRecord first, second;
+    first.owner = second.owner = "ada";
+    store.AddJob(first);
+    store.AddJob(second);
+    store.FinishJob(second.id, JobState::kDone, "", {"{}\n", {}, 0, {}});
+    newest = second.id;
+    store.DeleteJobs({newest}, 0);
+  }
+  Store store(path.string());
+  JobRecord next;
+  next.owner = "ada";
+  store.AddJob(next);
+  EXPECT_EQ(next.id, newest + 1);
+}
+
 // A job's record counts in its owner's stored bytes whatever its state (cancelled sweeps of
 // long command lines grew the database by 477 MB, counted nowhere), as JobRowBytes says
 // before it is filed; the SQL and the function agree byte for byte.
@@ -264,7 +285,9 @@ TEST_F(StoreTest, AFinishedJobsPeakAndPAreInItsRecord) {
     Database db(path.string());
     db.Execute(
         "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
-        "ALTER TABLE jobs DROP COLUMN slurm_task; PRAGMA user_version = 10");
+        "ALTER TABLE jobs DROP COLUMN slurm_task; DROP TABLE notifications; "
+        "ALTER TABLE jobs DROP COLUMN reused_from; DROP INDEX jobs_by_scene; "
+        "PRAGMA user_version = 10");
     // A summary changed since it was stored (valid JSON, another P): its checksum fails.
     db.Execute("UPDATE results SET summary_json = '{\"P_N\": 9999}' WHERE job_id = " +
                std::to_string(ids[2]));
@@ -438,7 +461,9 @@ TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAndLoseTheirTokensAtTheUpgr
         "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
         "ALTER TABLE jobs DROP COLUMN bed_file; ALTER TABLE jobs DROP COLUMN result_nonce; "
         "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
-        "ALTER TABLE jobs DROP COLUMN slurm_task; PRAGMA user_version = 7");
+        "ALTER TABLE jobs DROP COLUMN slurm_task; DROP TABLE notifications; "
+        "ALTER TABLE jobs DROP COLUMN reused_from; DROP INDEX jobs_by_scene; "
+        "PRAGMA user_version = 7");
     db.Execute("UPDATE jobs SET command_line = 'dembuf --token 0123abcd submit'");
     db.Execute(
         "UPDATE results SET summary_json = "

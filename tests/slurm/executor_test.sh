@@ -6,7 +6,8 @@
 #   2. watch shows a Slurm job's samples while it runs, and cancel ends it in Slurm;
 #   3. kill -9 of dembufd mid-sweep, and a restart: every job submitted once, all finish;
 #   4. a job cancelled with scancel from outside ends failed, saying CANCELLED;
-#   5. cancelling a sweep whose bed is being prepared cancels the bed's Slurm job;
+#   5. cancelling a sweep whose bed is being prepared cancels the bed's Slurm job; a bed
+#      that fails fails its job, and the array's other task (ended by Slurm) runs again;
 #   6. a job past its time limit ends failed, saying TIMEOUT (found by its daemon restarted
 #      after the job ended);
 #   7. a 12-point parameter table goes as one job array of at most 4 tasks at once, its
@@ -178,6 +179,26 @@ done
 [ "$(slurm_state "$source_job")" = CANCELLED ] ||
   fail "the bed job $source_job of a cancelled sweep is $(slurm_state "$source_job")"
 echo "bed job $source_job cancelled with its sweep"
+
+echo "== 5b. one bed of a sweep's job array fails: its job fails, the other runs again ($SECONDS s)"
+# Two seeds, two beds; the array waits for both, and Slurm ends it when one fails.
+"$dembuf" sweep "$work/scene.toml" --set bed.source_thickness_m=0.03 --vary bed.seed=21,22 \
+  --json > "$work/two.json"
+read -r lost kept < <(python3 -c 'import json, sys; print(*json.load(open(sys.argv[1]))["job_ids"])' "$work/two.json")
+bed=$("$dembuf" status "$lost" | sed -n 's/^scene .*, bed \([0-9a-f]*\).*/\1/p')
+[ -n "$bed" ] || fail "status $lost names no bed: $("$dembuf" status "$lost")"
+for _ in $(seq 300); do
+  bed_job=$(squeue -h -t all -o '%i|%j' | awk -F'|' -v n="dembuf-$daemon_id-bed-$bed" '$2 == n { print $1 }')
+  [ -n "$bed_job" ] && break
+  sleep 0.1
+done
+[ -n "$bed_job" ] || fail "no Slurm job prepares job $lost's bed $bed"
+scancel "$bed_job"
+wait_state "$lost" failed 120
+wait_state "$kept" done 240
+grep -q "job $kept: queued again: Slurm ended its job array" "$work/slurm.log" ||
+  fail "job $kept was not queued again after its array ended"
+echo "job $lost failed with its bed; job $kept, ended with the array, ran again and is done"
 stop_daemon
 
 echo "== 6. past the time limit ($SECONDS s)"

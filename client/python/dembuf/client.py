@@ -165,6 +165,7 @@ def _job_json(j, details: bool = True) -> dict:
         "P_N": j.P_N if j.HasField("P_N") and math.isfinite(j.P_N) else None,
         "slurm_job_id": j.slurm_job_id or None,
         "slurm_array_task": j.slurm_array_task if j.HasField("slurm_array_task") else None,
+        "reused_from": j.reused_from or None,
     } | ({
         "scene_toml": j.scene_toml, "scene_hash": j.scene_hash, "bed_hash": j.bed_hash,
         "summary": _server_json(j.summary_json, f"job {j.id}'s summary_json"),
@@ -293,15 +294,20 @@ class Client:
     def submit(self, preset: str = "", scene: Mapping | None = None,
                toml: str | os.PathLike | None = None,
                set: Sequence[str] | Mapping[str, object] | None = None, accuracy: str = "",
-               name: str = "", bed_file: str | os.PathLike | None = None) -> int:
+               name: str = "", bed_file: str | os.PathLike | None = None,
+               notify: bool = False, reuse: bool = True) -> int:
         """Submits one impact; returns its job id. The scene is built as the CLI builds it:
         the preset, the scene file (`toml`: a path or its text), the accuracy, the fields of
         `scene` (nested as a scene file: {"bed": {"thickness_m": 0.02}}), then `set`
         ({"time.end_s": 0.1} or ["time.end_s=0.1"]). `bed_file`: a bed file on this machine
-        to import (sent with the job, as bed.import). Physically odd input comes back as
-        warnings (UserWarning)."""
+        to import (sent with the job, as bed.import). `notify`: the daemon's chat hook tells
+        of the job's end (refused, INVALID_ARGUMENT, by a daemon without one). `reuse`:
+        a stored result of the same scene, seed, bed file and engine that you may read answers
+        the job at once (job(id)["reused_from"] names it); False runs it anyway. Physically
+        odd input comes back as warnings (UserWarning)."""
         request = pb.SubmitJobRequest(scene=self._scene_spec(preset, scene, toml, set, accuracy),
-                                      name=name, owner=self.owner, command_line=command_line())
+                                      name=name, owner=self.owner, command_line=command_line(),
+                                      notify=notify, no_reuse=not reuse)
         if bed_file is not None:
             request.scene.bed_file = self.send_bed_file(bed_file)
         answer = self._submit(self._stub.SubmitJob, request)
@@ -315,17 +321,19 @@ class Client:
                      set: Sequence[str] | Mapping[str, object] | None = None,
                      accuracy: str = "", name: str = "",
                      bed_file: str | os.PathLike | None = None,
-                     table: "pd.DataFrame | str | os.PathLike | None" = None) -> int:
+                     table: "pd.DataFrame | str | os.PathLike | None" = None,
+                     notify: bool = False, reuse: bool = True) -> int:
         """Submits a sweep; returns its id. `axes` maps a scene field to its values, a list
         or a "START:STOP:STEP" range (inclusive): {"bed.thickness_m": "0:0.08:0.005"}.
         `table` gives chosen points instead or as well (as `dembuf sweep --table`): a
         DataFrame whose columns are scene fields and whose rows are points, or a file of them
         (tab- or comma-separated, a header of field names); its rows are multiplied by the
         axes. Each point runs on bed seeds 1..seeds (unless bed.seed is a column or an axis),
-        its jobs sharing their beds; with `bed_file`, every point imports that file."""
+        its jobs sharing their beds; with `bed_file`, every point imports that file.
+        `notify` and `reuse` as submit's, for the sweep's end and for each of its jobs."""
         request = pb.SubmitSweepRequest(
             base=self._scene_spec(preset, scene, toml, set, accuracy), seeds=seeds, name=name,
-            owner=self.owner, command_line=command_line())
+            owner=self.owner, command_line=command_line(), notify=notify, no_reuse=not reuse)
         if bed_file is not None:
             request.base.bed_file = self.send_bed_file(bed_file)
         if table is not None:

@@ -35,8 +35,9 @@ std::string ShellCommandLine(int argc, const char* const* argv,
 /// a client sent, whatever client it was.
 std::string WithoutSecrets(std::string line, const std::string& secret);
 
-/// The commit the program was built from ("unknown" outside a git checkout; "-dirty" after
-/// it when the checkout had changes) and the build type ("Release", ...).
+/// The commit the program was built from ("unknown" outside a git checkout; "-dirty-" and 12
+/// hex digits of a hash of the changes after it when the checkout had changes) and the build
+/// type ("Release", ...).
 const char* BuildCommit();
 const char* BuildType();
 

@@ -36,7 +36,12 @@ AccessPolicy::AccessPolicy(Store& store, AccessMode mode) : m_store(store), m_mo
 }
 
 AccessPolicy::~AccessPolicy() {
+  Stop();
+}
+
+void AccessPolicy::Stop() {
   m_reader.request_stop();
+  if (m_reader.joinable()) m_reader.join();
 }
 
 void AccessPolicy::ReadUsers() {

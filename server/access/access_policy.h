@@ -63,6 +63,9 @@ class AccessPolicy {
   /// without waiting for the store.
   AccessPolicy(Store& store, AccessMode mode);
   ~AccessPolicy();
+  /// Stops reading the users, and waits for the reader: before the store goes (the daemon's
+  /// shutdown closes the store while the policy still stands).
+  void Stop();
   AccessPolicy(const AccessPolicy&) = delete;
   AccessPolicy& operator=(const AccessPolicy&) = delete;
 

@@ -8,7 +8,9 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <thread>
 
+#include "access/access_policy.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/presets.h"
 #include "dembuf/study/scene/scene_fields.h"
@@ -679,6 +681,19 @@ TEST_F(StoreTest, ResultFilesAreStoredWithTheJobAndReadInPieces) {
   // A job that starts again (after a crash) starts without the files of its first try.
   store.MarkStarted(id, JobState::kRunning, "h", "v");
   EXPECT_TRUE(store.JobFiles(id).empty());
+}
+
+// The daemon closes its store as it stops, while its access policy still stands: the policy's
+// reader of the users read the closed store (dembufd died of SIGSEGV one stop in fifty).
+TEST_F(StoreTest, TheAccessPolicyStopsReadingTheUsersBeforeTheStoreGoes) {
+  auto store = std::make_unique<Store>(path.string());
+  AccessPolicy policy(*store, AccessMode::kTokens);
+  policy.Stop();
+  store.reset();
+  // A reader still running reads the freed store within kUsersRefresh (AddressSanitizer
+  // reports it at once; here it crashes now and then).
+  std::this_thread::sleep_for(3 * kUsersRefresh);
+  EXPECT_EQ(policy.mode(), AccessMode::kTokens);
 }
 
 }  // namespace

@@ -89,7 +89,7 @@ struct Settings {
 };
 
 /// In an array's command, where each task puts its dembuf job's id (the array's first job id
-/// plus the task's index): "/work/jobs/d-{job}/scene.toml".
+/// plus the task's index): "WORK_DIR/jobs/d-{job}/scene.toml".
 inline constexpr std::string_view kTaskJobId = "{job}";
 
 /// One job to submit, or one job array.

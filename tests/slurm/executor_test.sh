@@ -40,6 +40,17 @@ slurm_config() {
 }
 # slurm_state ID: what Slurm says of one of its jobs.
 slurm_state() { squeue -h -t all -j "$1" -o '%T' 2> /dev/null || true; }
+# wait_slurm_job STATES PREFIX: the id of a Slurm job in one of STATES whose name begins with
+# PREFIX, once there is one (30 s at most; "" when none came).
+wait_slurm_job() {
+  local id=""
+  for _ in $(seq 300); do
+    id=$(squeue -h -t "$1" -o '%i|%j' | awk -F'|' -v p="$2" 'index($2, p) == 1 { print $1; exit }')
+    [ -n "$id" ] && break
+    sleep 0.1
+  done
+  echo "$id"
+}
 # slurm_id JOB: the Slurm job of a dembuf job, from status.
 slurm_id() { "$dembuf" status "$1" | sed -n 's/^Slurm job \([0-9]*\).*/\1/p'; }
 small_scene "$work/scene.toml"
@@ -165,11 +176,7 @@ echo "== 5. a sweep cancelled while its bed is prepared ($SECONDS s)"
 "$dembuf" sweep "$work/scene.toml" --set bed.seed=7 --set bed.source_thickness_m=0.03 \
   --vary projectile.speed_m_s=1,2 > /dev/null
 sweep=$("$dembuf" list --sweeps --limit 1 | awk 'NR == 2 { print $1 }')
-for _ in $(seq 300); do
-  source_job=$(squeue -h -t running -o '%i|%j' | awk -F'|' -v d="dembuf-$daemon_id-bed-" 'index($2, d) == 1 { print $1 }')
-  [ -n "$source_job" ] && break
-  sleep 0.1
-done
+source_job=$(wait_slurm_job running "dembuf-$daemon_id-bed-")
 [ -n "$source_job" ] || fail "no bed job runs for the new sweep"
 "$dembuf" cancel --sweep "$sweep" > /dev/null
 for _ in $(seq 100); do
@@ -187,11 +194,7 @@ echo "== 5b. one bed of a sweep's job array fails: its job fails, the other runs
 read -r lost kept < <(python3 -c 'import json, sys; print(*json.load(open(sys.argv[1]))["job_ids"])' "$work/two.json")
 bed=$("$dembuf" status "$lost" | sed -n 's/^scene .*, bed \([0-9a-f]*\).*/\1/p')
 [ -n "$bed" ] || fail "status $lost names no bed: $("$dembuf" status "$lost")"
-for _ in $(seq 300); do
-  bed_job=$(squeue -h -t all -o '%i|%j' | awk -F'|' -v n="dembuf-$daemon_id-bed-$bed" '$2 == n { print $1 }')
-  [ -n "$bed_job" ] && break
-  sleep 0.1
-done
+bed_job=$(wait_slurm_job all "dembuf-$daemon_id-bed-$bed")
 [ -n "$bed_job" ] || fail "no Slurm job prepares job $lost's bed $bed"
 scancel "$bed_job"
 wait_state "$lost" failed 120

@@ -99,6 +99,19 @@ void AccessPolicy::Require(const Caller& caller, Action action, const std::strin
   throw AccessDenied(false, what + " belongs to " + owner);
 }
 
+Caller AccessPolicy::FiledAs(const Caller& caller, const std::string& owner) const {
+  if (owner == caller.name) return caller;
+  if (m_mode == AccessMode::kLocal) return Caller{owner, true, false, ""};
+  std::lock_guard lock(m_users_mutex);
+  bool any = false, all_admin = true;
+  for (const auto& [hash, user] : m_users)
+    if (user.name == owner) {
+      any = true;
+      all_admin = all_admin && user.admin;
+    }
+  return Caller{owner, any && all_admin, false, ""};
+}
+
 std::string AccessPolicy::ListedOwner(const Caller& caller, const std::string& requested) {
   if (caller.admin) return requested;
   const std::string owner = OwnerFor(caller, requested);

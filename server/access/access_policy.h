@@ -98,6 +98,13 @@ class AccessPolicy {
   static std::string OwnerFor(const Caller& caller, const std::string& requested,
                               const std::string& field = "owner");
 
+  /// The rights of work `caller` files for `owner` (what its jobs may read, such as a stored
+  /// result they would reuse): the caller's own when filing for itself, else the owner's, not
+  /// the caller's (an admin filing for bob gives bob's job nothing of alice's): an admin's
+  /// where every token of that name is an admin's, or in access "local", where whoever reaches
+  /// the daemon without a token is one.
+  Caller FiledAs(const Caller& caller, const std::string& owner) const;
+
   /// Whose jobs and sweeps a listing shows, the one rule of every door's lists: an admin's,
   /// everyone's ("") unless naming one; anyone else's, their own (naming another is refused,
   /// as OwnerFor).

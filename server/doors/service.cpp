@@ -151,6 +151,14 @@ std::string KeptCommandLine(const grpc::ServerContextBase* context, const std::s
   return report::WithoutSecrets(line, token);
 }
 
+// A job that was to reuse a result, to be filed to run instead.
+JobRecord Unreused(JobRecord job) {
+  job.reused_from = 0;
+  job.state = JobState::kQueued;
+  job.id = 0;
+  return job;
+}
+
 JobRecord MakeJobRecord(const Scene& scene, const std::string& owner, const std::string& name) {
   JobRecord job;
   job.owner = owner.empty() ? "anonymous" : owner;
@@ -197,21 +205,27 @@ Status DembufService::CheckNotifyRoom(bool notify, const std::string& owner) {
 namespace {
 
 // Whether a summary was written by this program's engine: the same version, commit (with a
-// hash of its changes) and build type, so that its result is the one this daemon would make.
+// hash of its changes), build type, compiler and flags, so that its result is the one this
+// daemon would make.
 bool MadeByThisEngine(const std::string& summary_json) {
   const nlohmann::json summary = nlohmann::json::parse(summary_json, nullptr, false);
   if (!summary.is_object() || !summary.contains("provenance")) return false;
   const nlohmann::json& p = summary["provenance"];
   const std::string commit = p.value("build_commit", "");
   return p.value("dembuf_version", "") == kVersion && commit == report::BuildCommit() &&
-         commit != "unknown" && p.value("build_type", "") == report::BuildType();
+         commit != "unknown" && p.value("build_type", "") == report::BuildType() &&
+         p.value("build_config", "") == report::BuildConfig();
 }
 
 }  // namespace
 
 std::int64_t DembufService::ReusableResult(const Caller& caller, const JobRecord& job) {
-  for (const JobRecord& done : m_store.DoneJobsOfScene(job.scene_hash, job.bed_file)) {
-    if (!AccessPolicy::Allows(caller, Action::kRead, done.owner)) continue;
+  // As the job's owner may read: an admin filing for bob reuses only what bob may read.
+  const Caller owner = m_policy.FiledAs(caller, job.owner);
+  const std::optional<std::string> only_of =
+      owner.admin ? std::nullopt : std::optional<std::string>(owner.name);
+  for (const JobRecord& done : m_store.DoneJobsOfScene(job.scene_hash, job.bed_file, only_of)) {
+    if (!AccessPolicy::Allows(owner, Action::kRead, done.owner)) continue;
     try {
       if (!MadeByThisEngine(m_store.Summary(done.id))) continue;
       m_store.GetResults(done.id);  // (the whole series, checked against its checksums)
@@ -365,6 +379,9 @@ Status DembufService::FileSubmission(const std::string& owner, const std::string
     std::lock_guard lock(m_submissions);
     if (Status retry; retried(&retry)) return retry;
   }
+  // Nothing is read (a result to reuse, checked through) for a user already over the stored
+  // quota: a copy adds bytes too.
+  if (Status s = CheckStoredQuota(owner, 0.0); !s.ok()) return s;
   Filing filing;
   try {
     filing = admit();
@@ -380,26 +397,37 @@ Status DembufService::FileSubmission(const std::string& owner, const std::string
   // two submissions at once cannot both pass a quota.
   std::lock_guard lock(m_submissions);
   if (Status retry; retried(&retry)) return retry;
-  // A job answered with a stored result is done as it is filed: it neither queues nor runs.
-  const auto to_run = static_cast<std::size_t>(std::count_if(
-      filing.jobs.begin(), filing.jobs.end(), [](const JobRecord& j) { return !j.reused_from; }));
-  if (Status s = CheckQueuedQuota(owner, to_run); !s.ok()) return s;
   double bytes = filing.output_bytes;
   for (const JobRecord& job : filing.jobs) bytes += static_cast<double>(JobRowBytes(job));
   if (Status s = CheckStoredQuota(owner, bytes); !s.ok()) return s;
-  try {
-    m_executor.Admit(to_run, [&] {
-      filing.store(filing.jobs);
-      std::vector<JobRecord> queued;
-      for (const JobRecord& job : filing.jobs)
-        if (job.state == JobState::kQueued) queued.push_back(job);
-      return queued;
-    });
-  } catch (const QueueFull& e) {
-    return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
-  } catch (const StorageFull& e) {
-    m_log->error("a request found the disk full: {}", e.what());
-    return DiskFull();
+  // Each pass either files everything or nothing; a result to reuse that was deleted since it
+  // was found makes its jobs ones to run, counted again (at most one pass more per job).
+  for (std::size_t pass = 0;; ++pass) {
+    // A job answered with a stored result is done as it is filed: it neither queues nor runs.
+    const auto to_run = static_cast<std::size_t>(std::count_if(
+        filing.jobs.begin(), filing.jobs.end(), [](const JobRecord& j) { return !j.reused_from; }));
+    if (Status s = CheckQueuedQuota(owner, to_run); !s.ok()) return s;
+    try {
+      m_executor.Admit(to_run, [&] {
+        filing.store(filing.jobs);
+        std::vector<JobRecord> queued;
+        for (const JobRecord& job : filing.jobs)
+          if (job.state == JobState::kQueued) queued.push_back(job);
+        return queued;
+      });
+      break;
+    } catch (const ReusedResultGone& e) {
+      if (pass >= filing.jobs.size()) throw;
+      m_log->info("job {}'s result was deleted as {} filed jobs reusing it: they run", e.from,
+                  owner);
+      for (JobRecord& job : filing.jobs)
+        if (job.reused_from == e.from) job = Unreused(std::move(job));
+    } catch (const QueueFull& e) {
+      return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
+    } catch (const StorageFull& e) {
+      m_log->error("a request found the disk full: {}", e.what());
+      return DiskFull();
+    }
   }
   filed = std::move(filing);
   return Status::OK;

@@ -105,8 +105,10 @@ void InsertJob(Database& db, JobRecord& job) {
   }
   s.Run();
   job.id = db.LastInsertId();
-  // A result to reuse that has gone since it was found (deleted): the job runs after all.
-  if (job.reused_from != 0 && !CopyResultIn(db, job.reused_from, job.id)) job.reused_from = 0;
+  // A result to reuse that has gone since it was found (deleted): nothing of this filing stays,
+  // so that the submission counts the job among those to run before it files it again.
+  if (job.reused_from != 0 && !CopyResultIn(db, job.reused_from, job.id))
+    throw ReusedResultGone(job.reused_from);
   if (job.reused_from != 0) job.state = JobState::kDone;
 }
 
@@ -129,12 +131,16 @@ void JobTable::AddJob(JobRecord& job, const std::string& request_id) {
 }
 
 std::vector<JobRecord> JobTable::DoneJobsOfScene(const std::string& scene_hash,
-                                                 const std::string& bed_file, int limit) {
+                                                 const std::string& bed_file,
+                                                 const std::optional<std::string>& owner,
+                                                 int limit) {
   Connection::Reading db = m_connection.Read();
+  // (the owner filtered here, not after: another's many copies cannot hide one's own result)
   Statement& s = db->Prepare(std::string("SELECT ") + kListedJobColumns +
-                             " FROM jobs WHERE scene_hash = ? AND bed_file = ? AND state = "
-                             "'done' ORDER BY id DESC LIMIT ?");
-  s.Bind(scene_hash, bed_file, limit);
+                             " FROM jobs WHERE scene_hash = ? AND bed_file = ? AND state = 'done' "
+                             "AND (? IS NULL OR owner = ?) ORDER BY reused_from <> 0, id DESC "
+                             "LIMIT ?");
+  s.Bind(scene_hash, bed_file, owner, owner, limit);
   std::vector<JobRecord> jobs;
   while (s.Step()) jobs.push_back(ReadJobRow(s));
   return jobs;

@@ -14,8 +14,8 @@ namespace dembuf::server {
 
 /// Inserts a job's row (in the caller's transaction) and sets its id and creation time: for
 /// the tables that file jobs (a job alone, a sweep's jobs). A job to be answered with another's
-/// result (`reused_from`) is filed done with a copy of it, or queued (reused_from 0) when that
-/// result has gone.
+/// result (`reused_from`) is filed done with a copy of it; ReusedResultGone when that result has
+/// gone (the caller's transaction then rolls back).
 void InsertJob(Database& db, JobRecord& job);
 /// Notes (in the caller's transaction) that `owner`'s request id filed this job or sweep, for
 /// FindSubmission; nothing for an empty request id.
@@ -27,10 +27,10 @@ class JobTable {
  public:
   /// Adds one job; sets its id. A `request_id` as for AddSweep.
   void AddJob(JobRecord& job, const std::string& request_id = "");
-  /// The newest done jobs (at most `limit`) of this scene and bed file ("" for none): results
-  /// a new job of the same scene may reuse.
+  /// Done jobs (at most `limit`, originals before copies, newest first) of this scene and bed
+  /// file ("" for none), of `owner` only when given: results a new job of the scene may reuse.
   std::vector<JobRecord> DoneJobsOfScene(const std::string& scene_hash, const std::string& bed_file,
-                                         int limit = 8);
+                                         const std::optional<std::string>& owner, int limit = 4);
   /// The job or sweep `owner` filed with this request id, if any.
   std::optional<Submission> FindSubmission(const std::string& owner, const std::string& request_id);
   std::optional<JobRecord> GetJob(std::int64_t id);

@@ -170,6 +170,15 @@ class DamagedData : public StoreError {
   using StoreError::StoreError;
 };
 
+/// The result a job was to be answered with (`reused_from`) went (deleted) between the lookup
+/// and the filing: the filing is rolled back, and the submission files that job to run.
+class ReusedResultGone : public StoreError {
+ public:
+  explicit ReusedResultGone(std::int64_t from)
+      : StoreError("job " + std::to_string(from) + "'s result has gone"), from(from) {}
+  std::int64_t from;
+};
+
 /// A user's bed files would pass their allowance (BedTable::PutBedFile): the request is refused.
 class BedFilesFull : public StoreError {
  public:

@@ -77,7 +77,8 @@ class Statement {
   void BindOne(int index, const std::string& v) { BindOne(index, std::string_view(v)); }
   void BindOne(int index, const char* v) { BindOne(index, std::string_view(v)); }
   void BindOne(int index, std::nullopt_t);
-  void BindOne(int index, const std::optional<double>& v) {
+  template <class T>
+  void BindOne(int index, const std::optional<T>& v) {
     if (v)
       BindOne(index, *v);
     else

@@ -4,7 +4,8 @@
 #   1. a second submission of a sweep, by another user, runs nothing and gives the same results
 #      byte for byte; a changed field or seed runs again; --no-reuse runs everything;
 #   2. a stored result that fails its checksum is not reused (the job runs);
-#   3. with tokens, a user reuses only what they may read: their own results, not another's.
+#   3. with tokens, a user reuses only what they may read: their own results, not another's;
+#      an admin filing for bob reuses only what bob may read.
 # Usage: reuse_test.sh DEMBUF DEMBUFD PYTHON_DIR
 . "$(dirname "$0")/lib.sh" "$1" "$2"
 python_dir=$3
@@ -87,6 +88,7 @@ echo "job $lone's damaged result was passed over: job $retry ran"
 echo "== 3. with tokens: only what the user may read"
 alice=$("$dembufd" --db "$work/r.db" token-create alice2 2> /dev/null)
 bob=$("$dembufd" --db "$work/r.db" token-create bob2 2> /dev/null)
+root=$("$dembufd" --db "$work/r.db" token-create root --admin 2> /dev/null)
 start_daemon "$work/r.db" "$work/r.log" --access tokens
 mine=$(DEMBUF_TOKEN=$alice "$dembuf" submit "${bare[@]}" --set projectile.speed_m_s=8)
 DEMBUF_TOKEN=$alice wait_state "$mine" done 60
@@ -96,6 +98,16 @@ DEMBUF_TOKEN=$bob wait_state "$theirs" done 60
 DEMBUF_TOKEN=$alice wait_state "$own" done 60
 ran "$theirs" || fail "bob's job $theirs reused alice's result, which he may not read"
 ! ran "$own" || fail "alice's job $own ran, though her job $mine had its result"
+# An admin filing for bob gives bob's job bob's rights, not the admin's: alice's result at
+# speed 9 is not his to read.
+hers=$(DEMBUF_TOKEN=$alice "$dembuf" submit "${bare[@]}" --set projectile.speed_m_s=9)
+DEMBUF_TOKEN=$alice wait_state "$hers" done 60
+for_bob=$(DEMBUF_TOKEN=$root "$dembuf" --owner bob2 submit "${bare[@]}" --set projectile.speed_m_s=9)
+admins=$(DEMBUF_TOKEN=$root "$dembuf" submit "${bare[@]}" --set projectile.speed_m_s=9)
+DEMBUF_TOKEN=$root wait_state "$for_bob" done 60
+DEMBUF_TOKEN=$root wait_state "$admins" done 60
+ran "$for_bob" || fail "job $for_bob, filed by an admin for bob, reused alice's result"
+! ran "$admins" || fail "the admin's own job $admins ran, though it may read alice's result"
 stop_daemon
-echo "bob's job ran; alice's second was answered from her first"
+echo "bob's job ran; alice's second was answered from her first; the admin's job for bob ran"
 echo "PASS"

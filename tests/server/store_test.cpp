@@ -229,6 +229,55 @@ TEST_F(StoreTest, ADeletedJobsIdIsNeverGivenAgain) {
   EXPECT_EQ(next.id, newest + 1);
 }
 
+// A done job of scene "s" owned by `owner` (a copy of `from`'s result when given).
+JobRecord DoneOfScene(Store& store, const std::string& owner, std::int64_t from = 0) {
+  JobRecord job;
+  job.owner = owner;
+  job.scene_hash = "s";
+  job.reused_from = from;
+  store.AddJob(job);
+  if (from == 0) store.FinishJob(job.id, JobState::kDone, "", {"{}\n", {}, 0, {}});
+  return job;
+}
+
+// A result deleted between its lookup and the filing of the jobs that were to reuse it: the
+// filing is undone whole (it used to file the job queued, past the quota of queued jobs,
+// which counted it as done).
+TEST_F(StoreTest, AFilingThatWouldReuseADeletedResultIsUndoneWhole) {
+  Store store(path.string());
+  const JobRecord original = DoneOfScene(store, "ada");
+  store.DeleteJobs({original.id}, 0);
+  SweepRecord sweep;
+  sweep.owner = "bob";
+  std::vector<JobRecord> jobs(2);
+  for (JobRecord& job : jobs) job.owner = "bob";
+  jobs[1].reused_from = original.id;
+  try {
+    store.AddSweep(sweep, jobs, "request-1");
+    FAIL() << "filed, though the result to reuse had gone";
+  } catch (const ReusedResultGone& e) {
+    EXPECT_EQ(e.from, original.id);
+  }
+  EXPECT_TRUE(store.QueuedJobs().empty());
+  EXPECT_FALSE(store.FindSubmission("bob", "request-1"));
+}
+
+// The owner is filtered before the bound, and originals come first: ten copies of ada's
+// result owned by others cannot hide bob's own.
+TEST_F(StoreTest, DoneJobsOfASceneAreThoseOfTheOwnerOriginalsFirst) {
+  Store store(path.string());
+  const JobRecord bobs = DoneOfScene(store, "bob");
+  const JobRecord adas = DoneOfScene(store, "ada");
+  for (int k = 0; k < 10; ++k) DoneOfScene(store, "eve", adas.id);
+  const std::vector<JobRecord> of_bob = store.DoneJobsOfScene("s", "", "bob");
+  ASSERT_EQ(of_bob.size(), 1u);
+  EXPECT_EQ(of_bob[0].id, bobs.id);
+  const std::vector<JobRecord> any = store.DoneJobsOfScene("s", "", std::nullopt, 2);
+  ASSERT_EQ(any.size(), 2u);
+  EXPECT_EQ(any[0].id, adas.id);
+  EXPECT_EQ(any[1].id, bobs.id);
+}
+
 // A job's record counts in its owner's stored bytes whatever its state (cancelled sweeps of
 // long command lines grew the database by 477 MB, counted nowhere), as JobRowBytes says
 // before it is filed; the SQL and the function agree byte for byte.

@@ -130,6 +130,7 @@ nlohmann::json ProvenanceJson(const RunContext& run, const Scene& scene, const B
       {"dembuf_version", kVersion},
       {"build_commit", BuildCommit()},
       {"build_type", BuildType()},
+      {"build_config", BuildConfig()},
       {"scene_sha256", Sha256Hex(SceneText(scene))},
       {"bed_hash", bed.hash},
       {"bed_sha256", bed.sha256},

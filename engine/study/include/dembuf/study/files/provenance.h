@@ -40,6 +40,9 @@ std::string WithoutSecrets(std::string line, const std::string& secret);
 /// type ("Release", ...).
 const char* BuildCommit();
 const char* BuildType();
+/// The compiler, its version, the target processor and the compile flags ("GNU 12.2.0 x86_64
+/// -O3 -march=x86-64-v2 ..."): with the commit and type, what a result's bits depend on.
+const char* BuildConfig();
 
 /// What the caller knows of a run: the rest comes from the program, the scene and the bed.
 struct RunContext {

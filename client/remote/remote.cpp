@@ -564,8 +564,8 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const SubmitOpt
   std::printf("%lld\n", static_cast<long long>(response.job().id()));
   if (response.job().reused_from() != 0)
     Note(
-        "job %lld on %s: answered at once with job %lld's stored result (the same scene, seed "
-        "and engine; --no-reuse runs it)\n",
+        "job %lld on %s: answered at once with job %lld's stored result (the same scene, seed, "
+        "bed file and engine; --no-reuse runs it)\n",
         static_cast<long long>(response.job().id()), remote.address.c_str(),
         static_cast<long long>(response.job().reused_from()));
   else

@@ -4,6 +4,7 @@
 #include <cctype>
 #include <chrono>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -204,9 +205,15 @@ Status DembufService::CheckNotifyRoom(bool notify, const std::string& owner) {
 
 namespace {
 
+// Whether compile flags leave the target to the machine that builds (-march=native): two
+// such builds on different processors name the same configuration.
+bool NamesNoTarget(std::string_view config) {
+  return config.find("=native") != std::string_view::npos;
+}
+
 // Whether a summary was written by this program's engine: the same version, commit (with a
-// hash of its changes), build type, compiler and flags, so that its result is the one this
-// daemon would make.
+// hash of its changes), build type, compiler and flags and C library, so that its result is the
+// one this daemon would make.
 bool MadeByThisEngine(const std::string& summary_json) {
   const nlohmann::json summary = nlohmann::json::parse(summary_json, nullptr, false);
   if (!summary.is_object() || !summary.contains("provenance")) return false;
@@ -214,7 +221,8 @@ bool MadeByThisEngine(const std::string& summary_json) {
   const std::string commit = p.value("build_commit", "");
   return p.value("dembuf_version", "") == kVersion && commit == report::BuildCommit() &&
          commit != "unknown" && p.value("build_type", "") == report::BuildType() &&
-         p.value("build_config", "") == report::BuildConfig();
+         p.value("build_config", "") == report::BuildConfig() &&
+         p.value("libc", "") == report::LibcVersion() && !NamesNoTarget(report::BuildConfig());
 }
 
 }  // namespace
@@ -367,7 +375,8 @@ bool DembufService::AnswerRetry(const std::string& owner, const std::string& req
   return true;
 }
 
-Status DembufService::FileSubmission(const std::string& owner, const std::string& request_id,
+Status DembufService::FileSubmission(const Caller& caller, const std::string& owner,
+                                     const std::string& request_id,
                                      v1::SubmitJobResponse* job_answer,
                                      v1::SubmitSweepResponse* sweep_answer,
                                      const std::function<Filing()>& admit, Filing& filed) {
@@ -379,9 +388,6 @@ Status DembufService::FileSubmission(const std::string& owner, const std::string
     std::lock_guard lock(m_submissions);
     if (Status retry; retried(&retry)) return retry;
   }
-  // Nothing is read (a result to reuse, checked through) for a user already over the stored
-  // quota: a copy adds bytes too.
-  if (Status s = CheckStoredQuota(owner, 0.0); !s.ok()) return s;
   Filing filing;
   try {
     filing = admit();
@@ -393,16 +399,37 @@ Status DembufService::FileSubmission(const std::string& owner, const std::string
     // (only a sweep's admission, run by run, asks whether the caller is still there)
     return Status(StatusCode::CANCELLED, "the caller left while its sweep was admitted");
   }
+  double bytes = filing.output_bytes;
+  for (const JobRecord& job : filing.jobs) bytes += static_cast<double>(JobRowBytes(job));
+  // The stored quota before any stored result is read (a copy takes room as a run's result).
+  if (Status s = CheckStoredQuota(owner, bytes); !s.ok()) return s;
+  if (filing.reuse)
+    for (JobRecord& job : filing.jobs) {
+      if (filing.cancelled && filing.cancelled())
+        return Status(StatusCode::CANCELLED,
+                      "the caller left while its jobs were matched with stored results");
+      job.reused_from = ReusableResult(caller, job);
+    }
   // Filed under the lock, held for the quotas and the insert only (never for an admission):
   // two submissions at once cannot both pass a quota.
   std::lock_guard lock(m_submissions);
   if (Status retry; retried(&retry)) return retry;
-  double bytes = filing.output_bytes;
-  for (const JobRecord& job : filing.jobs) bytes += static_cast<double>(JobRowBytes(job));
+  // (the admission and the lookup take time: a token withdrawn meanwhile files nothing)
+  if (!m_policy.StillValid(caller))
+    return Status(StatusCode::UNAUTHENTICATED,
+                  "token: revoked or replaced while the submission was admitted; nothing was "
+                  "filed");
   if (Status s = CheckStoredQuota(owner, bytes); !s.ok()) return s;
-  // Each pass either files everything or nothing; a result to reuse that was deleted since it
-  // was found makes its jobs ones to run, counted again (at most one pass more per job).
-  for (std::size_t pass = 0;; ++pass) {
+  if (Status s = FileAdmitted(owner, filing); !s.ok()) return s;
+  filed = std::move(filing);
+  return Status::OK;
+}
+
+Status DembufService::FileAdmitted(const std::string& owner, Filing& filing) {
+  // Each pass either files everything or nothing. Results to reuse deleted since they were
+  // found (the store names them all at once) make their jobs ones to run, counted again; a
+  // second such pass files every job to run, which no deletion can stop.
+  for (int pass = 0;; ++pass) {
     // A job answered with a stored result is done as it is filed: it neither queues nor runs.
     const auto to_run = static_cast<std::size_t>(std::count_if(
         filing.jobs.begin(), filing.jobs.end(), [](const JobRecord& j) { return !j.reused_from; }));
@@ -415,13 +442,14 @@ Status DembufService::FileSubmission(const std::string& owner, const std::string
           if (job.state == JobState::kQueued) queued.push_back(job);
         return queued;
       });
-      break;
+      return Status::OK;
     } catch (const ReusedResultGone& e) {
-      if (pass >= filing.jobs.size()) throw;
-      m_log->info("job {}'s result was deleted as {} filed jobs reusing it: they run", e.from,
+      m_log->info("{} results were deleted as {} filed jobs reusing them: they run", e.gone.size(),
                   owner);
+      const std::set<std::int64_t> gone(e.gone.begin(), e.gone.end());
       for (JobRecord& job : filing.jobs)
-        if (job.reused_from == e.from) job = Unreused(std::move(job));
+        if (job.reused_from != 0 && (pass > 0 || gone.count(job.reused_from) != 0))
+          job = Unreused(std::move(job));
     } catch (const QueueFull& e) {
       return Status(StatusCode::RESOURCE_EXHAUSTED, e.what());
     } catch (const StorageFull& e) {
@@ -429,8 +457,6 @@ Status DembufService::FileSubmission(const std::string& owner, const std::string
       return DiskFull();
     }
   }
-  filed = std::move(filing);
-  return Status::OK;
 }
 
 grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* context,
@@ -453,14 +479,16 @@ grpc::ServerUnaryReactor* DembufService::SubmitJob(grpc::CallbackServerContext* 
       job.bed_file = request->scene().bed_file();
       job.command_line = KeptCommandLine(context, request->command_line());
       job.notify = request->notify();
-      if (!request->no_reuse()) job.reused_from = ReusableResult(caller, job);
+      filing.reuse = !request->no_reuse();
+      filing.cancelled = [context] { return context->IsCancelled(); };
       filing.store = [&](std::vector<JobRecord>& jobs) {
         m_store.AddJob(jobs.front(), request->request_id());
       };
       return filing;
     };
     Filing filed;
-    if (Status s = FileSubmission(owner, request->request_id(), response, nullptr, admit, filed);
+    if (Status s =
+            FileSubmission(caller, owner, request->request_id(), response, nullptr, admit, filed);
         !s.ok() || filed.jobs.empty())
       return s;
     const JobRecord& job = filed.jobs.front();
@@ -502,15 +530,17 @@ grpc::ServerUnaryReactor* DembufService::SubmitSweep(grpc::CallbackServerContext
         job.sweep_index = static_cast<int>(runs[k].index);
         job.sweep_values = runs[k].values;
         job.command_line = command_line;
-        if (!request->no_reuse()) job.reused_from = ReusableResult(caller, job);
       }
+      filing.reuse = !request->no_reuse();
+      filing.cancelled = [context] { return context->IsCancelled(); };
       filing.store = [&](std::vector<JobRecord>& jobs) {
         m_store.AddSweep(sweep, jobs, request->request_id());
       };
       return filing;
     };
     Filing filed;
-    if (Status s = FileSubmission(owner, request->request_id(), nullptr, response, admit, filed);
+    if (Status s =
+            FileSubmission(caller, owner, request->request_id(), nullptr, response, admit, filed);
         !s.ok() || filed.jobs.empty())
       return s;
     m_log->info("sweep {} submitted by {}: {} jobs", sweep.id, sweep.owner, filed.jobs.size());

@@ -122,9 +122,10 @@ class DembufService final : public DembufServiceBase {
   /// A submission with `notify` refused while its owner is owed kMaxWaitingNotificationsPerUser.
   grpc::Status CheckNotifyRoom(bool notify, const std::string& owner);
   /// A done job whose result `job` may take instead of running (0: none): of the same scene
-  /// (seed included) and bed file, made by this very engine (version, commit and build type,
-  /// from its summary's provenance), one `caller` may read, and whose summary, series and
-  /// files match their checksums (a damaged one is logged and passed over).
+  /// (seed included) and bed file, made by this very engine (version, commit, build type and
+  /// configuration, from its summary's provenance), one the job's owner may read (as `caller`
+  /// files it: AccessPolicy::FiledAs), and whose summary, series and files match their
+  /// checksums (a damaged one is logged and passed over).
   std::int64_t ReusableResult(const Caller& caller, const JobRecord& job);
   grpc::Status CheckStoredQuota(const std::string& owner, double more_bytes);
   /// Runs a handler and turns any exception it lets out into a status with the reason (and
@@ -146,18 +147,25 @@ class DembufService final : public DembufServiceBase {
     double output_bytes = 0.0;
     std::vector<std::string> warnings;
     std::function<void(std::vector<JobRecord>& jobs)> store;
+    bool reuse = true;                ///< answer jobs from stored results where they match
+    std::function<bool()> cancelled;  ///< whether the caller has left (the lookup stops)
   };
   /// The one path of SubmitJob and SubmitSweep, once the request's labels are checked. A retry
   /// (the owner's request id filed before: answered into `job_answer` or `sweep_answer`, the
   /// one of the request's kind) is looked for before the admission and again as the jobs are
   /// filed, so that two copies admitted at once file them once; `admit` makes the Filing (its
-  /// SceneError, ResourceError and Cancelled answered here); then, under m_submissions, the
-  /// quotas, the executor's room and the store. Returns the answer's status and, in `filed`,
-  /// what was filed (no jobs: a retry was answered).
-  grpc::Status FileSubmission(const std::string& owner, const std::string& request_id,
-                              v1::SubmitJobResponse* job_answer,
+  /// SceneError, ResourceError and Cancelled answered here); then the stored quota, the stored
+  /// results its jobs may take (ReusableResult) and, under m_submissions, the caller's token,
+  /// the quotas, the executor's room and the store (FileAdmitted). Returns the answer's status
+  /// and, in `filed`, what was filed (no jobs: a retry was answered).
+  grpc::Status FileSubmission(const Caller& caller, const std::string& owner,
+                              const std::string& request_id, v1::SubmitJobResponse* job_answer,
                               v1::SubmitSweepResponse* sweep_answer,
                               const std::function<Filing()>& admit, Filing& filed);
+  /// Files an admitted submission, under m_submissions: the queued-jobs quota, the executor's
+  /// room and the store. A result to reuse that was deleted meanwhile makes its jobs ones to
+  /// run, counted again (FileSubmission's last step).
+  grpc::Status FileAdmitted(const std::string& owner, Filing& filing);
   /// The caller's bed file a scene spec names (SceneSpec.bed_file), or none when it names
   /// none. Throws SceneError naming bed_file when the owner sent no such file.
   std::optional<BedFile> BedFileOf(const v1::SceneSpec& spec, const std::string& owner);

@@ -1,6 +1,7 @@
 #include "store/job_table.h"
 
 #include <nlohmann/json.hpp>
+#include <set>
 #include <tuple>
 
 #include "dembuf/study/files/provenance.h"
@@ -108,8 +109,24 @@ void InsertJob(Database& db, JobRecord& job) {
   // A result to reuse that has gone since it was found (deleted): nothing of this filing stays,
   // so that the submission counts the job among those to run before it files it again.
   if (job.reused_from != 0 && !CopyResultIn(db, job.reused_from, job.id))
-    throw ReusedResultGone(job.reused_from);
+    throw ReusedResultGone({job.reused_from});
   if (job.reused_from != 0) job.state = JobState::kDone;
+}
+
+void RequireReusedResults(Database& db, const std::vector<JobRecord>& jobs) {
+  std::set<std::int64_t> originals;
+  for (const JobRecord& job : jobs)
+    if (job.reused_from != 0) originals.insert(job.reused_from);
+  std::vector<std::int64_t> gone;
+  for (std::int64_t id : originals) {
+    Statement& s = db.Prepare(
+        "SELECT 1 FROM jobs WHERE id = ? AND state = 'done' AND EXISTS (SELECT 1 FROM results "
+        "WHERE job_id = ?)");
+    s.Bind(id, id);
+    if (!s.Step()) gone.push_back(id);
+    s.Reset();
+  }
+  if (!gone.empty()) throw ReusedResultGone(std::move(gone));
 }
 
 void RecordSubmission(Database& db, const std::string& owner, const std::string& request_id,
@@ -124,6 +141,7 @@ void RecordSubmission(Database& db, const std::string& owner, const std::string&
 
 void JobTable::AddJob(JobRecord& job, const std::string& request_id) {
   Connection::Writing db = m_connection.Write();
+  RequireReusedResults(*db, {job});
   InsertJob(*db, job);
   if (job.notify) WantNotification(*db, job.id, 0, job.owner);
   RecordSubmission(*db, job.owner, request_id, {job.id, 0}, job.created_at);

@@ -17,6 +17,9 @@ namespace dembuf::server {
 /// result (`reused_from`) is filed done with a copy of it; ReusedResultGone when that result has
 /// gone (the caller's transaction then rolls back).
 void InsertJob(Database& db, JobRecord& job);
+/// Throws ReusedResultGone naming every result the jobs were to reuse that is no longer done
+/// and stored (in the caller's transaction, before any job is inserted).
+void RequireReusedResults(Database& db, const std::vector<JobRecord>& jobs);
 /// Notes (in the caller's transaction) that `owner`'s request id filed this job or sweep, for
 /// FindSubmission; nothing for an empty request id.
 void RecordSubmission(Database& db, const std::string& owner, const std::string& request_id,

@@ -170,13 +170,15 @@ class DamagedData : public StoreError {
   using StoreError::StoreError;
 };
 
-/// The result a job was to be answered with (`reused_from`) went (deleted) between the lookup
-/// and the filing: the filing is rolled back, and the submission files that job to run.
+/// Results jobs were to be answered with (`reused_from`) went (deleted) between the lookup and
+/// the filing: the filing is rolled back, and the submission files those jobs to run. `gone`
+/// names every such result of the filing at once (one more filing, not one per result).
 class ReusedResultGone : public StoreError {
  public:
-  explicit ReusedResultGone(std::int64_t from)
-      : StoreError("job " + std::to_string(from) + "'s result has gone"), from(from) {}
-  std::int64_t from;
+  explicit ReusedResultGone(std::vector<std::int64_t> gone)
+      : StoreError(std::to_string(gone.size()) + " results to reuse have gone"),
+        gone(std::move(gone)) {}
+  std::vector<std::int64_t> gone;
 };
 
 /// A user's bed files would pass their allowance (BedTable::PutBedFile): the request is refused.

@@ -201,6 +201,11 @@ CREATE INDEX notifications_waiting ON notifications(state);
 ALTER TABLE jobs ADD COLUMN reused_from INTEGER NOT NULL DEFAULT 0;
 CREATE INDEX jobs_by_scene ON jobs(scene_hash);
 )sql",
+    R"sql(
+-- Done jobs by scene, bed file and owner: the lookup of a result to reuse reads one owner's
+-- done jobs of one scene, however many of them others hold.
+CREATE INDEX jobs_done_by_scene ON jobs(scene_hash, bed_file, owner, id) WHERE state = 'done';
+)sql",
 };
 constexpr int kSchemaVersion = sizeof kMigrations / sizeof kMigrations[0];
 // The version that added the checksums of summaries, whole series and result files.

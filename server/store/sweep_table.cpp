@@ -28,6 +28,7 @@ std::vector<SweepAxis> AxesFromJson(const std::string& text) {
 void SweepTable::AddSweep(SweepRecord& sweep, std::vector<JobRecord>& jobs,
                           const std::string& request_id) {
   Connection::Writing db = m_connection.Write();
+  RequireReusedResults(*db, jobs);
   sweep.created_at = report::UtcNow();
   db->Prepare("INSERT INTO sweeps (owner, name, axes_json, created_at) VALUES (?, ?, ?, ?)")
       .Bind(sweep.owner, sweep.name, AxesToJson(sweep.axes).dump(), sweep.created_at)

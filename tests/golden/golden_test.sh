@@ -50,7 +50,7 @@ summary = json.load(open(sys.argv[1]))
 for key in ("wall_time_s", "dembuf_version"):
     summary.pop(key, None)
 # Of the provenance, what names the contents of the run (scene, bed and seed) stays.
-for key in ("dembuf_version", "build_commit", "build_config", "threads", "host", "started_at", "finished_at",
+for key in ("dembuf_version", "build_commit", "build_config", "libc", "threads", "host", "started_at", "finished_at",
             "command_line", "timeline"):
     summary["provenance"].pop(key, None)
 json.dump(summary, sys.stdout, indent=1, sort_keys=True)

@@ -66,24 +66,36 @@ timeout 120 "$dembuf" watch --sweep "$forced" > /dev/null || fail "sweep $forced
 for id in $(sweep_jobs "$forced"); do ran "$id" || fail "job $id of a --no-reuse sweep did not run"; done
 echo "a changed speed and a changed seed ran; --no-reuse ran all three"
 
-echo "== 2. a damaged result is not reused"
+echo "== 2. a damaged result, or one of another build, is not reused"
 lone=$("$dembuf" --owner alice submit "${bare[@]}" --set projectile.speed_m_s=7)
+other=$("$dembuf" --owner alice submit "${bare[@]}" --set projectile.speed_m_s=6)
 wait_state "$lone" done 60
+wait_state "$other" done 60
 stop_daemon
-python3 - "$work/r.db" "$lone" <<'PY'
-import sqlite3, sys
+python3 - "$work/r.db" "$lone" "$other" <<'PY'
+import hashlib, json, sqlite3, sys
 db = sqlite3.connect(sys.argv[1])
 db.execute("UPDATE results SET summary_json = replace(summary_json, '\"P_N\"', '\"P_N\" ') "
            "WHERE job_id = ?", (int(sys.argv[2]),))
+# Job `other` as another build's (its compile flags), with a checksum that matches.
+(text,) = db.execute("SELECT summary_json FROM results WHERE job_id = ?", (int(sys.argv[3]),)).fetchone()
+summary = json.loads(text)
+summary["provenance"]["build_config"] += " -ffast-math"
+text = json.dumps(summary) + "\n"
+db.execute("UPDATE results SET summary_json = ?, summary_sha256 = ? WHERE job_id = ?",
+           (text, hashlib.sha256(text.encode()).hexdigest(), int(sys.argv[3])))
 db.commit()
 PY
 start_daemon "$work/r.db" "$work/r.log"
 retry=$("$dembuf" --owner alice submit "${bare[@]}" --set projectile.speed_m_s=7)
+rebuilt=$("$dembuf" --owner alice submit "${bare[@]}" --set projectile.speed_m_s=6)
 wait_state "$retry" done 60
+wait_state "$rebuilt" done 60
 ran "$retry" || fail "job $retry reused a result that fails its checksum"
 grep -q "job $lone's result is not reused" "$daemon_log" || fail "the damaged result was not logged"
+ran "$rebuilt" || fail "job $rebuilt reused job $other's result, made with other compile flags"
 stop_daemon
-echo "job $lone's damaged result was passed over: job $retry ran"
+echo "job $lone's damaged result and job $other's of other flags were passed over: they ran"
 
 echo "== 3. with tokens: only what the user may read"
 alice=$("$dembufd" --db "$work/r.db" token-create alice2 2> /dev/null)

@@ -240,26 +240,35 @@ JobRecord DoneOfScene(Store& store, const std::string& owner, std::int64_t from 
   return job;
 }
 
-// A result deleted between its lookup and the filing of the jobs that were to reuse it: the
-// filing is undone whole (it used to file the job queued, past the quota of queued jobs,
-// which counted it as done).
-TEST_F(StoreTest, AFilingThatWouldReuseADeletedResultIsUndoneWhole) {
+// Results deleted between their lookup and the filing of the jobs that were to reuse them:
+// the filing is undone whole (it used to file the jobs queued, past the quota of queued jobs,
+// which counted them as done), and every gone result is named at once, so that the filing is
+// tried once more, not once per result.
+TEST_F(StoreTest, AFilingThatWouldReuseDeletedResultsIsUndoneWhole) {
   Store store(path.string());
-  const JobRecord original = DoneOfScene(store, "ada");
-  store.DeleteJobs({original.id}, 0);
+  const JobRecord kept = DoneOfScene(store, "ada");
+  std::vector<std::int64_t> deleted;
+  for (int k = 0; k < 3; ++k) deleted.push_back(DoneOfScene(store, "ada").id);
+  store.DeleteJobs(deleted, 0);
   SweepRecord sweep;
   sweep.owner = "bob";
-  std::vector<JobRecord> jobs(2);
+  std::vector<JobRecord> jobs(5);
   for (JobRecord& job : jobs) job.owner = "bob";
-  jobs[1].reused_from = original.id;
+  jobs[0].reused_from = kept.id;
+  for (int k = 0; k < 3; ++k) jobs[k + 1].reused_from = deleted[k];
   try {
     store.AddSweep(sweep, jobs, "request-1");
-    FAIL() << "filed, though the result to reuse had gone";
+    FAIL() << "filed, though the results to reuse had gone";
   } catch (const ReusedResultGone& e) {
-    EXPECT_EQ(e.from, original.id);
+    EXPECT_EQ(e.gone, deleted);
   }
   EXPECT_TRUE(store.QueuedJobs().empty());
   EXPECT_FALSE(store.FindSubmission("bob", "request-1"));
+  JobRecord alone;
+  alone.owner = "bob";
+  alone.reused_from = deleted[0];
+  EXPECT_THROW(store.AddJob(alone), ReusedResultGone);
+  EXPECT_TRUE(store.QueuedJobs().empty());
 }
 
 // The owner is filtered before the bound, and originals come first: ten copies of ada's
@@ -335,6 +344,7 @@ TEST_F(StoreTest, AFinishedJobsPeakAndPAreInItsRecord) {
     // The database as the version before kept them left it.
     Database db(path.string());
     db.Execute(
+        "DROP INDEX jobs_done_by_scene; "
         "ALTER TABLE jobs DROP COLUMN peak_plate_force_N; ALTER TABLE jobs DROP COLUMN P_N; "
         "ALTER TABLE jobs DROP COLUMN slurm_task; DROP TABLE notifications; "
         "ALTER TABLE jobs DROP COLUMN reused_from; DROP INDEX jobs_by_scene; "
@@ -508,6 +518,7 @@ TEST_F(StoreTest, ResultsStoredBeforeChecksumsGetThemAndLoseTheirTokensAtTheUpgr
     // (a client before this version kept it).
     Database db(path.string());
     db.Execute(
+        "DROP INDEX jobs_done_by_scene; "
         "ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
         "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
         "ALTER TABLE jobs DROP COLUMN bed_file; ALTER TABLE jobs DROP COLUMN result_nonce; "

@@ -2,6 +2,9 @@
 
 #include <omp.h>
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <gnu/libc-version.h>
+#endif
 
 #include <algorithm>
 #include <cctype>
@@ -119,6 +122,14 @@ RunContext RunStartingNow(std::string command_line) {
   return {std::move(command_line), HostName(), UtcNow(), "", omp_get_max_threads(), {}};
 }
 
+std::string LibcVersion() {
+#ifdef __GLIBC__
+  return std::string("glibc ") + gnu_get_libc_version();
+#else
+  return "unknown";
+#endif
+}
+
 std::string SceneText(const Scene& scene) {
   std::ostringstream text;
   PrintScene(scene, text);
@@ -131,6 +142,7 @@ nlohmann::json ProvenanceJson(const RunContext& run, const Scene& scene, const B
       {"build_commit", BuildCommit()},
       {"build_type", BuildType()},
       {"build_config", BuildConfig()},
+      {"libc", LibcVersion()},
       {"scene_sha256", Sha256Hex(SceneText(scene))},
       {"bed_hash", bed.hash},
       {"bed_sha256", bed.sha256},

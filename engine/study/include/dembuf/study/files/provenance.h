@@ -43,6 +43,9 @@ const char* BuildType();
 /// The compiler, its version, the target processor and the compile flags ("GNU 12.2.0 x86_64
 /// -O3 -march=x86-64-v2 ..."): with the commit and type, what a result's bits depend on.
 const char* BuildConfig();
+/// The C library the program runs with ("glibc 2.36"; "unknown" elsewhere): its libm rounds
+/// pow, exp and the like, so a result's last bits depend on it too.
+std::string LibcVersion();
 
 /// What the caller knows of a run: the rest comes from the program, the scene and the bed.
 struct RunContext {

@@ -10,8 +10,8 @@
 #include <optional>
 #include <ostream>
 #include <sstream>
-#include <tuple>
 #include <toml.hpp>
+#include <tuple>
 
 #include "dembuf/study/scene/bed_plan.h"
 #include "dembuf/study/scene/contact_setup.h"
@@ -22,7 +22,6 @@
 
 namespace dembuf {
 namespace {
-
 
 constexpr double kUnbounded = 1e300;
 
@@ -47,49 +46,52 @@ bool IsRegularFile(const std::string& path) {
 // the container, the beads' material and sizes.
 std::vector<SceneField> WorldFields() {
   std::vector<SceneField> fields = {
-      {"gravity_m_s2", "m/s^2", "gravitational acceleration, downward", Shapes::kSourceBed, DEMBUF_FIELD(gravity_m_s2),
-       0.0, 1000.0},
+      {"gravity_m_s2", "m/s^2", "gravitational acceleration, downward", Shapes::kSourceBed,
+       DEMBUF_FIELD(gravity_m_s2), 0.0, 1000.0},
 
-      {"cylinder.radius_m", "m", "inner radius of the cylinder (paper: 0.095)",
-       Shapes::kSourceBed, DEMBUF_FIELD(cylinder.radius_m), 0.0, 5.0, true},
-      {"cylinder.height_m", "m", "height H2 of the side wall", Shapes::kSourceBed, DEMBUF_FIELD(cylinder.height_m), 0.0,
-       10.0, true},
+      {"cylinder.radius_m", "m", "inner radius of the cylinder (paper: 0.095)", Shapes::kSourceBed,
+       DEMBUF_FIELD(cylinder.radius_m), 0.0, 5.0, true},
+      {"cylinder.height_m", "m", "height H2 of the side wall", Shapes::kSourceBed,
+       DEMBUF_FIELD(cylinder.height_m), 0.0, 10.0, true},
 
       {"material.name", "", "name of species 1, these beads (summaries, frames, bed files)",
        Shapes::kOutput, DEMBUF_FIELD(material.name)},
-      {"material.density_kg_m3", "kg/m^3", "bead density rho", Shapes::kSourceBed, DEMBUF_FIELD(material.density_kg_m3),
-       0.0, 1e5, true},
+      {"material.density_kg_m3", "kg/m^3", "bead density rho", Shapes::kSourceBed,
+       DEMBUF_FIELD(material.density_kg_m3), 0.0, 1e5, true},
       {"material.youngs_modulus_Pa", "Pa", "Young's modulus E of beads and projectile",
        Shapes::kSourceBed, DEMBUF_FIELD(material.youngs_modulus_Pa), 0.0, 1e13, true},
-      {"material.poisson_ratio", "", "Poisson ratio nu of beads and projectile",
-       Shapes::kSourceBed, DEMBUF_FIELD(material.poisson_ratio), 0.0, 0.5, false, true},
+      {"material.poisson_ratio", "", "Poisson ratio nu of beads and projectile", Shapes::kSourceBed,
+       DEMBUF_FIELD(material.poisson_ratio), 0.0, 0.5, false, true},
   };
   // The physics parts' rows (field_row.h), in the table's order.
-  for (const auto& part : {HertzNormalFields(), MindlinTangentialFields(), RollingResistanceFields()})
+  for (const auto& part :
+       {HertzNormalFields(), MindlinTangentialFields(), RollingResistanceFields()})
     fields.insert(fields.end(), part.begin(), part.end());
-  fields.insert(fields.end(), {
-      {"material.shear_stiffness",
-       "",
-       "G* formula: paper = G/(2(1-nu)) (kt/kn = 2), mindlin = G/(2(2-nu))",
-       Shapes::kSourceBed, DEMBUF_FIELD(material.shear_stiffness),
-       0.0,
-       0.0,
-       false,
-       false,
-       {"paper", "mindlin"}},
+  fields.insert(fields.end(),
+                {
+                    {"material.shear_stiffness",
+                     "",
+                     "G* formula: paper = G/(2(1-nu)) (kt/kn = 2), mindlin = G/(2(2-nu))",
+                     Shapes::kSourceBed,
+                     DEMBUF_FIELD(material.shear_stiffness),
+                     0.0,
+                     0.0,
+                     false,
+                     false,
+                     {"paper", "mindlin"}},
 
-      {"walls.material_from_beads", "", "plate and wall take the beads' E and nu",
-       Shapes::kSourceBed, DEMBUF_FIELD(walls.material_from_beads)},
-      {"walls.youngs_modulus_Pa", "Pa", "E of plate and wall, if not from beads",
-       Shapes::kSourceBed, DEMBUF_FIELD(walls.youngs_modulus_Pa), 0.0, 1e13, true},
-      {"walls.poisson_ratio", "", "nu of plate and wall, if not from beads",
-       Shapes::kSourceBed, DEMBUF_FIELD(walls.poisson_ratio), 0.0, 0.5, false, true},
+                    {"walls.material_from_beads", "", "plate and wall take the beads' E and nu",
+                     Shapes::kSourceBed, DEMBUF_FIELD(walls.material_from_beads)},
+                    {"walls.youngs_modulus_Pa", "Pa", "E of plate and wall, if not from beads",
+                     Shapes::kSourceBed, DEMBUF_FIELD(walls.youngs_modulus_Pa), 0.0, 1e13, true},
+                    {"walls.poisson_ratio", "", "nu of plate and wall, if not from beads",
+                     Shapes::kSourceBed, DEMBUF_FIELD(walls.poisson_ratio), 0.0, 0.5, false, true},
 
-      {"beads.diameter_min_m", "m", "smallest bead diameter (uniform distribution)",
-       Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_min_m), 0.0, 1.0, true},
-      {"beads.diameter_max_m", "m", "largest bead diameter (uniform distribution)",
-       Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_max_m), 0.0, 1.0, true},
-  });
+                    {"beads.diameter_min_m", "m", "smallest bead diameter (uniform distribution)",
+                     Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_min_m), 0.0, 1.0, true},
+                    {"beads.diameter_max_m", "m", "largest bead diameter (uniform distribution)",
+                     Shapes::kSourceBed, DEMBUF_FIELD(beads.diameter_max_m), 0.0, 1.0, true},
+                });
   const std::vector<SceneField> species = SpeciesPairsFields();
   fields.insert(fields.end(), species.begin(), species.end());
   return fields;
@@ -98,11 +100,12 @@ std::vector<SceneField> WorldFields() {
 // how the bed is made or imported.
 std::vector<SceneField> BedFields() {
   return {
-      {"bed.thickness_m", "m", "settled bed thickness H; 0 = no beads",
-       Shapes::kCutBed, DEMBUF_FIELD(bed.thickness_m), 0.0, 10.0},
+      {"bed.thickness_m", "m", "settled bed thickness H; 0 = no beads", Shapes::kCutBed,
+       DEMBUF_FIELD(bed.thickness_m), 0.0, 10.0},
       {"bed.prep_friction", "", "bead friction while the bed settles (sets the packing C0)",
        Shapes::kSourceBed, DEMBUF_FIELD(bed.prep_friction), 0.0, 10.0},
-      {"bed.seed", "", "random seed of the bead insertion", Shapes::kSourceBed, DEMBUF_FIELD(bed.seed), 0.0, 1e15},
+      {"bed.seed", "", "random seed of the bead insertion", Shapes::kSourceBed,
+       DEMBUF_FIELD(bed.seed), 0.0, 1e15},
       {"bed.import", "",
        "bed file: text (x y z radius a line, or a header naming the columns), LAMMPS data "
        "(atom style sphere) or LAMMPS dump (its last frame); empty = prepare",
@@ -110,20 +113,29 @@ std::vector<SceneField> BedFields() {
       {"bed.import_units",
        "",
        "length unit of bed.import's numbers",
-       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_units),
+       Shapes::kImportedBed,
+       DEMBUF_FIELD(bed.import_units),
        0.0,
        0.0,
        false,
        false,
        {"m", "cm", "mm", "um"}},
-      {"bed.import_types", "",
+      {"bed.import_types",
+       "",
        "how many species bed.import's atom types are (type k is species k); 1 = all species 1",
-       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_types), 1.0, kMaxSpecies, false, false, {},
+       Shapes::kImportedBed,
+       DEMBUF_FIELD(bed.import_types),
+       1.0,
+       kMaxSpecies,
+       false,
+       false,
+       {},
        +[](const Scene& s) { return s.bed.import_types > 1; }},
       {"bed.import_overlaps",
        "",
        "beads of bed.import overlapping by more than 1% of a radius: refuse, or relax (separate)",
-       Shapes::kImportedBed, DEMBUF_FIELD(bed.import_overlaps),
+       Shapes::kImportedBed,
+       DEMBUF_FIELD(bed.import_overlaps),
        0.0,
        0.0,
        false,
@@ -134,7 +146,8 @@ std::vector<SceneField> BedFields() {
       {"bed.cut",
        "",
        "how a bed is cut to H: surface = mean surface at H, tops = every bead top below H",
-       Shapes::kCutBed, DEMBUF_FIELD(bed.cut),
+       Shapes::kCutBed,
+       DEMBUF_FIELD(bed.cut),
        0.0,
        0.0,
        false,
@@ -143,8 +156,8 @@ std::vector<SceneField> BedFields() {
       {"bed.settle_tolerance", "", "rest: kinetic energy per bead below this times m g d",
        Shapes::kSourceBed, DEMBUF_FIELD(bed.settle_tolerance), 0.0, 1.0, true},
       {"bed.friction_settle_tolerance", "",
-       "the same after the friction change; 0 = bed.settle_tolerance",
-       Shapes::kFrictionBed, DEMBUF_FIELD(bed.friction_settle_tolerance), 0.0, 1.0},
+       "the same after the friction change; 0 = bed.settle_tolerance", Shapes::kFrictionBed,
+       DEMBUF_FIELD(bed.friction_settle_tolerance), 0.0, 1.0},
       {"bed.quench_cut_relaxation", "",
        "relax a cut bed with kinetic damping (zero velocities at each kinetic-energy peak)",
        Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_relaxation)},
@@ -154,6 +167,10 @@ std::vector<SceneField> BedFields() {
       {"bed.quench_cut_beads", "",
        "in a cut bed's local settling, stop each bead whose kinetic energy passes a maximum",
        Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_beads)},
+      {"bed.quench_cut_column", "",
+       "while a cut bed is stepped whole, stop every bead at each peak of its spring-back's "
+       "kinetic energy (the mean vertical motion of its layers)",
+       Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_column)},
       {"bed.soft_settling", "",
        "settle the source bed with E divided by this, then restore E and relax; 0 = automatic "
        "(up to 100, within the pour's overlap limit), 1 = off",
@@ -168,13 +185,14 @@ std::vector<SceneField> BedFields() {
 // the projectile, the run's times and its output.
 std::vector<SceneField> ImpactFields() {
   std::vector<SceneField> fields = {
-      {"projectile.enabled", "", "drop a projectile", Shapes::kImpact, DEMBUF_FIELD(projectile.enabled)},
-      {"projectile.diameter_m", "m", "projectile diameter D", Shapes::kImpact, DEMBUF_FIELD(projectile.diameter_m),
-       0.0, 10.0, true},
-      {"projectile.mass_kg", "kg", "projectile mass M", Shapes::kImpact, DEMBUF_FIELD(projectile.mass_kg), 0.0, 1e6,
-       true},
-      {"projectile.speed_m_s", "m/s", "initial downward speed V0",
-       Shapes::kImpact, DEMBUF_FIELD(projectile.speed_m_s), 0.0, 1000.0},
+      {"projectile.enabled", "", "drop a projectile", Shapes::kImpact,
+       DEMBUF_FIELD(projectile.enabled)},
+      {"projectile.diameter_m", "m", "projectile diameter D", Shapes::kImpact,
+       DEMBUF_FIELD(projectile.diameter_m), 0.0, 10.0, true},
+      {"projectile.mass_kg", "kg", "projectile mass M", Shapes::kImpact,
+       DEMBUF_FIELD(projectile.mass_kg), 0.0, 1e6, true},
+      {"projectile.speed_m_s", "m/s", "initial downward speed V0", Shapes::kImpact,
+       DEMBUF_FIELD(projectile.speed_m_s), 0.0, 1000.0},
       {"projectile.height_m", "m", "H1, initial centre height above the bed surface",
        Shapes::kImpact, DEMBUF_FIELD(projectile.height_m), 0.0, 100.0, true},
       {"projectile.offset_m", "m",
@@ -183,37 +201,45 @@ std::vector<SceneField> ImpactFields() {
   };
   const std::vector<SceneField> damping = BeadDampingFields();
   fields.insert(fields.end(), damping.begin(), damping.end());
-  fields.insert(fields.end(), {
-      {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
-       Shapes::kSourceBed, DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
-      {"time.end_s", "s", "end time; 0 = stop when the impact is over", Shapes::kImpact, DEMBUF_FIELD(time.end_s),
-       0.0, 1e3},
-      {"time.impact_window_s", "s", "automatic end: at most this long after the first contact",
-       Shapes::kImpact, DEMBUF_FIELD(time.impact_window_s), 0.0, 1e3, true},
-      {"time.output_interval_s", "s", "spacing of the written force samples",
-       Shapes::kOutput, DEMBUF_FIELD(time.output_interval_s), 0.0, 1.0, true},
+  fields.insert(
+      fields.end(),
+      {
+          {"time.alpha", "", "time-step factor: dt = alpha * critical step of eq. 6 (at most 1)",
+           Shapes::kSourceBed, DEMBUF_FIELD(time.alpha), 0.0, 1.0, true},
+          {"time.end_s", "s", "end time; 0 = stop when the impact is over", Shapes::kImpact,
+           DEMBUF_FIELD(time.end_s), 0.0, 1e3},
+          {"time.impact_window_s", "s", "automatic end: at most this long after the first contact",
+           Shapes::kImpact, DEMBUF_FIELD(time.impact_window_s), 0.0, 1e3, true},
+          {"time.output_interval_s", "s", "spacing of the written force samples", Shapes::kOutput,
+           DEMBUF_FIELD(time.output_interval_s), 0.0, 1.0, true},
 
-      {"output.snapshot_times_s", "s",
-       "times of contact-network snapshots (force chains, plate map, force PDF)",
-       Shapes::kOutput, DEMBUF_FIELD(output.snapshot_times_s), 0.0, 1e3},
-      {"output.snapshot_after_contact_s", "s",
-       "snapshot times counted from the projectile's first contact",
-       Shapes::kOutput, DEMBUF_FIELD(output.snapshot_after_contact_s), 0.0, 1e3},
-      {"output.snapshot_at_peak", "", "also snapshot at the peak plate force (runs twice)",
-       Shapes::kOutput, DEMBUF_FIELD(output.snapshot_at_peak)},
-      {"output.chain_slab_width_m", "m",
-       "width of the vertical slice through the axis drawn in force-chain pictures",
-       Shapes::kOutput, DEMBUF_FIELD(output.chain_slab_width_m), 0.0, 10.0, true},
-      {"output.animation_interval_s", "s",
-       "spacing of animation frames of the beads during the impact (frames/, for ParaView); "
-       "0 = none",
-       Shapes::kOutput, DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
-      {"output.frame_format", "",
-       "the animation frames' files: vtp (frames/*.vtp and frames.pvd, for ParaView), lammps "
-       "(frames/*.dump, LAMMPS dump files for OVITO) or both",
-       Shapes::kOutput, DEMBUF_FIELD(output.frame_format), 0.0, 0.0, false, false,
-       {"vtp", "lammps", "both"}},
-  });
+          {"output.snapshot_times_s", "s",
+           "times of contact-network snapshots (force chains, plate map, force PDF)",
+           Shapes::kOutput, DEMBUF_FIELD(output.snapshot_times_s), 0.0, 1e3},
+          {"output.snapshot_after_contact_s", "s",
+           "snapshot times counted from the projectile's first contact", Shapes::kOutput,
+           DEMBUF_FIELD(output.snapshot_after_contact_s), 0.0, 1e3},
+          {"output.snapshot_at_peak", "", "also snapshot at the peak plate force (runs twice)",
+           Shapes::kOutput, DEMBUF_FIELD(output.snapshot_at_peak)},
+          {"output.chain_slab_width_m", "m",
+           "width of the vertical slice through the axis drawn in force-chain pictures",
+           Shapes::kOutput, DEMBUF_FIELD(output.chain_slab_width_m), 0.0, 10.0, true},
+          {"output.animation_interval_s", "s",
+           "spacing of animation frames of the beads during the impact (frames/, for ParaView); "
+           "0 = none",
+           Shapes::kOutput, DEMBUF_FIELD(output.animation_interval_s), 0.0, 1.0},
+          {"output.frame_format",
+           "",
+           "the animation frames' files: vtp (frames/*.vtp and frames.pvd, for ParaView), lammps "
+           "(frames/*.dump, LAMMPS dump files for OVITO) or both",
+           Shapes::kOutput,
+           DEMBUF_FIELD(output.frame_format),
+           0.0,
+           0.0,
+           false,
+           false,
+           {"vtp", "lammps", "both"}},
+      });
   return fields;
 }
 
@@ -225,7 +251,6 @@ const std::vector<SceneField>& FieldTable() {
   }();
   return table;
 }
-
 
 std::string FormatNumber(double v) {
   char buf[64];
@@ -314,8 +339,9 @@ std::string KnownFieldsNear(std::string_view name) {
 
 const SceneField& RequireSceneField(std::string_view name) {
   const SceneField* f = FindSceneField(name);
-  if (!f) throw SceneError(std::string(name),
-                             "unknown field; " + DidYouMean(name) + KnownFieldsNear(name));
+  if (!f)
+    throw SceneError(std::string(name),
+                     "unknown field; " + DidYouMean(name) + KnownFieldsNear(name));
   return *f;
 }
 
@@ -650,9 +676,9 @@ void CheckProjectile(const Scene& scene) {
            "gravity, or set time.end_s");
     if (scene.time.end_s == 0.0 && !(flight <= kMaxFlightTime_s))
       fail("projectile.speed_m_s",
-           FormatShort(p.speed_m_s) + " m/s with gravity_m_s2 = " +
-               FormatShort(scene.gravity_m_s2) + ": the projectile reaches the bed after " +
-               FormatShort(flight) + " s; at most " +
+           FormatShort(p.speed_m_s) +
+               " m/s with gravity_m_s2 = " + FormatShort(scene.gravity_m_s2) +
+               ": the projectile reaches the bed after " + FormatShort(flight) + " s; at most " +
                std::to_string(static_cast<long long>(kMaxFlightTime_s)) +
                " s (raise the speed or gravity, lower projectile.height_m, or set time.end_s)");
   } else if (scene.time.end_s == 0.0) {

@@ -47,6 +47,32 @@ const PreparedBed& SmallBed() {
   return bed;
 }
 
+// `bed` at rest (its kinetic energy per bead below the scene's tolerance, its weight carried
+// by the plate and the wall within 1%), its packing within `c0_share` and its surface within
+// 1% of `other`'s.
+void ExpectRestLike(const PreparedBed& bed, const PreparedBed& other, const Scene& scene,
+                    double c0_share = 0.01) {
+  EXPECT_LT(bed.kinetic_ratio, scene.bed.settle_tolerance);
+  EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
+  EXPECT_NEAR(bed.solid_fraction / other.solid_fraction, 1.0, c0_share);
+  EXPECT_NEAR(bed.surface_m / other.surface_m, 1.0, 0.01);
+}
+
+// `bed`, relaxed in another way (`scene`'s) than `other` (SmallBed's scene): the same source
+// and cut (as many beads), another key, and ExpectRestLike; prints both.
+void ExpectAnotherRelaxationOfTheCut(const char* name, const PreparedBed& bed,
+                                     const char* other_name, const PreparedBed& other,
+                                     const Scene& scene) {
+  EXPECT_EQ(BedSourceHash(scene), BedSourceHash(SmallBedScene()));
+  EXPECT_NE(bed.hash, other.hash);
+  EXPECT_EQ(bed.beads.size(), other.beads.size());
+  ExpectRestLike(bed, other, scene);
+  std::printf("%s: %lld steps, C0 %.4f, surface %.5f m; %s: %lld steps, C0 %.4f, surface %.5f m\n",
+              name, static_cast<long long>(bed.settle_steps), bed.solid_fraction, bed.surface_m,
+              other_name, static_cast<long long>(other.settle_steps), other.solid_fraction,
+              other.surface_m);
+}
+
 TEST(BedPreparation, EndsAtRestByTheStatedCriterion) {
   const PreparedBed& bed = SmallBed();
   const Scene scene = SmallBedScene();
@@ -288,11 +314,8 @@ TEST(BedPreparation, KineticDampingReachesTheSameRest) {
   const PreparedBed bed = GetBed(quenched, cache);
   EXPECT_EQ(cache.prepared_counts().at("source"), 1);  // the source is shared
   EXPECT_EQ(bed.stage, "cut");
-  EXPECT_LT(bed.kinetic_ratio, quenched.bed.settle_tolerance);
-  EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
   EXPECT_EQ(bed.beads.size(), free.beads.size());  // the same cut of the same source
-  EXPECT_NEAR(bed.solid_fraction / free.solid_fraction, 1.0, 0.01);
-  EXPECT_NEAR(bed.surface_m / free.surface_m, 1.0, 0.01);
+  ExpectRestLike(bed, free, quenched);
   std::printf("quenched: %lld steps, free: %lld steps\n", static_cast<long long>(bed.settle_steps),
               static_cast<long long>(free.settle_steps));
 }
@@ -313,10 +336,7 @@ TEST(BedPreparation, LocalSettlingReachesTheSameRest) {
   EXPECT_TRUE(g_small_bed_stages.count("settling (locally)")) << "the source was settled whole";
   EXPECT_EQ(bed.stage, "cut");
   EXPECT_NE(bed.hash, whole.hash);
-  EXPECT_LT(bed.kinetic_ratio, whole_scene.bed.settle_tolerance);
-  EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
-  EXPECT_NEAR(bed.solid_fraction / whole.solid_fraction, 1.0, 0.015);
-  EXPECT_NEAR(bed.surface_m / whole.surface_m, 1.0, 0.01);
+  ExpectRestLike(bed, whole, whole_scene, 0.015);
   std::printf(
       "local: %lld steps, %.1f s, C0 %.4f, surface %.5f m; whole: %lld steps, %.1f s, "
       "C0 %.4f, surface %.5f m; stages:",
@@ -340,42 +360,20 @@ TEST(BedPreparation, StoppingTheCutBedsBeadsAtTheirPeaksReachesRestSooner) {
   const PreparedBed free = GetBed(free_scene, SmallBedCache());
   EXPECT_TRUE(g_small_bed_stages.count("relaxing the cut bed (locally)"))
       << "the cut bed was not settled locally";
-  EXPECT_EQ(BedSourceHash(free_scene), BedSourceHash(SmallBedScene()));  // the same source
-  EXPECT_NE(bed.hash, free.hash);
-  EXPECT_EQ(bed.beads.size(), free.beads.size());  // the same cut
-  EXPECT_LT(bed.kinetic_ratio, free_scene.bed.settle_tolerance);
-  EXPECT_NEAR((bed.plate_force_N + bed.wall_force_z_N) / bed.weight_N, 1.0, 0.01);
   EXPECT_LT(bed.settle_steps, free.settle_steps);
-  EXPECT_NEAR(bed.solid_fraction / free.solid_fraction, 1.0, 0.01);
-  EXPECT_NEAR(bed.surface_m / free.surface_m, 1.0, 0.01);
-  std::printf(
-      "stopped at their peaks: %lld steps, C0 %.4f, surface %.5f m; free: %lld steps, "
-      "C0 %.4f, surface %.5f m\n",
-      static_cast<long long>(bed.settle_steps), bed.solid_fraction, bed.surface_m,
-      static_cast<long long>(free.settle_steps), free.solid_fraction, free.surface_m);
+  ExpectAnotherRelaxationOfTheCut("stopped at their peaks", bed, "free", free, free_scene);
 }
 
 TEST(BedPreparation, StoppingTheCutBedsSpringBackAtItsPeaksMeetsTheSameRest) {
   // With bed.quench_cut_column, the whole-bed stepping of a cut bed stops every bead at each
   // peak of the kinetic energy of its layers' mean vertical motion. From the same source and
   // the same cut, the bed meets the same rest criterion with nearly the same packing, in a
-  // bed of its own (its key names the setting; without it, the key is as before).
+  // bed of its own (its key names the setting).
   Scene scene = SmallBedScene();
   scene.bed.quench_cut_column = true;
   const PreparedBed& plain = SmallBed();
   const PreparedBed column = GetBed(scene, SmallBedCache());
-  EXPECT_EQ(BedSourceHash(scene), BedSourceHash(SmallBedScene()));
-  EXPECT_NE(column.hash, plain.hash);
-  EXPECT_EQ(column.beads.size(), plain.beads.size());
-  EXPECT_LT(column.kinetic_ratio, scene.bed.settle_tolerance);
-  EXPECT_NEAR((column.plate_force_N + column.wall_force_z_N) / column.weight_N, 1.0, 0.01);
-  EXPECT_NEAR(column.solid_fraction / plain.solid_fraction, 1.0, 0.01);
-  EXPECT_NEAR(column.surface_m / plain.surface_m, 1.0, 0.01);
-  std::printf(
-      "column stopped at its peaks: %lld steps, C0 %.4f, surface %.5f m; without: %lld "
-      "steps, C0 %.4f, surface %.5f m\n",
-      static_cast<long long>(column.settle_steps), column.solid_fraction, column.surface_m,
-      static_cast<long long>(plain.settle_steps), plain.solid_fraction, plain.surface_m);
+  ExpectAnotherRelaxationOfTheCut("column stopped at its peaks", column, "without", plain, scene);
 }
 
 TEST(BedPreparation, ABeadSpinningInPlaceDoesNotKeepLocalSettlingGoing) {

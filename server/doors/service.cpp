@@ -222,7 +222,8 @@ bool MadeByThisEngine(const std::string& summary_json) {
   return p.value("dembuf_version", "") == kVersion && commit == report::BuildCommit() &&
          commit != "unknown" && p.value("build_type", "") == report::BuildType() &&
          p.value("build_config", "") == report::BuildConfig() &&
-         p.value("libc", "") == report::LibcVersion() && !NamesNoTarget(report::BuildConfig());
+         p.value("libc", "") == report::LibcVersion() && report::LibcVersion() != "unknown" &&
+         !NamesNoTarget(report::BuildConfig());
 }
 
 }  // namespace
@@ -388,6 +389,8 @@ Status DembufService::FileSubmission(const Caller& caller, const std::string& ow
     std::lock_guard lock(m_submissions);
     if (Status retry; retried(&retry)) return retry;
   }
+  // A user already over the stored quota is refused before the admission's work.
+  if (Status s = CheckStoredQuota(owner, 0.0); !s.ok()) return s;
   Filing filing;
   try {
     filing = admit();
@@ -413,12 +416,12 @@ Status DembufService::FileSubmission(const Caller& caller, const std::string& ow
   // Filed under the lock, held for the quotas and the insert only (never for an admission):
   // two submissions at once cannot both pass a quota.
   std::lock_guard lock(m_submissions);
-  if (Status retry; retried(&retry)) return retry;
-  // (the admission and the lookup take time: a token withdrawn meanwhile files nothing)
+  // (the admission and the lookup take time: a token withdrawn meanwhile is answered nothing)
   if (!m_policy.StillValid(caller))
     return Status(StatusCode::UNAUTHENTICATED,
                   "token: revoked or replaced while the submission was admitted; nothing was "
                   "filed");
+  if (Status retry; retried(&retry)) return retry;
   if (Status s = CheckStoredQuota(owner, bytes); !s.ok()) return s;
   if (Status s = FileAdmitted(owner, filing); !s.ok()) return s;
   filed = std::move(filing);

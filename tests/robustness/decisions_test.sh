@@ -129,7 +129,8 @@ stop_daemon
 python3 - "$work/old.db" <<'PY'
 import sqlite3, sys
 db = sqlite3.connect(sys.argv[1])
-db.executescript("ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
+db.executescript("DROP INDEX jobs_done_by_scene; "
+                 "ALTER TABLE results DROP COLUMN summary_sha256; ALTER TABLE results DROP COLUMN "
                  "series_sha256; ALTER TABLE job_files DROP COLUMN sha256; DROP TABLE bed_files; "
                  "ALTER TABLE jobs DROP COLUMN bed_file; ALTER TABLE jobs DROP COLUMN result_nonce; "
                  "PRAGMA user_version = 7;")

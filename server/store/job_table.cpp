@@ -119,9 +119,7 @@ void RequireReusedResults(Database& db, const std::vector<JobRecord>& jobs) {
     if (job.reused_from != 0) originals.insert(job.reused_from);
   std::vector<std::int64_t> gone;
   for (std::int64_t id : originals) {
-    Statement& s = db.Prepare(
-        "SELECT 1 FROM jobs WHERE id = ? AND state = 'done' AND EXISTS (SELECT 1 FROM results "
-        "WHERE job_id = ?)");
+    Statement& s = db.Prepare(std::string("SELECT 1 FROM jobs WHERE ") + kJobWithStoredResult);
     s.Bind(id, id);
     if (!s.Step()) gone.push_back(id);
     s.Reset();

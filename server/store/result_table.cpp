@@ -137,8 +137,8 @@ void ResultTable::FinishJob(std::int64_t id, JobState state, const std::string& 
 
 bool CopyResultIn(Database& db, std::int64_t from, std::int64_t to) {
   Statement& done = db.Prepare(
-      "SELECT host, code_version, peak_plate_force_N, P_N FROM jobs WHERE id = ? AND state = "
-      "'done' AND EXISTS (SELECT 1 FROM results WHERE job_id = ?)");
+      std::string("SELECT host, code_version, peak_plate_force_N, P_N FROM jobs WHERE ") +
+      kJobWithStoredResult);
   done.Bind(from, from);
   if (!done.Step()) {
     done.Run();

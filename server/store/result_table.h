@@ -17,6 +17,10 @@ namespace dembuf::server {
 /// files with their checksums, to the job `to`, which is then done, reusing it; false (nothing
 /// changed) when `from` is no done job any more.
 bool CopyResultIn(Database& db, std::int64_t from, std::int64_t to);
+/// The jobs a result may be copied from (CopyResultIn, RequireReusedResults): a WHERE clause on
+/// `jobs` binding the job's id twice.
+inline constexpr const char* kJobWithStoredResult =
+    "id = ? AND state = 'done' AND EXISTS (SELECT 1 FROM results WHERE job_id = ?)";
 
 /// Series, summaries and result files of jobs.
 class ResultTable {

@@ -19,6 +19,7 @@
 #include <variant>
 
 #include "dembuf/study/bed/bed.h"
+#include "dembuf/study/files/bed_export.h"
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
@@ -183,6 +184,41 @@ TEST(BedPreparation, APreparedBedIsCheckedAgainstItsScene) {
   PreparedBed lower = bed;
   for (dem::Vec3& x : lower.beads.position) x.z() -= 1e-4;  // every bead into the plate
   EXPECT_NE(refusal(lower, scene).find("outside the container"), std::string::npos);
+}
+
+// The largest distance a bead of `bed` moves when the bed is imported back (as a text file)
+// and relaxed again from its beads alone.
+double LargestMoveOnImport(const PreparedBed& bed, const Scene& scene) {
+  Scene imported = scene;
+  imported.bed.import = "again.txt";
+  imported.bed.import_bytes = std::make_shared<const std::string>(
+      ExportBed(bed.beads, scene, BedFormat::kText, "the bed imported back"));
+  BedCache cache;
+  const PreparedBed again = GetBed(imported, cache);
+  EXPECT_EQ(again.beads.size(), bed.beads.size());
+  double largest = 0.0;
+  for (std::size_t i = 0; i < std::min(bed.beads.size(), again.beads.size()); ++i)
+    largest = std::max(largest, (again.beads.position[i] - bed.beads.position[i]).norm());
+  return largest;
+}
+
+TEST(BedPreparation, EveryBeadOfAPreparedBedIsAtRest) {
+  // Rest is judged on the whole bed: its kinetic energy, and its weight against the plate's
+  // and the wall's forces. A way of stopping beads that let that check pass right after a
+  // stop made beds whose beads were held out of their own balance: stepped on, they moved by
+  // millimetres (a column quench tried on the cut beds and withdrawn, docs/accuracy-cost.md).
+  // Each way of bringing a bed to rest (local settling with the beads stopped at their peaks,
+  // the default; kinetic damping of the whole bed, the draft's) leaves every bead where a
+  // free relaxation keeps it, within 10 um (a settled bed's beads move by micrometres).
+  Scene quenched = SmallBedScene();
+  quenched.bed.quench_cut_relaxation = true;
+  for (const Scene& scene : {SmallBedScene(), quenched}) {
+    const PreparedBed bed = GetBed(scene, SmallBedCache());
+    const double moved = LargestMoveOnImport(bed, scene);
+    EXPECT_LT(moved, 1e-5) << "quench_cut_relaxation " << scene.bed.quench_cut_relaxation;
+    std::printf("quench_cut_relaxation %d: the largest move %.2g m\n",
+                scene.bed.quench_cut_relaxation ? 1 : 0, moved);
+  }
 }
 
 // A bed file's bytes that came with a request give the bed the file itself gives.
@@ -362,18 +398,6 @@ TEST(BedPreparation, StoppingTheCutBedsBeadsAtTheirPeaksReachesRestSooner) {
       << "the cut bed was not settled locally";
   EXPECT_LT(bed.settle_steps, free.settle_steps);
   ExpectAnotherRelaxationOfTheCut("stopped at their peaks", bed, "free", free, free_scene);
-}
-
-TEST(BedPreparation, StoppingTheCutBedsSpringBackAtItsPeaksMeetsTheSameRest) {
-  // With bed.quench_cut_column, the whole-bed stepping of a cut bed stops every bead at each
-  // peak of the kinetic energy of its layers' mean vertical motion. From the same source and
-  // the same cut, the bed meets the same rest criterion with nearly the same packing, in a
-  // bed of its own (its key names the setting).
-  Scene scene = SmallBedScene();
-  scene.bed.quench_cut_column = true;
-  const PreparedBed& plain = SmallBed();
-  const PreparedBed column = GetBed(scene, SmallBedCache());
-  ExpectAnotherRelaxationOfTheCut("column stopped at its peaks", column, "without", plain, scene);
 }
 
 TEST(BedPreparation, ABeadSpinningInPlaceDoesNotKeepLocalSettlingGoing) {
@@ -735,9 +759,8 @@ TEST(BedCacheThreads, ARunWaitsOnlyForABedBeingPrepared) {
 
 TEST(BedHash, IsStable) {
   // A fixed value: a change here means every cached bed is prepared again (raise
-  // kBedPreparationVersion instead when that is intended). Last changed by the field
-  // bed.quench_cut_column, which every cut bed's key names.
-  EXPECT_EQ(BedHash(SmallBedScene()), "5f3fce8f597ae107");
+  // kBedPreparationVersion instead when that is intended).
+  EXPECT_EQ(BedHash(SmallBedScene()), "e796675b31287a0a");
 }
 
 // `field` of `scene` set to another value it may take: a number 5% up (or down, or another in

@@ -61,12 +61,9 @@ std::string SourceVersions(const Scene& scene) {
          std::to_string(kSoftSettlingVersion) + "\n" +
          (species ? "species v" + std::to_string(kSpeciesBedVersion) + "\n" : "");
 }
-std::string CutVersions(const Scene& resolved) {
-  std::string versions = "cut bead quench v" + std::to_string(kCutBeadQuenchVersion) +
-                         "\nsurface cut v" + std::to_string(kSurfaceCutVersion) + "\n";
-  if (resolved.bed.quench_cut_column)
-    versions += "cut column quench v" + std::to_string(kCutColumnQuenchVersion) + "\n";
-  return versions;
+std::string CutVersions() {
+  return "cut bead quench v" + std::to_string(kCutBeadQuenchVersion) + "\nsurface cut v" +
+         std::to_string(kSurfaceCutVersion) + "\n";
 }
 
 // A stage's key text: its procedures' versions, then every field in use whose value shapes one
@@ -220,55 +217,6 @@ class BeadQuench {
  private:
   std::vector<KineticPeak> m_peaks;  // by origin
   std::vector<std::uint32_t> m_stop;
-};
-
-// Kinetic damping of a cut bed's spring-back (bed.quench_cut_column). The cut takes the
-// overburden's load off the bed, which springs back as one elastic column: a slow mode (its
-// period about 3 ms in a 4 cm bed) that the contacts' damping, weak at such speeds, takes tens
-// of milliseconds to calm, all the while stepping every bead. Its motion is the mean vertical
-// velocity of each layer of beads (kColumnLayer mean diameters thick): whenever the kinetic
-// energy of those means has passed a maximum, every bead is stopped. The beads rattling near
-// the surface average out of the layers' means, so they neither hide the column's peaks (as
-// they do the whole bed's kinetic energy, bed.quench_cut_relaxation's) nor fake them.
-constexpr double kColumnLayer = 1.0;
-// A bed whose column moves with less than this share of the rest tolerance's kinetic energy
-// is calm enough for local settling, which stops the beads outside its regions: stopped
-// while the column still moved, the bed would be held out of its balance.
-constexpr double kColumnCalmShare = 0.1;
-
-class ColumnQuench {
- public:
-  ColumnQuench(const dem::Simulation& sim, double d_mean)
-      : m_layer_m(kColumnLayer * d_mean),
-        m_momentum(static_cast<std::size_t>(sim.params().container.height_m / m_layer_m) + 1),
-        m_mass(m_momentum.size()) {}
-
-  // After a step: stops every bead when the column's kinetic energy has just peaked.
-  void AfterStep(dem::Simulation& sim) {
-    const dem::ParticleState& b = sim.beads();
-    std::fill(m_momentum.begin(), m_momentum.end(), 0.0);
-    std::fill(m_mass.begin(), m_mass.end(), 0.0);
-    const double last = static_cast<double>(m_momentum.size() - 1);
-    for (std::size_t i = 0; i < b.size(); ++i) {
-      const auto layer =
-          static_cast<std::size_t>(std::clamp(b.position[i].z() / m_layer_m, 0.0, last));
-      m_momentum[layer] += b.mass[i] * b.velocity[i].z();
-      m_mass[layer] += b.mass[i];
-    }
-    m_energy = 0.0;
-    for (std::size_t k = 0; k < m_momentum.size(); ++k)
-      if (m_mass[k] > 0.0) m_energy += 0.5 * m_momentum[k] * m_momentum[k] / m_mass[k];
-    if (m_peak.Passed(m_energy)) sim.ZeroBeadVelocities();
-  }
-
-  // The column's kinetic energy after the last step [J].
-  double energy() const { return m_energy; }
-
- private:
-  double m_layer_m;
-  std::vector<double> m_momentum, m_mass;  // by layer: vertical momentum, mass
-  double m_energy = 0.0;
-  KineticPeak m_peak;
 };
 
 // One region: steps the free beads around `moving`, with the beads they can reach held, until
@@ -429,16 +377,7 @@ struct Relaxation {
   bool local = false;
   // In local settling, each bead stopped at its kinetic-energy peaks (BeadQuench).
   bool quench_beads = false;
-  // While the whole bed is stepped, ColumnQuench after each step.
-  bool quench_column = false;
 };
-
-// Whether the column's kinetic energy per bead is below kColumnCalmShare of the rest tolerance.
-bool ColumnCalm(const ColumnQuench& column, std::size_t beads, double energy_scale,
-                double tolerance) {
-  const double per_bead = column.energy() / static_cast<double>(std::max<std::size_t>(beads, 1));
-  return per_bead / energy_scale < kColumnCalmShare * tolerance;
-}
 
 // Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
 double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string& stage,
@@ -453,8 +392,6 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
   constexpr int kCheckEvery = 200;
   bool quenching = relaxation.quench;
   KineticPeak peak(sim.BeadKineticEnergy());
-  std::optional<ColumnQuench> column;
-  if (relaxation.quench_column) column.emplace(sim, d_mean);
   while (true) {
     if (request.threads) sim.LendThreads(request.threads->load(std::memory_order_relaxed));
     double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
@@ -463,7 +400,6 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
       if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
       if (before_step) before_step(sim, sim.time_s() - t0);
       sim.Step();
-      if (column) column->AfterStep(sim);
       if (!quenching) continue;
       const double energy = sim.BeadKineticEnergy();
       interval_max = std::max(interval_max, energy);
@@ -481,8 +417,7 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
       quenching = interval_max / beads / energy_scale >= tolerance;
     } else if (ramp_done && rest.kinetic_ratio < tolerance && rest.balance_error < 0.01) {
       return t;
-    } else if (relaxation.local && !before_step && rest.balance_error < 0.01 &&
-               (!column || ColumnCalm(*column, sim.beads().size(), energy_scale, tolerance))) {
+    } else if (relaxation.local && !before_step && rest.balance_error < 0.01) {
       const auto max_steps = static_cast<std::int64_t>((max_time - t) / sim.params().dt_s) + 1;
       auto report = [&](std::int64_t steps, double kinetic) {
         if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
@@ -696,8 +631,7 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
                                 scene.bed.settle_tolerance, {},
                                 {.quench = scene.bed.quench_cut_relaxation,
                                  .local = scene.bed.local_settling,
-                                 .quench_beads = QuenchesCutBeads(scene),
-                                 .quench_column = scene.bed.quench_cut_column});
+                                 .quench_beads = QuenchesCutBeads(scene)});
   return Finish(sim, scene, hash, "cut", t, wall_start);
 }
 
@@ -759,9 +693,9 @@ BedStageKeys BedKeys(const Scene& scene) {
     return keys;
   }
   keys.source = ContentHash(KeyText(r, {kSourceBed}, SourceVersions(r)));
-  keys.cut = ContentHash(KeyText(r, {kSourceBed, kCutBed}, SourceVersions(r) + CutVersions(r)));
+  keys.cut = ContentHash(KeyText(r, {kSourceBed, kCutBed}, SourceVersions(r) + CutVersions()));
   keys.friction = ContentHash(
-      KeyText(r, {kSourceBed, kCutBed, kFrictionBed}, SourceVersions(r) + CutVersions(r)));
+      KeyText(r, {kSourceBed, kCutBed, kFrictionBed}, SourceVersions(r) + CutVersions()));
   return keys;
 }
 

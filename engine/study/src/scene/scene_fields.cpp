@@ -167,10 +167,6 @@ std::vector<SceneField> BedFields() {
       {"bed.quench_cut_beads", "",
        "in a cut bed's local settling, stop each bead whose kinetic energy passes a maximum",
        Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_beads)},
-      {"bed.quench_cut_column", "",
-       "while a cut bed is stepped whole, stop every bead at each peak of its spring-back's "
-       "kinetic energy (the mean vertical motion of its layers)",
-       Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_column)},
       {"bed.soft_settling", "",
        "settle the source bed with E divided by this, then restore E and relax; 0 = automatic "
        "(up to 100, within the pour's overlap limit), 1 = off",

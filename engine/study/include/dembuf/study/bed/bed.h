@@ -44,9 +44,6 @@ inline constexpr int kSoftSettlingVersion = 1;
 /// Version of the bead-by-bead kinetic damping of the cut beds (bed.quench_cut_beads), in the
 /// hash of the cut beds it makes.
 inline constexpr int kCutBeadQuenchVersion = 1;
-/// Version of the cut beds' column quench (bed.quench_cut_column), in the hash of the cut beds
-/// it makes.
-inline constexpr int kCutColumnQuenchVersion = 1;
 /// Version of how beds of several species or layers are made (mixing, pouring layers in turn,
 /// their rest criterion), in the hash of those beds only.
 inline constexpr int kSpeciesBedVersion = 1;

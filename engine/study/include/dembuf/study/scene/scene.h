@@ -149,12 +149,6 @@ struct BedSpec {
   /// such a bed's, two to three times faster (docs/accuracy-cost.md). No effect without
   /// local_settling.
   bool quench_cut_beads = true;
-  /// While a cut bed is stepped whole, stop every bead whenever the kinetic energy of its
-  /// spring-back has passed a maximum: the motion of the bed as an elastic column, the mean
-  /// vertical velocity of each layer of beads one mean diameter thick, which the rattling
-  /// surface beads average out of. The contacts' damping, weak at those speeds, takes tens of
-  /// milliseconds to calm it; stopped at its peaks it is gone in a few (docs/accuracy-cost.md).
-  bool quench_cut_column = false;
   /// Settle the source bed with Young's modulus (beads and walls) divided by this: the time
   /// step grows by its square root. Then the true stiffness is restored and the bed relaxed to
   /// rest again, with kinetic damping; the cut beds relax at the true stiffness. 0: automatic,

@@ -28,6 +28,12 @@ std::string ExactText(double v) {
 void ApplyMessage(const Message& message, const std::string& prefix, Scene& scene) {
   const auto* descriptor = message.GetDescriptor();
   const auto* reflection = message.GetReflection();
+  // A field this daemon's API does not have (a client of another version, a withdrawn field)
+  // is refused, not dropped: the job would run without what was asked.
+  if (const auto& unknown = reflection->GetUnknownFields(message); !unknown.empty())
+    throw SceneError(prefix.empty() ? "scene" : prefix,
+                     "field number " + std::to_string(unknown.field(0).number()) +
+                         " is not one of this daemon's API (a client of another version?)");
   for (int i = 0; i < descriptor->field_count(); ++i) {
     const FieldDescriptor* field = descriptor->field(i);
     const std::string name = prefix.empty() ? field->name() : prefix + "." + field->name();

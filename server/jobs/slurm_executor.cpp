@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -14,6 +15,7 @@
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/files/snapshot_report.h"
 #include "dembuf/study/run/resource_estimate.h"
+#include "dembuf/study/scene/errors.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/text/text_limits.h"
 #include "dembuf/study/version.h"
@@ -371,13 +373,19 @@ void SlurmExecutor::SubmitQueued() {
     const std::vector<JobRecord> jobs = SubmittedWith(job, unfinished);
     for (const JobRecord& with : jobs) submitted.insert(with.id);
     try {
+      std::vector<std::int64_t> sent = {job.id};
       if (jobs.size() == 1)
         Submit(job);
       else
-        SubmitArray(jobs);
+        sent = SubmitArray(jobs);
       for (const JobRecord& with : jobs)
-        if (with.error.rfind(kWaitingForSlurm, 0) == 0)
+        if (with.error.rfind(kWaitingForSlurm, 0) == 0 &&
+            std::find(sent.begin(), sent.end(), with.id) != sent.end())
           m_store.SetState(with.id, JobState::kQueued);
+    } catch (const SceneError& e) {
+      // A stored scene this daemon cannot run (one written by another version, a bed file
+      // gone): the job fails with the reason, and the queue goes on past it.
+      FailUnrunnable(job, e.what());
     } catch (const slurm::SlurmError& e) {
       const std::string what = e.what();
       if (slurm::SlurmUnreachable(what)) {
@@ -526,7 +534,7 @@ void SlurmExecutor::Submit(const JobRecord& job) {
               bed_after ? " after its bed, job " + std::to_string(bed_after) : "");
 }
 
-void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
+std::vector<std::int64_t> SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
   const std::int64_t base = jobs.front().id;
   const std::string name = ArrayName(base);
   // One nonce for the array: its tasks are all this daemon's runs.
@@ -538,10 +546,14 @@ void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
   std::set<std::int64_t> after;
   std::vector<std::int64_t> ids;
   for (const JobRecord& job : jobs) {
-    const Scene scene = SceneOfJob(m_store, job);
+    std::optional<Scene> scene;
     std::int64_t bed = 0;
     try {
-      bed = BedDependency(job, scene);
+      scene = SceneOfJob(m_store, job);
+      bed = BedDependency(job, *scene);
+    } catch (const SceneError& e) {
+      FailUnrunnable(job, e.what());  // this job, not its array
+      continue;
     } catch (const slurm::SlurmError& e) {
       if (slurm::SlurmUnreachable(e.what())) throw;
       // The cluster refused this job's bed (memory, time): this job fails, not its array.
@@ -553,7 +565,7 @@ void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
     if (bed != 0) after.insert(bed);
     ids.push_back(job.id);
     // Every task asks for what the largest needs.
-    const slurm::Submission task = NewSubmission(name, JobFolder(job.id, true), job, scene, false,
+    const slurm::Submission task = NewSubmission(name, JobFolder(job.id, true), job, *scene, false,
                                                  0, RunArgs(task_folder), nonce);
     const int mem_mb = std::max(array.mem_mb, task.mem_mb),
               time_s = std::max(array.time_s, task.time_s);
@@ -562,7 +574,7 @@ void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
     array.time_s = time_s;
     array.array_tasks.push_back(static_cast<int>(job.id - base));
   }
-  if (ids.empty()) return;
+  if (ids.empty()) return ids;
   m_store.SetResultNonce(ids, nonce);
   const OwnedFolder folder = ArrayFolder(base, true);
   array.folder = folder.path().string();
@@ -578,6 +590,12 @@ void SlurmExecutor::SubmitArray(const std::vector<JobRecord>& jobs) {
   m_log->info("jobs {} to {}: submitted to Slurm as job array {} of {} tasks{}", base, ids.back(),
               slurm_id, ids.size(),
               after.empty() ? "" : " after their beds' " + std::to_string(after.size()) + " jobs");
+  return ids;
+}
+
+void SlurmExecutor::FailUnrunnable(const JobRecord& job, const std::string& why) {
+  m_store.FinishJob(job.id, JobState::kFailed, "this daemon cannot run the job: " + why, {});
+  m_log->error("job {}: cannot run it: {}", job.id, why);
 }
 
 void SlurmExecutor::PollBeds(const std::map<slurm::JobKey, slurm::JobStatus>& status) {

@@ -94,8 +94,11 @@ class SlurmExecutor final : public Executor {
   /// whether any job's note changed.
   bool NoteWaitingForSlurm(std::string what);
   void Submit(const JobRecord& job);
-  /// Submits a sweep's jobs (ids rising from jobs[0]'s) as one job array.
-  void SubmitArray(const std::vector<JobRecord>& jobs);
+  /// Submits a sweep's jobs (ids rising from jobs[0]'s) as one job array; returns the ids
+  /// submitted (a job whose scene cannot run, or whose bed Slurm refused, fails alone).
+  std::vector<std::int64_t> SubmitArray(const std::vector<JobRecord>& jobs);
+  /// Fails a job whose stored scene this daemon cannot run (SceneError), with the reason.
+  void FailUnrunnable(const JobRecord& job, const std::string& why);
   /// The queued jobs submitted with `first`: it alone, or with the rest of its sweep's not yet
   /// submitted, as one array (at most slurm.array_tasks_max, ids from first's on).
   std::vector<JobRecord> SubmittedWith(const JobRecord& first,

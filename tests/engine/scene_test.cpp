@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include "dembuf/study/scene/errors.h"
@@ -130,6 +131,32 @@ TEST(SceneFile, PrintedSceneReadsBackIdentically) {
   for (const SceneField& f : SceneFields())
     EXPECT_EQ(FormatSceneField(back, f), FormatSceneField(s, f)) << f.name;
   EXPECT_NE(text.str().find("mass_kg = 0.1234567890123  # [kg]"), std::string::npos);
+}
+
+TEST(SceneFile, AWithdrawnFieldIsReadOnlyWithTheValueThatNowHolds) {
+  // bed.quench_cut_column was withdrawn; scenes written before (run folders, stored jobs)
+  // say "false", which is what the engine does now. "true" is refused with the reason, and
+  // no other field is suggested in its place.
+  const Scene old = LoadSceneText("[bed]\nquench_cut_column = false\nthickness_m = 0.02\n", "old");
+  EXPECT_EQ(old.bed.thickness_m, 0.02);
+  Scene scene;
+  EXPECT_NO_THROW(ApplyOverride(scene, "bed.quench_cut_column=false"));
+  auto refusal = [](const std::function<void()>& load) {
+    try {
+      load();
+    } catch (const SceneError& e) {
+      EXPECT_EQ(e.field(), "bed.quench_cut_column");
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  for (const std::string& message :
+       {refusal([] { LoadSceneText("[bed]\nquench_cut_column = true\n", "old"); }),
+        refusal([&] { ApplyOverride(scene, "bed.quench_cut_column=true"); }),
+        refusal([] { RequireSceneField("bed.quench_cut_column"); })}) {
+    EXPECT_NE(message.find("withdrawn"), std::string::npos) << message;
+    EXPECT_EQ(message.find("did you mean"), std::string::npos) << message;
+  }
 }
 
 TEST(Overrides, SetFieldsByDottedName) {

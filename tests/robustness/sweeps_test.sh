@@ -35,10 +35,10 @@ points=$(tail -n +2 "$work/fine/points.csv" | cut -d, -f1 | sort -u | wc -l)
   fail "plain values: $(cut -d, -f1 "$work/plain/points.csv" | tr '\n' ' ')"
 # Progress: a line on stderr at the DEMBUF_PROGRESS_S interval with the runs done and what
 # each running run does; stdout keeps the results alone.
-DEMBUF_PROGRESS_S=0.1 "$dembuf" sweep "${bare[@]}" --vary projectile.speed_m_s=0.5:2:0.5 \
+DEMBUF_PROGRESS_S=0.1 "$dembuf" sweep "${bare[@]}" --vary projectile.speed_m_s=0.5:2:0.1 \
   --set time.end_s=0.2 --no-bed-cache --out "$work/progress" > "$work/progress.out" \
   2> "$work/progress.err" || fail "the progress sweep: $(cat "$work/progress.err")"
-grep -q "^sweep: [0-9]* of 4 runs done; run [0-9]*: impact, [0-9.]* of [0-9.]* ms" \
+grep -q "^sweep: [0-9]* of 16 runs done; run [0-9]*: impact, [0-9.]* of [0-9.]* ms" \
   "$work/progress.err" || fail "no progress on stderr: $(head -c 600 "$work/progress.err")"
 ! grep -q "runs done" "$work/progress.out" || fail "progress went to stdout"
 

@@ -100,6 +100,25 @@ TEST(SceneRequest, BadValuesNameTheirField) {
   // its resource estimate (ResourceEstimate.*, tests/robustness/costs_test.sh).
 }
 
+TEST(SceneRequest, AFieldTheApiDoesNotHaveIsRefusedNotDropped) {
+  // A client of another version: field 18 of Bed was bed.quench_cut_column, withdrawn. Its
+  // bytes arrive as an unknown field; the job would run without what was asked.
+  v1::SceneSpec spec;
+  spec.set_preset("e2");
+  v1::Bed old_bed;
+  old_bed.set_thickness_m(0.02);
+  std::string bytes = old_bed.SerializeAsString();
+  bytes += std::string("\x90\x01\x01", 3);  // field 18, varint: true
+  ASSERT_TRUE(spec.mutable_scene()->mutable_bed()->ParseFromString(bytes));
+  try {
+    ResolveSceneSpec(spec);
+    FAIL() << "an unknown field was dropped";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field(), "bed");
+    EXPECT_NE(std::string(e.what()).find("field number 18"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SceneRequest, RepeatedFieldsAreBounded) {
   v1::SceneSpec spec;
   for (int k = 0; k <= kMaxAssignments; ++k) spec.add_set("projectile.speed_m_s=1");

@@ -12,7 +12,9 @@
 #      after the job ended);
 #   7. a 12-point parameter table goes as one job array of at most 4 tasks at once, its
 #      comment and account naming its user, and gives the local sweep's long table, byte for
-#      byte.
+#      byte;
+#   8. a stored job whose scene this daemon cannot read fails, saying why, and the jobs after
+#      it still run.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -246,4 +248,33 @@ stop_daemon
 cmp "$work/array-local/sweep_long.csv" "$work/array-fetched/sweep_long.csv" ||
   fail "the Slurm array's long table differs from the local sweep's"
 echo "12 points: one job array (at most 4 at once, dembuf_user=second, account proj-b), the local long table"
+
+echo "== 8. a stored job this daemon cannot run fails alone; the queue goes on ($SECONDS s)"
+# Two queued jobs as a daemon of another version left them: job 13's scene names a field this
+# one no longer reads (bed.quench_cut_column = true, withdrawn), job 14's is fine. Job 13
+# used to stop every later job from reaching Slurm.
+python3 - "$work/array.db" <<'PY'
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+db.row_factory = sqlite3.Row
+row = dict(db.execute("SELECT * FROM jobs WHERE id = 1").fetchone())
+for new_id in (13, 14):
+    job = dict(row, id=new_id, sweep_id=None, sweep_index=0, sweep_values_json="[]",
+               state="queued", error="",
+               slurm_id=0, slurm_task=-1, result_nonce="", started_at="", finished_at="",
+               attempts=0, crashes=0, reused_from=0, peak_plate_force_N=None, P_N=None)
+    if new_id == 13:
+        assert "[bed]\n" in job["scene_toml"]
+        job["scene_toml"] = job["scene_toml"].replace("[bed]\n", "[bed]\nquench_cut_column = true\n", 1)
+    names = ", ".join(job)
+    db.execute(f"INSERT INTO jobs ({names}) VALUES ({', '.join('?' * len(job))})", list(job.values()))
+db.commit()
+PY
+start_daemon "$work/array.db" "$work/array.log" --config "$work/array.toml"
+wait_state 14 done 120
+wait_state 13 failed 10
+said=$("$dembuf" status 13 2>&1 || true)
+[[ "$said" == *"withdrawn"* ]] || fail "job 13 does not say why: $said"
+stop_daemon
+echo "job 13 failed, naming the withdrawn field; job 14 ran"
 echo "PASS ($SECONDS s)"

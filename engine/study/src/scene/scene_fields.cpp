@@ -333,8 +333,39 @@ std::string KnownFieldsNear(std::string_view name) {
 
 }  // namespace
 
+namespace {
+
+// Fields withdrawn from the table. A scene written before (a run folder's scene.toml, a stored
+// job) may still name one with the value that does what the engine now does; any other value
+// is refused with the reason.
+struct WithdrawnField {
+  std::string_view name, kept_value, why;
+};
+constexpr WithdrawnField kWithdrawnFields[] = {
+    {"bed.quench_cut_column", "false",
+     "withdrawn: the cut beds it made were not at rest (docs/accuracy-cost.md)"},
+};
+
+// Whether `name` is a withdrawn field set to its kept value (`text`, as a scene file writes
+// it), which is then skipped; throws for another value.
+bool SkipsWithdrawnField(std::string_view name, std::string_view text) {
+  for (const WithdrawnField& field : kWithdrawnFields) {
+    if (field.name != name) continue;
+    if (text == field.kept_value) return true;
+    throw SceneError(std::string(name), std::string(field.why) + "; only " +
+                                            std::string(field.kept_value) +
+                                            ", what the engine does now, is still read");
+  }
+  return false;
+}
+
+}  // namespace
+
 const SceneField& RequireSceneField(std::string_view name) {
   const SceneField* f = FindSceneField(name);
+  for (const WithdrawnField& withdrawn : kWithdrawnFields)
+    if (!f && withdrawn.name == name)
+      throw SceneError(std::string(name), std::string(withdrawn.why));
   if (!f)
     throw SceneError(std::string(name),
                      "unknown field; " + DidYouMean(name) + KnownFieldsNear(name));
@@ -526,6 +557,7 @@ void ApplyOverride(Scene& scene, std::string_view assignment) {
     throw SceneError(
         "", "override \"" + std::string(assignment) + "\" must have the form dotted.field=value");
   const std::string_view name = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  if (SkipsWithdrawnField(name, text)) return;
   const SceneField& field = RequireSceneField(name);
   // The value as a scene file (and `dembuf scene --print`) writes it: [0.01, 0.02], "relax",
   // 1e-5. Text that is not a TOML value (a bare file name, 0.01,0.02) is taken as it is, and
@@ -576,6 +608,9 @@ Scene SceneFromToml(const toml::value& root, const std::string& path, const Scen
   for (const auto& [name, value] : entries) {
     if (value->is_table())
       throw SceneError(name, "unexpected nested table; " + KnownFieldsNear(name));
+    if (SkipsWithdrawnField(name, value->is_boolean() ? (value->as_boolean() ? "true" : "false")
+                                                      : toml::format(*value)))
+      continue;
     SetFromToml(scene, RequireSceneField(name), *value);
   }
   // A relative bed file is relative to the scene file, not to wherever the run starts.

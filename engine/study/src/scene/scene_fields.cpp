@@ -331,10 +331,6 @@ std::string KnownFieldsNear(std::string_view name) {
   return "known fields here: " + list;
 }
 
-}  // namespace
-
-namespace {
-
 // Fields withdrawn from the table. A scene written before (a run folder's scene.toml, a stored
 // job) may still name one with the value that does what the engine now does; any other value
 // is refused with the reason.
@@ -346,26 +342,29 @@ constexpr WithdrawnField kWithdrawnFields[] = {
      "withdrawn: the cut beds it made were not at rest (docs/accuracy-cost.md)"},
 };
 
+const WithdrawnField* FindWithdrawnField(std::string_view name) {
+  for (const WithdrawnField& field : kWithdrawnFields)
+    if (field.name == name) return &field;
+  return nullptr;
+}
+
 // Whether `name` is a withdrawn field set to its kept value (`text`, as a scene file writes
 // it), which is then skipped; throws for another value.
 bool SkipsWithdrawnField(std::string_view name, std::string_view text) {
-  for (const WithdrawnField& field : kWithdrawnFields) {
-    if (field.name != name) continue;
-    if (text == field.kept_value) return true;
-    throw SceneError(std::string(name), std::string(field.why) + "; only " +
-                                            std::string(field.kept_value) +
-                                            ", what the engine does now, is still read");
-  }
-  return false;
+  const WithdrawnField* field = FindWithdrawnField(name);
+  if (!field) return false;
+  if (text == field->kept_value) return true;
+  throw SceneError(std::string(name), std::string(field->why) + "; only " +
+                                          std::string(field->kept_value) +
+                                          ", what the engine does now, is still read");
 }
 
 }  // namespace
 
 const SceneField& RequireSceneField(std::string_view name) {
   const SceneField* f = FindSceneField(name);
-  for (const WithdrawnField& withdrawn : kWithdrawnFields)
-    if (!f && withdrawn.name == name)
-      throw SceneError(std::string(name), std::string(withdrawn.why));
+  if (const WithdrawnField* withdrawn = f ? nullptr : FindWithdrawnField(name))
+    throw SceneError(std::string(name), std::string(withdrawn->why));
   if (!f)
     throw SceneError(std::string(name),
                      "unknown field; " + DidYouMean(name) + KnownFieldsNear(name));

@@ -546,11 +546,13 @@ std::vector<std::int64_t> SlurmExecutor::SubmitArray(const std::vector<JobRecord
   std::set<std::int64_t> after;
   std::vector<std::int64_t> ids;
   for (const JobRecord& job : jobs) {
-    std::optional<Scene> scene;
     std::int64_t bed = 0;
+    std::optional<slurm::Submission> task;
     try {
-      scene = SceneOfJob(m_store, job);
-      bed = BedDependency(job, *scene);
+      const Scene scene = SceneOfJob(m_store, job);
+      bed = BedDependency(job, scene);
+      task = NewSubmission(name, JobFolder(job.id, true), job, scene, false, 0,
+                           RunArgs(task_folder), nonce);
     } catch (const SceneError& e) {
       FailUnrunnable(job, e.what());  // this job, not its array
       continue;
@@ -565,11 +567,9 @@ std::vector<std::int64_t> SlurmExecutor::SubmitArray(const std::vector<JobRecord
     if (bed != 0) after.insert(bed);
     ids.push_back(job.id);
     // Every task asks for what the largest needs.
-    const slurm::Submission task = NewSubmission(name, JobFolder(job.id, true), job, *scene, false,
-                                                 0, RunArgs(task_folder), nonce);
-    const int mem_mb = std::max(array.mem_mb, task.mem_mb),
-              time_s = std::max(array.time_s, task.time_s);
-    if (array.array_tasks.empty()) array = task;
+    const int mem_mb = std::max(array.mem_mb, task->mem_mb),
+              time_s = std::max(array.time_s, task->time_s);
+    if (array.array_tasks.empty()) array = *task;
     array.mem_mb = mem_mb;
     array.time_s = time_s;
     array.array_tasks.push_back(static_cast<int>(job.id - base));

@@ -401,6 +401,24 @@ TEST(BedPreparation, StoppingTheCutBedsBeadsAtTheirPeaksReachesRestSooner) {
   ExpectAnotherRelaxationOfTheCut("stopped at their peaks", bed, "free", free, free_scene);
 }
 
+TEST(BedPreparation, ALongerStepRelaxesTheCutBedToTheSameRestInFewerSteps) {
+  // bed.cut_alpha = 0.8, four times the impact's step: the cut bed meets the same rest
+  // criterion in fewer steps, nearly the same bed, with every bead in its own balance (an
+  // unstable step would throw beads out or never come to rest).
+  const PreparedBed& bed = SmallBed();
+  Scene longer_step = SmallBedScene();
+  longer_step.bed.cut_alpha = 0.8;
+  const PreparedBed longer = GetBed(longer_step, SmallBedCache());
+  EXPECT_LT(longer.settle_steps, bed.settle_steps);
+  ExpectAnotherRelaxationOfTheCut("time.alpha's step", bed, "four times longer", longer,
+                                  longer_step);
+  EXPECT_LT(LargestMoveOnImport(longer, longer_step), 1e-5);
+  // The default (0) keys the bed as before the field.
+  Scene same = SmallBedScene();
+  same.bed.cut_alpha = 0.0;
+  EXPECT_EQ(BedHash(same), BedHash(SmallBedScene()));
+}
+
 TEST(BedPreparation, ABeadSpinningInPlaceDoesNotKeepLocalSettlingGoing) {
   // The golden tests' small scene, settled softly (the default): local settling's last region
   // was 23 free beads around one bead that spun at 26 rad/s about the axis through its two

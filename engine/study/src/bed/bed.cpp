@@ -623,7 +623,9 @@ PreparedBed PrepareSource(const Scene& scene, const std::string& hash, const Bed
 PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std::string& hash,
                        const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
-  dem::Simulation sim = BedSimulation(scene, &source, source.beads, scene.bed.prep_friction);
+  Scene relaxing = scene;  // the scene, with the relaxation's own step
+  if (scene.bed.cut_alpha > 0.0) relaxing.time.alpha = scene.bed.cut_alpha;
+  dem::Simulation sim = BedSimulation(relaxing, &source, source.beads, scene.bed.prep_friction);
   const std::vector<bool> keep =
       CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m, scene.bed.cut);
   sim.RemoveBeads([&](std::size_t i) { return keep[i]; });

@@ -398,7 +398,7 @@ TEST(BedPreparation, StoppingTheCutBedsBeadsAtTheirPeaksReachesRestSooner) {
   EXPECT_TRUE(g_small_bed_stages.count("relaxing the cut bed (locally)"))
       << "the cut bed was not settled locally";
   EXPECT_LT(bed.settle_steps, free.settle_steps);
-  ExpectAnotherRelaxationOfTheCut("stopped at their peaks", bed, "free", free, free_scene);
+  ExpectAnotherRelaxationOfTheCut("free", free, "stopped at their peaks", bed, free_scene);
 }
 
 TEST(BedPreparation, ALongerStepRelaxesTheCutBedToTheSameRestInFewerSteps) {
@@ -410,13 +410,22 @@ TEST(BedPreparation, ALongerStepRelaxesTheCutBedToTheSameRestInFewerSteps) {
   longer_step.bed.cut_alpha = 0.8;
   const PreparedBed longer = GetBed(longer_step, SmallBedCache());
   EXPECT_LT(longer.settle_steps, bed.settle_steps);
-  ExpectAnotherRelaxationOfTheCut("time.alpha's step", bed, "four times longer", longer,
+  ExpectAnotherRelaxationOfTheCut("four times longer", longer, "time.alpha's step", bed,
                                   longer_step);
   EXPECT_LT(LargestMoveOnImport(longer, longer_step), 1e-5);
-  // The default (0) keys the bed as before the field.
+  // The default (0) and time.alpha, the same step, key the bed as before the field.
   Scene same = SmallBedScene();
-  same.bed.cut_alpha = 0.0;
+  same.bed.cut_alpha = same.time.alpha;
   EXPECT_EQ(BedHash(same), BedHash(SmallBedScene()));
+  // A step shorter than the impact's is refused (a tiny one would never end), naming the field.
+  Scene tiny = SmallBedScene();
+  tiny.bed.cut_alpha = 1e-300;
+  try {
+    ValidateScene(tiny);
+    ADD_FAILURE() << "bed.cut_alpha = 1e-300 was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("bed.cut_alpha"), std::string::npos) << e.what();
+  }
 }
 
 TEST(BedPreparation, ABeadSpinningInPlaceDoesNotKeepLocalSettlingGoing) {

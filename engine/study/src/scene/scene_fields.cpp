@@ -169,8 +169,8 @@ std::vector<SceneField> BedFields() {
        Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_beads)},
       {"bed.cut_alpha",
        "",
-       "time-step factor of the cut beds' relaxation: dt = cut_alpha * critical step of eq. 6; "
-       "0 = time.alpha",
+       "time-step factor of the relaxation of the bed cut to H: dt = cut_alpha * critical step of "
+       "eq. 6, from time.alpha to 1; 0 = time.alpha",
        Shapes::kCutBed,
        DEMBUF_FIELD(bed.cut_alpha),
        0.0,
@@ -178,8 +178,8 @@ std::vector<SceneField> BedFields() {
        false,
        false,
        {},
-       // (0, the default, leaves every cut bed's key as it was before the field)
-       +[](const Scene& s) { return s.bed.cut_alpha != 0.0; }},
+       // (0 and time.alpha, the same step, leave every cut bed's key as it was before the field)
+       +[](const Scene& s) { return s.bed.cut_alpha != 0.0 && s.bed.cut_alpha != s.time.alpha; }},
       {"bed.soft_settling", "",
        "settle the source bed with E divided by this, then restore E and relax; 0 = automatic "
        "(up to 100, within the pour's overlap limit), 1 = off",
@@ -744,6 +744,11 @@ void CheckBedPreparation(const Scene& scene) {
                " m high, above cylinder.height_m = " + FormatShort(scene.cylinder.height_m) +
                " (raise the wall, or lower bed.source_thickness_m or bed.thickness_m)");
   }
+  // A step shorter than the impact's only costs time, and a tiny one would never end.
+  if (scene.bed.cut_alpha > 0.0 && scene.bed.cut_alpha < scene.time.alpha)
+    fail("bed.cut_alpha", FormatShort(scene.bed.cut_alpha) +
+                              ": 0 (time.alpha's step) or from time.alpha = " +
+                              FormatShort(scene.time.alpha) + " to 1");
   if (scene.bed.soft_settling > 0.0 && scene.bed.soft_settling < 1.0)
     fail("bed.soft_settling",
          FormatShort(scene.bed.soft_settling) + ": 0 (automatic), 1 (off) or a factor above 1");
@@ -870,6 +875,10 @@ std::vector<std::string> SceneWarnings(const Scene& scene) {
     warn("time.alpha", FormatShort(scene.time.alpha) +
                            " is above 0.6: the E2 impact on a dense bed became unstable at 0.8 "
                            "(docs/accuracy-cost.md)");
+  if (scene.bed.cut_alpha > 0.8)
+    warn("bed.cut_alpha", FormatShort(scene.bed.cut_alpha) +
+                              " is above 0.8, the longest cut step the tests check "
+                              "(docs/accuracy-cost.md)");
   if (scene.gravity_m_s2 == 0.0 && scene.bed.thickness_m > 0.0 && scene.bed.import.empty())
     warn("gravity_m_s2",
          "0 with a bed to prepare: without weight the inserted beads never settle, and the "

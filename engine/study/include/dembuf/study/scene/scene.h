@@ -149,11 +149,11 @@ struct BedSpec {
   /// such a bed's, two to three times faster (docs/accuracy-cost.md). No effect without
   /// local_settling.
   bool quench_cut_beads = true;
-  /// Time-step factor of the cut beds' relaxation: dt = cut_alpha * critical step of eq. 6;
-  /// 0: time.alpha. A cut only unloads a bed at rest, and its contacts, pressed by the beads'
-  /// weight, are far softer than eq. 6's step assumes, so the relaxation stays stable at
-  /// steps the impact cannot take; its beds' C0 and surface against the default's are
-  /// measured in docs/accuracy-cost.md.
+  /// Time-step factor of the relaxation of the bed cut to H: dt = cut_alpha * critical step
+  /// of eq. 6, from time.alpha to 1; 0: time.alpha. A cut only unloads a bed at rest, and its
+  /// contacts, pressed by the beads' weight, are far softer than eq. 6's step assumes, so the
+  /// relaxation stays stable at steps the impact cannot take; its beds' C0 and surface against the
+  /// default's are measured in docs/accuracy-cost.md.
   double cut_alpha = 0.0;
   /// Settle the source bed with Young's modulus (beads and walls) divided by this: the time
   /// step grows by its square root. Then the true stiffness is restored and the bed relaxed to

@@ -36,9 +36,9 @@ bool QuenchesCutBeads(const Scene& scene) {
 }
 
 // The scene a bed's key is computed from: automatic values resolved (the source bed's
-// thickness, the softening factor, a friction-stage tolerance of 0) and a bed file named by
-// its content, so that scenes which make the same bed share it. (An imported bed has no
-// source bed: its source fields are keyed as given.)
+// thickness, the softening factor, a cut step or a friction-stage tolerance of 0) and a bed
+// file named by its content, so that scenes which make the same bed share it. (An imported bed has
+// no source bed: its source fields are keyed as given.)
 Scene ResolvedForKeys(const Scene& scene) {
   Scene resolved = scene;
   if (!scene.bed.import.empty()) {
@@ -47,6 +47,7 @@ Scene ResolvedForKeys(const Scene& scene) {
     resolved.bed.source_thickness_m = SourceThickness(scene);
     resolved.bed.soft_settling = SoftSettlingFactor(scene);
   }
+  if (resolved.bed.cut_alpha == 0.0) resolved.bed.cut_alpha = scene.time.alpha;
   if (resolved.bed.friction_settle_tolerance == 0.0)
     resolved.bed.friction_settle_tolerance = scene.bed.settle_tolerance;
   return resolved;

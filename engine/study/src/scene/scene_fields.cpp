@@ -167,19 +167,10 @@ std::vector<SceneField> BedFields() {
       {"bed.quench_cut_beads", "",
        "in a cut bed's local settling, stop each bead whose kinetic energy passes a maximum",
        Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_beads)},
-      {"bed.cut_alpha",
-       "",
+      {"bed.cut_alpha", "",
        "time-step factor of the relaxation of the bed cut to H: dt = cut_alpha * critical step of "
        "eq. 6, from time.alpha to 1; 0 = time.alpha",
-       Shapes::kCutBed,
-       DEMBUF_FIELD(bed.cut_alpha),
-       0.0,
-       1.0,
-       false,
-       false,
-       {},
-       // (0 and time.alpha, the same step, leave every cut bed's key as it was before the field)
-       +[](const Scene& s) { return s.bed.cut_alpha != 0.0 && s.bed.cut_alpha != s.time.alpha; }},
+       Shapes::kCutBed, DEMBUF_FIELD(bed.cut_alpha), 0.0, 1.0},
       {"bed.soft_settling", "",
        "settle the source bed with E divided by this, then restore E and relax; 0 = automatic "
        "(up to 100, within the pour's overlap limit), 1 = off",

@@ -37,8 +37,8 @@ bool QuenchesCutBeads(const Scene& scene) {
 
 // The scene a bed's key is computed from: automatic values resolved (the source bed's
 // thickness, the softening factor, a cut step or a friction-stage tolerance of 0) and a bed
-// file named by its content, so that scenes which make the same bed share it. (An imported bed has
-// no source bed: its source fields are keyed as given.)
+// file named by its content, so that scenes which make the same bed share it. (An imported
+// bed has no source bed: its source fields are keyed as given.)
 Scene ResolvedForKeys(const Scene& scene) {
   Scene resolved = scene;
   if (!scene.bed.import.empty()) {
@@ -47,7 +47,7 @@ Scene ResolvedForKeys(const Scene& scene) {
     resolved.bed.source_thickness_m = SourceThickness(scene);
     resolved.bed.soft_settling = SoftSettlingFactor(scene);
   }
-  if (resolved.bed.cut_alpha == 0.0) resolved.bed.cut_alpha = scene.time.alpha;
+  resolved.bed.cut_alpha = CutRelaxationAlpha(scene);
   if (resolved.bed.friction_settle_tolerance == 0.0)
     resolved.bed.friction_settle_tolerance = scene.bed.settle_tolerance;
   return resolved;
@@ -625,7 +625,7 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
                        const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();
   Scene relaxing = scene;  // the scene, with the relaxation's own step
-  if (scene.bed.cut_alpha > 0.0) relaxing.time.alpha = scene.bed.cut_alpha;
+  relaxing.time.alpha = CutRelaxationAlpha(scene);
   dem::Simulation sim = BedSimulation(relaxing, &source, source.beads, scene.bed.prep_friction);
   const std::vector<bool> keep =
       CutMask(source.beads, scene.cylinder.radius_m, scene.bed.thickness_m, scene.bed.cut);

@@ -277,8 +277,7 @@ ResourceEstimate EstimateResources(const Scene& scene) {
       s.beads = cut_beads;
       e.impact_beads = cut_beads;
       // The cut relaxes with its own step; steps_max keeps the impact's, an upper bound.
-      if (stage.stage == "cut" && scene.bed.cut_alpha > 0.0)
-        s.step_factor = scene.bed.cut_alpha / scene.time.alpha;
+      if (stage.stage == "cut") s.step_factor = CutRelaxationAlpha(scene) / scene.time.alpha;
     }
     if (stage.stage == "friction") {
       s.steps_max = settle_steps(scene.bed.friction_ramp_s + max_settle_s);

@@ -105,6 +105,10 @@ double SoftSettlingFactor(const Scene& scene) {
   return softening >= 2.0 ? softening : 1.0;
 }
 
+double CutRelaxationAlpha(const Scene& scene) {
+  return scene.bed.cut_alpha > 0.0 ? scene.bed.cut_alpha : scene.time.alpha;
+}
+
 bool NeedsFrictionStage(const Scene& scene) {
   for (int a = 0; a < SpeciesCount(scene); ++a)
     for (int b = a; b < SpeciesCount(scene); ++b)

@@ -51,6 +51,8 @@ double SoftPourOverlap(const Scene& scene, double softening);
 /// largest whole number up to kAutoSoftening whose pour stays within kMaxSoftOverlap; 1 (the
 /// true stiffness) where that is below 2, and for a scene without a bed or with an imported one.
 double SoftSettlingFactor(const Scene& scene);
+/// The time-step factor the bed cut to H relaxes with: bed.cut_alpha, or time.alpha for 0.
+double CutRelaxationAlpha(const Scene& scene);
 
 /// Whether the bed needs the friction stage: mu_pp differs from bed.prep_friction.
 bool NeedsFrictionStage(const Scene& scene);

@@ -386,6 +386,10 @@ void SlurmExecutor::SubmitQueued() {
       // A stored scene this daemon cannot run (one written by another version, a bed file
       // gone): the job fails with the reason, and the queue goes on past it.
       FailUnrunnable(job, e.what());
+    } catch (const SqliteError&) {
+      throw;  // the daemon's own store: no job's fault; the next pass tries again
+    } catch (const StoreError&) {
+      throw;
     } catch (const slurm::SlurmError& e) {
       const std::string what = e.what();
       if (slurm::SlurmUnreachable(what)) {
@@ -401,6 +405,11 @@ void SlurmExecutor::SubmitQueued() {
       m_log->error("job {}{}: Slurm refused it: {}", job.id,
                    jobs.size() > 1 ? " and " + std::to_string(jobs.size() - 1) + " more" : "",
                    what);
+    } catch (const std::exception& e) {
+      // Its folder or files cannot be made (something else lies where they would go, a full
+      // disk): the jobs fail saying why, and the queue goes on (such a job held up every later
+      // one, tried again at every look).
+      for (const JobRecord& with : jobs) FailUnrunnable(with, e.what());
     }
   }
 }
@@ -542,6 +551,8 @@ std::vector<std::int64_t> SlurmExecutor::SubmitArray(const std::vector<JobRecord
   // Each task's folder is its job's; the array's words name it through kTaskJobId.
   const std::string task_folder =
       (m_jobs.path() / (m_daemon_id + "-")).string() + std::string(slurm::kTaskJobId);
+  // Made first: if it cannot be, every task fails with it (SubmitQueued), none alone before.
+  const OwnedFolder folder = ArrayFolder(base, true);
   slurm::Submission array;
   std::set<std::int64_t> after;
   std::vector<std::int64_t> ids;
@@ -556,12 +567,19 @@ std::vector<std::int64_t> SlurmExecutor::SubmitArray(const std::vector<JobRecord
     } catch (const SceneError& e) {
       FailUnrunnable(job, e.what());  // this job, not its array
       continue;
+    } catch (const SqliteError&) {
+      throw;  // the daemon's own store (SubmitQueued)
+    } catch (const StoreError&) {
+      throw;
     } catch (const slurm::SlurmError& e) {
       if (slurm::SlurmUnreachable(e.what())) throw;
       // The cluster refused this job's bed (memory, time): this job fails, not its array.
       m_store.FinishJob(job.id, JobState::kFailed,
                         std::string("Slurm refused the job of its bed: ") + e.what(), {});
       m_log->error("job {}: Slurm refused the job of its bed: {}", job.id, e.what());
+      continue;
+    } catch (const std::exception& e) {
+      FailUnrunnable(job, e.what());  // its folder or files: this job, not its array
       continue;
     }
     if (bed != 0) after.insert(bed);
@@ -576,7 +594,6 @@ std::vector<std::int64_t> SlurmExecutor::SubmitArray(const std::vector<JobRecord
   }
   if (ids.empty()) return ids;
   m_store.SetResultNonce(ids, nonce);
-  const OwnedFolder folder = ArrayFolder(base, true);
   array.folder = folder.path().string();
   array.log = (folder.path() / "task-%a.log").string();
   array.array_base = base;

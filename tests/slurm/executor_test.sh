@@ -13,8 +13,8 @@
 #   7. a 12-point parameter table goes as one job array of at most 4 tasks at once, its
 #      comment and account naming its user, and gives the local sweep's long table, byte for
 #      byte;
-#   8. a stored job whose scene this daemon cannot read fails, saying why, and the jobs after
-#      it still run.
+#   8. a stored job whose scene this daemon cannot read, or whose folder it cannot make, fails,
+#      saying why, and the jobs after it still run.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -250,15 +250,16 @@ cmp "$work/array-local/sweep_long.csv" "$work/array-fetched/sweep_long.csv" ||
 echo "12 points: one job array (at most 4 at once, dembuf_user=second, account proj-b), the local long table"
 
 echo "== 8. a stored job this daemon cannot run fails alone; the queue goes on ($SECONDS s)"
-# Two queued jobs as a daemon of another version left them: job 13's scene names a field this
-# one no longer reads (bed.quench_cut_column = true, withdrawn), job 14's is fine. Job 13
-# used to stop every later job from reaching Slurm.
+# Three queued jobs as a daemon of another version left them: job 13's scene names a field
+# this one no longer reads (bed.quench_cut_column = true, withdrawn), job 14's folder cannot
+# be made (a file lies where it would go), job 15's is fine. Each of the first two used to
+# stop every later job from reaching Slurm, the second one retried at every look.
 python3 - "$work/array.db" <<'PY'
 import sqlite3, sys
 db = sqlite3.connect(sys.argv[1])
 db.row_factory = sqlite3.Row
 row = dict(db.execute("SELECT * FROM jobs WHERE id = 1").fetchone())
-for new_id in (13, 14):
+for new_id in (13, 14, 15):
     job = dict(row, id=new_id, sweep_id=None, sweep_index=0, sweep_values_json="[]",
                state="queued", error="",
                slurm_id=0, slurm_task=-1, result_nonce="", started_at="", finished_at="",
@@ -270,11 +271,16 @@ for new_id in (13, 14):
     db.execute(f"INSERT INTO jobs ({names}) VALUES ({', '.join('?' * len(job))})", list(job.values()))
 db.commit()
 PY
+echo "not a folder" > "$work/array/jobs/$array_daemon-14"
 start_daemon "$work/array.db" "$work/array.log" --config "$work/array.toml"
-wait_state 14 done 120
+wait_state 15 done 120
 wait_state 13 failed 10
 said=$("$dembuf" status 13 2>&1 || true)
 [[ "$said" == *"withdrawn"* ]] || fail "job 13 does not say why: $said"
+wait_state 14 failed 10
+said=$("$dembuf" status 14 2>&1 || true)
+[[ "$said" == *"$array_daemon-14"* ]] || fail "job 14 does not name its folder: $said"
+[ "$(cat "$work/array/jobs/$array_daemon-14")" = "not a folder" ] || fail "job 14's path was changed"
 stop_daemon
-echo "job 13 failed, naming the withdrawn field; job 14 ran"
+echo "job 13 failed, naming the withdrawn field; job 14 failed, naming its folder; job 15 ran"
 echo "PASS ($SECONDS s)"

@@ -207,8 +207,7 @@ TEST(ObliqueImpact, NewtonsThirdLawAndAngularMomentumForBeadPair) {
     dem::Vec3 l = dem::Vec3::Zero();
     const auto& b = s.beads();
     for (std::size_t i = 0; i < 2; ++i)
-      l +=
-          b.mass[i] * b.position[i].cross(b.velocity[i]) + b.angular_velocity[i] / b.InvInertia(i);
+      l += b.mass[i] * b.position[i].cross(b.velocity[i]) + b.angular_velocity[i] / b.InvInertia(i);
     return l;
   };
   const dem::Vec3 p0 = momentum(sim), l0 = angular_momentum(sim);
@@ -261,7 +260,7 @@ TEST(HeldBead, TwoHeldBeadsAreNotAPairAndChangeNothingOfTheFreeOnes) {
   auto world = [&](bool with_a) {
     dem::ParticleState beads;
     if (with_a) beads.Add(dem::Vec3(-2.0 * kRadius + overlap, 0, 1), kRadius, kDensity);
-    beads.Add(dem::Vec3(0, 0, 1), kRadius, kDensity);  // B, held, touching A
+    beads.Add(dem::Vec3(0, 0, 1), kRadius, kDensity);                        // B, held, touching A
     beads.Add(dem::Vec3(2.0 * kRadius - overlap, 0, 1), kRadius, kDensity);  // C, free
     for (std::size_t i = 0; i + 1 < beads.size(); ++i) beads.inv_mass[i] = 0.0;
     beads.velocity.back() = dem::Vec3(-0.1, 0, 0);

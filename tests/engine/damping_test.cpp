@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "dembuf/core/damping.h"
 
@@ -30,6 +31,22 @@ TEST(DampingNumber, InverseRecoversTheRestitution) {
   EXPECT_EQ(dem::DampingNumberForRestitution(1.0), 0.0);
   EXPECT_THROW(dem::DampingNumberForRestitution(0.0), std::invalid_argument);
   EXPECT_THROW(dem::DampingNumberForRestitution(1.5), std::invalid_argument);
+}
+
+TEST(DampingNumber, ARememberedRestitutionIsItsOwnDampingNumbers) {
+  // The values are remembered by g: asked again, in another order, each g gets its own value
+  // back, and the values still fall with g (a mix-up of keys would break either).
+  std::vector<double> gs, first;
+  for (double g = 0.031; g < 3.0; g *= 1.7) {
+    gs.push_back(g);
+    first.push_back(dem::RestitutionOfDampingNumber(g));
+  }
+  for (std::size_t k = gs.size(); k-- > 0;) {
+    EXPECT_EQ(dem::RestitutionOfDampingNumber(gs[k]), first[k]) << "g = " << gs[k];
+    if (k > 0) {
+      EXPECT_LT(first[k], first[k - 1]);
+    }
+  }
 }
 
 TEST(DampingNumber, WeakDampingLimitIsLinearInG) {

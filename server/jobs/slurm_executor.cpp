@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -29,6 +30,8 @@ namespace {
 
 // The start of a queued job's note while Slurm cannot be reached (cleared once submitted).
 const std::string kWaitingForSlurm = "waiting: cannot reach Slurm (";
+// The same while its folder or files cannot be made for now (a full disk).
+const std::string kWaitingToSubmit = "waiting: cannot be submitted for now (";
 
 // The name a bed file sent with a job has in its folder on the nodes: one the daemon makes,
 // whatever its user called it (the format is told from the file itself).
@@ -379,7 +382,8 @@ void SlurmExecutor::SubmitQueued() {
       else
         sent = SubmitArray(jobs);
       for (const JobRecord& with : jobs)
-        if (with.error.rfind(kWaitingForSlurm, 0) == 0 &&
+        if ((with.error.rfind(kWaitingForSlurm, 0) == 0 ||
+             with.error.rfind(kWaitingToSubmit, 0) == 0) &&
             std::find(sent.begin(), sent.end(), with.id) != sent.end())
           m_store.SetState(with.id, JobState::kQueued);
     } catch (const SceneError& e) {
@@ -405,13 +409,43 @@ void SlurmExecutor::SubmitQueued() {
       m_log->error("job {}{}: Slurm refused it: {}", job.id,
                    jobs.size() > 1 ? " and " + std::to_string(jobs.size() - 1) + " more" : "",
                    what);
+    } catch (const OwnershipError& e) {
+      // Its folder is not the daemon's to use (a file or a link where it would go, another
+      // account's folder): the jobs fail saying why. Anything else of the system's (a full
+      // disk, no file left to open) passes: they wait (below).
+      if (NotOursToUse(e))
+        for (const JobRecord& with : jobs) FailUnrunnable(with, e.what());
+      else
+        NoteNotSubmitted(jobs, e.what());
     } catch (const std::exception& e) {
-      // Its folder or files cannot be made (something else lies where they would go, a full
-      // disk): the jobs fail saying why, and the queue goes on (such a job held up every later
-      // one, tried again at every look).
-      for (const JobRecord& with : jobs) FailUnrunnable(with, e.what());
+      NoteNotSubmitted(jobs, e.what());
     }
   }
+}
+
+bool SlurmExecutor::NotOursToUse(const OwnershipError& e) {
+  // Allowed: the daemon's own refusals (a link, another account's or an open folder) and a
+  // path taken by something that is not a folder.
+  const int error = e.system_error();
+  return error == 0 || error == ENOTDIR || error == ELOOP || error == EEXIST;
+}
+
+void SlurmExecutor::NoteNotSubmitted(const std::vector<JobRecord>& jobs, std::string what) {
+  // The daemon's machine, not the jobs (a full disk, no file descriptor left): they wait,
+  // saying why, and the next poll tries them again; the jobs after them go on meanwhile (one
+  // such job used to hold up every later one). Logged when the reason changes.
+  what = what.substr(0, 400);
+  const std::string note = kWaitingToSubmit + what + ")";
+  bool changed = false;
+  for (const JobRecord& with : jobs) {
+    const std::optional<JobRecord> now = m_store.GetJob(with.id);
+    if (!now || !Unsubmitted(*now) || now->error == note) continue;  // failed, or noted
+    m_store.SetState(with.id, JobState::kQueued, note);
+    changed = true;
+  }
+  if (changed)
+    m_log->error("job {}: cannot be submitted for now; trying again every {} s: {}",
+                 jobs.front().id, m_options.slurm.poll_s, what);
 }
 
 bool SlurmExecutor::NoteWaitingForSlurm(std::string what) {
@@ -578,8 +612,9 @@ std::vector<std::int64_t> SlurmExecutor::SubmitArray(const std::vector<JobRecord
                         std::string("Slurm refused the job of its bed: ") + e.what(), {});
       m_log->error("job {}: Slurm refused the job of its bed: {}", job.id, e.what());
       continue;
-    } catch (const std::exception& e) {
-      FailUnrunnable(job, e.what());  // its folder or files: this job, not its array
+    } catch (const OwnershipError& e) {
+      if (!NotOursToUse(e)) throw;    // the system's trouble: the array waits (SubmitQueued)
+      FailUnrunnable(job, e.what());  // its folder: this job, not its array
       continue;
     }
     if (bed != 0) after.insert(bed);

@@ -93,6 +93,12 @@ class SlurmExecutor final : public Executor {
   /// Notes on every queued job not yet in Slurm that Slurm cannot be reached, and why;
   /// whether any job's note changed.
   bool NoteWaitingForSlurm(std::string what);
+  /// Whether a folder the daemon could not make or open is one it may not use (a file, a
+  /// link, another account's folder): its jobs fail; other errors of the system pass.
+  static bool NotOursToUse(const OwnershipError& e);
+  /// Notes on `jobs` that they could not be submitted for now, and why (a full disk): they
+  /// stay queued for the next poll, and the queue goes on past them.
+  void NoteNotSubmitted(const std::vector<JobRecord>& jobs, std::string what);
   void Submit(const JobRecord& job);
   /// Submits a sweep's jobs (ids rising from jobs[0]'s) as one job array; returns the ids
   /// submitted (a job whose scene cannot run, or whose bed Slurm refused, fails alone).

@@ -33,7 +33,7 @@ TEST(DampingNumber, InverseRecoversTheRestitution) {
   EXPECT_THROW(dem::DampingNumberForRestitution(1.5), std::invalid_argument);
 }
 
-TEST(DampingNumber, ARememberedRestitutionIsItsOwnDampingNumbers) {
+TEST(DampingNumber, RememberedRestitutionIsReturnedForItsDampingNumber) {
   // The values are remembered by g: asked again, in another order, each g gets its own value
   // back, and the values still fall with g (a mix-up of keys would break either).
   std::vector<double> gs, first;

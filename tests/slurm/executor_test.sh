@@ -13,8 +13,9 @@
 #   7. a 12-point parameter table goes as one job array of at most 4 tasks at once, its
 #      comment and account naming its user, and gives the local sweep's long table, byte for
 #      byte;
-#   8. a stored job whose scene this daemon cannot read, or whose folder it cannot make, fails,
-#      saying why, and the jobs after it still run.
+#   8. a stored job whose scene this daemon cannot read, or whose folder it may not use, fails,
+#      saying why, and the jobs after it still run, alone or in an array;
+#   9. a job whose folder cannot be made on a full disk waits, saying why, and runs later.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -24,7 +25,7 @@ export SLURM_CONF=$cluster/slurm.conf
 export DEMBUF_SLURM_PORT=$((20000 + RANDOM % 20000))
 trap 'rc=$?; for p in $(jobs -p) ${daemon_pid:-}; do kill -9 "$p" 2> /dev/null || true; done
       bash "$root/deploy/slurm/down.sh" "$cluster" --purge > /dev/null 2>&1 || true
-      rm -rf "$work"; exit $rc' EXIT
+      umount "$work/full" 2> /dev/null || true; rm -rf "$work"; exit $rc' EXIT
 bash "$root/deploy/slurm/up.sh" "$cluster" > /dev/null
 
 # A daemon with the Slurm executor: slurm_config FILE WORK_DIR [more [slurm] lines].
@@ -250,20 +251,28 @@ cmp "$work/array-local/sweep_long.csv" "$work/array-fetched/sweep_long.csv" ||
 echo "12 points: one job array (at most 4 at once, dembuf_user=second, account proj-b), the local long table"
 
 echo "== 8. a stored job this daemon cannot run fails alone; the queue goes on ($SECONDS s)"
-# Three queued jobs as a daemon of another version left them: job 13's scene names a field
-# this one no longer reads (bed.quench_cut_column = true, withdrawn), job 14's folder cannot
-# be made (a file lies where it would go), job 15's is fine. Each of the first two used to
-# stop every later job from reaching Slurm, the second one retried at every look.
+# Queued jobs copied from job 1 (of part 7's sweep) into the stopped daemon's database: job
+# 13's scene names a field this daemon no longer reads (bed.quench_cut_column = true,
+# withdrawn, as a daemon of another version may have left it); job 14's folder,
+# jobs/<daemon id>-14, cannot be made, because a file lies there; job 15 is fine. Jobs 16
+# and 17 stay in the sweep, so that they go to Slurm as one array: 16's folder is blocked
+# the same way, 17 is fine. Each blocked job used to stop every later one from reaching
+# Slurm, and was tried again at every poll. The daemon must also leave the file alone: it
+# did not make it.
 python3 - "$work/array.db" <<'PY'
 import sqlite3, sys
 db = sqlite3.connect(sys.argv[1])
 db.row_factory = sqlite3.Row
 row = dict(db.execute("SELECT * FROM jobs WHERE id = 1").fetchone())
-for new_id in (13, 14, 15):
-    job = dict(row, id=new_id, sweep_id=None, sweep_index=0, sweep_values_json="[]",
-               state="queued", error="",
+assert row["sweep_id"]
+for new_id in (13, 14, 15, 16, 17):
+    job = dict(row, id=new_id, state="queued", error="",
                slurm_id=0, slurm_task=-1, result_nonce="", started_at="", finished_at="",
                attempts=0, crashes=0, reused_from=0, peak_plate_force_N=None, P_N=None)
+    if new_id <= 15:
+        job.update(sweep_id=None, sweep_index=0, sweep_values_json="[]")
+    else:
+        job.update(sweep_index=100 + new_id)
     if new_id == 13:
         assert "[bed]\n" in job["scene_toml"]
         job["scene_toml"] = job["scene_toml"].replace("[bed]\n", "[bed]\nquench_cut_column = true\n", 1)
@@ -271,16 +280,44 @@ for new_id in (13, 14, 15):
     db.execute(f"INSERT INTO jobs ({names}) VALUES ({', '.join('?' * len(job))})", list(job.values()))
 db.commit()
 PY
-echo "not a folder" > "$work/array/jobs/$array_daemon-14"
+for blocked in 14 16; do echo "not a folder" > "$work/array/jobs/$array_daemon-$blocked"; done
 start_daemon "$work/array.db" "$work/array.log" --config "$work/array.toml"
 wait_state 15 done 120
+wait_state 17 done 120
 wait_state 13 failed 10
 said=$("$dembuf" status 13 2>&1 || true)
 [[ "$said" == *"withdrawn"* ]] || fail "job 13 does not say why: $said"
-wait_state 14 failed 10
-said=$("$dembuf" status 14 2>&1 || true)
-[[ "$said" == *"$array_daemon-14"* ]] || fail "job 14 does not name its folder: $said"
-[ "$(cat "$work/array/jobs/$array_daemon-14")" = "not a folder" ] || fail "job 14's path was changed"
+for blocked in 14 16; do
+  wait_state $blocked failed 10
+  said=$("$dembuf" status $blocked 2>&1 || true)
+  [[ "$said" == *"$array_daemon-$blocked"* ]] || fail "job $blocked does not name its folder: $said"
+  [ "$(cat "$work/array/jobs/$array_daemon-$blocked")" = "not a folder" ] ||
+    fail "job $blocked's path was changed"
+done
+"$dembuf" status 17 | grep -q "^Slurm job [0-9]*_" || fail "job 17 did not go as an array task: $("$dembuf" status 17)"
 stop_daemon
-echo "job 13 failed, naming the withdrawn field; job 14 failed, naming its folder; job 15 ran"
+echo "job 13 failed, naming the withdrawn field; jobs 14 and 16 (alone and in an array) failed, naming their folders; 15 and 17 ran"
+echo "== 9. a full disk: a job waits, saying why, and runs once there is room ($SECONDS s)"
+# The daemon's work folder on a tmpfs of few inodes (mounting needs root, as the cluster does),
+# filled once the daemon has made its folders: the job's folder cannot be made (ENOSPC). That
+# is the machine's trouble, not the job's: it must wait, not fail.
+mkdir "$work/full"
+mount -t tmpfs -o size=8m,nr_inodes=64,mode=0700 tmpfs "$work/full" || fail "cannot mount a tmpfs"
+slurm_config "$work/full.toml" "$work/full/slurm"
+start_daemon "$work/full.db" "$work/full.log" --config "$work/full.toml"
+for k in $(seq 64); do : 2> /dev/null > "$work/full/filler-$k" || break; done
+waiting=$("$dembuf" submit "${bare[@]}" | grep -o '[0-9]*' | head -1)
+for _ in $(seq 100); do
+  said=$("$dembuf" status "$waiting" 2>&1 || true)
+  [[ "$said" == *"cannot be submitted for now"* ]] && break
+  sleep 0.1
+done
+[[ "$said" == *"No space left on device"* ]] || fail "the job on a full disk does not say why: $said"
+[ "$(job_state "$waiting")" = queued ] || fail "the job on a full disk is not queued: $said"
+rm -f "$work/full"/filler-*
+wait_state "$waiting" done 60
+[[ "$("$dembuf" status "$waiting")" != *"cannot be submitted"* ]] || fail "the note stayed after the job ran"
+stop_daemon
+umount "$work/full"
+echo "a full disk: the job waited, saying why, and ran once there was room"
 echo "PASS ($SECONDS s)"

@@ -295,6 +295,9 @@ std::string Client::Run(const std::vector<std::string>& args, bool check,
   if (result.timed_out)
     throw SlurmError(args[0] + " did not answer in " +
                      std::to_string(m_settings.command_timeout_s) + " s");
+  if (result.overflowed)
+    throw SlurmError(args[0] + " did not answer: it printed more than " +
+                     std::to_string(kMaxProgramOutput >> 20) + " MiB");
   if (check && result.exit_code != 0)
     throw SlurmError(args[0] + " failed (exit " + std::to_string(result.exit_code) +
                      "): " + result.output.substr(0, 2000));
@@ -330,9 +333,11 @@ std::map<JobKey, JobStatus> Client::Query(const std::vector<std::int64_t>& ids) 
       RunProgram({"squeue", "-h", "-r", "-t", "all", "-j", list, "-o", kSqueueFormat},
                  std::chrono::seconds(m_settings.command_timeout_s));
   // Slurm that cannot be reached says nothing of the jobs: they are not taken as gone.
-  if (squeue.exit_code == 127 || squeue.timed_out ||
+  if (squeue.exit_code == 127 || squeue.timed_out || squeue.overflowed ||
       (squeue.exit_code != 0 && SaysUnreachable(squeue.output)))
-    throw SlurmError("squeue: " + (squeue.timed_out ? std::string("no answer") : squeue.output));
+    throw SlurmError("squeue: " +
+                     (squeue.timed_out || squeue.overflowed ? std::string("no answer")
+                                                            : squeue.output.substr(0, 2000)));
   // (squeue refuses the whole list when one id is unknown to it: scontrol asks one by one.)
   std::set<std::int64_t> listed;
   for (const JobStatus& job : ParseSqueue(squeue.output))
@@ -346,6 +351,8 @@ std::map<JobKey, JobStatus> Client::Query(const std::vector<std::int64_t>& ids) 
     const ProgramResult scontrol =
         RunProgram({"scontrol", "show", "job", "-o", std::to_string(id)},
                    std::chrono::seconds(m_settings.command_timeout_s), {"SLURM_BITSTR_LEN=0"});
+    if (scontrol.timed_out || scontrol.overflowed)
+      throw SlurmError("scontrol show job " + std::to_string(id) + ": no answer");
     if (scontrol.exit_code != 0) {
       // Only Slurm's own word that it does not know the job makes it gone.
       if (scontrol.output.find("Invalid job id") != std::string::npos) continue;

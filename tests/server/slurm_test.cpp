@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -281,6 +282,18 @@ TEST(Slurm, ACommandThatHangsIsKilledAtItsTimeout) {
   EXPECT_TRUE(sleeper.timed_out);
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
   EXPECT_EQ(RunProgram({"no-such-program-here"}).exit_code, 127);
+}
+
+TEST(Slurm, ACommandThatPrintsWithoutEndIsKilledAtTheOutputBound) {
+  // A cluster's command gone wrong (or hostile) must not take the daemon's memory: `yes`
+  // prints without end, and is killed once its output would pass the bound.
+  const ProgramResult endless = RunProgram({"yes", "a line a cluster might print"});
+  EXPECT_TRUE(endless.overflowed);
+  EXPECT_FALSE(endless.timed_out);
+  EXPECT_LE(endless.output.size(), kMaxProgramOutput);
+  EXPECT_GT(endless.output.size(), kMaxProgramOutput / 2);
+  EXPECT_EQ(endless.exit_code, 128 + SIGKILL);
+  EXPECT_FALSE(RunProgram({"echo", "short"}).overflowed);
 }
 
 TEST(SlurmConfig, TheSlurmTableIsReadAndChecked) {

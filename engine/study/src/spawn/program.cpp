@@ -67,6 +67,11 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
     const ssize_t n = read(pipe_fds[0], buf, sizeof buf);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) break;
+    if (result.output.size() + static_cast<std::size_t>(n) > kMaxProgramOutput) {
+      kill(pid, SIGKILL);
+      result.overflowed = true;
+      break;
+    }
     result.output.append(buf, static_cast<std::size_t>(n));
   }
   close(pipe_fds[0]);

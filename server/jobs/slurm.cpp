@@ -335,9 +335,9 @@ std::map<JobKey, JobStatus> Client::Query(const std::vector<std::int64_t>& ids) 
   // Slurm that cannot be reached says nothing of the jobs: they are not taken as gone.
   if (squeue.exit_code == 127 || squeue.timed_out || squeue.overflowed ||
       (squeue.exit_code != 0 && SaysUnreachable(squeue.output)))
-    throw SlurmError("squeue: " +
-                     (squeue.timed_out || squeue.overflowed ? std::string("no answer")
-                                                            : squeue.output.substr(0, 2000)));
+    throw SlurmError("squeue: " + (squeue.timed_out || squeue.overflowed
+                                       ? std::string("no answer")
+                                       : squeue.output.substr(0, 2000)));
   // (squeue refuses the whole list when one id is unknown to it: scontrol asks one by one.)
   std::set<std::int64_t> listed;
   for (const JobStatus& job : ParseSqueue(squeue.output))

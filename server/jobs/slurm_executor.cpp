@@ -170,23 +170,30 @@ void SlurmExecutor::Adopt() {
       m_log->info("job {}: taken up again in Slurm job {}", job.id, job.slurm_id);
       continue;
     }
-    // Submitted by a daemon that died before it could store the Slurm id? Its own Slurm job,
-    // or a task of an array named by its first job (task i of array b runs job b + i).
-    const auto found = std::find_if(in_slurm.begin(), in_slurm.end(), [&](const auto& s) {
-      return s.task < 0 ? s.name == JobName(job.id) : s.name == ArrayName(job.id - s.task);
-    });
-    if (found != in_slurm.end()) {
-      const std::int64_t base = found->task < 0 ? -1 : job.id - found->task;
-      m_store.SetSlurmId({job.id}, found->id, base);
-      m_log->warn("job {}: found in Slurm as job {}; taken up, not submitted again", job.id,
-                  found->id);
-    } else if (job.state != JobState::kQueued) {
+    // Submitted by a daemon that died before it could store the Slurm id?
+    if (TakeUpFound(job, in_slurm, false)) continue;
+    if (job.state != JobState::kQueued) {
       // Left running by the thread executor before a change of executor.
       const std::string note = "interrupted: the daemon stopped while this job ran; it runs again";
       m_store.SetState(job.id, JobState::kQueued, note);
       m_store.LogEvent(job.id, note);
     }
   }
+}
+
+bool SlurmExecutor::TakeUpFound(const JobRecord& job, const std::vector<slurm::JobStatus>& in_slurm,
+                                bool live_only) {
+  // Its own Slurm job, or a task of an array named by its first job (task i of array b runs
+  // job b + i).
+  const auto found = std::find_if(in_slurm.begin(), in_slurm.end(), [&](const auto& s) {
+    if (live_only && slurm::IsFinalState(s.state)) return false;
+    return s.task < 0 ? s.name == JobName(job.id) : s.name == ArrayName(job.id - s.task);
+  });
+  if (found == in_slurm.end()) return false;
+  const std::int64_t base = found->task < 0 ? -1 : job.id - found->task;
+  m_store.SetSlurmId({job.id}, found->id, base);
+  m_log->warn("job {}: found in Slurm as job {}; taken up, not submitted again", job.id, found->id);
+  return true;
 }
 
 void SlurmExecutor::Admit(std::size_t count, const std::function<std::vector<JobRecord>()>& add) {
@@ -365,12 +372,31 @@ std::vector<JobRecord> SlurmExecutor::SubmittedWith(
 
 void SlurmExecutor::SubmitQueued() {
   const std::vector<JobRecord> unfinished = m_store.UnfinishedJobs();
-  std::set<std::int64_t> submitted;  // in an array, this pass
+  std::set<std::int64_t> submitted;                       // in an array, this pass
+  std::optional<std::vector<slurm::JobStatus>> in_slurm;  // asked once a pass, if needed
   for (const JobRecord& job : InTurns(unfinished)) {
     if (!Unsubmitted(job) || submitted.count(job.id)) continue;
+    if (const auto wait = m_not_submitted.find(job.id);
+        wait != m_not_submitted.end() && std::chrono::steady_clock::now() < wait->second.next)
+      continue;  // waiting for room (NoteNotSubmitted)
     {
       std::lock_guard lock(m_mutex);
       if (m_stopping) return;
+    }
+    // Tried before (its nonce is set just before sbatch): an sbatch that queued it but timed
+    // out or printed no id it could be known by counts as unreachable, and submitting it
+    // again queued a second run of it into the same folder at every poll. Found by name, it
+    // is taken up instead.
+    if (!job.result_nonce.empty()) {
+      try {
+        if (!in_slurm) in_slurm = m_slurm.FindByNamePrefix("dembuf-" + m_daemon_id + "-");
+      } catch (const slurm::SlurmError& e) {
+        if (NoteWaitingForSlurm(e.what()))
+          m_log->error("job {}: cannot reach Slurm; trying again every {} s: {}", job.id,
+                       m_options.slurm.poll_s, e.what());
+        return;
+      }
+      if (TakeUpFound(job, *in_slurm, true)) continue;
     }
     // The rest of its sweep with it (jobs in turns: the sweep's first unsubmitted job).
     const std::vector<JobRecord> jobs = SubmittedWith(job, unfinished);
@@ -381,11 +407,13 @@ void SlurmExecutor::SubmitQueued() {
         Submit(job);
       else
         sent = SubmitArray(jobs);
-      for (const JobRecord& with : jobs)
+      for (const JobRecord& with : jobs) {
+        m_not_submitted.erase(with.id);
         if ((with.error.rfind(kWaitingForSlurm, 0) == 0 ||
              with.error.rfind(kWaitingToSubmit, 0) == 0) &&
             std::find(sent.begin(), sent.end(), with.id) != sent.end())
           m_store.SetState(with.id, JobState::kQueued);
+      }
     } catch (const SceneError& e) {
       // A stored scene this daemon cannot run (one written by another version, a bed file
       // gone): the job fails with the reason, and the queue goes on past it.
@@ -427,7 +455,7 @@ bool SlurmExecutor::NotOursToUse(const OwnershipError& e) {
   // Allowed: the daemon's own refusals (a link, another account's or an open folder) and a
   // path taken by something that is not a folder.
   const int error = e.system_error();
-  return error == 0 || error == ENOTDIR || error == ELOOP || error == EEXIST;
+  return error == 0 || error == ENOTDIR || error == ELOOP;
 }
 
 void SlurmExecutor::NoteNotSubmitted(const std::vector<JobRecord>& jobs, std::string what) {
@@ -438,14 +466,20 @@ void SlurmExecutor::NoteNotSubmitted(const std::vector<JobRecord>& jobs, std::st
   const std::string note = kWaitingToSubmit + what + ")";
   bool changed = false;
   for (const JobRecord& with : jobs) {
+    // Tried again later each time, up to every 5 minutes: each try may write a large bed
+    // file into a disk that is full.
+    NotSubmitted& wait = m_not_submitted[with.id];
+    wait.wait_s = std::min(std::max(2.0 * wait.wait_s, m_options.slurm.poll_s), 300.0);
+    wait.next = std::chrono::steady_clock::now() +
+                std::chrono::milliseconds(static_cast<std::int64_t>(wait.wait_s * 1000));
     const std::optional<JobRecord> now = m_store.GetJob(with.id);
     if (!now || !Unsubmitted(*now) || now->error == note) continue;  // failed, or noted
     m_store.SetState(with.id, JobState::kQueued, note);
     changed = true;
   }
   if (changed)
-    m_log->error("job {}: cannot be submitted for now; trying again every {} s: {}",
-                 jobs.front().id, m_options.slurm.poll_s, what);
+    m_log->error("job {}: cannot be submitted for now; trying again, less often each time: {}",
+                 jobs.front().id, what);
 }
 
 bool SlurmExecutor::NoteWaitingForSlurm(std::string what) {
@@ -454,8 +488,8 @@ bool SlurmExecutor::NoteWaitingForSlurm(std::string what) {
   const std::string note = kWaitingForSlurm + what + ")";
   bool changed = false;
   for (const JobRecord& job : m_store.UnfinishedJobs())
-    if (job.slurm_id == 0 && job.state == JobState::kQueued && !job.cancel_requested &&
-        job.error != note) {
+    if (Unsubmitted(job) && job.error != note &&
+        job.error.rfind(kWaitingToSubmit, 0) != 0) {  // (that one's own reason first)
       m_store.SetState(job.id, JobState::kQueued, note);
       changed = true;
     }

@@ -31,6 +31,7 @@
 
 #include <spdlog/logger.h>
 
+#include <chrono>
 #include <condition_variable>
 #include <filesystem>
 #include <map>
@@ -84,12 +85,21 @@ class SlurmExecutor final : public Executor {
     std::shared_ptr<LiveJob> live;
     JobBounds bounds;
   };
+  /// A job that could not be submitted for now (NoteNotSubmitted): when to try it again.
+  struct NotSubmitted {
+    std::chrono::steady_clock::time_point next;
+    double wait_s = 0.0;  // doubles at each failure, from slurm.poll_s up to 300 s
+  };
 
   void Loop();
   void Tick();
   /// Jobs a daemon before this one submitted: found by name in Slurm, or by their results.
   void Adopt();
   void SubmitQueued();
+  /// Takes `job` up in its Slurm job or array task among `in_slurm` (found by name), if there
+  /// is one (with `live_only`, one not yet ended); whether it was.
+  bool TakeUpFound(const JobRecord& job, const std::vector<slurm::JobStatus>& in_slurm,
+                   bool live_only);
   /// Notes on every queued job not yet in Slurm that Slurm cannot be reached, and why;
   /// whether any job's note changed.
   bool NoteWaitingForSlurm(std::string what);
@@ -171,6 +181,7 @@ class SlurmExecutor final : public Executor {
   // m_work_mutex: one of the loop's passes, or a cancel, at a time. m_mutex: the followed
   // jobs (watchers read them while a pass runs). Taken in that order.
   std::mutex m_work_mutex;
+  std::map<std::int64_t, NotSubmitted> m_not_submitted;  ///< under m_work_mutex
   mutable std::mutex m_mutex;
   std::condition_variable m_wake;
   std::map<std::int64_t, Followed> m_followed;

@@ -12,13 +12,16 @@ if dpkg-query -W -f='${Status}' dembuf 2> /dev/null | grep -q "install ok instal
   echo "SKIP: a dembuf package is installed on this machine; the test would replace it"
   exit 77
 fi
+# apt as deploy/install-deps.sh runs it, waiting for dpkg's lock (the tests run in parallel,
+# and another may be installing what it needs).
+apt=(apt-get -o DPkg::Lock::Timeout=600)
 work=$(mktemp -d)
 chmod 0755 "$work"
 had_user=$(getent passwd dembuf > /dev/null && echo yes || echo no)
 daemon=""
 cleanup() {
   [ -z "$daemon" ] || kill -9 "$daemon" 2> /dev/null || true
-  apt-get remove --purge -y -qq dembuf > /dev/null 2>&1 || true
+  "${apt[@]}" remove --purge -y -qq dembuf > /dev/null 2>&1 || true
   if [ "$had_user" = no ]; then
     userdel dembuf 2> /dev/null || true
     rm -rf /var/lib/dembuf /var/log/dembuf
@@ -47,7 +50,7 @@ control=$(dpkg-deb --ctrl-tarfile "$deb" | tar -t)
 grep -q conffiles <<< "$control" || fail "no conffiles: $control"
 
 # Installed by apt, its dependencies already on this machine (no download).
-apt-get install -y -qq --no-install-recommends "$deb" > "$work/apt.log" 2>&1 ||
+"${apt[@]}" install -y -qq --no-install-recommends "$deb" > "$work/apt.log" 2>&1 ||
   { cat "$work/apt.log"; fail "apt install"; }
 dpkg-query -L dembuf > "$work/files"
 [ "$(/usr/bin/dembuf --version)" = "$("$build/client/dembuf" --version)" ] || fail "dembuf --version"
@@ -101,7 +104,8 @@ wait "$daemon" || fail "the daemon did not stop cleanly on SIGTERM"
 daemon=""
 
 # Removed: not a file of the package left (the data folders are the lab's, and stay).
-apt-get remove --purge -y -qq dembuf > "$work/apt.log" 2>&1 || { cat "$work/apt.log"; fail "apt remove"; }
+"${apt[@]}" remove --purge -y -qq dembuf > "$work/apt.log" 2>&1 ||
+  { cat "$work/apt.log"; fail "apt remove"; }
 while read -r path; do
   [ -d "$path" ] || [ ! -e "$path" ] || fail "$path is left after the purge"
 done < "$work/files"

@@ -287,7 +287,8 @@ TEST(Slurm, ACommandThatHangsIsKilledAtItsTimeout) {
 TEST(Slurm, ACommandThatPrintsWithoutEndIsKilledAtTheOutputBound) {
   // A cluster's command gone wrong (or hostile) must not take the daemon's memory: `yes`
   // prints without end, and is killed once its output would pass the bound.
-  const ProgramResult endless = RunProgram({"yes", "a line a cluster might print"});
+  const ProgramResult endless =
+      RunProgram({"yes", "a line a cluster might print"}, std::chrono::seconds(120));
   EXPECT_TRUE(endless.overflowed);
   EXPECT_FALSE(endless.timed_out);
   EXPECT_LE(endless.output.size(), kMaxProgramOutput);

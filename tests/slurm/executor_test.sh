@@ -15,7 +15,8 @@
 #      byte;
 #   8. a stored job whose scene this daemon cannot read, or whose folder it may not use, fails,
 #      saying why, and the jobs after it still run, alone or in an array;
-#   9. a job whose folder cannot be made on a full disk waits, saying why, and runs later.
+#   9. a job whose folder cannot be made on a full disk waits, saying why, and runs later;
+#  10. an sbatch that queues a job but prints no id: the job is found by name, not sent twice.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -320,4 +321,27 @@ wait_state "$waiting" done 60
 stop_daemon
 umount "$work/full"
 echo "a full disk: the job waited, saying why, and ran once there was room"
+echo "== 10. an sbatch that queues the job but says no id: one Slurm job, not one a poll ($SECONDS s)"
+# A wrapper first in the daemon's PATH runs the real sbatch and prints nothing it can read. The
+# daemon takes that for a cluster it cannot reach and tries again at the next poll: it must
+# find the job by its name there, not queue another run of it into the same folder.
+real_sbatch=$(command -v sbatch)
+mkdir "$work/mute"
+# (--begin keeps the job pending for a few seconds: the next poll must find it not yet ended.)
+cat > "$work/mute/sbatch" << EOF
+#!/bin/sh
+"$real_sbatch" --begin=now+5 "\$@" > /dev/null 2>&1
+echo "sbatch: (the id got lost)"
+EOF
+chmod +x "$work/mute/sbatch"
+slurm_config "$work/mute.toml" "$work/mute-work"
+PATH="$work/mute:$PATH" start_daemon "$work/mute.db" "$work/mute.log" --config "$work/mute.toml"
+mute_daemon=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/mute.log" | tail -1)
+lost=$("$dembuf" submit "${bare[@]}" | grep -o '[0-9]*' | head -1)
+wait_state "$lost" done 120
+copies=$(squeue -h -t all -o '%j' | grep -c -x "dembuf-$mute_daemon-$lost" || true)
+[ "$copies" = 1 ] || fail "job $lost went to Slurm $copies times"
+grep -q "job $lost: found in Slurm as job" "$work/mute.log" || fail "job $lost was not taken up by name"
+stop_daemon
+echo "a lost id: job $lost found by name, one Slurm job"
 echo "PASS ($SECONDS s)"

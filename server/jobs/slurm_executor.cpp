@@ -550,15 +550,28 @@ slurm::Submission SlurmExecutor::NewSubmission(const std::string& name, const Ow
 std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& stage,
                                    const JobRecord& job, const Scene& scene, std::int64_t after) {
   if (hash.empty() || BedReady(hash)) return 0;
-  if (const auto bed = m_store.GetSlurmBed(hash); bed && bed->state == "submitted")
-    return bed->slurm_id;  // another job's, shared
+  const std::optional<SlurmBedJob> known = m_store.GetSlurmBed(hash);
+  if (known && known->state == "submitted") return known->slurm_id;  // another job's, shared
+  const std::string name = BedJobName(hash);
+  if (known && known->state == "submitting") {
+    // Tried before, and sbatch did not say the id (it timed out, or printed none it could be
+    // known by): found by name, it is taken up, not prepared twice.
+    for (const slurm::JobStatus& s : m_slurm.FindByNamePrefix(name))
+      if (s.name == name && !slurm::IsFinalState(s.state)) {
+        m_store.PutSlurmBed({hash, stage, s.id, "submitted", "", job.id});
+        m_log->warn("job {}: {} {} found in Slurm as job {}; taken up, not submitted again", job.id,
+                    BedWords(stage), hash, s.id);
+        return s.id;
+      }
+  }
   const OwnedFolder folder = m_bed_jobs.Folder(hash, true);
   std::vector<std::string> args = {"prepare-bed",
                                    (folder.path() / report::run_files::kScene).string(),
                                    "--bed-cache", m_beds.path().string()};
   if (stage == "source") args.push_back("--source-only");
+  m_store.PutSlurmBed({hash, stage, 0, "submitting", "", job.id});  // (its id not yet known)
   const std::int64_t slurm_id =
-      m_slurm.Submit(NewSubmission(BedJobName(hash), folder, job, scene, true, after, args));
+      m_slurm.Submit(NewSubmission(name, folder, job, scene, true, after, args));
   m_store.PutSlurmBed({hash, stage, slurm_id, "submitted", "", job.id});
   m_log->info("job {}: {} {} is prepared by Slurm job {}", job.id, BedWords(stage), hash, slurm_id);
   return slurm_id;

@@ -79,7 +79,8 @@ struct SlurmBedJob {
   std::string hash;
   std::string stage;  ///< "source" (only the source bed), or the bed's last: "cut", "friction"
   std::int64_t slurm_id = 0;
-  std::string state;  ///< "submitted", "done", "failed" or "cancelled"
+  std::string state;  ///< "submitting" (sbatch's answer not yet had), "submitted", "done",
+                      ///< "failed" or "cancelled"
   std::string error;
   std::int64_t job_id = 0;  ///< the job it was first submitted for
 };

@@ -342,6 +342,12 @@ wait_state "$lost" done 120
 copies=$(squeue -h -t all -o '%j' | grep -c -x "dembuf-$mute_daemon-$lost" || true)
 [ "$copies" = 1 ] || fail "job $lost went to Slurm $copies times"
 grep -q "job $lost: found in Slurm as job" "$work/mute.log" || fail "job $lost was not taken up by name"
+# The same for the jobs that prepare a job's beds (the source, then the cut).
+bedded=$("$dembuf" submit "$work/scene.toml" | grep -o '[0-9]*' | head -1)
+wait_state "$bedded" done 180
+bed_jobs=$(squeue -h -t all -o '%j' | grep "^dembuf-$mute_daemon-bed-" | sort || true)
+[ "$(echo "$bed_jobs" | wc -l)" = 2 ] || fail "not two bed jobs in Slurm: $bed_jobs"
+[ -z "$(echo "$bed_jobs" | uniq -d)" ] || fail "a bed went to Slurm more than once: $bed_jobs"
 stop_daemon
-echo "a lost id: job $lost found by name, one Slurm job"
+echo "a lost id: job $lost and its beds' jobs found by name, each one Slurm job"
 echo "PASS ($SECONDS s)"

@@ -391,9 +391,7 @@ void SlurmExecutor::SubmitQueued() {
       try {
         if (!in_slurm) in_slurm = m_slurm.FindByNamePrefix("dembuf-" + m_daemon_id + "-");
       } catch (const slurm::SlurmError& e) {
-        if (NoteWaitingForSlurm(e.what()))
-          m_log->error("job {}: cannot reach Slurm; trying again every {} s: {}", job.id,
-                       m_options.slurm.poll_s, e.what());
+        WaitForSlurm(job.id, e.what());
         return;
       }
       if (TakeUpFound(job, *in_slurm, true)) continue;
@@ -425,11 +423,7 @@ void SlurmExecutor::SubmitQueued() {
     } catch (const slurm::SlurmError& e) {
       const std::string what = e.what();
       if (slurm::SlurmUnreachable(what)) {
-        // The cluster's trouble, not the job's: it waits, and says why where users look
-        // (status, list, the web page, the Python package); logged when the reason changes.
-        if (NoteWaitingForSlurm(what))
-          m_log->error("job {}: cannot reach Slurm; trying again every {} s: {}", job.id,
-                       m_options.slurm.poll_s, what);
+        WaitForSlurm(job.id, what);
         return;
       }
       for (const JobRecord& with : jobs)
@@ -451,6 +445,14 @@ void SlurmExecutor::SubmitQueued() {
   }
 }
 
+void SlurmExecutor::WaitForSlurm(std::int64_t job_id, const std::string& what) {
+  // The cluster's trouble, not the job's: it waits, and says why where users look (status,
+  // list, the web page, the Python package); logged when the reason changes.
+  if (NoteWaitingForSlurm(what))
+    m_log->error("job {}: cannot reach Slurm; trying again every {} s: {}", job_id,
+                 m_options.slurm.poll_s, what);
+}
+
 bool SlurmExecutor::NotOursToUse(const OwnershipError& e) {
   // Allowed: the daemon's own refusals (a link, another account's or an open folder) and a
   // path taken by something that is not a folder.
@@ -466,14 +468,18 @@ void SlurmExecutor::NoteNotSubmitted(const std::vector<JobRecord>& jobs, std::st
   const std::string note = kWaitingToSubmit + what + ")";
   bool changed = false;
   for (const JobRecord& with : jobs) {
+    const std::optional<JobRecord> now = m_store.GetJob(with.id);
+    if (!now || !Unsubmitted(*now)) {  // failed in its array, or cancelled
+      m_not_submitted.erase(with.id);
+      continue;
+    }
     // Tried again later each time, up to every 5 minutes: each try may write a large bed
     // file into a disk that is full.
     NotSubmitted& wait = m_not_submitted[with.id];
     wait.wait_s = std::min(std::max(2.0 * wait.wait_s, m_options.slurm.poll_s), 300.0);
     wait.next = std::chrono::steady_clock::now() +
                 std::chrono::milliseconds(static_cast<std::int64_t>(wait.wait_s * 1000));
-    const std::optional<JobRecord> now = m_store.GetJob(with.id);
-    if (!now || !Unsubmitted(*now) || now->error == note) continue;  // failed, or noted
+    if (now->error == note) continue;  // noted already
     m_store.SetState(with.id, JobState::kQueued, note);
     changed = true;
   }

@@ -103,6 +103,9 @@ class SlurmExecutor final : public Executor {
   /// Notes on every queued job not yet in Slurm that Slurm cannot be reached, and why;
   /// whether any job's note changed.
   bool NoteWaitingForSlurm(std::string what);
+  /// NoteWaitingForSlurm for a pass that meets an unreachable Slurm at `job_id`, logged when
+  /// a note changed.
+  void WaitForSlurm(std::int64_t job_id, const std::string& what);
   /// Whether a folder the daemon could not make or open is one it may not use (a file, a
   /// link, another account's folder): its jobs fail; other errors of the system pass.
   static bool NotOursToUse(const OwnershipError& e);

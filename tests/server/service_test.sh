@@ -14,8 +14,10 @@ start_daemon "$work/dembuf.db" "$work/dembufd.log" --workers 2
 "$dembuf" server-info | grep -q "workers 2" || fail "server-info"
 
 # --- a job, watched live from the start and by a late watcher --------------------------------
-# A longer impact window so that the run lasts a few seconds.
-job=$("$dembuf" submit "$work/small.toml" --set bed.seed=3 --set time.end_s=0.04)
+# A long impact (0.4 s, a sample every 0.1 ms) so that the run lasts well beyond the watch's
+# 100 ms polls: at 0.04 s it ran in 70 ms, and one poll could find all its samples ended.
+long_impact=(--set bed.seed=3 --set time.end_s=0.4 --set time.output_interval_s=1e-4)
+job=$("$dembuf" submit "$work/small.toml" "${long_impact[@]}")
 "$dembuf" watch "$job" --csv > "$work/watch1.csv" &
 watcher=$!
 # Started: running, or already ended. Under a sanitizer on a loaded machine the run itself
@@ -51,7 +53,7 @@ cmp -s "$work/watched" "$work/stored" || fail "watched samples differ from the s
 
 # --- the fetched run equals a local run of the same scene -------------------------------------
 if [ "${DEMBUF_TEST_SKIP_LOCAL:-0}" != 1 ]; then
-  "$dembuf" run "$work/small.toml" --set bed.seed=3 --set time.end_s=0.04 --no-bed-cache \
+  "$dembuf" run "$work/small.toml" "${long_impact[@]}" --no-bed-cache \
     --out "$work/local" > /dev/null 2>&1
   cmp "$work/local/plate_force.csv" "$work/fetched/plate_force.csv" || fail "series differ from local"
   # Identical summaries but for the wall time and where, when and how each ran; the scene's

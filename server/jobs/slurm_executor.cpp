@@ -318,6 +318,25 @@ void SlurmExecutor::CancelUnneededBeds() {
     m_log->info("{} {}: Slurm job {} cancelled, no job needs it any more", BedWords(bed.stage),
                 bed.hash, bed.slurm_id);
   }
+  // A bed whose sbatch printed no id may be queued all the same: found by its name, it is
+  // cancelled too, or it would prepare a bed for nobody.
+  for (SlurmBedJob bed : m_store.SlurmBedsInState("submitting")) {
+    if (needed.count(bed.hash)) continue;
+    const std::string name = BedJobName(bed.hash);
+    try {
+      for (const slurm::JobStatus& s : m_slurm.FindByNamePrefix(name))
+        if (s.name == name && !slurm::IsFinalState(s.state)) m_slurm.Cancel(s.id);
+    } catch (const slurm::SlurmError& e) {
+      m_log->warn("{} {}: cannot look for its Slurm job for now: {}", BedWords(bed.stage), bed.hash,
+                  e.what());
+      continue;  // the next pass looks again
+    }
+    bed.state = "cancelled";
+    bed.error = "no job needs it any more";
+    m_store.PutSlurmBed(bed);
+    m_log->info("{} {}: no job needs it any more; its Slurm job, if queued, is cancelled",
+                BedWords(bed.stage), bed.hash);
+  }
 }
 
 std::string SlurmExecutor::JobName(std::int64_t id) const {

@@ -16,7 +16,8 @@
 #   8. a stored job whose scene this daemon cannot read, or whose folder it may not use, fails,
 #      saying why, and the jobs after it still run, alone or in an array;
 #   9. a job whose folder cannot be made on a full disk waits, saying why, and runs later;
-#  10. an sbatch that queues a job but prints no id: the job is found by name, not sent twice.
+#  10. an sbatch that queues a job but prints no id: the job is found by name, not sent twice;
+#  11. a job cancelled while its bed's sbatch prints no id: the bed's Slurm job is cancelled.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -350,4 +351,41 @@ bed_jobs=$(squeue -h -t all -o '%j' | grep "^dembuf-$mute_daemon-bed-" | sort ||
 [ -z "$(echo "$bed_jobs" | uniq -d)" ] || fail "a bed went to Slurm more than once: $bed_jobs"
 stop_daemon
 echo "a lost id: job $lost and its beds' jobs found by name, each one Slurm job"
+echo "== 11. a job cancelled while its bed's sbatch says no id: the bed's Slurm job goes too ($SECONDS s)"
+# This wrapper queues the job (held for 20 s), then takes 2 s to say no id; the dembuf job is
+# cancelled meanwhile (the cancel waits for the daemon's pass). No job needs the bed any more:
+# the daemon must find its Slurm job by name and cancel it, not leave it to prepare a bed for
+# nobody.
+mkdir "$work/slow"
+cat > "$work/slow/sbatch" << EOF
+#!/bin/sh
+"$real_sbatch" --begin=now+20 "\$@" > /dev/null 2>&1
+touch "$work/slow/queued"
+sleep 2
+echo "sbatch: (the id got lost)"
+EOF
+chmod +x "$work/slow/sbatch"
+slurm_config "$work/slow.toml" "$work/slow-work"
+PATH="$work/slow:$PATH" start_daemon "$work/slow.db" "$work/slow.log" --config "$work/slow.toml"
+slow_daemon=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/slow.log" | tail -1)
+# A seed of its own: its beds are not in the cache.
+unneeded=$("$dembuf" submit "$work/scene.toml" --set bed.seed=23 | grep -o '[0-9]*' | head -1)
+for _ in $(seq 100); do
+  [ -e "$work/slow/queued" ] && break
+  sleep 0.1
+done
+[ -e "$work/slow/queued" ] || fail "the bed's sbatch did not run"
+"$dembuf" cancel "$unneeded" > /dev/null
+[ "$(job_state "$unneeded")" = cancelled ] || fail "job $unneeded is $(job_state "$unneeded")"
+bed_job=$(squeue -h -t all -o '%i|%j' |
+  awk -F'|' -v p="dembuf-$slow_daemon-bed-" 'index($2, p) == 1 { print $1 }')
+[ -n "$bed_job" ] || fail "the bed's job is not in Slurm"
+for _ in $(seq 100); do
+  [ "$(slurm_state "$bed_job")" = CANCELLED ] && break
+  sleep 0.1
+done
+[ "$(slurm_state "$bed_job")" = CANCELLED ] ||
+  fail "the bed job $bed_job of the cancelled job $unneeded is $(slurm_state "$bed_job")"
+stop_daemon
+echo "bed job $bed_job, whose id sbatch did not say, cancelled with job $unneeded"
 echo "PASS ($SECONDS s)"

@@ -327,17 +327,19 @@ echo "== 10. an sbatch that queues the job but says no id: one Slurm job, not on
 # daemon takes that for a cluster it cannot reach and tries again at the next poll: it must
 # find the job by its name there, not queue another run of it into the same folder.
 real_sbatch=$(command -v sbatch)
-mkdir "$work/mute"
-# (--begin keeps the job pending for a few seconds: the next poll must find it not yet ended.)
-cat > "$work/mute/sbatch" << EOF
-#!/bin/sh
-"$real_sbatch" --begin=now+5 "\$@" > /dev/null 2>&1
-echo "sbatch: (the id got lost)"
-EOF
-chmod +x "$work/mute/sbatch"
-slurm_config "$work/mute.toml" "$work/mute-work"
-PATH="$work/mute:$PATH" start_daemon "$work/mute.db" "$work/mute.log" --config "$work/mute.toml"
-mute_daemon=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/mute.log" | tail -1)
+# start_mute_daemon NAME SECONDS [SHELL LINE]: a daemon whose sbatch queues each job to begin
+# SECONDS later (the next poll must find it not yet ended), runs the line, and prints no id;
+# its daemon id in $mute_daemon.
+start_mute_daemon() {
+  mkdir "$work/$1"
+  printf '#!/bin/sh\n"%s" --begin=now+%s "$@" > /dev/null 2>&1\n%s\necho "sbatch: (no id)"\n' \
+    "$real_sbatch" "$2" "${3:-}" > "$work/$1/sbatch"
+  chmod +x "$work/$1/sbatch"
+  slurm_config "$work/$1.toml" "$work/$1-work"
+  PATH="$work/$1:$PATH" start_daemon "$work/$1.db" "$work/$1.log" --config "$work/$1.toml"
+  mute_daemon=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/$1.log" | tail -1)
+}
+start_mute_daemon mute 5
 lost=$("$dembuf" submit "${bare[@]}" | grep -o '[0-9]*' | head -1)
 wait_state "$lost" done 120
 copies=$(squeue -h -t all -o '%j' | grep -c -x "dembuf-$mute_daemon-$lost" || true)
@@ -356,18 +358,7 @@ echo "== 11. a job cancelled while its bed's sbatch says no id: the bed's Slurm 
 # cancelled meanwhile (the cancel waits for the daemon's pass). No job needs the bed any more:
 # the daemon must find its Slurm job by name and cancel it, not leave it to prepare a bed for
 # nobody.
-mkdir "$work/slow"
-cat > "$work/slow/sbatch" << EOF
-#!/bin/sh
-"$real_sbatch" --begin=now+20 "\$@" > /dev/null 2>&1
-touch "$work/slow/queued"
-sleep 2
-echo "sbatch: (the id got lost)"
-EOF
-chmod +x "$work/slow/sbatch"
-slurm_config "$work/slow.toml" "$work/slow-work"
-PATH="$work/slow:$PATH" start_daemon "$work/slow.db" "$work/slow.log" --config "$work/slow.toml"
-slow_daemon=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/slow.log" | tail -1)
+start_mute_daemon slow 20 "touch '$work/slow/queued'; sleep 2"
 # A seed of its own: its beds are not in the cache.
 unneeded=$("$dembuf" submit "$work/scene.toml" --set bed.seed=23 | grep -o '[0-9]*' | head -1)
 for _ in $(seq 100); do
@@ -378,7 +369,7 @@ done
 "$dembuf" cancel "$unneeded" > /dev/null
 [ "$(job_state "$unneeded")" = cancelled ] || fail "job $unneeded is $(job_state "$unneeded")"
 bed_job=$(squeue -h -t all -o '%i|%j' |
-  awk -F'|' -v p="dembuf-$slow_daemon-bed-" 'index($2, p) == 1 { print $1 }')
+  awk -F'|' -v p="dembuf-$mute_daemon-bed-" 'index($2, p) == 1 { print $1 }')
 [ -n "$bed_job" ] || fail "the bed's job is not in Slurm"
 for _ in $(seq 100); do
   [ "$(slurm_state "$bed_job")" = CANCELLED ] && break

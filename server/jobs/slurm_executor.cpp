@@ -319,23 +319,29 @@ void SlurmExecutor::CancelUnneededBeds() {
                 bed.hash, bed.slurm_id);
   }
   // A bed whose sbatch printed no id may be queued all the same: found by its name, it is
-  // cancelled too, or it would prepare a bed for nobody.
+  // cancelled too, or it would prepare a bed for nobody. Marked cancelled only once Slurm lists
+  // no live copy, so a scancel that failed, or a job Slurm showed late, is met again.
+  std::optional<std::vector<slurm::JobStatus>> in_slurm;  // asked once a pass, if needed
   for (SlurmBedJob bed : m_store.SlurmBedsInState("submitting")) {
     if (needed.count(bed.hash)) continue;
     const std::string name = BedJobName(bed.hash);
+    bool live = false;
     try {
-      for (const slurm::JobStatus& s : m_slurm.FindByNamePrefix(name))
-        if (s.name == name && !slurm::IsFinalState(s.state)) m_slurm.Cancel(s.id);
-    } catch (const slurm::SlurmError& e) {
-      m_log->warn("{} {}: cannot look for its Slurm job for now: {}", BedWords(bed.stage), bed.hash,
-                  e.what());
-      continue;  // the next pass looks again
+      if (!in_slurm) in_slurm = m_slurm.FindByNamePrefix(BedJobName(""));
+      for (const slurm::JobStatus& s : *in_slurm)
+        if (s.name == name && !slurm::IsFinalState(s.state)) {
+          m_slurm.Cancel(s.id);
+          live = true;
+          m_log->info("{} {}: Slurm job {} cancelled, no job needs it any more",
+                      BedWords(bed.stage), bed.hash, s.id);
+        }
+    } catch (const slurm::SlurmError&) {
+      return;  // Slurm does not answer: the next pass looks again
     }
+    if (live) continue;
     bed.state = "cancelled";
     bed.error = "no job needs it any more";
     m_store.PutSlurmBed(bed);
-    m_log->info("{} {}: no job needs it any more; its Slurm job, if queued, is cancelled",
-                BedWords(bed.stage), bed.hash);
   }
 }
 

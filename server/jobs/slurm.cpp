@@ -54,6 +54,21 @@ bool IsFinalState(std::string_view state) {
   return false;
 }
 
+Liveness LivenessOf(std::string_view state) {
+  if (IsFinalState(state)) return Liveness::kEnded;
+  return state == "COMPLETING" ? Liveness::kEnding : Liveness::kMayRun;
+}
+
+const JobStatus* ChooseCopy(const std::vector<JobStatus>& jobs,
+                            const std::function<bool(const JobStatus&)>& matches, Liveness least) {
+  const JobStatus* chosen = nullptr;
+  for (const JobStatus& job : jobs) {
+    if (!matches(job) || LivenessOf(job.state) < least) continue;
+    if (!chosen || LivenessOf(job.state) > LivenessOf(chosen->state)) chosen = &job;
+  }
+  return chosen;
+}
+
 namespace {
 
 // An array task's index as squeue or scontrol print it; -1 for "N/A" (not an array's task),

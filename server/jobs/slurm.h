@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -40,6 +41,18 @@ struct JobStatus {
 /// Whether a job in this state will not run again (COMPLETED, FAILED, CANCELLED, TIMEOUT,
 /// OUT_OF_MEMORY, NODE_FAIL, PREEMPTED, BOOT_FAIL, DEADLINE).
 bool IsFinalState(std::string_view state);
+
+/// How far a job is from its end, in the order a copy of it is preferred: kMayRun (pending,
+/// running, suspended: it may still do its work), kEnding (COMPLETING: its processes are being
+/// ended; a job cancelled a moment ago is one), kEnded (a final state).
+enum class Liveness { kEnded, kEnding, kMayRun };
+Liveness LivenessOf(std::string_view state);
+
+/// Of the jobs `matches` accepts, the one to take up as a job the daemon lost the id of: the
+/// most alive (a live copy before an ended one, whatever squeue's order), if at least `least`;
+/// nullptr when none is.
+const JobStatus* ChooseCopy(const std::vector<JobStatus>& jobs,
+                            const std::function<bool(const JobStatus&)>& matches, Liveness least);
 
 /// A job of Slurm's as the daemon names it: the job's id and its task in a job array (-1:
 /// not an array's task). A job array's tasks share its id.

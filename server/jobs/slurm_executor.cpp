@@ -171,7 +171,7 @@ void SlurmExecutor::Adopt() {
       continue;
     }
     // Submitted by a daemon that died before it could store the Slurm id?
-    if (TakeUpFound(job, in_slurm, false)) continue;
+    if (TakeUpFound(job, in_slurm, slurm::Liveness::kEnded)) continue;
     if (job.state != JobState::kQueued) {
       // Left running by the thread executor before a change of executor.
       const std::string note = "interrupted: the daemon stopped while this job ran; it runs again";
@@ -182,14 +182,16 @@ void SlurmExecutor::Adopt() {
 }
 
 bool SlurmExecutor::TakeUpFound(const JobRecord& job, const std::vector<slurm::JobStatus>& in_slurm,
-                                bool live_only) {
+                                slurm::Liveness least) {
   // Its own Slurm job, or a task of an array named by its first job (task i of array b runs
   // job b + i).
-  const auto found = std::find_if(in_slurm.begin(), in_slurm.end(), [&](const auto& s) {
-    if (live_only && slurm::IsFinalState(s.state)) return false;
-    return s.task < 0 ? s.name == JobName(job.id) : s.name == ArrayName(job.id - s.task);
-  });
-  if (found == in_slurm.end()) return false;
+  const slurm::JobStatus* found = slurm::ChooseCopy(
+      in_slurm,
+      [&](const slurm::JobStatus& s) {
+        return s.task < 0 ? s.name == JobName(job.id) : s.name == ArrayName(job.id - s.task);
+      },
+      least);
+  if (!found) return false;
   const std::int64_t base = found->task < 0 ? -1 : job.id - found->task;
   m_store.SetSlurmId({job.id}, found->id, base);
   m_log->warn("job {}: found in Slurm as job {}; taken up, not submitted again", job.id, found->id);
@@ -419,7 +421,7 @@ void SlurmExecutor::SubmitQueued() {
         WaitForSlurm(job.id, e.what());
         return;
       }
-      if (TakeUpFound(job, *in_slurm, true)) continue;
+      if (TakeUpFound(job, *in_slurm, slurm::Liveness::kEnding)) continue;
     }
     // The rest of its sweep with it (jobs in turns: the sweep's first unsubmitted job).
     const std::vector<JobRecord> jobs = SubmittedWith(job, unfinished);
@@ -584,16 +586,20 @@ std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& s
   const std::optional<SlurmBedJob> known = m_store.GetSlurmBed(hash);
   if (known && known->state == "submitted") return known->slurm_id;  // another job's, shared
   const std::string name = BedJobName(hash);
-  if (known && known->state == "submitting") {
+  if (known && known->slurm_id == 0) {
     // Tried before, and sbatch did not say the id (it timed out, or printed none it could be
-    // known by): found by name, it is taken up, not prepared twice.
-    for (const slurm::JobStatus& s : m_slurm.FindByNamePrefix(name))
-      if (s.name == name && !slurm::IsFinalState(s.state)) {
-        m_store.PutSlurmBed({hash, stage, s.id, "submitted", "", job.id});
-        m_log->warn("job {}: {} {} found in Slurm as job {}; taken up, not submitted again", job.id,
-                    BedWords(stage), hash, s.id);
-        return s.id;
-      }
+    // known by), whether or not the record was cancelled since (Slurm may show the job only
+    // later): found by name, it is taken up, not prepared twice. Not one that is ending: a
+    // bed job cancelled a moment ago is COMPLETING, and would fail the job it was given to.
+    const std::vector<slurm::JobStatus> found = m_slurm.FindByNamePrefix(name);
+    if (const slurm::JobStatus* s = slurm::ChooseCopy(
+            found, [&](const slurm::JobStatus& listed) { return listed.name == name; },
+            slurm::Liveness::kMayRun)) {
+      m_store.PutSlurmBed({hash, stage, s->id, "submitted", "", job.id});
+      m_log->warn("job {}: {} {} found in Slurm as job {}; taken up, not submitted again", job.id,
+                  BedWords(stage), hash, s->id);
+      return s->id;
+    }
   }
   const OwnedFolder folder = m_bed_jobs.Folder(hash, true);
   std::vector<std::string> args = {"prepare-bed",

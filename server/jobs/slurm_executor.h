@@ -97,9 +97,9 @@ class SlurmExecutor final : public Executor {
   void Adopt();
   void SubmitQueued();
   /// Takes `job` up in its Slurm job or array task among `in_slurm` (found by name), if there
-  /// is one (with `live_only`, one not yet ended); whether it was.
+  /// is one at least `least` alive (the most alive of its copies); whether it was.
   bool TakeUpFound(const JobRecord& job, const std::vector<slurm::JobStatus>& in_slurm,
-                   bool live_only);
+                   slurm::Liveness least);
   /// Notes on every queued job not yet in Slurm that Slurm cannot be reached, and why;
   /// whether any job's note changed.
   bool NoteWaitingForSlurm(std::string what);

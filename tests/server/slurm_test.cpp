@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <thread>
 
 #include "../engine/temp_path.h"
 #include "dembuf/study/files/run_output.h"
@@ -114,6 +115,37 @@ TEST(Slurm, FinalStatesAreTheOnesThatDoNotRunAgain) {
     EXPECT_TRUE(slurm::IsFinalState(s)) << s;
   for (const char* s : {"PENDING", "RUNNING", "COMPLETING", "CONFIGURING", "SUSPENDED", ""})
     EXPECT_FALSE(slurm::IsFinalState(s)) << s;
+}
+
+// A job whose id the daemon lost is taken up by its name. squeue may list an ended copy of it
+// before a live one (a job sent twice): the ended one used to be taken up at start-up, leaving
+// the live one to run into the job's folder unwatched. And a bed job cancelled a moment ago is
+// COMPLETING: taken up, it failed the job it was given to.
+TEST(Slurm, AJobsLiveCopyIsTakenUpBeforeAnEndedOneAndAnEndingBedIsNot) {
+  using slurm::Liveness;
+  EXPECT_EQ(slurm::LivenessOf("PENDING"), Liveness::kMayRun);
+  EXPECT_EQ(slurm::LivenessOf("SUSPENDED"), Liveness::kMayRun);
+  EXPECT_EQ(slurm::LivenessOf("COMPLETING"), Liveness::kEnding);
+  EXPECT_EQ(slurm::LivenessOf("CANCELLED"), Liveness::kEnded);
+  const std::vector<slurm::JobStatus> listed = {{7, -1, "other", "RUNNING", "None", "n1"},
+                                                {8, -1, "mine", "COMPLETED", "None", "n1"},
+                                                {9, -1, "mine", "COMPLETING", "None", "n1"},
+                                                {10, -1, "mine", "RUNNING", "None", "n1"},
+                                                {11, -1, "mine", "FAILED", "None", "n1"}};
+  const auto mine = [](const slurm::JobStatus& s) { return s.name == "mine"; };
+  for (Liveness least : {Liveness::kEnded, Liveness::kEnding, Liveness::kMayRun}) {
+    const slurm::JobStatus* chosen = slurm::ChooseCopy(listed, mine, least);
+    ASSERT_NE(chosen, nullptr);
+    EXPECT_EQ(chosen->id, 10);
+  }
+  const std::vector<slurm::JobStatus> ending = {{8, -1, "mine", "COMPLETED", "None", ""},
+                                                {9, -1, "mine", "COMPLETING", "None", "n1"}};
+  EXPECT_EQ(slurm::ChooseCopy(ending, mine, Liveness::kMayRun), nullptr);
+  ASSERT_NE(slurm::ChooseCopy(ending, mine, Liveness::kEnding), nullptr);
+  EXPECT_EQ(slurm::ChooseCopy(ending, mine, Liveness::kEnding)->id, 9);
+  EXPECT_EQ(slurm::ChooseCopy({listed[1]}, mine, Liveness::kEnded)->id, 8);
+  EXPECT_EQ(slurm::ChooseCopy({listed[1]}, mine, Liveness::kEnding), nullptr);
+  EXPECT_EQ(slurm::ChooseCopy({listed[0]}, mine, Liveness::kEnded), nullptr);
 }
 
 // sbatch says "Batch job submission failed" when slurmctld is down too: such a job must wait
@@ -282,6 +314,29 @@ TEST(Slurm, ACommandThatHangsIsKilledAtItsTimeout) {
   EXPECT_TRUE(sleeper.timed_out);
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
   EXPECT_EQ(RunProgram({"no-such-program-here"}).exit_code, 127);
+}
+
+// A killed command used to leave what it had started running: a script's own commands, which
+// kept the cluster's tools busy (or printed on) after the daemon had given up on it.
+TEST(Slurm, AKilledCommandTakesWhatItStartedWithIt) {
+  const std::string pid_file = test::TempPath("pid");
+  const ProgramResult killed =
+      RunProgram({"sh", "-c", "sleep 60 & echo $! > " + ShellQuote(pid_file) + "; wait"},
+                 std::chrono::milliseconds(500));
+  EXPECT_TRUE(killed.timed_out);
+  std::ifstream in(pid_file);
+  int started = 0;
+  ASSERT_TRUE(in >> started) << "the script did not say its sleep's pid";
+  // Gone, or a zombie waiting for its reaper (a container's first process may never reap it).
+  const auto running = [&] {
+    std::ifstream stat("/proc/" + std::to_string(started) + "/stat");
+    std::string pid, name, state;
+    return stat >> pid >> name >> state && state != "Z";
+  };
+  for (int k = 0; k < 50 && running(); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_FALSE(running()) << "the script's sleep (pid " << started << ") outlived it";
+  if (running()) kill(started, SIGKILL);
 }
 
 TEST(Slurm, ACommandThatPrintsWithoutEndIsKilledAtTheOutputBound) {

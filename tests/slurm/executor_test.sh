@@ -17,7 +17,8 @@
 #      saying why, and the jobs after it still run, alone or in an array;
 #   9. a job whose folder cannot be made on a full disk waits, saying why, and runs later;
 #  10. an sbatch that queues a job but prints no id: the job is found by name, not sent twice;
-#  11. a job cancelled while its bed's sbatch prints no id: the bed's Slurm job is cancelled.
+#  11. a job cancelled while its bed's sbatch prints no id: the bed's Slurm job is cancelled;
+#  12. a bed's Slurm job shown only after its record was cancelled is taken up, not sent twice.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -330,17 +331,21 @@ echo "== 10. an sbatch that queues the job but says no id: one Slurm job, not on
 # daemon takes that for a cluster it cannot reach and tries again at the next poll: it must
 # find the job by its name there, not queue another run of it into the same folder.
 real_sbatch=$(command -v sbatch)
-# start_mute_daemon NAME SECONDS [SHELL LINE]: a daemon whose sbatch queues each job to begin
-# SECONDS later (the next poll must find it not yet ended), runs the line, and prints no id;
-# its daemon id in $mute_daemon.
-start_mute_daemon() {
+# start_wrapped_daemon NAME SCRIPT: a daemon whose sbatch is the shell script SCRIPT, in
+# $work/NAME; its daemon id in $mute_daemon.
+start_wrapped_daemon() {
   mkdir "$work/$1"
-  printf '#!/bin/sh\n"%s" --begin=now+%s "$@" > /dev/null 2>&1\n%s\necho "sbatch: (no id)"\n' \
-    "$real_sbatch" "$2" "${3:-}" > "$work/$1/sbatch"
+  printf '#!/bin/sh\n%s\n' "$2" > "$work/$1/sbatch"
   chmod +x "$work/$1/sbatch"
   slurm_config "$work/$1.toml" "$work/$1-work"
   PATH="$work/$1:$PATH" start_daemon "$work/$1.db" "$work/$1.log" --config "$work/$1.toml"
   mute_daemon=$(sed -n 's/.*jobs run on Slurm as dembuf-\([0-9a-f]*\)-.*/\1/p' "$work/$1.log" | tail -1)
+}
+# start_mute_daemon NAME SECONDS [SHELL LINE]: a daemon whose sbatch queues each job to begin
+# SECONDS later (the next poll must find it not yet ended), runs the line, and prints no id.
+start_mute_daemon() {
+  start_wrapped_daemon "$1" "$(printf '"%s" --begin=now+%s "$@" > /dev/null 2>&1\n%s\necho "sbatch: (no id)"' \
+    "$real_sbatch" "$2" "${3:-}")"
 }
 start_mute_daemon mute 5
 lost=$("$dembuf" submit "${bare[@]}" | grep -o '[0-9]*' | head -1)
@@ -382,4 +387,29 @@ for bed_job in $bed_jobs; do
 done
 stop_daemon
 echo "bed jobs ${bed_jobs//$'\n'/ }, whose ids sbatch did not say, cancelled with job $unneeded"
+echo "== 12. a bed job Slurm shows only after its record was cancelled is taken up ($SECONDS s)"
+# The first sbatch says no id and queues the job only 6 s later, after the cancel of its job
+# has marked the bed's record cancelled (nothing of that name in Slurm then); later ones pass
+# straight through. A job needing the same bed must take the late job up, not send a second.
+start_wrapped_daemon late "$(printf 'if mkdir "%s" 2> /dev/null; then
+  (sleep 6; "%s" --begin=now+10 "$@") > /dev/null 2>&1 < /dev/null &
+  sleep 2; echo "sbatch: (no id)"
+else exec "%s" "$@"; fi' "$work/late/first" "$real_sbatch" "$real_sbatch")"
+early=$("$dembuf" submit "$work/scene.toml" --set bed.seed=24 | grep -o '[0-9]*' | head -1)
+for _ in $(seq 100); do
+  [ -d "$work/late/first" ] && break
+  sleep 0.1
+done
+[ -d "$work/late/first" ] || fail "the bed's sbatch did not run"
+"$dembuf" cancel "$early" > /dev/null
+late_job=$(wait_slurm_job all "dembuf-$mute_daemon-bed-")
+[ -n "$late_job" ] || fail "the late bed job did not come to Slurm"
+again=$("$dembuf" submit "$work/scene.toml" --set bed.seed=24 | grep -o '[0-9]*' | head -1)
+wait_state "$again" done 180
+bed_jobs=$(squeue -h -t all -o '%j' | grep "^dembuf-$mute_daemon-bed-" | sort || true)
+[ -z "$(echo "$bed_jobs" | uniq -d)" ] || fail "a bed went to Slurm more than once: $bed_jobs"
+grep -q "job $again: .* found in Slurm as job $late_job; taken up" "$work/late.log" ||
+  fail "the late bed job $late_job was not taken up by job $again"
+stop_daemon
+echo "bed job $late_job, shown after its record was cancelled, taken up by job $again"
 echo "PASS ($SECONDS s)"

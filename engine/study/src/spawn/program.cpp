@@ -28,6 +28,11 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
   std::vector<char*> argv;
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
+  // Its own process group, so that a kill reaches what it started too (a script's commands).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
   pid_t pid = 0;
   // This process's environment, with `environment`'s NAME=value entries put first (the first
   // of a name is the one a program reads).
@@ -36,8 +41,9 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
   for (char** e = environ; *e; ++e) envp.push_back(*e);
   envp.push_back(nullptr);
   const int spawned =
-      posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), envp.data());
+      posix_spawnp(&pid, args[0].c_str(), &actions, &attributes, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attributes);
   close(pipe_fds[1]);
   ProgramResult result;
   if (spawned != 0) {
@@ -54,7 +60,7 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
       const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
           deadline - std::chrono::steady_clock::now());
       if (left.count() <= 0) {
-        kill(pid, SIGKILL);
+        kill(-pid, SIGKILL);
         result.timed_out = true;
         break;
       }
@@ -68,7 +74,7 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) break;
     if (result.output.size() + static_cast<std::size_t>(n) > kMaxProgramOutput) {
-      kill(pid, SIGKILL);
+      kill(-pid, SIGKILL);
       result.overflowed = true;
       break;
     }

@@ -54,18 +54,18 @@ bool IsFinalState(std::string_view state) {
   return false;
 }
 
-Liveness LivenessOf(std::string_view state) {
-  if (IsFinalState(state)) return Liveness::kEnded;
-  return state == "COMPLETING" ? Liveness::kEnding : Liveness::kMayRun;
+Liveness LivenessOf(const JobStatus& job) {
+  if (IsFinalState(job.state)) return Liveness::kEnded;
+  if (job.state == "COMPLETING" || job.reason == "DependencyNeverSatisfied")
+    return Liveness::kEnding;
+  return Liveness::kMayRun;
 }
 
 const JobStatus* ChooseCopy(const std::vector<JobStatus>& jobs,
                             const std::function<bool(const JobStatus&)>& matches, Liveness least) {
   const JobStatus* chosen = nullptr;
-  for (const JobStatus& job : jobs) {
-    if (!matches(job) || LivenessOf(job.state) < least) continue;
-    if (!chosen || LivenessOf(job.state) > LivenessOf(chosen->state)) chosen = &job;
-  }
+  for (const JobStatus& job : jobs)
+    if (matches(job) && LivenessOf(job) >= least && (!chosen || job.id > chosen->id)) chosen = &job;
   return chosen;
 }
 

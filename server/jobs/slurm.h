@@ -42,15 +42,16 @@ struct JobStatus {
 /// OUT_OF_MEMORY, NODE_FAIL, PREEMPTED, BOOT_FAIL, DEADLINE).
 bool IsFinalState(std::string_view state);
 
-/// How far a job is from its end, in the order a copy of it is preferred: kMayRun (pending,
-/// running, suspended: it may still do its work), kEnding (COMPLETING: its processes are being
-/// ended; a job cancelled a moment ago is one), kEnded (a final state).
+/// How far a job is from its end: kMayRun (pending, running, suspended: it may still do its
+/// work), kEnding (COMPLETING: its processes are being ended, as a job's cancelled a moment
+/// ago are; or pending on a dependency that can never be met), kEnded (a final state).
 enum class Liveness { kEnded, kEnding, kMayRun };
-Liveness LivenessOf(std::string_view state);
+Liveness LivenessOf(const JobStatus& job);
 
-/// Of the jobs `matches` accepts, the one to take up as a job the daemon lost the id of: the
-/// most alive (a live copy before an ended one, whatever squeue's order), if at least `least`;
-/// nullptr when none is.
+/// Of the jobs `matches` accepts that are at least `least` alive, the one to follow as a job
+/// whose id the daemon lost: the newest (the highest id; Slurm numbers jobs in the order they
+/// come), which is the last sbatch's, the one whose result the job's nonce accepts. nullptr
+/// when there is none.
 const JobStatus* ChooseCopy(const std::vector<JobStatus>& jobs,
                             const std::function<bool(const JobStatus&)>& matches, Liveness least);
 

@@ -322,7 +322,8 @@ void SlurmExecutor::CancelUnneededBeds() {
   }
   // A bed whose sbatch printed no id may be queued all the same: found by its name, it is
   // cancelled too, or it would prepare a bed for nobody. Marked cancelled only once Slurm lists
-  // no live copy, so a scancel that failed, or a job Slurm showed late, is met again.
+  // no live copy, so a scancel that failed is met again. (A job Slurm shows only after that is
+  // not looked for again here; the next job needing the bed takes it up: BedJob.)
   std::optional<std::vector<slurm::JobStatus>> in_slurm;  // asked once a pass, if needed
   for (SlurmBedJob bed : m_store.SlurmBedsInState("submitting")) {
     if (needed.count(bed.hash)) continue;
@@ -344,6 +345,8 @@ void SlurmExecutor::CancelUnneededBeds() {
     bed.state = "cancelled";
     bed.error = "no job needs it any more";
     m_store.PutSlurmBed(bed);
+    m_log->info("{} {}: no job needs it any more, and Slurm lists no job preparing it",
+                BedWords(bed.stage), bed.hash);
   }
 }
 
@@ -589,8 +592,9 @@ std::int64_t SlurmExecutor::BedJob(const std::string& hash, const std::string& s
   if (known && known->slurm_id == 0) {
     // Tried before, and sbatch did not say the id (it timed out, or printed none it could be
     // known by), whether or not the record was cancelled since (Slurm may show the job only
-    // later): found by name, it is taken up, not prepared twice. Not one that is ending: a
-    // bed job cancelled a moment ago is COMPLETING, and would fail the job it was given to.
+    // later): found by name, it is taken up, not prepared twice. Not one that is ending (a
+    // bed job cancelled a moment ago is COMPLETING) or waits on a failed dependency: either
+    // would fail the job it was given to.
     const std::vector<slurm::JobStatus> found = m_slurm.FindByNamePrefix(name);
     if (const slurm::JobStatus* s = slurm::ChooseCopy(
             found, [&](const slurm::JobStatus& listed) { return listed.name == name; },

@@ -117,35 +117,41 @@ TEST(Slurm, FinalStatesAreTheOnesThatDoNotRunAgain) {
     EXPECT_FALSE(slurm::IsFinalState(s)) << s;
 }
 
-// A job whose id the daemon lost is taken up by its name. squeue may list an ended copy of it
-// before a live one (a job sent twice): the ended one used to be taken up at start-up, leaving
-// the live one to run into the job's folder unwatched. And a bed job cancelled a moment ago is
-// COMPLETING: taken up, it failed the job it was given to.
-TEST(Slurm, AJobsLiveCopyIsTakenUpBeforeAnEndedOneAndAnEndingBedIsNot) {
+// A job whose id the daemon lost is followed in the Slurm job of its name. squeue may list
+// several (a job sent again when its first sbatch said no id): the first listed was taken,
+// though only the last sbatch's result passes the job's nonce. And a bed job cancelled a moment
+// ago is COMPLETING, one whose dependency failed pends for ever: followed, either failed the job
+// it was given to.
+TEST(Slurm, ALostJobIsFollowedInItsNewestCopyAndAnEndingBedJobInNone) {
   using slurm::Liveness;
-  EXPECT_EQ(slurm::LivenessOf("PENDING"), Liveness::kMayRun);
-  EXPECT_EQ(slurm::LivenessOf("SUSPENDED"), Liveness::kMayRun);
-  EXPECT_EQ(slurm::LivenessOf("COMPLETING"), Liveness::kEnding);
-  EXPECT_EQ(slurm::LivenessOf("CANCELLED"), Liveness::kEnded);
-  const std::vector<slurm::JobStatus> listed = {{7, -1, "other", "RUNNING", "None", "n1"},
-                                                {8, -1, "mine", "COMPLETED", "None", "n1"},
-                                                {9, -1, "mine", "COMPLETING", "None", "n1"},
+  const auto of = [](const char* state, const char* reason = "None") {
+    return slurm::LivenessOf({1, -1, "x", state, reason, ""});
+  };
+  EXPECT_EQ(of("PENDING"), Liveness::kMayRun);
+  EXPECT_EQ(of("PENDING", "Dependency"), Liveness::kMayRun);
+  EXPECT_EQ(of("SUSPENDED"), Liveness::kMayRun);
+  EXPECT_EQ(of("PENDING", "DependencyNeverSatisfied"), Liveness::kEnding);
+  EXPECT_EQ(of("COMPLETING"), Liveness::kEnding);
+  EXPECT_EQ(of("CANCELLED"), Liveness::kEnded);
+  const std::vector<slurm::JobStatus> listed = {{12, -1, "other", "RUNNING", "None", "n1"},
                                                 {10, -1, "mine", "RUNNING", "None", "n1"},
-                                                {11, -1, "mine", "FAILED", "None", "n1"}};
-  const auto mine = [](const slurm::JobStatus& s) { return s.name == "mine"; };
-  for (Liveness least : {Liveness::kEnded, Liveness::kEnding, Liveness::kMayRun}) {
-    const slurm::JobStatus* chosen = slurm::ChooseCopy(listed, mine, least);
-    ASSERT_NE(chosen, nullptr);
-    EXPECT_EQ(chosen->id, 10);
-  }
-  const std::vector<slurm::JobStatus> ending = {{8, -1, "mine", "COMPLETED", "None", ""},
+                                                {11, -1, "mine", "COMPLETED", "None", "n1"},
+                                                {8, -1, "mine", "RUNNING", "None", "n1"},
                                                 {9, -1, "mine", "COMPLETING", "None", "n1"}};
-  EXPECT_EQ(slurm::ChooseCopy(ending, mine, Liveness::kMayRun), nullptr);
-  ASSERT_NE(slurm::ChooseCopy(ending, mine, Liveness::kEnding), nullptr);
-  EXPECT_EQ(slurm::ChooseCopy(ending, mine, Liveness::kEnding)->id, 9);
-  EXPECT_EQ(slurm::ChooseCopy({listed[1]}, mine, Liveness::kEnded)->id, 8);
-  EXPECT_EQ(slurm::ChooseCopy({listed[1]}, mine, Liveness::kEnding), nullptr);
-  EXPECT_EQ(slurm::ChooseCopy({listed[0]}, mine, Liveness::kEnded), nullptr);
+  const auto mine = [](const slurm::JobStatus& s) { return s.name == "mine"; };
+  const auto chosen = [&](const std::vector<slurm::JobStatus>& jobs, Liveness least) {
+    const slurm::JobStatus* job = slurm::ChooseCopy(jobs, mine, least);
+    return job ? job->id : 0;
+  };
+  EXPECT_EQ(chosen(listed, Liveness::kEnded), 11);  // at start-up: the newest, ended or not
+  EXPECT_EQ(chosen(listed, Liveness::kEnding), 10);
+  EXPECT_EQ(chosen(listed, Liveness::kMayRun), 10);
+  const std::vector<slurm::JobStatus> ending = {
+      {9, -1, "mine", "COMPLETING", "None", "n1"},
+      {8, -1, "mine", "PENDING", "DependencyNeverSatisfied", ""}};
+  EXPECT_EQ(chosen(ending, Liveness::kMayRun), 0);  // a bed's: neither will prepare it
+  EXPECT_EQ(chosen(ending, Liveness::kEnding), 9);
+  EXPECT_EQ(chosen({listed[0]}, Liveness::kEnded), 0);
 }
 
 // sbatch says "Batch job submission failed" when slurmctld is down too: such a job must wait
@@ -322,7 +328,7 @@ TEST(Slurm, AKilledCommandTakesWhatItStartedWithIt) {
   const std::string pid_file = test::TempPath("pid");
   const ProgramResult killed =
       RunProgram({"sh", "-c", "sleep 60 & echo $! > " + ShellQuote(pid_file) + "; wait"},
-                 std::chrono::milliseconds(500));
+                 std::chrono::seconds(2));
   EXPECT_TRUE(killed.timed_out);
   std::ifstream in(pid_file);
   int started = 0;
@@ -336,7 +342,29 @@ TEST(Slurm, AKilledCommandTakesWhatItStartedWithIt) {
   for (int k = 0; k < 50 && running(); ++k)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_FALSE(running()) << "the script's sleep (pid " << started << ") outlived it";
-  if (running()) kill(started, SIGKILL);
+}
+
+// The timeout used to count only while the program's output was open: one that closed it and
+// ran on was waited for without end, and one that left its process group was not killed. Each
+// held the daemon's pass, and every cancel behind it.
+TEST(Slurm, ACommandIsKilledAtItsTimeoutWhateverItDoesWithItsOutputOrGroup) {
+  const std::vector<std::vector<std::string>> hangers = {
+      {"sh", "-c", "exec > /dev/null 2>&1; sleep 30"},
+      {"python3", "-c",
+       "import os, time; os.setpgid(0, os.getpgid(os.getppid())); print('moved', flush=True); "
+       "time.sleep(30)"}};
+  for (const std::vector<std::string>& args : hangers) {
+    const auto start = std::chrono::steady_clock::now();
+    const ProgramResult hung = RunProgram(args, std::chrono::milliseconds(500));
+    EXPECT_TRUE(hung.timed_out) << args.back();
+    EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10)) << args.back();
+    EXPECT_EQ(hung.exit_code, 128 + SIGKILL) << args.back();
+  }
+  // A program that ends in time is not taken for one that timed out.
+  const ProgramResult quick =
+      RunProgram({"sh", "-c", "exec > /dev/null; exit 3"}, std::chrono::seconds(10));
+  EXPECT_FALSE(quick.timed_out);
+  EXPECT_EQ(quick.exit_code, 3);
 }
 
 TEST(Slurm, ACommandThatPrintsWithoutEndIsKilledAtTheOutputBound) {

@@ -65,6 +65,16 @@ wait_slurm_job() {
   done
   echo "$id"
 }
+# wait_until WHAT COMMAND...: waits up to 30 s for COMMAND to succeed; fails saying WHAT if not.
+wait_until() {
+  local what=$1
+  shift
+  for _ in $(seq 300); do
+    "$@" && return
+    sleep 0.1
+  done
+  fail "$what"
+}
 # slurm_id JOB: the Slurm job of a dembuf job, from status.
 slurm_id() { "$dembuf" status "$1" | sed -n 's/^Slurm job \([0-9]*\).*/\1/p'; }
 small_scene "$work/scene.toml"
@@ -369,11 +379,7 @@ echo "== 11. a job cancelled while its bed's sbatch says no id: the bed's Slurm 
 start_mute_daemon slow 20 "touch '$work/slow/queued'; sleep 2"
 # A seed of its own: its beds are not in the cache.
 unneeded=$("$dembuf" submit "$work/scene.toml" --set bed.seed=23 | grep -o '[0-9]*' | head -1)
-for _ in $(seq 100); do
-  [ -e "$work/slow/queued" ] && break
-  sleep 0.1
-done
-[ -e "$work/slow/queued" ] || fail "the bed's sbatch did not run"
+wait_until "the bed's sbatch did not run" test -e "$work/slow/queued"
 "$dembuf" cancel "$unneeded" > /dev/null
 [ "$(job_state "$unneeded")" = cancelled ] || fail "job $unneeded is $(job_state "$unneeded")"
 # The source's job; and the cut's too where the cancel came after the next pass, which takes the
@@ -388,20 +394,21 @@ done
 stop_daemon
 echo "bed jobs ${bed_jobs//$'\n'/ }, whose ids sbatch did not say, cancelled with job $unneeded"
 echo "== 12. a bed job Slurm shows only after its record was cancelled is taken up ($SECONDS s)"
-# The first sbatch says no id and queues the job only 6 s later, after the cancel of its job
-# has marked the bed's record cancelled (nothing of that name in Slurm then); later ones pass
-# straight through. A job needing the same bed must take the late job up, not send a second.
+# The first sbatch takes 2 s to say no id (the job is cancelled meanwhile, as in part 11) and
+# queues the bed's job only once the test says "go", after the daemon has marked the bed's
+# record cancelled (nothing of that name in Slurm then); later ones pass straight through. A job needing the same bed must take the late job up, not send a
+# second.
 start_wrapped_daemon late "$(printf 'if mkdir "%s" 2> /dev/null; then
-  (sleep 6; "%s" --begin=now+10 "$@") > /dev/null 2>&1 < /dev/null &
+  (for _ in $(seq 600); do [ -e "%s" ] && break; sleep 0.1; done
+   "%s" --begin=now+10 "$@") > /dev/null 2>&1 < /dev/null &
   sleep 2; echo "sbatch: (no id)"
-else exec "%s" "$@"; fi' "$work/late/first" "$real_sbatch" "$real_sbatch")"
+else exec "%s" "$@"; fi' "$work/late/first" "$work/late/go" "$real_sbatch" "$real_sbatch")"
 early=$("$dembuf" submit "$work/scene.toml" --set bed.seed=24 | grep -o '[0-9]*' | head -1)
-for _ in $(seq 100); do
-  [ -d "$work/late/first" ] && break
-  sleep 0.1
-done
-[ -d "$work/late/first" ] || fail "the bed's sbatch did not run"
+wait_until "the bed's sbatch did not run" test -d "$work/late/first"
 "$dembuf" cancel "$early" > /dev/null
+wait_until "the cancelled job's bed record was not marked cancelled" \
+  grep -q "no job needs it any more, and Slurm lists no job preparing it" "$work/late.log"
+touch "$work/late/go"
 late_job=$(wait_slurm_job all "dembuf-$mute_daemon-bed-")
 [ -n "$late_job" ] || fail "the late bed job did not come to Slurm"
 again=$("$dembuf" submit "$work/scene.toml" --set bed.seed=24 | grep -o '[0-9]*' | head -1)

@@ -14,6 +14,37 @@ extern char** environ;
 
 namespace dembuf {
 
+namespace {
+
+// The program and its process group: what it started goes too, unless it left the group, and
+// the program itself even if it moved to another group.
+void KillProgram(pid_t pid) {
+  kill(-pid, SIGKILL);
+  kill(pid, SIGKILL);
+}
+
+// Waits for the program's exit, its output ended: it may have closed its output and run on.
+// Past the deadline (if `timed`) it is killed, and timed_out set. Returns its wait status.
+int WaitForExit(pid_t pid, bool timed, std::chrono::steady_clock::time_point deadline,
+                ProgramResult& result) {
+  int status = 0;
+  for (;;) {
+    const bool killed = result.timed_out || result.overflowed;
+    const pid_t ended = waitpid(pid, &status, timed && !killed ? WNOHANG : 0);
+    if (ended == pid) return status;
+    if (ended < 0 && errno == EINTR) continue;
+    if (ended < 0) return status;  // not our child: cannot happen
+    if (std::chrono::steady_clock::now() >= deadline) {
+      KillProgram(pid);
+      result.timed_out = true;
+      continue;
+    }
+    usleep(10000);
+  }
+}
+
+}  // namespace
+
 ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::milliseconds timeout,
                          const std::vector<std::string>& environment) {
   if (args.empty()) throw std::invalid_argument("RunProgram: no program");
@@ -60,7 +91,7 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
       const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
           deadline - std::chrono::steady_clock::now());
       if (left.count() <= 0) {
-        kill(-pid, SIGKILL);
+        KillProgram(pid);
         result.timed_out = true;
         break;
       }
@@ -74,16 +105,14 @@ ProgramResult RunProgram(const std::vector<std::string>& args, std::chrono::mill
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) break;
     if (result.output.size() + static_cast<std::size_t>(n) > kMaxProgramOutput) {
-      kill(-pid, SIGKILL);
+      KillProgram(pid);
       result.overflowed = true;
       break;
     }
     result.output.append(buf, static_cast<std::size_t>(n));
   }
   close(pipe_fds[0]);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
+  const int status = WaitForExit(pid, timeout.count() > 0, deadline, result);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   return result;
 }

@@ -26,10 +26,11 @@ inline constexpr std::size_t kMaxProgramOutput = 64u << 20;
 
 /// Runs `args[0]` (looked up in PATH) with these arguments, no shell between, and waits for it;
 /// after `timeout` (0: none) it is killed and timed_out is set; one whose output passes
-/// kMaxProgramOutput is killed too, and overflowed is set. It runs in a process group of its
-/// own, and a kill ends the whole group: the programs it started go with it. `environment` ("NAME=value"
-/// entries) is added to this process's environment for it: unlike its arguments, which every
-/// account may read in /proc, its environment only its own account may.
+/// kMaxProgramOutput is killed too, and overflowed is set. The timeout holds whether or not
+/// the program keeps its output open. It runs in a process group of its own, and a kill ends
+/// the whole group: the programs it started go with it, unless they left the group (setsid).
+/// `environment` ("NAME=value" entries) is added to this process's environment for it: unlike its
+/// arguments, which every account may read in /proc, its environment only its own account may.
 ProgramResult RunProgram(const std::vector<std::string>& args,
                          std::chrono::milliseconds timeout = std::chrono::milliseconds(0),
                          const std::vector<std::string>& environment = {});

@@ -185,16 +185,27 @@ bool SlurmExecutor::TakeUpFound(const JobRecord& job, const std::vector<slurm::J
                                 slurm::Liveness least) {
   // Its own Slurm job, or a task of an array named by its first job (task i of array b runs
   // job b + i).
-  const slurm::JobStatus* found = slurm::ChooseCopy(
-      in_slurm,
-      [&](const slurm::JobStatus& s) {
-        return s.task < 0 ? s.name == JobName(job.id) : s.name == ArrayName(job.id - s.task);
-      },
-      least);
+  const auto is_this_job = [&](const slurm::JobStatus& s) {
+    return s.task < 0 ? s.name == JobName(job.id) : s.name == ArrayName(job.id - s.task);
+  };
+  const slurm::JobStatus* found = slurm::ChooseCopy(in_slurm, is_this_job, least);
   if (!found) return false;
   const std::int64_t base = found->task < 0 ? -1 : job.id - found->task;
   m_store.SetSlurmId({job.id}, found->id, base);
   m_log->warn("job {}: found in Slurm as job {}; taken up, not submitted again", job.id, found->id);
+  // Another copy (the job sent again) would run into the same folder, unwatched.
+  for (const slurm::JobStatus& other : in_slurm) {
+    if (&other == found || !is_this_job(other) ||
+        slurm::LivenessOf(other) != slurm::Liveness::kMayRun)
+      continue;
+    try {
+      m_slurm.Cancel(other.id, other.task);
+      m_log->warn("job {}: its other Slurm job {} cancelled: one run to a folder", job.id,
+                  other.id);
+    } catch (const slurm::SlurmError& e) {
+      m_log->error("job {}: cannot cancel its other Slurm job {}: {}", job.id, other.id, e.what());
+    }
+  }
   return true;
 }
 

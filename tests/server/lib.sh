@@ -22,6 +22,8 @@ start_daemon() {
   daemon_log=$log
   local before=0
   [ -f "$log" ] && before=$(wc -l < "$log")
+  # Made here: the daemon's shell may not have opened it yet when it is first read.
+  : >> "$log"
   local access=(--access local) listen=(--listen 127.0.0.1:0)
   case " $* " in *" --access "* | *" --config "*) access=() ;; esac
   case " $* " in *" --listen "*) listen=() ;; esac

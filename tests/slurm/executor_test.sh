@@ -18,7 +18,9 @@
 #   9. a job whose folder cannot be made on a full disk waits, saying why, and runs later;
 #  10. an sbatch that queues a job but prints no id: the job is found by name, not sent twice;
 #  11. a job cancelled while its bed's sbatch prints no id: the bed's Slurm job is cancelled;
-#  12. a bed's Slurm job shown only after its record was cancelled is taken up, not sent twice.
+#  12. a bed's Slurm job shown only after its record was cancelled is taken up, not sent twice;
+#  13. an sbatch that queues a job twice and prints no id: the newer copy runs, the older is
+#      cancelled.
 # Usage: executor_test.sh SOURCE_DIR DEMBUF DEMBUFD
 set -euo pipefail
 root=$1
@@ -419,4 +421,18 @@ grep -q "job $again: .* found in Slurm as job $late_job; taken up" "$work/late.l
   fail "the late bed job $late_job was not taken up by job $again"
 stop_daemon
 echo "bed job $late_job, shown after its record was cancelled, taken up by job $again"
+echo "== 13. an sbatch that queues the job twice and says no id: the older copy is cancelled ($SECONDS s)"
+# Both copies would run into the job's one folder. The daemon follows the newest (the last
+# sbatch's, whose result the job's nonce accepts) and must cancel the other.
+start_wrapped_daemon twice "$(printf '"%s" --begin=now+5 "$@" > /dev/null 2>&1
+"%s" --begin=now+5 "$@" > /dev/null 2>&1
+echo "sbatch: (no id)"' "$real_sbatch" "$real_sbatch")"
+doubled=$("$dembuf" submit "${bare[@]}" | grep -o '[0-9]*' | head -1)
+wait_state "$doubled" done 120
+copies=$(squeue -h -t all -o '%i|%j|%T' | awk -F'|' -v n="dembuf-$mute_daemon-$doubled" '$2 == n' | sort -n)
+[ "$(echo "$copies" | wc -l)" = 2 ] || fail "not two Slurm jobs of job $doubled: $copies"
+[ "$(echo "$copies" | cut -d'|' -f3 | tr '\n' ' ')" = "CANCELLED COMPLETED " ] ||
+  fail "the older copy of job $doubled was not cancelled, the newer not followed: $copies"
+stop_daemon
+echo "job $doubled, queued twice: the older Slurm job cancelled, the newer ran"
 echo "PASS ($SECONDS s)"

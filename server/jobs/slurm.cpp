@@ -69,6 +69,22 @@ const JobStatus* ChooseCopy(const std::vector<JobStatus>& jobs,
   return chosen;
 }
 
+std::vector<std::pair<std::int64_t, int>> OtherLiveCopies(
+    const std::vector<JobStatus>& jobs, const std::function<bool(const JobStatus&)>& matches,
+    const JobStatus& chosen) {
+  std::vector<std::pair<std::int64_t, int>> others;
+  for (const JobStatus& job : jobs) {
+    const std::pair<std::int64_t, int> key{job.id, job.task};
+    if (key == std::pair<std::int64_t, int>{chosen.id, chosen.task} || !matches(job) ||
+        LivenessOf(job) != Liveness::kMayRun ||
+        std::find(others.begin(), others.end(), key) != others.end())
+      continue;
+    if (others.size() == kMaxOtherCopies) break;
+    others.push_back(key);
+  }
+  return others;
+}
+
 namespace {
 
 // An array task's index as squeue or scontrol print it; -1 for "N/A" (not an array's task),

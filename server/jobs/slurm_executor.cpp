@@ -194,16 +194,12 @@ bool SlurmExecutor::TakeUpFound(const JobRecord& job, const std::vector<slurm::J
   m_store.SetSlurmId({job.id}, found->id, base);
   m_log->warn("job {}: found in Slurm as job {}; taken up, not submitted again", job.id, found->id);
   // Another copy (the job sent again) would run into the same folder, unwatched.
-  for (const slurm::JobStatus& other : in_slurm) {
-    if (&other == found || !is_this_job(other) ||
-        slurm::LivenessOf(other) != slurm::Liveness::kMayRun)
-      continue;
+  for (const auto& [id, task] : slurm::OtherLiveCopies(in_slurm, is_this_job, *found)) {
     try {
-      m_slurm.Cancel(other.id, other.task);
-      m_log->warn("job {}: its other Slurm job {} cancelled: one run to a folder", job.id,
-                  other.id);
+      m_slurm.Cancel(id, task);
+      m_log->warn("job {}: its other Slurm job {} cancelled: one run to a folder", job.id, id);
     } catch (const slurm::SlurmError& e) {
-      m_log->error("job {}: cannot cancel its other Slurm job {}: {}", job.id, other.id, e.what());
+      m_log->error("job {}: cannot cancel its other Slurm job {}: {}", job.id, id, e.what());
     }
   }
   return true;

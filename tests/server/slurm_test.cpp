@@ -152,6 +152,17 @@ TEST(Slurm, ALostJobIsFollowedInItsNewestCopyAndAnEndingBedJobInNone) {
   EXPECT_EQ(chosen(ending, Liveness::kMayRun), 0);  // a bed's: neither will prepare it
   EXPECT_EQ(chosen(ending, Liveness::kEnding), 9);
   EXPECT_EQ(chosen({listed[0]}, Liveness::kEnded), 0);
+  // The copies to cancel: the live ones but the followed, each once (a line printed twice
+  // must not cancel the followed job), and no more than the bound.
+  using Key = std::pair<std::int64_t, int>;
+  std::vector<slurm::JobStatus> twice = listed;
+  twice.push_back(listed[1]);
+  twice.push_back(listed[3]);
+  const std::vector<Key> others = {{8, -1}};
+  EXPECT_EQ(slurm::OtherLiveCopies(twice, mine, listed[1]), others);
+  std::vector<slurm::JobStatus> many;
+  for (int id = 100; id < 200; ++id) many.push_back({id, -1, "mine", "PENDING", "None", ""});
+  EXPECT_EQ(slurm::OtherLiveCopies(many, mine, many.back()).size(), slurm::kMaxOtherCopies);
 }
 
 // sbatch says "Batch job submission failed" when slurmctld is down too: such a job must wait
@@ -355,8 +366,11 @@ TEST(Slurm, ACommandIsKilledAtItsTimeoutWhateverItDoesWithItsOutputOrGroup) {
        "time.sleep(30)"}};
   for (const std::vector<std::string>& args : hangers) {
     const auto start = std::chrono::steady_clock::now();
-    const ProgramResult hung = RunProgram(args, std::chrono::milliseconds(500));
+    const ProgramResult hung = RunProgram(args, std::chrono::seconds(3));
     EXPECT_TRUE(hung.timed_out) << args.back();
+    if (args[0] == "python3") {  // it had left the group before the kill
+      EXPECT_NE(hung.output.find("moved"), std::string::npos) << hung.output;
+    }
     EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10)) << args.back();
     EXPECT_EQ(hung.exit_code, 128 + SIGKILL) << args.back();
   }

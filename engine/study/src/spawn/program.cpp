@@ -33,7 +33,7 @@ int WaitForExit(pid_t pid, bool timed, std::chrono::steady_clock::time_point dea
     const pid_t ended = waitpid(pid, &status, timed && !killed ? WNOHANG : 0);
     if (ended == pid) return status;
     if (ended < 0 && errno == EINTR) continue;
-    if (ended < 0) return status;  // not our child: cannot happen
+    if (ended < 0) return SIGKILL;  // reaped elsewhere (cannot happen): not taken for a success
     if (std::chrono::steady_clock::now() >= deadline) {
       KillProgram(pid);
       result.timed_out = true;

@@ -69,13 +69,13 @@ const JobStatus* ChooseCopy(const std::vector<JobStatus>& jobs,
   return chosen;
 }
 
-std::vector<std::pair<std::int64_t, int>> OtherLiveCopies(
-    const std::vector<JobStatus>& jobs, const std::function<bool(const JobStatus&)>& matches,
-    const JobStatus& chosen) {
-  std::vector<std::pair<std::int64_t, int>> others;
+std::vector<JobKey> OtherLiveCopies(const std::vector<JobStatus>& jobs,
+                                    const std::function<bool(const JobStatus&)>& matches,
+                                    const JobStatus& chosen) {
+  std::vector<JobKey> others;
   for (const JobStatus& job : jobs) {
-    const std::pair<std::int64_t, int> key{job.id, job.task};
-    if (key == std::pair<std::int64_t, int>{chosen.id, chosen.task} || !matches(job) ||
+    const JobKey key{job.id, job.task};
+    if (key == JobKey{chosen.id, chosen.task} || !matches(job) ||
         LivenessOf(job) != Liveness::kMayRun ||
         std::find(others.begin(), others.end(), key) != others.end())
       continue;

@@ -55,17 +55,17 @@ Liveness LivenessOf(const JobStatus& job);
 const JobStatus* ChooseCopy(const std::vector<JobStatus>& jobs,
                             const std::function<bool(const JobStatus&)>& matches, Liveness least);
 
+/// A job of Slurm's as the daemon names it: the job's id and its task in a job array (-1:
+/// not an array's task). A job array's tasks share its id.
+using JobKey = std::pair<std::int64_t, int>;
+
 /// The most copies OtherLiveCopies names: a squeue listing more is not a cluster's honest answer.
 inline constexpr std::size_t kMaxOtherCopies = 16;
 /// The jobs `matches` accepts that may still run, but `chosen`: each named once (squeue may
 /// print a line twice), at most kMaxOtherCopies of them.
-std::vector<std::pair<std::int64_t, int>> OtherLiveCopies(
-    const std::vector<JobStatus>& jobs, const std::function<bool(const JobStatus&)>& matches,
-    const JobStatus& chosen);
-
-/// A job of Slurm's as the daemon names it: the job's id and its task in a job array (-1:
-/// not an array's task). A job array's tasks share its id.
-using JobKey = std::pair<std::int64_t, int>;
+std::vector<JobKey> OtherLiveCopies(const std::vector<JobStatus>& jobs,
+                                    const std::function<bool(const JobStatus&)>& matches,
+                                    const JobStatus& chosen);
 
 /// squeue's output format: the job's (or its array's) id, the array task ("N/A" for none),
 /// name, state, reason, node.

@@ -97,7 +97,8 @@ class SlurmExecutor final : public Executor {
   void Adopt();
   void SubmitQueued();
   /// Takes `job` up in its Slurm job or array task among `in_slurm` (found by name), if there
-  /// is one at least `least` alive (the most alive of its copies); whether it was.
+  /// is one at least `least` alive (the newest: ChooseCopy), and cancels its other live copies;
+  /// whether it was.
   bool TakeUpFound(const JobRecord& job, const std::vector<slurm::JobStatus>& in_slurm,
                    slurm::Liveness least);
   /// Notes on every queued job not yet in Slurm that Slurm cannot be reached, and why;

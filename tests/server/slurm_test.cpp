@@ -154,11 +154,10 @@ TEST(Slurm, ALostJobIsFollowedInItsNewestCopyAndAnEndingBedJobInNone) {
   EXPECT_EQ(chosen({listed[0]}, Liveness::kEnded), 0);
   // The copies to cancel: the live ones but the followed, each once (a line printed twice
   // must not cancel the followed job), and no more than the bound.
-  using Key = std::pair<std::int64_t, int>;
   std::vector<slurm::JobStatus> twice = listed;
   twice.push_back(listed[1]);
   twice.push_back(listed[3]);
-  const std::vector<Key> others = {{8, -1}};
+  const std::vector<slurm::JobKey> others = {{8, -1}};
   EXPECT_EQ(slurm::OtherLiveCopies(twice, mine, listed[1]), others);
   std::vector<slurm::JobStatus> many;
   for (int id = 100; id < 200; ++id) many.push_back({id, -1, "mine", "PENDING", "None", ""});

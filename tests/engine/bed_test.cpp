@@ -401,22 +401,73 @@ TEST(BedPreparation, StoppingTheCutBedsBeadsAtTheirPeaksReachesRestSooner) {
   ExpectAnotherRelaxationOfTheCut("free", free, "stopped at their peaks", bed, free_scene);
 }
 
-TEST(BedPreparation, ALongerStepRelaxesTheCutBedToTheSameRestInFewerSteps) {
-  // bed.cut_alpha = 0.8, four times the impact's step: the cut bed meets the same rest
-  // criterion in fewer steps, nearly the same bed, with every bead in its own balance (an
-  // unstable step would throw beads out or never come to rest).
+// The simulated times at which the cut's relaxation of `scene` checked its whole bed for
+// rest: its progress reports, cut from the small bed's cached source in a cache of its own.
+std::vector<double> CutRestCheckTimes(const Scene& scene) {
+  BedCache cache;
+  cache.FindOrMake(BedSourceHash(scene), "source", [&] {
+    return SmallBedCache().FindOrMake(BedSourceHash(scene), "source", [] {
+      ADD_FAILURE() << "the small bed's source is not in the cache";
+      return PreparedBed{};
+    });
+  });
+  std::vector<double> times;
+  BedRequest request;
+  request.on_progress = [&](const BedProgress& p) {
+    if (p.stage == "relaxing the cut bed") times.push_back(p.t_s);
+  };
+  GetBed(scene, cache, request);
+  return times;
+}
+
+TEST(BedPreparation, TheCutBedRelaxesWithFourTimesTheStepCheckedAsOftenInTime) {
+  // The default (bed.cut_alpha = 0): four times time.alpha's step. The cut bed meets the same
+  // rest criterion as with time.alpha's step, in fewer steps, nearly the same bed, with every
+  // bead in its own balance (an unstable step would throw beads out or never come to rest).
   const PreparedBed& bed = SmallBed();
-  Scene longer_step = SmallBedScene();
-  longer_step.bed.cut_alpha = 0.8;
-  const PreparedBed longer = GetBed(longer_step, SmallBedCache());
-  EXPECT_LT(longer.settle_steps, bed.settle_steps);
-  ExpectAnotherRelaxationOfTheCut("four times longer", longer, "time.alpha's step", bed,
-                                  longer_step);
-  EXPECT_LT(LargestMoveOnImport(longer, longer_step), 1e-5);
-  // The default (0) and time.alpha, the same step, are one bed.
-  Scene same = SmallBedScene();
-  same.bed.cut_alpha = same.time.alpha;
-  EXPECT_EQ(BedHash(same), BedHash(SmallBedScene()));
+  const Scene scene = SmallBedScene();
+  ASSERT_DOUBLE_EQ(CutRelaxationAlpha(scene), 4.0 * scene.time.alpha);
+  Scene impact_step = scene;
+  impact_step.bed.cut_alpha = scene.time.alpha;
+  const PreparedBed shorter = GetBed(impact_step, SmallBedCache());
+  EXPECT_LT(bed.settle_steps, shorter.settle_steps);
+  ExpectAnotherRelaxationOfTheCut("time.alpha's step", shorter, "four times longer", bed,
+                                  impact_step);
+  EXPECT_LT(LargestMoveOnImport(bed, scene), 1e-5);
+  // Its rest is checked at the same simulated times, every 50 of its steps instead of 200:
+  // each check is a chance for the bed's spring-back to end, and checks four times rarer in
+  // time let it tap the top beads denser (0.08 mm lower at 8 cm, docs/accuracy-cost.md).
+  const std::vector<double> checks = CutRestCheckTimes(scene);
+  const std::vector<double> impact_step_checks = CutRestCheckTimes(impact_step);
+  ASSERT_FALSE(checks.empty());
+  ASSERT_FALSE(impact_step_checks.empty());
+  EXPECT_NEAR(checks.front(), impact_step_checks.front(), 1e-9 * impact_step_checks.front());
+  // The old way's beds are its own: time.alpha's step is another key than the default's.
+  EXPECT_NE(BedHash(impact_step), BedHash(scene));
+  // The automatic factor stays within time.alpha and the longest step checked...
+  Scene other = scene;
+  other.time.alpha = 0.4;
+  EXPECT_DOUBLE_EQ(CutRelaxationAlpha(other), kLongestCheckedCutAlpha);
+  other.time.alpha = 0.9;
+  EXPECT_DOUBLE_EQ(CutRelaxationAlpha(other), 0.9);
+  // The field's help states the rule (its text cannot be composed: the table holds views).
+  const std::string help(FindSceneField("bed.cut_alpha")->help);
+  char rule[64];
+  std::snprintf(rule, sizeof rule, "%g x time.alpha, at most %g", kAutoCutStepMultiple,
+                kLongestCheckedCutAlpha);
+  EXPECT_NE(help.find(rule), std::string::npos) << help;
+  // ...and is time.alpha's with the draft's kinetic damping of the whole bed, whose rest check
+  // passed beds relaxed at longer steps with beads out of balance (at 0.6, a bead of this bed
+  // moved 1.4 mm when imported back: EveryBeadOfAPreparedBedIsAtRest); set, it is warned of.
+  Scene draft = scene;
+  ApplyAccuracy(draft, "draft");
+  ASSERT_TRUE(draft.bed.quench_cut_relaxation);
+  EXPECT_DOUBLE_EQ(CutRelaxationAlpha(draft), draft.time.alpha);
+  draft.bed.cut_alpha = 0.6;
+  const std::vector<std::string> warnings = SceneWarnings(draft);
+  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [](const std::string& w) {
+    return w.find("bed.cut_alpha") != std::string::npos;
+  }));
   // A step shorter than the impact's is refused (a tiny one would never end), naming the field.
   Scene tiny = SmallBedScene();
   tiny.bed.cut_alpha = 1e-300;
@@ -788,7 +839,7 @@ TEST(BedCacheThreads, ARunWaitsOnlyForABedBeingPrepared) {
 TEST(BedHash, IsStable) {
   // A fixed value: a change here means every cached bed is prepared again (raise
   // kBedPreparationVersion instead when that is intended).
-  EXPECT_EQ(BedHash(SmallBedScene()), "c1f072fe202a9513");  // (since bed.cut_alpha)
+  EXPECT_EQ(BedHash(SmallBedScene()), "7ce09db2fae30f3a");  // (since cut relaxation v2)
 }
 
 // `field` of `scene` set to another value it may take: a number 5% up (or down, or another in
@@ -1101,15 +1152,17 @@ TEST(SmallBedImpact, SnapshotsAreTakenWhenAskedAndBalance) {
   for (const auto& c : peak->contacts)
     if (c.b == dem::kPlate) plate += c.normal_N;
   EXPECT_NEAR(plate / summary.peak_plate_force_N, 1.0, 0.02);
-  // The flight-time snapshot shows the bed at rest: its plate load is the resting load (as
-  // recorded before the residual jitter, below the rest tolerance, was zeroed: within 0.1%).
+  // The flight-time snapshot shows the bed at rest: its plate load is the resting load, as
+  // recorded before the residual jitter, below the rest tolerance, was zeroed. That jitter's
+  // inertia and damping move the recorded load: by 0.02% with the cut relaxed at the
+  // impact's step, 0.11% at four times it (the default); the rest check bounds it at 1%.
   const ImpactSnapshot& rest = snaps.front();
   EXPECT_EQ(rest.label, "t_1ms");
   EXPECT_TRUE(std::isnan(rest.t_after_contact_s));  // taken before the contact
   double rest_plate = 0.0;
   for (const auto& c : rest.contacts)
     if (c.b == dem::kPlate) rest_plate += c.normal_N;
-  EXPECT_NEAR(rest_plate / summary.bed.rest_plate_force_N, 1.0, 1e-3);
+  EXPECT_NEAR(rest_plate / summary.bed.rest_plate_force_N, 1.0, 2e-3);
   EXPECT_NEAR(snaps[1].t_s, summary.first_contact_time_s + 0.0002, 2 * summary.dt_s);
   // Snapshots after contact are named by that time, and know it.
   EXPECT_EQ(snaps[1].label, "after_contact_0.2ms");

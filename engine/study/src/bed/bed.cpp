@@ -64,7 +64,8 @@ std::string SourceVersions(const Scene& scene) {
 }
 std::string CutVersions() {
   return "cut bead quench v" + std::to_string(kCutBeadQuenchVersion) + "\nsurface cut v" +
-         std::to_string(kSurfaceCutVersion) + "\n";
+         std::to_string(kSurfaceCutVersion) + "\ncut relaxation v" +
+         std::to_string(kCutRelaxationVersion) + "\n";
 }
 
 // A stage's key text: its procedures' versions, then every field in use whose value shapes one
@@ -143,7 +144,36 @@ constexpr double kMaxDrift = 0.5;
 // three-seed E2 sweep it stopped regions in 12 of 51 beds, whose C0 moved by 2e-4 at most:
 // docs/accuracy-cost.md.)
 constexpr std::int64_t kStallSteps = 20000;
-static_assert(kStallSteps % 50 == 0, "checked with the region's energy every 50 steps");
+// A region's energy and moving beads are counted every this many steps.
+constexpr std::int64_t kRegionCheckSteps = 50;
+static_assert(kStallSteps % kRegionCheckSteps == 0, "a stall is judged at a region check");
+// The whole bed's rest is judged every this many steps.
+constexpr std::int64_t kRestCheckSteps = 200;
+
+// How often a relaxation looks at its bed, in steps. The counts above are steps of the scene's
+// own step; a relaxation with a longer step (bed.cut_alpha) looks as often in simulated time,
+// so that its stages end at the same moments of the bed's motion and not `step_scale` times
+// later (each check is a chance to pass, and the bed's spring-back taps its top beads denser
+// for as long as it lasts: docs/accuracy-cost.md).
+struct Cadence {
+  std::int64_t rest_check = kRestCheckSteps;
+  std::int64_t region_check = kRegionCheckSteps;
+  std::int64_t stall = kStallSteps;  // a multiple of region_check
+
+  // `step_scale`: the relaxation's step over the scene's.
+  static Cadence ForStepScale(double step_scale) {
+    auto scaled = [&](std::int64_t steps) {
+      return std::max<std::int64_t>(1, std::llround(static_cast<double>(steps) / step_scale));
+    };
+    Cadence c;
+    c.rest_check = scaled(kRestCheckSteps);
+    c.region_check = scaled(kRegionCheckSteps);
+    c.stall = c.region_check *
+              std::max<std::int64_t>(1, std::llround(static_cast<double>(scaled(kStallSteps)) /
+                                                     static_cast<double>(c.region_check)));
+    return c;
+  }
+};
 
 double TotalKinetic(const dem::ParticleState& b) {
   double kinetic = 0.0;
@@ -247,7 +277,7 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
                           std::vector<dem::ContactHistoryEntry>& history,
                           const std::vector<char>& moving, double moving_energy, double d_mean,
                           double d_max, double energy_limit, std::int64_t max_steps, double time_s,
-                          std::int64_t step, bool quench_beads) {
+                          std::int64_t step, bool quench_beads, const Cadence& cadence) {
   const std::vector<char> free_bead = Near(beads, moving, kRegionReach * d_mean);
   const auto moving_count = static_cast<std::size_t>(std::count(moving.begin(), moving.end(), 1));
   const double drift = kMaxDrift * d_mean;
@@ -301,13 +331,13 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
       for (std::size_t k = 0; k < b.size() && !drifted; ++k)
         drifted = (b.position[k] - start[origin[k]]).squaredNorm() > drift * drift;
       if (drifted) break;
-      if (steps % 50 == 0) {
+      if (steps % cadence.region_check == 0) {
         const double energy = sim.BeadKineticEnergy();
         if (energy <= energy_limit) break;
         std::size_t still = 0;
         for (std::size_t k = 0; k < b.size(); ++k) still += b.KineticEnergy(k) > moving_energy;
         if (2 * still <= moving_count) break;  // half have stopped: a smaller region will do
-        if (steps % kStallSteps == 0) {
+        if (steps % cadence.stall == 0) {
           stalled = energy > 0.5 * stall_reference;
           if (stalled) break;
           stall_reference = energy;
@@ -350,7 +380,7 @@ std::int64_t SettleRegion(const dem::WorldParams& params, dem::ParticleState& be
 // With `quench_beads`, the regions stop their beads at their kinetic-energy peaks (BeadQuench).
 std::optional<dem::Simulation> SettleLocally(
     dem::Simulation& sim, double d_mean, double d_max, double tolerance_energy,
-    std::int64_t max_steps, bool quench_beads,
+    std::int64_t max_steps, bool quench_beads, const Cadence& cadence,
     const std::function<void(std::int64_t, double)>& report) {
   dem::ParticleState beads = sim.beads();
   const std::size_t n = beads.size();
@@ -371,7 +401,7 @@ std::optional<dem::Simulation> SettleLocally(
     steps +=
         SettleRegion(params, beads, history, moving, moving_energy, d_mean, d_max, energy_limit,
                      max_steps - steps, sim.time_s() + static_cast<double>(steps) * params.dt_s,
-                     sim.steps() + steps, quench_beads);
+                     sim.steps() + steps, quench_beads, cadence);
     count = count_moving();
     if (steps - reported >= 1000) {
       report(steps, TotalKinetic(beads));
@@ -394,6 +424,9 @@ struct Relaxation {
   bool local = false;
   // In local settling, each bead stopped at its kinetic-energy peaks (BeadQuench).
   bool quench_beads = false;
+  // The relaxation's step over the scene's (bed.cut_alpha over time.alpha): its checks come
+  // that many times fewer steps apart, at the same simulated times (Cadence).
+  double step_scale = 1.0;
 };
 
 // Integrates until the bed is at rest (see bed.h); returns the simulated time it took.
@@ -406,13 +439,13 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
   const double m_mean = mean.mass_kg;
   const double energy_scale = m_mean * scene.gravity_m_s2 * d_mean;
   const double t0 = sim.time_s();
-  constexpr int kCheckEvery = 200;
+  const Cadence cadence = Cadence::ForStepScale(relaxation.step_scale);
   bool quenching = relaxation.quench;
   KineticPeak peak(sim.BeadKineticEnergy());
   while (true) {
     if (request.threads) sim.LendThreads(request.threads->load(std::memory_order_relaxed));
     double interval_max = 0.0;  // largest kinetic energy of the beads in this interval [J]
-    for (int k = 0; k < kCheckEvery; ++k) {
+    for (std::int64_t k = 0; k < cadence.rest_check; ++k) {
       // Every step: 200 steps of a large bed take seconds, a cancel must act within one.
       if (request.cancel && request.cancel->load(std::memory_order_relaxed)) throw Cancelled();
       if (before_step) before_step(sim, sim.time_s() - t0);
@@ -446,7 +479,7 @@ double SettleToRest(dem::Simulation& sim, const Scene& scene, const std::string&
       };
       if (auto settled =
               SettleLocally(sim, d_mean, LargestDiameter(scene), tolerance * energy_scale,
-                            max_steps, relaxation.quench_beads, report))
+                            max_steps, relaxation.quench_beads, cadence, report))
         sim = std::move(*settled);
     }
     if (t > max_time) {
@@ -650,7 +683,8 @@ PreparedBed PrepareCut(const Scene& scene, const PreparedBed& source, const std:
                                 scene.bed.settle_tolerance, {},
                                 {.quench = scene.bed.quench_cut_relaxation,
                                  .local = scene.bed.local_settling,
-                                 .quench_beads = QuenchesCutBeads(scene)});
+                                 .quench_beads = QuenchesCutBeads(scene),
+                                 .step_scale = relaxing.time.alpha / scene.time.alpha});
   return Finish(sim, scene, hash, "cut", t, wall_start);
 }
 

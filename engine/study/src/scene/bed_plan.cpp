@@ -106,7 +106,10 @@ double SoftSettlingFactor(const Scene& scene) {
 }
 
 double CutRelaxationAlpha(const Scene& scene) {
-  return scene.bed.cut_alpha > 0.0 ? scene.bed.cut_alpha : scene.time.alpha;
+  if (scene.bed.cut_alpha > 0.0) return scene.bed.cut_alpha;
+  if (scene.bed.quench_cut_relaxation) return scene.time.alpha;
+  return std::max(scene.time.alpha,
+                  std::min(kLongestCheckedCutAlpha, kAutoCutStepMultiple * scene.time.alpha));
 }
 
 bool NeedsFrictionStage(const Scene& scene) {

@@ -49,6 +49,9 @@ inline constexpr int kCutBeadQuenchVersion = 1;
 inline constexpr int kSpeciesBedVersion = 1;
 /// Version of the surface cut (bed.cut = "surface"), in the hash of the beds it cuts.
 inline constexpr int kSurfaceCutVersion = 2;
+/// Version of the cut beds' relaxation, in the hash of every cut bed. 2: a relaxation with a
+/// longer step than time.alpha's checks its bed as often in simulated time, not in steps.
+inline constexpr int kCutRelaxationVersion = 2;
 
 /// A bed at rest, with what was measured on it.
 struct PreparedBed {

@@ -51,7 +51,14 @@ double SoftPourOverlap(const Scene& scene, double softening);
 /// largest whole number up to kAutoSoftening whose pour stays within kMaxSoftOverlap; 1 (the
 /// true stiffness) where that is below 2, and for a scene without a bed or with an imported one.
 double SoftSettlingFactor(const Scene& scene);
-/// The time-step factor the bed cut to H relaxes with: bed.cut_alpha, or time.alpha for 0.
+/// bed.cut_alpha = 0 (automatic) relaxes the cut bed with this many times time.alpha's step...
+inline constexpr double kAutoCutStepMultiple = 4.0;
+/// ...but at most with this factor: the longest cut step the tests and the E2 sweeps check.
+inline constexpr double kLongestCheckedCutAlpha = 0.8;
+/// The time-step factor the bed cut to H relaxes with: bed.cut_alpha, or for 0 (automatic)
+/// kAutoCutStepMultiple times time.alpha, at most kLongestCheckedCutAlpha and at least
+/// time.alpha; time.alpha itself with bed.quench_cut_relaxation (the draft's kinetic damping
+/// of the whole bed), whose rest check let beds relaxed at longer steps pass out of balance.
 double CutRelaxationAlpha(const Scene& scene);
 
 /// Whether the bed needs the friction stage: mu_pp differs from bed.prep_friction.

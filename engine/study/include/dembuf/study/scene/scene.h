@@ -150,10 +150,11 @@ struct BedSpec {
   /// local_settling.
   bool quench_cut_beads = true;
   /// Time-step factor of the relaxation of the bed cut to H: dt = cut_alpha * critical step
-  /// of eq. 6, from time.alpha to 1; 0: time.alpha. A cut only unloads a bed at rest, and its
-  /// contacts, pressed by the beads' weight, are far softer than eq. 6's step assumes, so the
-  /// relaxation stays stable at steps the impact cannot take; its beds' C0 and surface against the
-  /// default's are measured in docs/accuracy-cost.md.
+  /// of eq. 6, from time.alpha to 1; 0: automatic, four times time.alpha, at most 0.8, and
+  /// time.alpha with quench_cut_relaxation (CutRelaxationAlpha). A cut only unloads a bed at rest,
+  /// and its contacts, pressed by the beads' weight, are far softer than eq. 6's step assumes, so
+  /// the relaxation stays stable at steps the impact cannot take. Its beds against those relaxed at
+  /// time.alpha's step (cut_alpha = time.alpha) are measured in docs/accuracy-cost.md.
   double cut_alpha = 0.0;
   /// Settle the source bed with Young's modulus (beads and walls) divided by this: the time
   /// step grows by its square root. Then the true stiffness is restored and the bed relaxed to

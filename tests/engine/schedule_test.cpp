@@ -23,6 +23,14 @@ TEST(ShareCores, ARunOthersWaitForTakesWhatItsBedCanFeedFirst) {
   EXPECT_EQ(ShareCores(16, {{4, 0}, {6, 2}, {8, 5}}), (std::vector<int>{2, 6, 8}));
 }
 
+TEST(ShareCores, RunsAsManyWaitForShareInTurn) {
+  // Three seeds' source beds of 36,805 beads, 16 runs waiting for each, on 16 cores: even
+  // shares (Amdahl's law: each thread added gains less). Before, 14, 1 and 1.
+  EXPECT_EQ(ShareCores(16, std::vector<CoreClaim>(3, {36, 16})), (std::vector<int>{6, 5, 5}));
+  // Ties share only what the more waited-for left.
+  EXPECT_EQ(ShareCores(16, {{36, 16}, {10, 20}, {36, 16}}), (std::vector<int>{3, 10, 3}));
+}
+
 TEST(ShareCores, CoresNoRunCanFeedStayFree) {
   EXPECT_EQ(ShareCores(16, {{3, 0}}), (std::vector<int>{3}));
   EXPECT_EQ(ShareCores(64, {{36, 2}, {1, 0}, {2, 0}}), (std::vector<int>{36, 1, 2}));
@@ -134,19 +142,26 @@ TEST(PlanSchedule, TheE2SweepOn2And16And64Cores) {
   }
 }
 
-// Three seeds on 16 cores: the three source beds settle side by side, sharing the cores.
+// Three seeds on 16 cores: the three source beds settle side by side, sharing the cores evenly.
 TEST(PlanSchedule, ThreeSourceBedsSettleSideBySide) {
   const std::vector<SweepRun> runs = E2Sweep(3);
   const std::vector<RunLoad> loads = LoadsOf(runs);
   const SchedulePlan plan = PlanSchedule(loads, StartOrder(loads), 16);
   int preparing = 0, threads = 0;
+  std::vector<int> source_threads;
   for (const PlannedRun& p : plan.runs)
     if (p.start_s == 0.0) {
       preparing += p.prepares_source;
       threads += p.threads_at_start;
+      if (p.prepares_source) source_threads.push_back(p.threads_at_start);
     }
   EXPECT_EQ(preparing, 3);
   EXPECT_EQ(threads, 16);
+  // Evenly: 5, 4 and 4 beside the three bare plates (11, 1 and 1 before).
+  ASSERT_EQ(source_threads.size(), 3u);
+  EXPECT_LE(*std::max_element(source_threads.begin(), source_threads.end()) -
+                *std::min_element(source_threads.begin(), source_threads.end()),
+            1);
   const SchedulePlan one_seed =
       PlanSchedule(LoadsOf(E2Sweep(1)), StartOrder(LoadsOf(E2Sweep(1))), 16);
   EXPECT_LT(plan.wall_s, 3.0 * one_seed.wall_s);

@@ -1,4 +1,5 @@
 #include "dembuf/study/bed/bed.h"
+#include "dembuf/study/bed/relaxation_cadence.h"
 
 #include <algorithm>
 #include <array>
@@ -138,42 +139,8 @@ constexpr double kLocalEnergyTarget = 0.5;
 constexpr double kRegionReach = 2.0;
 // A region is chosen again when one of its free beads has moved this many mean diameters.
 constexpr double kMaxDrift = 0.5;
-// A region whose kinetic energy has not halved in this many steps is stalled: its beads
-// are stopped. Without rolling or twisting resistance a bead held by two contacts can spin
-// about the axis through them for ever, and a small region around it never ends. (In the
-// three-seed E2 sweep it stopped regions in 12 of 51 beds, whose C0 moved by 2e-4 at most:
-// docs/accuracy-cost.md.)
-constexpr std::int64_t kStallSteps = 20000;
-// A region's energy and moving beads are counted every this many steps.
-constexpr std::int64_t kRegionCheckSteps = 50;
-static_assert(kStallSteps % kRegionCheckSteps == 0, "a stall is judged at a region check");
-// The whole bed's rest is judged every this many steps.
-constexpr std::int64_t kRestCheckSteps = 200;
-
-// How often a relaxation looks at its bed, in steps. The counts above are steps of the scene's
-// own step; a relaxation with a longer step (bed.cut_alpha) looks as often in simulated time,
-// so that its stages end at the same moments of the bed's motion and not `step_scale` times
-// later (each check is a chance to pass, and the bed's spring-back taps its top beads denser
-// for as long as it lasts: docs/accuracy-cost.md).
-struct Cadence {
-  std::int64_t rest_check = kRestCheckSteps;
-  std::int64_t region_check = kRegionCheckSteps;
-  std::int64_t stall = kStallSteps;  // a multiple of region_check
-
-  // `step_scale`: the relaxation's step over the scene's.
-  static Cadence ForStepScale(double step_scale) {
-    auto scaled = [&](std::int64_t steps) {
-      return std::max<std::int64_t>(1, std::llround(static_cast<double>(steps) / step_scale));
-    };
-    Cadence c;
-    c.rest_check = scaled(kRestCheckSteps);
-    c.region_check = scaled(kRegionCheckSteps);
-    c.stall = c.region_check *
-              std::max<std::int64_t>(1, std::llround(static_cast<double>(scaled(kStallSteps)) /
-                                                     static_cast<double>(c.region_check)));
-    return c;
-  }
-};
+// How often the bed and a region are checked, and when a region has stalled: Cadence
+// (relaxation_cadence.h).
 
 double TotalKinetic(const dem::ParticleState& b) {
   double kinetic = 0.0;
@@ -603,9 +570,9 @@ void InsertLayerBeads(const Scene& scene, const LayerPlan& layer, std::uint8_t l
 
 // A source bed of layers (LayerSpec), poured in turn from the plate up: each layer's beads
 // inserted above the layers below, the whole bed settled (SettleBed), and each layer but the
-// last cut at its top and relaxed as a cut bed is, so that the next one lies on a surface where
-// the layer was asked to end. The last layer is poured to the source's thickness and cut to H
-// with the bed (PrepareCut), as a bed of one layer is.
+// last cut at its top and relaxed as a cut bed is (at time.alpha's step), so that the next one lies
+// on a surface where the layer was asked to end. The last layer is poured to the source's thickness
+// and cut to H with the bed (PrepareCut), as a bed of one layer is.
 PreparedBed PrepareLayeredSource(const Scene& scene, const std::string& hash,
                                  const BedRequest& request) {
   const auto wall_start = std::chrono::steady_clock::now();

@@ -237,7 +237,7 @@ ResourceEstimate EstimateResources(const Scene& scene) {
     e.impact_beads = imported.beads;
   }
   e.dt_s = scene.time.alpha * CriticalTimeStepOf(scene, min_radius);
-  // A settling stage is checked for rest every 200 steps.
+  // A settling stage is checked for rest every 200 steps at the impact's step (at most).
   auto settle_steps = [&](double seconds) { return std::ceil(seconds / e.dt_s) + 200; };
 
   // The cut bed: each layer's share of H at the settled packing, in its mean bead.

@@ -58,7 +58,8 @@ inline constexpr double kLongestCheckedCutAlpha = 0.8;
 /// The time-step factor the bed cut to H relaxes with: bed.cut_alpha, or for 0 (automatic)
 /// kAutoCutStepMultiple times time.alpha, at most kLongestCheckedCutAlpha and at least
 /// time.alpha; time.alpha itself with bed.quench_cut_relaxation (the draft's kinetic damping
-/// of the whole bed), whose rest check let beds relaxed at longer steps pass out of balance.
+/// of the whole bed), whose rest check let beds relaxed at longer steps pass out of balance
+/// (a longer step set with it is refused).
 double CutRelaxationAlpha(const Scene& scene);
 
 /// Whether the bed needs the friction stage: mu_pp differs from bed.prep_friction.

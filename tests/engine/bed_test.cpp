@@ -930,6 +930,10 @@ TEST(BedKeys, EveryFieldMovesTheKeysOfTheStagesItShapes) {
   imported.bed.import_bytes = std::make_shared<const std::string>("0 0 0.0011 0.0011\n");
   imported.bed.import_types = 3;
   const BedStageKeys prepared_keys = BedKeys(prepared), imported_keys = BedKeys(imported);
+  // The prepared scene is of layers, so what shapes every cut shapes its source bed too (its
+  // layers are cut between them); a bed of one layer's source it leaves alone.
+  const Scene one_layer = SmallBedScene();
+  const BedStageKeys one_layer_keys = BedKeys(one_layer);
   for (const SceneField& field : SceneFields()) {
     ASSERT_TRUE(!field.in_use || ((field.in_use(prepared) || field.shapes == kImportedBed) &&
                                   field.in_use(imported)))
@@ -937,11 +941,16 @@ TEST(BedKeys, EveryFieldMovesTheKeysOfTheStagesItShapes) {
     const Shapes s = field.shapes;
     if (s != kImportedBed) {  // a bed file's fields shape only an imported bed
       const BedStageKeys keys = BedKeys(Changed(prepared, field));
-      EXPECT_EQ(keys.source != prepared_keys.source, s == kSourceBed) << field.name;
-      EXPECT_EQ(keys.cut != prepared_keys.cut, s == kSourceBed || s == kCutBed) << field.name;
-      EXPECT_EQ(keys.friction != prepared_keys.friction,
-                s == kSourceBed || s == kCutBed || s == kFrictionBed)
+      EXPECT_EQ(keys.source != prepared_keys.source, s == kSourceBed || s == kEveryCut)
           << field.name;
+      EXPECT_EQ(keys.cut != prepared_keys.cut, s == kSourceBed || s == kEveryCut || s == kCutBed)
+          << field.name;
+      EXPECT_EQ(keys.friction != prepared_keys.friction,
+                s == kSourceBed || s == kEveryCut || s == kCutBed || s == kFrictionBed)
+          << field.name;
+      if (s == kEveryCut) {
+        EXPECT_EQ(BedKeys(Changed(one_layer, field)).source, one_layer_keys.source) << field.name;
+      }
     }
     const BedStageKeys keys = BedKeys(Changed(imported, field));
     EXPECT_EQ(keys.import != imported_keys.import,

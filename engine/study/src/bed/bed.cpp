@@ -712,10 +712,16 @@ BedStageKeys BedKeys(const Scene& scene) {
         KeyText(r, {kSourceBed, kFrictionBed, kImportedBed}, SourceVersions(r) + "imported\n"));
     return keys;
   }
-  keys.source = ContentHash(KeyText(r, {kSourceBed}, SourceVersions(r)));
-  keys.cut = ContentHash(KeyText(r, {kSourceBed, kCutBed}, SourceVersions(r) + CutVersions()));
-  keys.friction = ContentHash(
-      KeyText(r, {kSourceBed, kCutBed, kFrictionBed}, SourceVersions(r) + CutVersions()));
+  // A source bed of layers is cut between them (PrepareLayeredSource): what shapes every cut
+  // shapes it too.
+  keys.source =
+      LayerCount(r) > 1
+          ? ContentHash(KeyText(r, {kSourceBed, kEveryCut}, SourceVersions(r) + CutVersions()))
+          : ContentHash(KeyText(r, {kSourceBed}, SourceVersions(r)));
+  keys.cut =
+      ContentHash(KeyText(r, {kSourceBed, kEveryCut, kCutBed}, SourceVersions(r) + CutVersions()));
+  keys.friction = ContentHash(KeyText(r, {kSourceBed, kEveryCut, kCutBed, kFrictionBed},
+                                      SourceVersions(r) + CutVersions()));
   return keys;
 }
 

@@ -146,7 +146,7 @@ std::vector<SceneField> BedFields() {
       {"bed.cut",
        "",
        "how a bed is cut to H: surface = mean surface at H, tops = every bead top below H",
-       Shapes::kCutBed,
+       Shapes::kEveryCut,
        DEMBUF_FIELD(bed.cut),
        0.0,
        0.0,
@@ -160,13 +160,13 @@ std::vector<SceneField> BedFields() {
        DEMBUF_FIELD(bed.friction_settle_tolerance), 0.0, 1.0},
       {"bed.quench_cut_relaxation", "",
        "relax a cut bed with kinetic damping (zero velocities at each kinetic-energy peak)",
-       Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_relaxation)},
+       Shapes::kEveryCut, DEMBUF_FIELD(bed.quench_cut_relaxation)},
       {"bed.local_settling", "",
        "settle beds by stepping only the last moving beads' neighbourhood (false: every bead)",
        Shapes::kSourceBed, DEMBUF_FIELD(bed.local_settling)},
       {"bed.quench_cut_beads", "",
        "in a cut bed's local settling, stop each bead whose kinetic energy passes a maximum",
-       Shapes::kCutBed, DEMBUF_FIELD(bed.quench_cut_beads)},
+       Shapes::kEveryCut, DEMBUF_FIELD(bed.quench_cut_beads)},
       {"bed.cut_alpha", "",
        "time-step factor of the relaxation of the bed cut to H: dt = cut_alpha * critical step of "
        "eq. 6, from time.alpha to 1; 0 = automatic (4 x time.alpha, at most 0.8; time.alpha "
@@ -482,6 +482,8 @@ std::string_view ShapesName(Shapes shapes) {
       return "source bed";
     case Shapes::kCutBed:
       return "cut bed";
+    case Shapes::kEveryCut:
+      return "every cut";
     case Shapes::kFrictionBed:
       return "friction stage";
     case Shapes::kImportedBed:

@@ -23,6 +23,8 @@ namespace dembuf {
 enum class Shapes {
   kSourceBed,    ///< the settled source bed, so every bed cut from it
   kCutBed,       ///< the bed cut to H
+  kEveryCut,     ///< every cut: the bed cut to H, and in a bed of layers the cuts between
+                 ///< them, so also its source bed
   kFrictionBed,  ///< the bed after the change of friction (and a relaxed imported bed)
   kImportedBed,  ///< an imported bed (its file by content)
   kImpact,       ///< the impact only
@@ -37,7 +39,7 @@ std::string_view ShapesName(Shapes shapes);
 struct SceneField {
   using Ref = std::variant<double& (*)(Scene&), std::int64_t& (*)(Scene&), bool& (*)(Scene&),
                            std::string& (*)(Scene&), std::vector<double>& (*)(Scene&)>;
-  std::string_view name;  ///< dotted name, e.g. "projectile.mass_kg"
+  std::string_view name;       ///< dotted name, e.g. "projectile.mass_kg"
   std::string_view unit = {};  ///< SI unit, "" when dimensionless
   std::string_view help;
   Shapes shapes;  ///< what its value shapes (no default: every field says)

@@ -210,7 +210,8 @@ TEST(BedPreparation, EveryBeadOfAPreparedBedIsAtRest) {
   // stop made beds whose beads were held out of their own balance: stepped on, they moved by
   // millimetres (a column quench tried on the cut beds and withdrawn, docs/accuracy-cost.md).
   // Each way of bringing a bed to rest (local settling with the beads stopped at their peaks,
-  // the default; the draft's looser rest, reached by kinetic damping of the whole bed) leaves
+  // the default; the draft's looser rest, reached by kinetic damping of the whole bed; the
+  // reference's tighter one) leaves
   // every bead where a free relaxation keeps it, within 10 um (a settled bed's beads move by
   // micrometres, the withdrawn column quench's by millimetres).
   const double moved = LargestMoveOnImport(SmallBed(), SmallBedScene());
@@ -220,7 +221,16 @@ TEST(BedPreparation, EveryBeadOfAPreparedBedIsAtRest) {
   BedCache draft_beds;  // (its own source: the shared cache holds the one source others count)
   const double moved_draft = LargestMoveOnImport(GetBed(draft, draft_beds), draft);
   EXPECT_LT(moved_draft, 1e-5) << "the draft";
-  std::printf("the largest move: %.2g m (the default), %.2g m (the draft)\n", moved, moved_draft);
+  // The reference's, its cut relaxed at four times its own step (0.2 for its 0.05).
+  Scene reference = SmallBedScene();
+  ApplyAccuracy(reference, "reference");
+  ASSERT_DOUBLE_EQ(CutRelaxationAlpha(reference), 4.0 * reference.time.alpha);
+  BedCache reference_beds;
+  const double moved_reference = LargestMoveOnImport(GetBed(reference, reference_beds), reference);
+  EXPECT_LT(moved_reference, 1e-5) << "the reference";
+  std::printf(
+      "the largest move: %.2g m (the default), %.2g m (the draft), %.2g m (the reference)\n", moved,
+      moved_draft, moved_reference);
 }
 
 // A bed file's bytes that came with a request give the bed the file itself gives.

@@ -79,10 +79,11 @@ dembuf submit --preset e2 --set bed.thickness_m=0.04; dembuf watch 1; dembuf fet
 EXAMPLES
   echo "[SCENE FIELDS]"
   echo "Every field of a scene file, by its dotted name as --set and --vary take it, with its"
-  echo "unit, its allowed range (or values) and its meaning."
+  echo "unit, its allowed range (or values), its meaning and what it shapes: the earliest stage a"
+  echo "change of it computes again (source bed, cut bed, every cut, ..., impact, output)."
   # (awk, not read: a field without a unit or a range has empty columns between its tabs.)
   "$program" scene --list fields |
-    awk -F'\t' '{ print $1 "\t" ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4 }' |
+    awk -F'\t' '{ print $1 "\t" ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4 " (shapes: " $5 ")" }' |
     as_term_list
   echo ".PP"
   echo "Accuracies (--accuracy): $("$program" scene --list accuracies | cut -f1 | tr '\n' ' ')"

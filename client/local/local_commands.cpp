@@ -168,8 +168,9 @@ void AddSweep(CLI::App& app, CommandOptions& opt, CommandTable& commands) {
 }
 
 // `dembuf scene --list WHAT`: what --set, --preset, --accuracy and --format take, for people,
-// the shell's completion and the manual page. A field's line: its name, then its unit, range
-// and meaning, tab-separated.
+// the shell's completion and the manual page. A field's line: its name, then its unit, range,
+// meaning and what it shapes (the earliest stage a change of it computes again: a bed in the
+// store is used by any scene that differs from its own only in later stages), tab-separated.
 int ListValues(const std::string& what) {
   if (what == "presets")
     for (const Preset& p : Presets())
@@ -198,8 +199,10 @@ int ListValues(const std::string& what) {
     } else if (std::holds_alternative<std::string& (*)(Scene&)>(f.ref)) {
       range = "text";
     }
-    std::printf("%.*s\t%.*s\t%s\t%.*s\n", int(f.name.size()), f.name.data(), int(f.unit.size()),
-                f.unit.data(), range.c_str(), int(f.help.size()), f.help.data());
+    const std::string_view shapes = ShapesName(f.shapes);
+    std::printf("%.*s\t%.*s\t%s\t%.*s\t%.*s\n", int(f.name.size()), f.name.data(),
+                int(f.unit.size()), f.unit.data(), range.c_str(), int(f.help.size()), f.help.data(),
+                int(shapes.size()), shapes.data());
   }
   return 0;
 }

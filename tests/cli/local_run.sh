@@ -83,6 +83,14 @@ if "$dembuf" run "${e2[@]}" --out "$work/run" 2>/dev/null; then fail "overwrote 
 grep -q '^mass_kg = 0.3 ' "$work/scene.toml" || fail "printed scene lacks the override"
 "$dembuf" scene --print "$work/scene.toml" > "$work/again.toml"
 cmp -s "$work/scene.toml" "$work/again.toml" || fail "printed scene does not read back"
+# Each field's line ends with what it shapes, the earliest stage a change of it computes again.
+"$dembuf" scene --list fields > "$work/fields"
+shapes() { awk -F'\t' -v f="$1" '$1 == f { print $5 }' "$work/fields"; }
+[ "$(shapes material.density_kg_m3)" = "source bed" ] || fail "density shapes '$(shapes material.density_kg_m3)'"
+[ "$(shapes bed.thickness_m)" = "cut bed" ] || fail "thickness shapes '$(shapes bed.thickness_m)'"
+[ "$(shapes bed.cut)" = "every cut" ] || fail "bed.cut shapes '$(shapes bed.cut)'"
+[ "$(shapes projectile.speed_m_s)" = "impact" ] || fail "speed shapes '$(shapes projectile.speed_m_s)'"
+awk -F'\t' 'NF != 5 { print; bad = 1 } END { exit bad }' "$work/fields" || fail "a field's line lacks a column"
 # A preset gives the paper's scene; an unknown one is refused naming the preset field.
 "$dembuf" scene --print --preset e2 | grep -q '^speed_m_s = 5.0 ' || fail "preset e2 speed"
 if "$dembuf" scene --preset e9 2>"$work/err"; then fail "unknown preset accepted"; fi

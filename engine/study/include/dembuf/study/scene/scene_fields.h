@@ -18,7 +18,7 @@
 namespace dembuf {
 
 /// What a field's value shapes: the earliest stage of a run it enters (each stage carries on
-/// into those after it). The cache keys of beds are computed from this column (bed_keys.h):
+/// into those after it). The cache keys of beds are computed from this column (BedKeys, bed.h):
 /// a field that shapes a bed cannot be left out of its key.
 enum class Shapes {
   kSourceBed,    ///< the settled source bed, so every bed cut from it

@@ -79,11 +79,12 @@ dembuf submit --preset e2 --set bed.thickness_m=0.04; dembuf watch 1; dembuf fet
 EXAMPLES
   echo "[SCENE FIELDS]"
   echo "Every field of a scene file, by its dotted name as --set and --vary take it, with its"
-  echo "unit, its allowed range (or values), its meaning and what it shapes: the earliest stage a"
-  echo "change of it computes again (source bed, cut bed, every cut, ..., impact, output)."
+  echo "unit, its allowed range (or values), its meaning and the earliest stage of a run it enters:"
+  echo "source bed, cut bed, every cut (also the cuts between a bed's layers), friction stage,"
+  echo "imported bed, impact, output (only what a run writes) or nothing (a limit only)."
   # (awk, not read: a field without a unit or a range has empty columns between its tabs.)
   "$program" scene --list fields |
-    awk -F'\t' '{ print $1 "\t" ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4 " (shapes: " $5 ")" }' |
+    awk -F'\t' '{ print $1 "\t" ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4 "; shapes: " $5 }' |
     as_term_list
   echo ".PP"
   echo "Accuracies (--accuracy): $("$program" scene --list accuracies | cut -f1 | tr '\n' ' ')"

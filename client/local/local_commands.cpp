@@ -169,8 +169,8 @@ void AddSweep(CLI::App& app, CommandOptions& opt, CommandTable& commands) {
 
 // `dembuf scene --list WHAT`: what --set, --preset, --accuracy and --format take, for people,
 // the shell's completion and the manual page. A field's line: its name, then its unit, range,
-// meaning and what it shapes (the earliest stage a change of it computes again: a bed in the
-// store is used by any scene that differs from its own only in later stages), tab-separated.
+// meaning and what it shapes (the earliest stage of a run it enters, from the field table),
+// tab-separated.
 int ListValues(const std::string& what) {
   if (what == "presets")
     for (const Preset& p : Presets())
@@ -240,7 +240,8 @@ void AddReaders(CLI::App& app, CommandOptions& opt, CommandTable& commands) {
   scene
       ->add_option("--list", list,
                    "list the values an option takes, one a line: fields (every scene field, "
-                   "with its unit, range and meaning), presets, accuracies or formats")
+                   "with its unit, range, meaning and the stage it shapes), presets, "
+                   "accuracies or formats")
       ->check(CLI::IsMember({"fields", "presets", "accuracies", "formats"}));
   commands.Add(scene, [&opt] {
     if (!list.empty()) return ListValues(list);

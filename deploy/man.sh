@@ -79,9 +79,10 @@ dembuf submit --preset e2 --set bed.thickness_m=0.04; dembuf watch 1; dembuf fet
 EXAMPLES
   echo "[SCENE FIELDS]"
   echo "Every field of a scene file, by its dotted name as --set and --vary take it, with its"
-  echo "unit, its allowed range (or values), its meaning and the earliest stage of a run it enters:"
-  echo "source bed, cut bed, every cut (also the cuts between a bed's layers), friction stage,"
-  echo "imported bed, impact, output (only what a run writes) or nothing (a limit only)."
+  # (The stages' names come from the program's own list, in the order it first gives them.)
+  echo "unit, its allowed range (or values), its meaning and the earliest stage of a run it enters"
+  echo "(every cut: also the cuts between a bed's layers; output: only what a run writes):"
+  echo "$("$program" scene --list fields | awk -F'\t' '!seen[$5]++ { print $5 }' | paste -sd, - | sed 's/,/, /g')."
   # (awk, not read: a field without a unit or a range has empty columns between its tabs.)
   "$program" scene --list fields |
     awk -F'\t' '{ print $1 "\t" ($2 != "" ? "[" $2 "] " : "") ($3 != "" ? $3 ": " : "") $4 "; shapes: " $5 }' |

@@ -23,12 +23,23 @@ TEST(ShareCores, ARunOthersWaitForTakesWhatItsBedCanFeedFirst) {
   EXPECT_EQ(ShareCores(16, {{4, 0}, {6, 2}, {8, 5}}), (std::vector<int>{2, 6, 8}));
 }
 
-TEST(ShareCores, RunsAsManyWaitForShareInTurn) {
+TEST(ShareCores, RunsOthersWaitForShareInProportionToTheWaiting) {
   // Three seeds' source beds of 36,805 beads, 16 runs waiting for each, on 16 cores: even
   // shares (Amdahl's law: each thread added gains less). Before, 14, 1 and 1.
   EXPECT_EQ(ShareCores(16, std::vector<CoreClaim>(3, {36, 16})), (std::vector<int>{6, 5, 5}));
-  // Ties share only what the more waited-for left.
-  EXPECT_EQ(ShareCores(16, {{36, 16}, {10, 20}, {36, 16}}), (std::vector<int>{3, 10, 3}));
+  // One run fewer waiting moves a core, not thirteen (the most waited-for took all it could
+  // feed first: 14, 1 and 1).
+  EXPECT_EQ(ShareCores(16, {{36, 16}, {36, 15}, {36, 15}}), (std::vector<int>{6, 5, 5}));
+  EXPECT_EQ(ShareCores(16, {{36, 15}, {36, 16}, {36, 15}}), (std::vector<int>{5, 6, 5}));
+  EXPECT_EQ(ShareCores(16, {{36, 16}, {10, 20}, {36, 16}}), (std::vector<int>{5, 6, 5}));
+  // Far more waiting for one bed: nearly every core to it.
+  EXPECT_EQ(ShareCores(16, {{36, 30}, {36, 2}}), (std::vector<int>{15, 1}));
+  EXPECT_EQ(ShareCores(16, {{36, 30}, {36, 4}}), (std::vector<int>{14, 2}));
+  // What a bed cannot feed goes to the other waited-for runs first, then to the rest.
+  EXPECT_EQ(ShareCores(16, {{3, 20}, {36, 1}, {36, 0}}), (std::vector<int>{3, 12, 1}));
+  EXPECT_EQ(ShareCores(16, {{3, 20}, {4, 1}, {36, 0}}), (std::vector<int>{3, 4, 9}));
+  for (int cores : {1, 2, 5, 16, 64})  // (a core each when more run than there are)
+    EXPECT_EQ(Sum(ShareCores(cores, {{36, 7}, {36, 3}, {8, 0}})), std::max(cores, 3));
 }
 
 TEST(ShareCores, CoresNoRunCanFeedStayFree) {

@@ -31,21 +31,28 @@ void GiveInTurn(const std::vector<CoreClaim>& running, const std::vector<std::si
 std::vector<int> ShareCores(int cores, const std::vector<CoreClaim>& running) {
   std::vector<int> threads(running.size(), 1);
   int free = std::max(cores, 1) - static_cast<int>(running.size());
-  // The runs others wait for, most waited-for first, take what their beds can feed. Runs that
-  // as many wait for share in turn: each thread added gains less (Amdahl's law), so even
-  // shares end them soonest (three seeds' source beds on 16 cores got 11, 1 and 1).
-  std::vector<std::size_t> waited;
-  for (std::size_t k = 0; k < running.size(); ++k)
-    if (running[k].waiting > 0) waited.push_back(k);
-  std::stable_sort(waited.begin(), waited.end(), [&](std::size_t a, std::size_t b) {
-    return running[a].waiting > running[b].waiting;
-  });
-  for (auto first = waited.begin(); first != waited.end();) {
-    const auto last = std::find_if(first, waited.end(), [&](std::size_t k) {
-      return running[k].waiting != running[*first].waiting;
-    });
-    GiveInTurn(running, std::vector<std::size_t>(first, last), threads, free);
-    first = last;
+  // The runs others wait for share the free cores in proportion to how many wait for each, a
+  // core at a time to the run with the most waiting per thread it has (the highest-averages
+  // rule of seat apportionment), each up to what its bed can feed. Shares then move by a core
+  // when one run more waits, where "most waited-for takes all first" gave 14, 1 and 1 to runs
+  // that 16, 15 and 15 wait for (and 6, 5 and 5 at 16 each). Even shares of the same work end
+  // it soonest: each thread added gains less (Amdahl's law). A tie goes to the more
+  // waited-for, then to the earlier run.
+  for (; free > 0; --free) {
+    std::size_t best = running.size();
+    for (std::size_t k = 0; k < running.size(); ++k) {
+      if (running[k].waiting <= 0 || threads[k] >= running[k].threads_max) continue;
+      if (best == running.size()) {
+        best = k;
+        continue;
+      }
+      // waiting[k] / threads[k] against waiting[best] / threads[best], in integers.
+      const long mine = static_cast<long>(running[k].waiting) * threads[best];
+      const long theirs = static_cast<long>(running[best].waiting) * threads[k];
+      if (mine > theirs || (mine == theirs && running[k].waiting > running[best].waiting)) best = k;
+    }
+    if (best == running.size()) break;
+    ++threads[best];
   }
   // The others in turn.
   std::vector<std::size_t> all(running.size());

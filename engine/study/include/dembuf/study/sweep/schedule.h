@@ -22,11 +22,11 @@ struct CoreClaim {
   int waiting = 0;
 };
 
-/// Threads for each running run on `cores` cores: one each; then the runs that others wait for,
-/// most waited-for first, as many as their beds can feed (those as many wait for a core at a
-/// time in turn); then the others in turn, each up to what its bed can feed. Cores no run can feed
-/// stay free: a thread with too few beads slows its team. Never more than `cores` in all unless
-/// more runs than cores are running.
+/// Threads for each running run on `cores` cores: one each; then the free cores to the runs
+/// that others wait for, in proportion to how many wait for each (a core at a time to the most
+/// waiting per thread), each up to what its bed can feed; then the rest to the others in turn,
+/// each up to what its bed can feed. Cores no run can feed stay free: a thread with too few
+/// beads slows its team. Never more than `cores` in all unless more runs than cores are running.
 std::vector<int> ShareCores(int cores, const std::vector<CoreClaim>& running);
 
 /// What a run weighs: its source bed and one thread's seconds for each part.

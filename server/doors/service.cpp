@@ -203,40 +203,18 @@ Status DembufService::CheckNotifyRoom(bool notify, const std::string& owner) {
                 "quota=notifications");
 }
 
-namespace {
-
-// Whether compile flags leave the target to the machine that builds (-march=native): two
-// such builds on different processors name the same configuration.
-bool NamesNoTarget(std::string_view config) {
-  return config.find("=native") != std::string_view::npos;
-}
-
-// Whether a summary was written by this program's engine: the same version, commit (with a
-// hash of its changes), build type, compiler and flags and C library, so that its result is the
-// one this daemon would make.
-bool MadeByThisEngine(const std::string& summary_json) {
-  const nlohmann::json summary = nlohmann::json::parse(summary_json, nullptr, false);
-  if (!summary.is_object() || !summary.contains("provenance")) return false;
-  const nlohmann::json& p = summary["provenance"];
-  const std::string commit = p.value("build_commit", "");
-  return p.value("dembuf_version", "") == kVersion && commit == report::BuildCommit() &&
-         commit != "unknown" && p.value("build_type", "") == report::BuildType() &&
-         p.value("build_config", "") == report::BuildConfig() &&
-         p.value("libc", "") == report::LibcVersion() && report::LibcVersion() != "unknown" &&
-         !NamesNoTarget(report::BuildConfig());
-}
-
-}  // namespace
-
 std::int64_t DembufService::ReusableResult(const Caller& caller, const JobRecord& job) {
   // As the job's owner may read: an admin filing for bob reuses only what bob may read.
   const Caller owner = m_policy.FiledAs(caller, job.owner);
   const std::optional<std::string> only_of =
       owner.admin ? std::nullopt : std::optional<std::string>(owner.name);
-  for (const JobRecord& done : m_store.DoneJobsOfScene(job.scene_hash, job.bed_file, only_of)) {
+  for (const JobRecord& done :
+       m_store.DoneJobsOfScene(job.scene_hash, job.scene_toml, job.bed_file, only_of)) {
     if (!AccessPolicy::Allows(owner, Action::kRead, done.owner)) continue;
     try {
-      if (!MadeByThisEngine(m_store.Summary(done.id))) continue;
+      if (!report::MadeByThisEngine(
+              nlohmann::json::parse(m_store.Summary(done.id), nullptr, false)))
+        continue;
       m_store.GetResults(done.id);  // (the whole series, checked against its checksums)
       for (const JobFileInfo& file : m_store.JobFiles(done.id))
         m_store.ReadJobFile(done.id, file.path, 0, 1);  // (a read from 0 checks the file)

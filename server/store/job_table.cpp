@@ -147,16 +147,18 @@ void JobTable::AddJob(JobRecord& job, const std::string& request_id) {
 }
 
 std::vector<JobRecord> JobTable::DoneJobsOfScene(const std::string& scene_hash,
+                                                 const std::string& scene_toml,
                                                  const std::string& bed_file,
                                                  const std::optional<std::string>& owner,
                                                  int limit) {
   Connection::Reading db = m_connection.Read();
   // (the owner filtered here, not after: another's many copies cannot hide one's own result)
   Statement& s = db->Prepare(std::string("SELECT ") + kListedJobColumns +
-                             " FROM jobs WHERE scene_hash = ? AND bed_file = ? AND state = 'done' "
+                             " FROM jobs WHERE scene_hash = ? AND scene_toml = ? AND bed_file = ? "
+                             "AND state = 'done' "
                              "AND (? IS NULL OR owner = ?) ORDER BY reused_from <> 0, id DESC "
                              "LIMIT ?");
-  s.Bind(scene_hash, bed_file, owner, owner, limit);
+  s.Bind(scene_hash, scene_toml, bed_file, owner, owner, limit);
   std::vector<JobRecord> jobs;
   while (s.Step()) jobs.push_back(ReadJobRow(s));
   return jobs;

@@ -30,9 +30,12 @@ class JobTable {
  public:
   /// Adds one job; sets its id. A `request_id` as for AddSweep.
   void AddJob(JobRecord& job, const std::string& request_id = "");
-  /// Done jobs (at most `limit`, originals before copies, newest first) of this scene and bed
-  /// file ("" for none), of `owner` only when given: results a new job of the scene may reuse.
-  std::vector<JobRecord> DoneJobsOfScene(const std::string& scene_hash, const std::string& bed_file,
+  /// Done jobs (at most `limit`, originals before copies, newest first) of this scene (its hash
+  /// and its text: the 64-bit hash finds them, and is no defence against a collision made on
+  /// purpose) and bed file ("" for none), of `owner` only when given: results a new job of the
+  /// scene may reuse.
+  std::vector<JobRecord> DoneJobsOfScene(const std::string& scene_hash,
+                                         const std::string& scene_toml, const std::string& bed_file,
                                          const std::optional<std::string>& owner, int limit = 4);
   /// The job or sweep `owner` filed with this request id, if any.
   std::optional<Submission> FindSubmission(const std::string& owner, const std::string& request_id);

@@ -58,4 +58,72 @@ sweep --set projectile.mass_kg=0.5 --vary projectile.speed_m_s=2 || fail "fewer 
 [ "$(rows)" = "$(ls "$work/s/runs" | wc -l)" ] && [ "$(rows)" = 2 ] ||
   fail "sweep.csv lists $(rows) runs of $(ls "$work/s/runs" | wc -l): $(cat "$work/s/sweep.csv")"
 grep -q "speed_m_s=3" "$work/s/sweep.csv" || fail "the earlier point is not listed: $(cat "$work/s/sweep.csv")"
+
+# A run kept from an earlier invocation must be what this dembuf would make of the same scene
+# and bed: one whose summary names another build is run again (a folder mixed two engines'
+# results), and so is one whose imported bed file has changed since (its path is the same).
+one=(--set projectile.mass_kg=0.5 --vary projectile.speed_m_s=2)
+summary=$(ls "$work"/s/runs/*speed_m_s=2*/summary.json)
+python3 - "$summary" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["provenance"]["build_commit"] = "0123456789ab"
+s["P_N"] = 12345.0
+json.dump(s, open(sys.argv[1], "w"))
+PY
+sweep "${one[@]}" || fail "a run of another build: $(cat "$work/err")"
+grep -q "is not kept (made by another build of dembuf): running it again" "$work/out" ||
+  fail "a run of another build was kept: $(cat "$work/out")"
+grep -q "12345" "$work/s/sweep.csv" && fail "sweep.csv lists the other build's result"
+printf '0 0 0.002 0.002\n0.005 0 0.002 0.002\n' > "$work/bed.txt"
+imported=(--set bed.import="$work/bed.txt" --vary projectile.speed_m_s=1)
+importing() { "$dembuf" sweep --local --no-bed-cache --set projectile.height_m=0.05 \
+  --set time.output_interval_s=1e-4 "${imported[@]}" --out "$work/i" > "$work/out" 2> "$work/err"; }
+importing || fail "a sweep of an imported bed: $(cat "$work/err")"
+importing && grep -q "done earlier, kept" "$work/out" || fail "the imported bed's run was not kept: $(cat "$work/out")"
+printf '0 0 0.002 0.002\n0.006 0 0.002 0.002\n' > "$work/bed.txt"
+importing || fail "the changed bed: $(cat "$work/err")"
+grep -q "is not kept (its bed is another)" "$work/out" ||
+  fail "a run of the bed file as it was was kept: $(cat "$work/out")"
+
+# What another account could leave in a sweep folder others may write is never taken for a
+# run of the sweep's, nor written through: a summary that is a link, a run folder every account
+# may write (or another account's), a run folder that is a link to somewhere else.
+importing > /dev/null || fail "importing again"
+run=$(ls -d "$work"/i/runs/*/)
+echo '{"scene": {}, "P_N": 1e5}' > "$work/forged.json"
+mv "$run/summary.json" "$work/real.json"
+python3 - "$work/real.json" "$work/forged.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); s["P_N"] = 1e5
+json.dump(s, open(sys.argv[2], "w"))
+PY
+ln -s "$work/forged.json" "$run/summary.json"
+importing || fail "a summary that is a link: $(cat "$work/err")"
+grep -q "done earlier, kept" "$work/out" && fail "a summary that is a link was kept: $(cat "$work/out")"
+grep -q "1e+05\|100000" "$work/i/sweep.csv" && fail "sweep.csv lists the linked summary's result"
+[ -L "$run/summary.json" ] && fail "the link was not replaced by the run's own summary"
+chmod 0777 "$run"
+rc=0
+importing || rc=$?
+[ "$rc" != 0 ] && grep -q "is writable by every account: not written into" "$work/out" ||
+  fail "a run folder every account may write: exit $rc, $(cat "$work/out")"
+chmod 0755 "$run"
+mkdir "$work/victim" && echo precious > "$work/victim/plate_force.csv"
+rm -r "$run" && ln -s "$work/victim" "${run%/}"
+rc=0
+importing || rc=$?
+[ "$rc" != 0 ] && grep -q "is a link: not written into" "$work/out" ||
+  fail "a run folder that is a link: exit $rc, $(cat "$work/out")"
+[ "$(cat "$work/victim/plate_force.csv")" = precious ] && [ "$(ls "$work/victim")" = plate_force.csv ] ||
+  fail "the sweep wrote through a linked run folder: $(ls "$work/victim")"
+if [ "$(id -u)" = 0 ] && id nobody > /dev/null 2>&1; then
+  rm "${run%/}" && importing > /dev/null || fail "importing once more"
+  chown -R nobody "$run"
+  rc=0
+  importing || rc=$?
+  grep -q "done earlier, kept" "$work/out" && fail "another account's run folder was kept"
+  [ "$rc" != 0 ] && grep -q "another account's" "$work/out" ||
+    fail "another account's run folder: exit $rc, $(cat "$work/out")"
+fi
 echo "sweep folders test passed"

@@ -249,10 +249,12 @@ TEST_F(StoreTest, ADeletedJobsIdIsNeverGivenAgain) {
 }
 
 // A done job of scene "s" owned by `owner` (a copy of `from`'s result when given).
-JobRecord DoneOfScene(Store& store, const std::string& owner, std::int64_t from = 0) {
+JobRecord DoneOfScene(Store& store, const std::string& owner, std::int64_t from = 0,
+                      const std::string& scene_toml = "[scene]\n") {
   JobRecord job;
   job.owner = owner;
   job.scene_hash = "s";
+  job.scene_toml = scene_toml;
   job.reused_from = from;
   store.AddJob(job);
   if (from == 0) store.FinishJob(job.id, JobState::kDone, "", {"{}\n", {}, 0, {}});
@@ -297,13 +299,28 @@ TEST_F(StoreTest, DoneJobsOfASceneAreThoseOfTheOwnerOriginalsFirst) {
   const JobRecord bobs = DoneOfScene(store, "bob");
   const JobRecord adas = DoneOfScene(store, "ada");
   for (int k = 0; k < 10; ++k) DoneOfScene(store, "eve", adas.id);
-  const std::vector<JobRecord> of_bob = store.DoneJobsOfScene("s", "", "bob");
+  const std::vector<JobRecord> of_bob = store.DoneJobsOfScene("s", "[scene]\n", "", "bob");
   ASSERT_EQ(of_bob.size(), 1u);
   EXPECT_EQ(of_bob[0].id, bobs.id);
-  const std::vector<JobRecord> any = store.DoneJobsOfScene("s", "", std::nullopt, 2);
+  const std::vector<JobRecord> any = store.DoneJobsOfScene("s", "[scene]\n", "", std::nullopt, 2);
   ASSERT_EQ(any.size(), 2u);
   EXPECT_EQ(any[0].id, adas.id);
   EXPECT_EQ(any[1].id, bobs.id);
+}
+
+// The scene hash is 64 bits of FNV-1a, which a search of about 2^32 scenes collides on purpose:
+// a done job of another scene text under the same hash is not one to reuse.
+TEST_F(StoreTest, DoneJobsOfASceneHaveItsTextNotOnlyItsHash) {
+  Store store(path.string());
+  const JobRecord slow = DoneOfScene(store, "bob", 0, "[projectile]\nspeed_m_s = 3.0\n");
+  const JobRecord fast = DoneOfScene(store, "bob", 0, "[projectile]\nspeed_m_s = 5.0\n");
+  const std::vector<JobRecord> found =
+      store.DoneJobsOfScene("s", "[projectile]\nspeed_m_s = 5.0\n", "", "bob");
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].id, fast.id);
+  EXPECT_TRUE(
+      store.DoneJobsOfScene("s", "[projectile]\nspeed_m_s = 4.0\n", "", std::nullopt).empty());
+  (void)slow;
 }
 
 // A job's record counts in its owner's stored bytes whatever its state (cancelled sweeps of

@@ -136,6 +136,43 @@ std::string SceneText(const Scene& scene) {
   return text.str();
 }
 
+namespace {
+
+// Whether compile flags leave the target to the machine that builds (-march=native): two
+// such builds on different processors name the same configuration.
+bool NamesNoTarget(std::string_view config) {
+  return config.find("=native") != std::string_view::npos;
+}
+
+// The summary's provenance, or null.
+const nlohmann::json* ProvenanceOf(const nlohmann::json& summary) {
+  if (!summary.is_object()) return nullptr;
+  const auto it = summary.find("provenance");
+  return it != summary.end() && it->is_object() ? &*it : nullptr;
+}
+
+std::string Text(const nlohmann::json& object, const char* key) {
+  const auto it = object.find(key);
+  return it != object.end() && it->is_string() ? it->get<std::string>() : "";
+}
+
+}  // namespace
+
+bool MadeByThisEngine(const nlohmann::json& summary) {
+  const nlohmann::json* p = ProvenanceOf(summary);
+  if (!p) return false;
+  const std::string commit = Text(*p, "build_commit");
+  return Text(*p, "dembuf_version") == kVersion && commit == BuildCommit() && commit != "unknown" &&
+         Text(*p, "build_type") == BuildType() && Text(*p, "build_config") == BuildConfig() &&
+         Text(*p, "libc") == LibcVersion() && LibcVersion() != "unknown" &&
+         !NamesNoTarget(BuildConfig());
+}
+
+bool RanScene(const nlohmann::json& summary, const std::string& scene_text) {
+  const nlohmann::json* p = ProvenanceOf(summary);
+  return p && Text(*p, "scene_sha256") == Sha256Hex(scene_text);
+}
+
 nlohmann::json ProvenanceJson(const RunContext& run, const Scene& scene, const BedSummary& bed) {
   return {
       {"dembuf_version", kVersion},

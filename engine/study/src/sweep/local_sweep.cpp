@@ -14,6 +14,9 @@
 #include <set>
 
 #include "dembuf/core/threads.h"
+#include "dembuf/study/bed/bed.h"
+#include "dembuf/study/files/own_files.h"
+#include "dembuf/study/files/provenance.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/impact/impact.h"
 #include "dembuf/study/run/folder_recorder.h"
@@ -51,27 +54,55 @@ struct RunResult {
 
 namespace fs = std::filesystem;
 
-// The folders of runs/ (not links), by name.
+// The folders of runs/ that are this account's own (own_files.h: no links, none another
+// account put there), by name.
 std::vector<std::string> RunFolders(const fs::path& runs) {
   std::vector<std::string> names;
   std::error_code error;
   for (const fs::directory_entry& entry : fs::directory_iterator(runs, error))
-    if (entry.symlink_status().type() == fs::file_type::directory)
+    if (entry.symlink_status().type() == fs::file_type::directory &&
+        report::ForeignPathProblem(entry.path(), true).empty())
       names.push_back(entry.path().filename().string());
   std::sort(names.begin(), names.end());
   return names;
 }
 
-// A finished run's summary in `dir`, or null (none, or not readable as one).
+// The most a run's summary.json or scene.toml read back may hold (some kilobytes each).
+constexpr std::size_t kMaxRunFileBytes = 16 << 20;
+
+// A finished run's summary in `dir`, or null (none, not readable as one, or not this
+// account's own file in its own folder).
 nlohmann::json FinishedSummary(const fs::path& dir) {
-  std::ifstream in{dir / report::run_files::kSummary};
-  if (!in) return nullptr;
-  nlohmann::json summary = nlohmann::json::parse(in, nullptr, false);
+  if (!report::ForeignPathProblem(dir, true).empty()) return nullptr;
+  const std::optional<std::string> text =
+      report::ReadOwnFile(dir / report::run_files::kSummary, kMaxRunFileBytes);
+  if (!text) return nullptr;
+  nlohmann::json summary = nlohmann::json::parse(*text, nullptr, false);
   if (!summary.is_object() || !summary.contains("scene")) return nullptr;
   // A run of an earlier dembuf names its measured height bed_thickness_m.
   if (!summary.contains("measured_thickness_m") && summary.contains("bed_thickness_m"))
     summary["measured_thickness_m"] = report::MeasuredThickness(summary);
   return summary;
+}
+
+// Why an earlier run's summary cannot stand for a run of `scene` now ("" : it can): a result
+// of another build of dembuf (its bits may differ), of another scene, or of another bed (an
+// imported bed file changed since: its key is of the file's content).
+std::string WhyNotKept(const nlohmann::json& summary, const Scene& scene) {
+  if (!report::MadeByThisEngine(summary)) return "made by another build of dembuf";
+  if (!report::RanScene(summary, report::SceneText(scene))) return "its scene is another";
+  const bool has_bed = !scene.bed.import.empty() || scene.bed.thickness_m > 0.0;
+  std::string bed;
+  try {
+    bed = has_bed ? BedHash(scene) : "";
+  } catch (const std::exception& e) {
+    return std::string("its bed cannot be checked: ") + e.what();
+  }
+  const nlohmann::json& provenance = summary["provenance"];
+  const auto held = provenance.find("bed_hash");
+  if (held == provenance.end() || !held->is_string() || held->get<std::string>() != bed)
+    return "its bed is another";
+  return "";
 }
 
 // The runs of one sweep, run by the workers of one queue, each into its folder of runs/.
@@ -133,6 +164,13 @@ bool SweepRunner::KeptFromEarlier(const SweepRun& job, RunResult& result) {
   if (found == m_finished_by_scene.end()) return false;
   result.summary = FinishedSummary(m_options.out_dir / sweep_files::kRuns / found->second);
   if (result.summary.is_null()) return false;  // gone since: run it again
+  if (const std::string why = WhyNotKept(result.summary, job.scene); !why.empty()) {
+    result.summary = nullptr;
+    std::lock_guard lock(m_print_mutex);
+    Say(m_options.report, "%s: the run in runs/%s is not kept (%s): running it again\n",
+        job.name.c_str(), found->second.c_str(), why.c_str());
+    return false;
+  }
   result.ok = true;
   result.folder = found->second;
   std::lock_guard lock(m_print_mutex);
@@ -160,6 +198,10 @@ void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
     Report(job.index, text);
   };
   try {
+    // Never written through a link or into a folder another account may have put there.
+    if (const std::string problem = report::ForeignPathProblem(dir, true); !problem.empty())
+      throw std::runtime_error(dir.string() + " is " + problem +
+                               ": not written into; remove it or choose another --out");
     report::RemoveRunOutputs(dir);  // what an interrupted run of this point left
     FolderRecorder recorder(dir, job.scene);
     JobControl control;
@@ -366,14 +408,24 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
     earlier.name = name;
     earlier.summary = FinishedSummary(options.out_dir / sweep_files::kRuns / name);
     earlier.ok = !earlier.summary.is_null();
+    Scene scene;
     try {
-      std::ifstream in(options.out_dir / sweep_files::kRuns / name / report::run_files::kScene);
-      const std::string text{std::istreambuf_iterator<char>(in), {}};
-      earlier.values = AxisValues(LoadSceneText(text, name), axes);
+      const std::optional<std::string> text = report::ReadOwnFile(
+          options.out_dir / sweep_files::kRuns / name / report::run_files::kScene,
+          kMaxRunFileBytes);
+      if (!text) continue;
+      scene = LoadSceneText(*text, name);
+      earlier.values = AxisValues(scene, axes);
     } catch (const std::exception&) {
       continue;  // not a run of this sweep's: no scene to place it by
     }
     if (!earlier.ok) earlier.error = "not finished (asked for by an earlier invocation)";
+    if (const std::string why = earlier.ok ? WhyNotKept(earlier.summary, scene) : "";
+        !why.empty()) {
+      earlier.ok = false;
+      earlier.summary = nullptr;
+      earlier.error = "not kept (" + why + "; asked for by an earlier invocation)";
+    }
     reports.push_back(std::move(earlier));
   }
   const nlohmann::json extra = {

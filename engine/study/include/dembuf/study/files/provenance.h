@@ -73,6 +73,15 @@ RunContext RunStartingNow(std::string command_line);
 /// of, and what a run folder's scene.toml holds.
 std::string SceneText(const Scene& scene);
 
+/// Whether a run's summary was written by this program's engine: the same version, commit
+/// (with a hash of its changes), build type, compiler, flags and C library, so that its result
+/// is the one this program would make. Never for a build of unknown commit or libc, or one
+/// whose flags leave the target processor to the building machine (-march=native).
+bool MadeByThisEngine(const nlohmann::json& summary);
+
+/// Whether a run's summary says it ran the scene of canonical text `scene_text` (SceneText).
+bool RanScene(const nlohmann::json& summary, const std::string& scene_text);
+
 /// The "provenance" object of summary.json.
 nlohmann::json ProvenanceJson(const RunContext& run, const Scene& scene, const BedSummary& bed);
 

@@ -1,0 +1,54 @@
+#include "dembuf/study/files/own_files.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+
+namespace dembuf::report {
+
+namespace {
+
+// What makes a file of status `st` not this account's own ("" when it is one).
+std::string ForeignStatusProblem(const struct stat& st, bool folder) {
+  if (S_ISLNK(st.st_mode)) return "a link";
+  if (folder && !S_ISDIR(st.st_mode)) return "not a folder";
+  if (!folder && !S_ISREG(st.st_mode)) return "not a regular file";
+  if (st.st_uid != geteuid()) return "another account's (uid " + std::to_string(st.st_uid) + ")";
+  if (st.st_mode & S_IWOTH) return "writable by every account";
+  return "";
+}
+
+}  // namespace
+
+std::string ForeignPathProblem(const std::filesystem::path& path, bool folder) {
+  struct stat st {};
+  if (lstat(path.c_str(), &st) != 0) return errno == ENOENT ? "" : "unreadable";
+  return ForeignStatusProblem(st, folder);
+}
+
+std::optional<std::string> ReadOwnFile(const std::filesystem::path& path, std::size_t max_bytes) {
+  // Opened without following a link, then checked through the descriptor: what is read is
+  // what was checked.
+  const int fd = open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) return std::nullopt;
+  struct stat st {};
+  std::optional<std::string> text;
+  if (fstat(fd, &st) == 0 && ForeignStatusProblem(st, false).empty() &&
+      static_cast<std::size_t>(st.st_size) <= max_bytes) {
+    std::string bytes(static_cast<std::size_t>(st.st_size), '\0');
+    std::size_t got = 0;
+    while (got < bytes.size()) {
+      const ssize_t n = read(fd, bytes.data() + got, bytes.size() - got);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) break;
+      got += static_cast<std::size_t>(n);
+    }
+    if (got == bytes.size()) text = std::move(bytes);
+  }
+  close(fd);
+  return text;
+}
+
+}  // namespace dembuf::report

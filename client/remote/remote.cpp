@@ -562,6 +562,15 @@ int RemoteSubmit(const Remote& remote, const RemoteScene& scene, const SubmitOpt
   if (!status.ok()) return Report(remote, status);
   PrintWarnings(response.warnings());
   std::printf("%lld\n", static_cast<long long>(response.job().id()));
+  if (options.no_reuse && response.job().reused_from() != 0) {
+    // (A server that does not do what was asked: the result was not computed for this job.)
+    std::fprintf(stderr,
+                 "dembuf: the server at %s answered job %lld with job %lld's stored result, "
+                 "though --no-reuse asked for a run\n",
+                 remote.address.c_str(), static_cast<long long>(response.job().id()),
+                 static_cast<long long>(response.job().reused_from()));
+    return kExitRuntime;
+  }
   if (response.job().reused_from() != 0)
     Note(
         "job %lld on %s: answered at once with job %lld's stored result (the same scene, seed, "
@@ -616,6 +625,15 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
                  remote.address.c_str(), static_cast<long long>(sweep.id()));
     return kExitRuntime;
   }
+  const auto done = sweep.jobs_by_state().find("done");
+  const int reused = done == sweep.jobs_by_state().end() ? 0 : done->second;
+  if (options.no_reuse && reused != 0) {
+    std::fprintf(stderr,
+                 "dembuf: the server at %s answered %d jobs of sweep %lld at once, though "
+                 "--no-reuse asked for runs\n",
+                 remote.address.c_str(), reused, static_cast<long long>(sweep.id()));
+    return kExitRuntime;
+  }
   PrintWarnings(response.warnings());
   if (json) {
     const std::vector<std::int64_t> job_ids(response.job_ids().begin(), response.job_ids().end());
@@ -626,8 +644,6 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
     return 0;
   }
   std::printf("%lld\n", static_cast<long long>(sweep.id()));
-  const auto done = sweep.jobs_by_state().find("done");
-  const int reused = done == sweep.jobs_by_state().end() ? 0 : done->second;
   Note("sweep %lld: %d jobs on %s (jobs %lld to %lld)%s\n", static_cast<long long>(sweep.id()),
        sweep.jobs_total(), remote.address.c_str(), static_cast<long long>(response.job_ids(0)),
        static_cast<long long>(response.job_ids(response.job_ids_size() - 1)),

@@ -212,8 +212,8 @@ std::int64_t DembufService::ReusableResult(const Caller& caller, const JobRecord
        m_store.DoneJobsOfScene(job.scene_hash, job.scene_toml, job.bed_file, only_of)) {
     if (!AccessPolicy::Allows(owner, Action::kRead, done.owner)) continue;
     try {
-      if (!report::MadeByThisEngine(
-              nlohmann::json::parse(m_store.Summary(done.id), nullptr, false)))
+      if (!report::MadeByThisEngine(nlohmann::json::parse(m_store.Summary(done.id), nullptr, false),
+                                    report::BuildMatch::kIdentifiedBuild))
         continue;
       m_store.GetResults(done.id);  // (the whole series, checked against its checksums)
       for (const JobFileInfo& file : m_store.JobFiles(done.id))

@@ -86,12 +86,59 @@ importing || fail "the changed bed: $(cat "$work/err")"
 grep -q "is not kept (its bed is another)" "$work/out" ||
   fail "a run of the bed file as it was was kept: $(cat "$work/out")"
 
-# What another account could leave in a sweep folder others may write is never taken for a
-# run of the sweep's, nor written through: a summary that is a link, a run folder every account
-# may write (or another account's), a run folder that is a link to somewhere else.
-importing > /dev/null || fail "importing again"
-run=$(ls -d "$work"/i/runs/*/)
-echo '{"scene": {}, "P_N": 1e5}' > "$work/forged.json"
+# Another build's run of a point the command leaves out is not listed beside this build's
+# runs, nor counted as failed: it is left out, saying so.
+importing || fail "importing again"
+imported=(--set bed.import="$work/bed.txt" --vary projectile.speed_m_s=1,2)
+importing || fail "two points: $(cat "$work/err")"
+python3 - "$(ls "$work"/i/runs/*speed_m_s=2*/summary.json)" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["provenance"]["dembuf_version"] = "0.0.1"
+json.dump(s, open(sys.argv[1], "w"))
+PY
+imported=(--set bed.import="$work/bed.txt" --vary projectile.speed_m_s=1)
+importing || fail "another build's earlier point failed the sweep: $(cat "$work/out")"
+grep -q "is left out of the report (made by another build of dembuf)" "$work/out" ||
+  fail "another build's earlier point was not told of: $(cat "$work/out")"
+[ "$(tail -n +2 "$work/i/sweep.csv" | wc -l)" = 1 ] || fail "sweep.csv lists another build's run: $(cat "$work/i/sweep.csv")"
+
+# A sweep writes its folder closed to others' writing whatever the umask (with 002 its own
+# runs were refused when it resumed), and keeps its runs.
+(umask 002 && importing) || fail "under umask 002: $(cat "$work/err")"
+run=$(ls -d "$work"/i/runs/*speed_m_s=1*/)
+[ "$(stat -c %a "$run")" = 755 ] && [ "$(stat -c %a "$run/summary.json")" = 644 ] ||
+  fail "under umask 002: $(stat -c '%a %n' "$run" "$run/summary.json")"
+(umask 002 && importing && grep -q "done earlier, kept" "$work/out") ||
+  fail "under umask 002 the run was not kept: $(cat "$work/out")"
+
+# What another account could leave where it may write is never taken for a run of the
+# sweep's, nor written through: a sweep folder or runs/ others may write (where they could swap
+# a run for a link between a check and a write), a runs/ that is a link, a record that is a
+# FIFO; a summary or a run folder that is a link.
+for mode in 0775 0777 1777; do
+  chmod "$mode" "$work/i"
+  rc=0
+  importing || rc=$?
+  [ "$rc" = 2 ] && grep -q "is writable by .*: another account could change the sweep's results there" "$work/err" ||
+    fail "a sweep folder of mode $mode: exit $rc, $(cat "$work/err")"
+  chmod 0755 "$work/i"
+done
+chmod 0777 "$work/i/runs"
+rc=0
+importing || rc=$?
+[ "$rc" = 2 ] && grep -q "runs is writable by every account" "$work/err" || fail "runs/ of mode 0777: exit $rc, $(cat "$work/err")"
+chmod 0755 "$work/i/runs"
+mv "$work/i/runs" "$work/elsewhere" && ln -s "$work/elsewhere" "$work/i/runs"
+rc=0
+importing || rc=$?
+[ "$rc" = 2 ] && grep -q "runs is a link" "$work/err" || fail "runs/ a link: exit $rc, $(cat "$work/err")"
+rm "$work/i/runs" && mv "$work/elsewhere" "$work/i/runs"
+mv "$work/i/sweep_scene.json" "$work/record.json" && mkfifo "$work/i/sweep_scene.json"
+rc=0
+timeout 60 bash -c "$(declare -f importing); $(declare -p imported work dembuf); importing" || rc=$?
+[ "$rc" = 2 ] && grep -q "sweep_scene.json is not a file" "$work/err" || fail "a FIFO for the record: exit $rc, $(cat "$work/err")"
+rm "$work/i/sweep_scene.json" && mv "$work/record.json" "$work/i/sweep_scene.json"
 mv "$run/summary.json" "$work/real.json"
 python3 - "$work/real.json" "$work/forged.json" <<'PY'
 import json, sys
@@ -103,12 +150,11 @@ importing || fail "a summary that is a link: $(cat "$work/err")"
 grep -q "done earlier, kept" "$work/out" && fail "a summary that is a link was kept: $(cat "$work/out")"
 grep -q "1e+05\|100000" "$work/i/sweep.csv" && fail "sweep.csv lists the linked summary's result"
 [ -L "$run/summary.json" ] && fail "the link was not replaced by the run's own summary"
-chmod 0777 "$run"
-rc=0
-importing || rc=$?
-[ "$rc" != 0 ] && grep -q "is writable by every account: not written into" "$work/out" ||
-  fail "a run folder every account may write: exit $rc, $(cat "$work/out")"
-chmod 0755 "$run"
+# A run folder open to others (an older dembuf's, umask 002) is made anew, closed.
+chmod 0775 "$run"
+importing || fail "a run folder open to its group: $(cat "$work/out")"
+grep -q "done earlier, kept" "$work/out" && fail "a run folder open to its group was kept"
+[ "$(stat -c %a "$run")" = 755 ] || fail "the run folder was not made anew: $(stat -c %a "$run")"
 mkdir "$work/victim" && echo precious > "$work/victim/plate_force.csv"
 rm -r "$run" && ln -s "$work/victim" "${run%/}"
 rc=0

@@ -104,6 +104,12 @@ if LC_ALL=C grep -q $'[\x01-\x08\x0b-\x1f\x7f]' "$work/job11/log.txt"; then
 fi
 expect_exit 1 "the server at $DEMBUF_SERVER sent job 30 of sweep 3 with values that are not its sweep's" \
   "$dembuf" fetch --sweep 3 --out "$work/sweep3" --no-plots
+# --no-reuse asks for a run: a server that answers with a stored result anyway is named, and
+# the command fails (it said the job was answered from another, as if asked for).
+expect_exit 1 "the server at $DEMBUF_SERVER answered job 40 with job 1's stored result, though --no-reuse asked for a run" \
+  "$dembuf" submit --set bed.thickness_m=0 --no-reuse
+expect_exit 1 "the server at $DEMBUF_SERVER answered 1 jobs of sweep 41 at once, though --no-reuse asked for runs" \
+  "$dembuf" sweep --set bed.thickness_m=0 --vary projectile.speed_m_s=1 --no-reuse
 # The Python package likewise.
 /usr/bin/python3 - "$python_package" "$DEMBUF_SERVER" <<'PY' || fail "the Python package trusted the server"
 import sys

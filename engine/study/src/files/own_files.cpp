@@ -17,10 +17,35 @@ std::string ForeignStatusProblem(const struct stat& st, bool folder) {
   if (!folder && !S_ISREG(st.st_mode)) return "not a regular file";
   if (st.st_uid != geteuid()) return "another account's (uid " + std::to_string(st.st_uid) + ")";
   if (st.st_mode & S_IWOTH) return "writable by every account";
+  if (st.st_mode & S_IWGRP) return "writable by its group";
   return "";
 }
 
 }  // namespace
+
+bool OwnFolderOpenToOthers(const std::filesystem::path& path) {
+  struct stat st {};
+  return lstat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode) && st.st_uid == geteuid() &&
+         (st.st_mode & (S_IWGRP | S_IWOTH)) != 0;
+}
+
+std::string ForeignSweepFolderProblem(const std::filesystem::path& path) {
+  struct stat st {};
+  if (lstat(path.c_str(), &st) != 0) return errno == ENOENT ? "" : "unreadable";
+  if (!S_ISLNK(st.st_mode)) return ForeignStatusProblem(st, true);
+  if (st.st_uid != geteuid())
+    return "a link of another account's (uid " + std::to_string(st.st_uid) + ")";
+  if (stat(path.c_str(), &st) != 0) return "a link to nothing";
+  return ForeignStatusProblem(st, true);
+}
+
+ClosedToOthersWriting::ClosedToOthersWriting() : m_saved(umask(0)) {
+  umask(static_cast<mode_t>(m_saved) | 022);
+}
+
+ClosedToOthersWriting::~ClosedToOthersWriting() {
+  umask(static_cast<mode_t>(m_saved));
+}
 
 std::string ForeignPathProblem(const std::filesystem::path& path, bool folder) {
   struct stat st {};

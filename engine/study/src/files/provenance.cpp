@@ -158,13 +158,15 @@ std::string Text(const nlohmann::json& object, const char* key) {
 
 }  // namespace
 
-bool MadeByThisEngine(const nlohmann::json& summary) {
+bool MadeByThisEngine(const nlohmann::json& summary, BuildMatch match) {
   const nlohmann::json* p = ProvenanceOf(summary);
   if (!p) return false;
-  const std::string commit = Text(*p, "build_commit");
-  return Text(*p, "dembuf_version") == kVersion && commit == BuildCommit() && commit != "unknown" &&
-         Text(*p, "build_type") == BuildType() && Text(*p, "build_config") == BuildConfig() &&
-         Text(*p, "libc") == LibcVersion() && LibcVersion() != "unknown" &&
+  const bool same = Text(*p, "dembuf_version") == kVersion &&
+                    Text(*p, "build_commit") == BuildCommit() &&
+                    Text(*p, "build_type") == BuildType() &&
+                    Text(*p, "build_config") == BuildConfig() && Text(*p, "libc") == LibcVersion();
+  if (match == BuildMatch::kSameNames) return same;
+  return same && std::string_view(BuildCommit()) != "unknown" && LibcVersion() != "unknown" &&
          !NamesNoTarget(BuildConfig());
 }
 

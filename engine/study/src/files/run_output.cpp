@@ -332,6 +332,7 @@ void RemoveRunOutputs(const std::filesystem::path& dir) {
 
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text) {
   const std::filesystem::path tmp = path.string() + ".tmp";
+  std::filesystem::remove(tmp);  // a link of that name is removed, not written through
   {
     std::ofstream out(tmp);
     out << text;

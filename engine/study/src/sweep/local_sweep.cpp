@@ -89,7 +89,9 @@ nlohmann::json FinishedSummary(const fs::path& dir) {
 // of another build of dembuf (its bits may differ), of another scene, or of another bed (an
 // imported bed file changed since: its key is of the file's content).
 std::string WhyNotKept(const nlohmann::json& summary, const Scene& scene) {
-  if (!report::MadeByThisEngine(summary)) return "made by another build of dembuf";
+  // (The names only: a build of unknown commit resumes its own sweeps.)
+  if (!report::MadeByThisEngine(summary, report::BuildMatch::kSameNames))
+    return "made by another build of dembuf";
   if (!report::RanScene(summary, report::SceneText(scene))) return "its scene is another";
   const bool has_bed = !scene.bed.import.empty() || scene.bed.thickness_m > 0.0;
   std::string bed;
@@ -198,10 +200,12 @@ void SweepRunner::RunOne(const SweepRun& job, const std::atomic<int>* threads) {
     Report(job.index, text);
   };
   try {
-    // Never written through a link or into a folder another account may have put there.
+    // Never written through a link or into a folder another account may have put there; an
+    // older dembuf's folder of this point open to the group is made anew, closed.
+    if (report::OwnFolderOpenToOthers(dir)) fs::remove_all(dir);
     if (const std::string problem = report::ForeignPathProblem(dir, true); !problem.empty())
       throw std::runtime_error(dir.string() + " is " + problem +
-                               ": not written into; remove it or choose another --out");
+                               ": not written into; choose another --out");
     report::RemoveRunOutputs(dir);  // what an interrupted run of this point left
     FolderRecorder recorder(dir, job.scene);
     JobControl control;
@@ -329,20 +333,43 @@ std::string KeyDifference(const nlohmann::json& held, const nlohmann::json& key)
 
 }  // namespace
 
+// What makes `dir` (a sweep's folder) or its runs/ no place for a sweep's results ("" when
+// they may be used): another account may write there (own_files.h).
+std::string SweepFolderProblem(const fs::path& dir) {
+  for (const fs::path& folder : {dir, dir / sweep_files::kRuns}) {
+    const std::string problem = folder == dir ? report::ForeignSweepFolderProblem(folder)
+                                              : report::ForeignPathProblem(folder, true);
+    if (!problem.empty())
+      return folder.string() + " is " + problem +
+             ": another account could change the sweep's results there; choose another --out" +
+             (problem.rfind("writable", 0) == 0 ? " (or, if it is yours, chmod go-w it)" : "");
+  }
+  return "";
+}
+
 std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann::json& key,
                                             bool force) {
+  const report::ClosedToOthersWriting closed;
+  if (std::string problem = SweepFolderProblem(dir); !problem.empty()) return problem;
+  std::error_code made;
+  fs::create_directories(dir / sweep_files::kRuns, made);
+  if (std::string problem = SweepFolderProblem(dir); !problem.empty()) return problem;
   const fs::path key_file = dir / sweep_files::kKey;
   std::string refusal;
-  if (std::ifstream in{key_file}) {
-    const std::string difference = KeyDifference(nlohmann::json::parse(in, nullptr, false), key);
+  if (const std::optional<std::string> held = report::ReadOwnFile(key_file, kMaxRunFileBytes)) {
+    const std::string difference = KeyDifference(nlohmann::json::parse(*held, nullptr, false), key);
     if (!difference.empty()) refusal = dir.string() + " holds " + difference;
+  } else if (fs::exists(fs::symlink_status(key_file))) {
+    refusal = key_file.string() + " is not a file of this account's that only it may write";
   } else {
     // Runs without a record (an older dembuf's sweep): the folder is this sweep's when every
     // run's own scene makes the same record.
     std::vector<std::string> varies = key["varies"];
     for (const std::string& name : RunFolders(dir / sweep_files::kRuns)) {
-      std::ifstream scene_file(dir / sweep_files::kRuns / name / report::run_files::kScene);
-      const std::string text{std::istreambuf_iterator<char>(scene_file), {}};
+      const std::string text =
+          report::ReadOwnFile(dir / sweep_files::kRuns / name / report::run_files::kScene,
+                              kMaxRunFileBytes)
+              .value_or("");
       std::string difference = "runs that name no scene (" + name + ")";
       try {
         if (!text.empty())
@@ -371,6 +398,7 @@ std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann:
 
 int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
              std::vector<SweepRunReport>* reports_out) {
+  const report::ClosedToOthersWriting closed;  // (own_files.h: its runs are kept when it resumes)
   const std::vector<SweepAxis> axes = WithSeedAxis(options.axes, options.seeds, base.bed.seed);
   // Every scene is checked before the first run starts.
   const std::vector<SweepRun> runs = ExpandSweep(base, axes, 100000, {}, options.table_columns);
@@ -422,9 +450,11 @@ int RunSweep(const Scene& base, const SweepOptions& options, BedCache& beds,
     if (!earlier.ok) earlier.error = "not finished (asked for by an earlier invocation)";
     if (const std::string why = earlier.ok ? WhyNotKept(earlier.summary, scene) : "";
         !why.empty()) {
-      earlier.ok = false;
-      earlier.summary = nullptr;
-      earlier.error = "not kept (" + why + "; asked for by an earlier invocation)";
+      // Not listed beside this build's runs: its point runs again when it is asked for.
+      Say(options.report,
+          "runs/%s is left out of the report (%s): ask for its point to run it again\n",
+          name.c_str(), why.c_str());
+      continue;
     }
     reports.push_back(std::move(earlier));
   }

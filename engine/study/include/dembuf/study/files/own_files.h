@@ -1,7 +1,10 @@
 // Files and folders a run of this account made, told from those another account may have put
-// in their place. A sweep folder may sit where others can write (/tmp, a group's folder); a
-// run folder, a summary or a link planted there must not be taken for one of the sweep's own
-// runs, nor a link followed when the sweep writes a run.
+// in their place or changed. A result is trusted only in a file of this account that no other
+// account may write, in folders of this account that no other may write: group members are
+// other accounts too, and in a folder they may write they can swap a file or plant a link
+// between a check and a write. So a sweep writes its folder closed to others' writing
+// (ClosedToOthersWriting), and refuses a folder that is not (sshd's StrictModes does the same
+// for a home folder).
 #pragma once
 
 #include <filesystem>
@@ -11,11 +14,35 @@
 namespace dembuf::report {
 
 /// What makes `path` not this account's own ("" when it is, or is absent): a link, a file
-/// where a folder should be (or the reverse), another account's, or writable by every account.
+/// where a folder should be (or the reverse), another account's, or writable by its group or
+/// every account.
 std::string ForeignPathProblem(const std::filesystem::path& path, bool folder);
 
-/// The file `path` whole, if it is a regular file of this account that not every account may
-/// write, no link, and at most `max_bytes` long; nullopt otherwise (absent included).
+/// Whether `path` is a folder of this account, no link, that its group or every account may
+/// write: a run folder an older dembuf made under umask 002, which a sweep makes anew.
+bool OwnFolderOpenToOthers(const std::filesystem::path& path);
+
+/// What makes the folder `path` not one to keep a sweep in ("" when it is, or is absent), as
+/// ForeignPathProblem, but a link of this account's own is followed (to a folder checked alike).
+std::string ForeignSweepFolderProblem(const std::filesystem::path& path);
+
+/// While alive, files and folders this process makes are closed to others' writing (the umask
+/// gains 022), whatever the user's umask: with 002, a sweep's own runs would be refused when
+/// it resumes. Restores the umask at the end.
+class ClosedToOthersWriting {
+ public:
+  ClosedToOthersWriting();
+  ~ClosedToOthersWriting();
+  ClosedToOthersWriting(const ClosedToOthersWriting&) = delete;
+  ClosedToOthersWriting& operator=(const ClosedToOthersWriting&) = delete;
+
+ private:
+  unsigned m_saved;
+};
+
+/// The file `path` whole, if it is a regular file of this account that no other account may
+/// write, no link, and at most `max_bytes` long; nullopt otherwise (absent included). It is
+/// opened without waiting (a FIFO in its place does not hang the reader).
 std::optional<std::string> ReadOwnFile(const std::filesystem::path& path, std::size_t max_bytes);
 
 }  // namespace dembuf::report

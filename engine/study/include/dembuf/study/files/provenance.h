@@ -73,11 +73,20 @@ RunContext RunStartingNow(std::string command_line);
 /// of, and what a run folder's scene.toml holds.
 std::string SceneText(const Scene& scene);
 
+/// How sure MadeByThisEngine must be that a result's bits are this program's.
+enum class BuildMatch {
+  /// The build's names are this program's: what a sweep resumed on its own machine compares.
+  kSameNames,
+  /// Also a build that names its commit and C library, whose flags name the target processor
+  /// (not -march=native): what a daemon serving others' results to everyone requires.
+  kIdentifiedBuild,
+};
+
 /// Whether a run's summary was written by this program's engine: the same version, commit
 /// (with a hash of its changes), build type, compiler, flags and C library, so that its result
-/// is the one this program would make. Never for a build of unknown commit or libc, or one
-/// whose flags leave the target processor to the building machine (-march=native).
-bool MadeByThisEngine(const nlohmann::json& summary);
+/// is the one this program would make; with kIdentifiedBuild, never for a build of unknown
+/// commit or libc, or one whose flags leave the target to the building machine.
+bool MadeByThisEngine(const nlohmann::json& summary, BuildMatch match);
 
 /// Whether a run's summary says it ran the scene of canonical text `scene_text` (SceneText).
 bool RanScene(const nlohmann::json& summary, const std::string& scene_text);

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dembuf/study/files/own_files.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/spawn/program.h"
@@ -67,7 +68,11 @@ void RunGnuplot(const std::string& script, const fs::path& script_path) {
       ReplaceAll(script, quoted_folder.substr(0, quoted_folder.size() - 1), "'");
   const std::string vector = ReplaceAll(
       ReplaceAll(relative, "set terminal pngcairo", "set terminal svg dynamic"), ".png'", ".svg'");
-  std::ofstream(script_path) << relative << "\n# The same figures as SVG, for print.\n" << vector;
+  // A new file, closed to others' writing, renamed into place: a script another account could
+  // edit between its writing and gnuplot's reading would run as this user.
+  const report::ClosedToOthersWriting closed;
+  report::WriteFileAtomically(script_path,
+                              relative + "\n# The same figures as SVG, for print.\n" + vector);
   const ProgramResult gnuplot = RunProgram(
       {"gnuplot", "-e", "cd " + Literal(folder.string()), script_path.filename().string()});
   if (gnuplot.exit_code != 0)

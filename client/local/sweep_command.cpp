@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "dembuf/core/threads.h"
+#include "dembuf/study/files/own_files.h"
 #include "dembuf/study/files/run_output.h"
 #include "dembuf/study/run/resource_estimate.h"
 #include "dembuf/study/scene/errors.h"
@@ -80,6 +81,7 @@ std::vector<SweepAxis> SweepAxesOf(const CommandOptions& opt, std::size_t* table
 }  // namespace
 
 int SweepCommand(const CommandOptions& opt) {
+  const report::ClosedToOthersWriting closed;  // all it writes, plots too (own_files.h)
   ReportDestination report(opt);
   RequireJoinedAssignments("--vary", opt.vary, opt.scene_file);
   const Scene base = ResolveScene(opt.scene_file, opt.preset, opt.overrides, opt.accuracy);

@@ -137,8 +137,30 @@ rm "$work/i/runs" && mv "$work/elsewhere" "$work/i/runs"
 mv "$work/i/sweep_scene.json" "$work/record.json" && mkfifo "$work/i/sweep_scene.json"
 rc=0
 timeout 60 bash -c "$(declare -f importing); $(declare -p imported work dembuf); importing" || rc=$?
-[ "$rc" = 2 ] && grep -q "sweep_scene.json is not a file" "$work/err" || fail "a FIFO for the record: exit $rc, $(cat "$work/err")"
+[ "$rc" = 2 ] && grep -q "sweep_scene.json is not a regular file" "$work/err" || fail "a FIFO for the record: exit $rc, $(cat "$work/err")"
 rm "$work/i/sweep_scene.json" && mv "$work/record.json" "$work/i/sweep_scene.json"
+# A folder above the sweep's that others may write without the sticky bit lets them move the
+# sweep's folder away and put a link in its place while it runs: refused; with +t, taken.
+mkdir -m 0775 "$work/project"
+proj() { "$dembuf" sweep --local --no-bed-cache --set projectile.height_m=0.05 \
+  --set time.output_interval_s=1e-4 "${imported[@]}" --out "$work/project/s" > "$work/out" 2> "$work/err"; }
+rc=0
+proj || rc=$?
+[ "$rc" = 2 ] && grep -q "project is writable by its group without the sticky bit" "$work/err" ||
+  fail "a group-writable folder above: exit $rc, $(cat "$work/err")"
+chmod +t "$work/project"
+proj || fail "a sticky group folder above: $(cat "$work/err")"
+# Every file a sweep writes is closed to others' writing, its gnuplot scripts too (one another
+# account could edit ran as the user): one left open is written anew.
+scripts=$(ls "$work"/project/s/*.gp 2> /dev/null | head -1)
+if [ -n "$scripts" ]; then
+  chmod 0666 "$scripts"
+  (umask 002 && proj) || fail "sweeping again: $(cat "$work/err")"
+  [ "$(stat -c %a "$scripts")" = 644 ] || fail "a gnuplot script left open: $(stat -c '%a %n' "$scripts")"
+fi
+for f in "$work"/project/s/*.csv "$work"/project/s/*.json; do
+  [ "$(( $(stat -c %a "$f") % 100 / 10 & 2 ))" = 0 ] || fail "$f is open to its group: $(stat -c %a "$f")"
+done
 mv "$run/summary.json" "$work/real.json"
 python3 - "$work/real.json" "$work/forged.json" <<'PY'
 import json, sys

@@ -39,7 +39,28 @@ std::string ForeignSweepFolderProblem(const std::filesystem::path& path) {
   return ForeignStatusProblem(st, true);
 }
 
-ClosedToOthersWriting::ClosedToOthersWriting() : m_saved(umask(0)) {
+// (022 while the old mask is read: no moment with a mask more open than either.)
+std::string OpenAncestorProblem(const std::filesystem::path& path) {
+  std::error_code error;
+  const std::filesystem::path full = std::filesystem::weakly_canonical(path, error);
+  if (error) return "";
+  for (std::filesystem::path up = full.parent_path();; up = up.parent_path()) {
+    struct stat st {};
+    if (stat(up.c_str(), &st) == 0) {
+      const bool trusted_owner = st.st_uid == geteuid() || st.st_uid == 0;
+      const bool others_rename = (st.st_mode & (S_IWGRP | S_IWOTH)) && !(st.st_mode & S_ISVTX);
+      if (!trusted_owner)
+        return up.string() + " is another account's (uid " + std::to_string(st.st_uid) + ")";
+      if (others_rename)
+        return up.string() + " is writable by " +
+               ((st.st_mode & S_IWOTH) ? "every account" : "its group") +
+               " without the sticky bit (chmod +t), so others may move what is in it";
+    }
+    if (up == up.parent_path()) return "";
+  }
+}
+
+ClosedToOthersWriting::ClosedToOthersWriting() : m_saved(umask(022)) {
   umask(static_cast<mode_t>(m_saved) | 022);
 }
 

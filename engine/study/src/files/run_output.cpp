@@ -339,6 +339,10 @@ void WriteFileAtomically(const std::filesystem::path& path, const std::string& t
     out.close();
     if (!out) throw std::runtime_error("cannot write " + tmp.string());
   }
+  // Closed to others' writing, also where a folder's default ACL would open it.
+  std::filesystem::permissions(
+      tmp, std::filesystem::perms::group_write | std::filesystem::perms::others_write,
+      std::filesystem::perm_options::remove);
   std::filesystem::rename(tmp, path);
 }
 

@@ -336,6 +336,10 @@ std::string KeyDifference(const nlohmann::json& held, const nlohmann::json& key)
 // What makes `dir` (a sweep's folder) or its runs/ no place for a sweep's results ("" when
 // they may be used): another account may write there (own_files.h).
 std::string SweepFolderProblem(const fs::path& dir) {
+  if (const std::string problem = report::OpenAncestorProblem(dir); !problem.empty())
+    return problem + ": another account could swap " + dir.string() +
+           " for a link while the sweep writes; choose an --out under folders only you (or "
+           "root) may write, or a shared folder with the sticky bit";
   for (const fs::path& folder : {dir, dir / sweep_files::kRuns}) {
     const std::string problem = folder == dir ? report::ForeignSweepFolderProblem(folder)
                                               : report::ForeignPathProblem(folder, true);
@@ -353,6 +357,12 @@ std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann:
   if (std::string problem = SweepFolderProblem(dir); !problem.empty()) return problem;
   std::error_code made;
   fs::create_directories(dir / sweep_files::kRuns, made);
+  // Closed to others' writing also where a default ACL would open what is made (the umask
+  // does not apply there).
+  for (const fs::path& folder : {dir, dir / sweep_files::kRuns})
+    if (report::OwnFolderOpenToOthers(folder))
+      fs::permissions(folder, fs::perms::group_write | fs::perms::others_write,
+                      fs::perm_options::remove, made);
   if (std::string problem = SweepFolderProblem(dir); !problem.empty()) return problem;
   const fs::path key_file = dir / sweep_files::kKey;
   std::string refusal;
@@ -360,7 +370,10 @@ std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann:
     const std::string difference = KeyDifference(nlohmann::json::parse(*held, nullptr, false), key);
     if (!difference.empty()) refusal = dir.string() + " holds " + difference;
   } else if (fs::exists(fs::symlink_status(key_file))) {
-    refusal = key_file.string() + " is not a file of this account's that only it may write";
+    const std::string problem = report::ForeignPathProblem(key_file, false);
+    return key_file.string() + " is " + (problem.empty() ? "too large or unreadable" : problem) +
+           ": it cannot say which sweep the folder holds" +
+           (problem.rfind("writable", 0) == 0 ? " (chmod go-w it if it is yours)" : "");
   } else {
     // Runs without a record (an older dembuf's sweep): the folder is this sweep's when every
     // run's own scene makes the same record.

@@ -47,6 +47,11 @@ sweep --set projectile.mass_kg=0.5 --vary projectile.speed_m_s=3 --force || fail
 [ -f "$work/s/runs/notes/todo.txt" ] || fail "--force removed a folder no run wrote"
 rm -r "$work/s/runs/notes"
 [ "$(ls "$work/s/runs")" = "000_speed_m_s=3_seed=1" ] || fail "--force left: $(ls "$work/s/runs")"
+# ... a run an older dembuf left open to its group too.
+chmod 0775 "$work/s/runs/000_speed_m_s=3_seed=1"
+sweep --set projectile.mass_kg=0.3 --vary projectile.speed_m_s=4 --force || fail "--force: $(cat "$work/err")"
+[ "$(ls "$work/s/runs")" = "000_speed_m_s=4_seed=1" ] || fail "--force left an open run: $(ls "$work/s/runs")"
+sweep --set projectile.mass_kg=0.5 --vary projectile.speed_m_s=3 --force || fail "--force: $(cat "$work/err")"
 [ "$(rows)" = 1 ] || fail "sweep.csv after --force: $(cat "$work/s/sweep.csv")"
 
 # The same sweep with points added resumes: speed 3 is kept though it is now the second run.

@@ -398,8 +398,15 @@ std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann:
   if (!refusal.empty() && !force)
     return refusal + "; choose another --out, or pass --force to remove its runs first";
   if (!refusal.empty()) {
-    // The runs only: a folder in runs/ that no run wrote stays.
-    for (const std::string& name : RunFolders(dir / sweep_files::kRuns))
+    // The runs only: a folder in runs/ that no run wrote stays. Runs of this account left open
+    // to its group (an older dembuf's) go too; a link or another account's folder is not
+    // touched.
+    std::vector<std::string> own = RunFolders(dir / sweep_files::kRuns);
+    std::error_code error;
+    for (const fs::directory_entry& entry : fs::directory_iterator(dir / sweep_files::kRuns, error))
+      if (report::OwnFolderOpenToOthers(entry.path()))
+        own.push_back(entry.path().filename().string());
+    for (const std::string& name : own)
       if (report::IsRunFolder(dir / sweep_files::kRuns / name))
         fs::remove_all(dir / sweep_files::kRuns / name);
     for (const char* name : kSweepReportFiles) fs::remove(dir / name);

@@ -627,13 +627,6 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
   }
   const auto done = sweep.jobs_by_state().find("done");
   const int reused = done == sweep.jobs_by_state().end() ? 0 : done->second;
-  if (options.no_reuse && reused != 0) {
-    std::fprintf(stderr,
-                 "dembuf: the server at %s answered %d jobs of sweep %lld at once, though "
-                 "--no-reuse asked for runs\n",
-                 remote.address.c_str(), reused, static_cast<long long>(sweep.id()));
-    return kExitRuntime;
-  }
   PrintWarnings(response.warnings());
   if (json) {
     const std::vector<std::int64_t> job_ids(response.job_ids().begin(), response.job_ids().end());

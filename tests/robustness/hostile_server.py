@@ -112,12 +112,6 @@ class Hostile(pb_grpc.DembufServicer):
         return pb.SubmitJobResponse(job=pb.Job(id=40, state=pb.JOB_STATE_DONE, owner="eve",
                                                name="j", reused_from=1))
 
-    def SubmitSweep(self, request, context):
-        sweep = pb.Sweep(id=41, owner="eve", name="s", jobs_total=1)
-        sweep.jobs_by_state["done"] = 1
-        sweep.axes.add(field="projectile.speed_m_s", values=["1.0"])
-        return pb.SubmitSweepResponse(sweep=sweep, job_ids=[42])
-
     def ListJobs(self, request, context):
         if request.sweep_id == 3:
             return pb.ListJobsResponse(jobs=[pb.Job(

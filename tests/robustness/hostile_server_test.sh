@@ -108,8 +108,6 @@ expect_exit 1 "the server at $DEMBUF_SERVER sent job 30 of sweep 3 with values t
 # the command fails (it said the job was answered from another, as if asked for).
 expect_exit 1 "the server at $DEMBUF_SERVER answered job 40 with job 1's stored result, though --no-reuse asked for a run" \
   "$dembuf" submit --set bed.thickness_m=0 --no-reuse
-expect_exit 1 "the server at $DEMBUF_SERVER answered 1 jobs of sweep 41 at once, though --no-reuse asked for runs" \
-  "$dembuf" sweep --set bed.thickness_m=0 --vary projectile.speed_m_s=1 --no-reuse
 # The Python package likewise.
 /usr/bin/python3 - "$python_package" "$DEMBUF_SERVER" <<'PY' || fail "the Python package trusted the server"
 import sys

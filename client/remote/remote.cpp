@@ -625,8 +625,6 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
                  remote.address.c_str(), static_cast<long long>(sweep.id()));
     return kExitRuntime;
   }
-  const auto done = sweep.jobs_by_state().find("done");
-  const int reused = done == sweep.jobs_by_state().end() ? 0 : done->second;
   PrintWarnings(response.warnings());
   if (json) {
     const std::vector<std::int64_t> job_ids(response.job_ids().begin(), response.job_ids().end());
@@ -637,6 +635,8 @@ int RemoteSweep(const Remote& remote, const RemoteScene& scene,
     return 0;
   }
   std::printf("%lld\n", static_cast<long long>(sweep.id()));
+  const auto done = sweep.jobs_by_state().find("done");
+  const int reused = done == sweep.jobs_by_state().end() ? 0 : done->second;
   Note("sweep %lld: %d jobs on %s (jobs %lld to %lld)%s\n", static_cast<long long>(sweep.id()),
        sweep.jobs_total(), remote.address.c_str(), static_cast<long long>(response.job_ids(0)),
        static_cast<long long>(response.job_ids(response.job_ids_size() - 1)),

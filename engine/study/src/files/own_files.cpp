@@ -39,7 +39,6 @@ std::string ForeignSweepFolderProblem(const std::filesystem::path& path) {
   return ForeignStatusProblem(st, true);
 }
 
-// (022 while the old mask is read: no moment with a mask more open than either.)
 std::string OpenAncestorProblem(const std::filesystem::path& path) {
   std::error_code error;
   const std::filesystem::path full = std::filesystem::weakly_canonical(path, error);
@@ -60,6 +59,13 @@ std::string OpenAncestorProblem(const std::filesystem::path& path) {
   }
 }
 
+void CloseToOthersWriting(const std::filesystem::path& path) {
+  std::filesystem::permissions(
+      path, std::filesystem::perms::group_write | std::filesystem::perms::others_write,
+      std::filesystem::perm_options::remove);
+}
+
+// (022 while the old mask is read: no moment with a mask more open than either.)
 ClosedToOthersWriting::ClosedToOthersWriting() : m_saved(umask(022)) {
   umask(static_cast<mode_t>(m_saved) | 022);
 }

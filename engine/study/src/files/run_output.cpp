@@ -8,6 +8,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "dembuf/study/files/own_files.h"
 #include "dembuf/study/scene/scene_fields.h"
 #include "dembuf/study/text/text_limits.h"
 #include "dembuf/study/version.h"
@@ -339,10 +340,7 @@ void WriteFileAtomically(const std::filesystem::path& path, const std::string& t
     out.close();
     if (!out) throw std::runtime_error("cannot write " + tmp.string());
   }
-  // Closed to others' writing, also where a folder's default ACL would open it.
-  std::filesystem::permissions(
-      tmp, std::filesystem::perms::group_write | std::filesystem::perms::others_write,
-      std::filesystem::perm_options::remove);
+  CloseToOthersWriting(tmp);  // (own_files.h)
   std::filesystem::rename(tmp, path);
 }
 

@@ -1,5 +1,6 @@
 #include "dembuf/study/run/folder_recorder.h"
 
+#include "dembuf/study/files/own_files.h"
 #include "dembuf/study/files/provenance.h"
 #include "dembuf/study/files/run_output.h"
 
@@ -11,10 +12,7 @@ FolderRecorder::FolderRecorder(std::filesystem::path dir, const Scene& scene,
       m_stream_path(std::move(samples_stream)),
       m_result_nonce(std::move(result_nonce)) {
   std::filesystem::create_directories(m_dir);
-  // Closed to others' writing (a sweep keeps only such runs), whatever a default ACL gives.
-  std::filesystem::permissions(
-      m_dir, std::filesystem::perms::group_write | std::filesystem::perms::others_write,
-      std::filesystem::perm_options::remove);
+  report::CloseToOthersWriting(m_dir);  // a sweep keeps only such runs (own_files.h)
   // What ran, in a file that runs it again.
   report::WriteFileAtomically(m_dir / report::run_files::kScene, report::SceneText(scene));
 }

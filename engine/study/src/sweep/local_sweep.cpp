@@ -357,12 +357,9 @@ std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann:
   if (std::string problem = SweepFolderProblem(dir); !problem.empty()) return problem;
   std::error_code made;
   fs::create_directories(dir / sweep_files::kRuns, made);
-  // Closed to others' writing also where a default ACL would open what is made (the umask
-  // does not apply there).
+  // Closed also where a default ACL opened what was made.
   for (const fs::path& folder : {dir, dir / sweep_files::kRuns})
-    if (report::OwnFolderOpenToOthers(folder))
-      fs::permissions(folder, fs::perms::group_write | fs::perms::others_write,
-                      fs::perm_options::remove, made);
+    if (report::OwnFolderOpenToOthers(folder)) report::CloseToOthersWriting(folder);
   if (std::string problem = SweepFolderProblem(dir); !problem.empty()) return problem;
   const fs::path key_file = dir / sweep_files::kKey;
   std::string refusal;
@@ -401,14 +398,12 @@ std::optional<std::string> ClaimSweepFolder(const fs::path& dir, const nlohmann:
     // The runs only: a folder in runs/ that no run wrote stays. Runs of this account left open
     // to its group (an older dembuf's) go too; a link or another account's folder is not
     // touched.
-    std::vector<std::string> own = RunFolders(dir / sweep_files::kRuns);
     std::error_code error;
     for (const fs::directory_entry& entry : fs::directory_iterator(dir / sweep_files::kRuns, error))
-      if (report::OwnFolderOpenToOthers(entry.path()))
-        own.push_back(entry.path().filename().string());
-    for (const std::string& name : own)
-      if (report::IsRunFolder(dir / sweep_files::kRuns / name))
-        fs::remove_all(dir / sweep_files::kRuns / name);
+      if ((report::ForeignPathProblem(entry.path(), true).empty() ||
+           report::OwnFolderOpenToOthers(entry.path())) &&
+          report::IsRunFolder(entry.path()))
+        fs::remove_all(entry.path());
     for (const char* name : kSweepReportFiles) fs::remove(dir / name);
   }
   fs::create_directories(dir / sweep_files::kRuns);

@@ -33,11 +33,9 @@ std::vector<int> ShareCores(int cores, const std::vector<CoreClaim>& running) {
   int free = std::max(cores, 1) - static_cast<int>(running.size());
   // The runs others wait for share the free cores in proportion to how many wait for each, a
   // core at a time to the run with the most waiting per thread it has (the highest-averages
-  // rule of seat apportionment), each up to what its bed can feed. Shares then move by a core
-  // when one run more waits, where "most waited-for takes all first" gave 14, 1 and 1 to runs
-  // that 16, 15 and 15 wait for (and 6, 5 and 5 at 16 each). Even shares of the same work end
-  // it soonest: each thread added gains less (Amdahl's law). A tie goes to the more
-  // waited-for, then to the earlier run.
+  // rule of seat apportionment), each up to what its bed can feed: one run more waiting moves
+  // a share by a core, and near-even shares of like work end it soonest, as each thread added
+  // gains less (Amdahl's law). A tie goes to the more waited-for, then to the earlier run.
   for (; free > 0; --free) {
     std::size_t best = running.size();
     for (std::size_t k = 0; k < running.size(); ++k) {

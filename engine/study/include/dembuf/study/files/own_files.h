@@ -32,6 +32,11 @@ std::string ForeignSweepFolderProblem(const std::filesystem::path& path);
 /// or one its group or every account may write without the sticky bit (/tmp has it).
 std::string OpenAncestorProblem(const std::filesystem::path& path);
 
+/// Takes group and others' write permission from `path` (followed if a link): what a folder's
+/// default ACL gives a new file or folder, which the umask does not limit. Throws
+/// std::filesystem::filesystem_error.
+void CloseToOthersWriting(const std::filesystem::path& path);
+
 /// While alive, files and folders this process makes are closed to others' writing (the umask
 /// gains 022), whatever the user's umask: with 002, a sweep's own runs would be refused when
 /// it resumes. Restores the umask at the end.
